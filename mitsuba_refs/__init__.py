@@ -1,0 +1,16 @@
+"""Reference side of the validation: the shared scene files rendered by
+Mitsuba 3, with per-pixel mean and per-sample variance, cached as EXR.
+
+Importing this package does not import Mitsuba: cached references load with
+NumPy and OpenEXR only. Main entry points::
+
+    from mitsuba_refs import get_reference, render_reference, choose_variant
+"""
+
+from .cache import ReferenceUnavailable, get_reference, reference_key
+from .render import Reference, render_reference, resolve_scene
+from .variant import choose_variant
+
+__all__ = ["Reference", "ReferenceUnavailable", "choose_variant",
+           "get_reference", "reference_key", "render_reference",
+           "resolve_scene"]

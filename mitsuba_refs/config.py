@@ -1,0 +1,67 @@
+"""The constants of the reference side, in one place.
+
+Test resolution
+    ``TEST_WIDTH x TEST_HEIGHT`` = 64 x 64 for square scenes, 64 x 48 for the
+    4:3 scenes (``smallpt``, ``veach-mis``, ``quad-light``, ``point-light``).
+    48 is not a multiple of 32: in ``scalar_rgb`` Mitsuba seeds 32 x 32
+    blocks from ``seed * W * H``, so :mod:`mitsuba_refs.render` spaces pass
+    seeds far enough apart for the padded block count (see
+    :func:`mitsuba_refs.render.pass_seeds`). EXR files stay ~20-50 KB.
+
+Samples
+    ``TEST_MAX_SPP`` = 64 is the most samples per pixel any test renders at
+    the test resolution. A committed reference has ``REF_SPP`` =
+    ``REF_SPP_FACTOR * TEST_MAX_SPP`` = 64 * 64 = 4096 spp, so the
+    reference's own variance is 1/64 of the test's (the error-vs-spp slope
+    stays within ~1 % of -1/2).
+
+Passes
+    A reference is rendered in passes of at most ``PASS_SPP`` = 1024 spp; pass
+    ``k`` of a reference with seed ``s`` uses Mitsuba seed
+    ``((s * 2^20 + stream) * SEED_STRIDE + k) * spacing`` mod 2^32, where
+    ``stream`` is a 20-bit hash of (integrator, params) so references of
+    different estimators are independent, ``SEED_STRIDE`` = 4096 passes at
+    most, and ``spacing`` >= 1 covers scalar mode's block seeding.
+
+Per-bounce references
+    ``PER_BOUNCE_DEPTHS`` = (1, 2, 3): ``path`` references with
+    ``max_depth`` = 1 (emitters seen directly), 2 (direct lighting),
+    3 (one indirect bounce).
+"""
+
+TEST_WIDTH = 64
+TEST_HEIGHT = 64
+TEST_HEIGHT_4_3 = 48
+
+#: Scenes whose test film is 64 x 48 (4:3 aspect) instead of 64 x 64.
+WIDE_SCENES = ("smallpt", "veach-mis", "quad-light", "point-light")
+
+TEST_MAX_SPP = 64
+REF_SPP_FACTOR = 64
+REF_SPP = REF_SPP_FACTOR * TEST_MAX_SPP  # 4096
+
+PASS_SPP = 1024
+SEED_STRIDE = 4096
+REF_SEED = 1
+
+#: Built-in scenes shipped in ``pathtracer/scenes``.
+BUILTIN_SCENES = (
+    "cornell-box", "cornell-caustics", "smallpt", "veach-mis", "mesh",
+    "furnace", "quad-light", "point-light", "sky-sphere",
+)
+
+#: Our integrator names for which references are built by default.
+REF_INTEGRATORS = ("path", "path_bsdf", "path_nee", "direct")
+
+PER_BOUNCE_DEPTHS = (1, 2, 3)
+
+#: Environment variables.
+ENV_VARIANT = "MITSUBA_REFS_VARIANT"
+ENV_CACHE = "MITSUBA_REFS_CACHE"
+
+
+def test_resolution(scene_name):
+    """Return ``(width, height)`` of the test film for a built-in scene."""
+    if scene_name in WIDE_SCENES:
+        return TEST_WIDTH, TEST_HEIGHT_4_3
+    return TEST_WIDTH, TEST_HEIGHT

@@ -1,0 +1,283 @@
+"""Render a Mitsuba reference: per-pixel mean and per-sample variance.
+
+``render_reference`` loads one of the scene XML files both renderers share,
+renders it with the Mitsuba estimator matching one of ours, wrapped in the
+``rgb_moments`` integrator (:mod:`mitsuba_refs.moments`), in passes of at
+most :data:`~mitsuba_refs.config.PASS_SPP` samples with independent seeds,
+and combines the passes' moments.
+
+Integrator mapping (ours -> Mitsuba):
+
+==============  =====================================================
+``path``        ``path`` (MIS of BSDF and emitter sampling)
+``path_bsdf``   ``lecture_path_bsdf`` (:mod:`.integrators.path_bsdf`)
+``path_nee``    ``lecture_path_nee`` (:mod:`.integrators.path_nee`)
+``direct``      ``direct`` with ``emitter_samples = bsdf_samples = 1``
+``recursive``,  ``path``: same expectation, a different estimator, so
+``smallpt``     only the mean of such a reference is meaningful
+==============  =====================================================
+"""
+
+import dataclasses
+import hashlib
+import importlib.resources
+import json
+import math
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+
+from . import config
+
+#: our integrator name -> Mitsuba integrator type
+INTEGRATOR_MAP = {
+    "path": "path",
+    "path_bsdf": "lecture_path_bsdf",
+    "path_nee": "lecture_path_nee",
+    "direct": "direct",
+    "recursive": "path",
+    "smallpt": "path",
+}
+
+#: integrators whose reference variance is *not* that of our estimator
+MEAN_ONLY = ("recursive", "smallpt")
+
+#: parameters that belong to the integrator, not to the XML defaults
+INTEGRATOR_PARAMS = ("max_depth", "rr_depth", "hide_emitters")
+
+
+@dataclasses.dataclass
+class Reference:
+    """A rendered (or cached) reference image.
+
+    Attributes
+    ----------
+    mean : ndarray (H, W, 3) float64
+        Per-pixel mean radiance over ``n`` samples.
+    var : ndarray (H, W, 3) float64
+        Unbiased per-sample variance (``var / n`` is the variance of ``mean``).
+    n : int
+        Samples per pixel.
+    metadata : dict
+        Scene, params, integrator, seeds, variant, Mitsuba version, hashes...
+    """
+
+    mean: np.ndarray
+    var: np.ndarray
+    n: int
+    metadata: dict
+
+    @property
+    def var_of_mean(self):
+        """Variance of the per-pixel mean, ``var / n``."""
+        return self.var / self.n
+
+
+def scenes_dir():
+    """Directory of the built-in scenes (``pathtracer/scenes``), located
+    without importing any of ``pathtracer``'s modules."""
+    try:
+        return Path(str(importlib.resources.files("pathtracer") / "scenes"))
+    except (ModuleNotFoundError, TypeError):
+        return Path(__file__).resolve().parent.parent / "pathtracer" / "scenes"
+
+
+def resolve_scene(scene):
+    """Return the path of ``scene``: a file path, or a built-in name
+    (``cornell-box`` -> ``pathtracer/scenes/cornell-box.xml``)."""
+    path = Path(scene)
+    if path.suffix == ".xml" and path.exists():
+        return path.resolve()
+    candidate = scenes_dir() / f"{scene}.xml"
+    if candidate.exists():
+        return candidate
+    raise FileNotFoundError(f"no scene file {scene!r} and no built-in scene "
+                            f"{candidate}")
+
+
+def scene_name(scene):
+    """Short name of a scene (file stem)."""
+    return resolve_scene(scene).stem
+
+
+def xml_defaults(path):
+    """Names and values of the ``<default>`` declarations of a scene file."""
+    root = ET.parse(path).getroot()
+    return {d.get("name"): d.get("value") for d in root.iter("default")}
+
+
+def check_box_filter(path):
+    """Raise ``ValueError`` unless every film of the scene file uses
+    ``<rfilter type="box"/>`` (Mitsuba's default is a gaussian, which makes
+    pixels correlated weighted ratios)."""
+    root = ET.parse(path).getroot()
+    films = list(root.iter("film"))
+    if not films:
+        raise ValueError(f"{path}: no <film>; the default film has a gaussian filter")
+    for film in films:
+        rfilters = film.findall("rfilter")
+        if len(rfilters) != 1 or rfilters[0].get("type") != "box":
+            kind = rfilters[0].get("type") if rfilters else "gaussian (default)"
+            raise ValueError(f"{path}: film reconstruction filter is {kind}; "
+                             f"references need <rfilter type=\"box\"/>")
+
+
+def split_params(path, params):
+    """Split ``params`` into XML defaults (for ``mi.load_file``) and
+    integrator properties. Unknown names raise ``KeyError``."""
+    declared = xml_defaults(path)
+    scene_kw, integ_kw = {}, {}
+    for key, value in (params or {}).items():
+        if key in INTEGRATOR_PARAMS:
+            integ_kw[key] = value
+        if key in declared:
+            scene_kw[key] = str(value)
+        elif key not in INTEGRATOR_PARAMS:
+            raise KeyError(f"{path.name} declares no <default name={key!r}> "
+                           f"(it declares {sorted(declared)})")
+    for key in ("max_depth", "rr_depth"):
+        if key not in integ_kw and key in declared:
+            integ_kw[key] = declared[key]
+    return scene_kw, integ_kw
+
+
+def integrator_dict(integrator, integ_kw):
+    """Mitsuba integrator dictionary for our integrator name."""
+    try:
+        mitsuba_type = INTEGRATOR_MAP[integrator]
+    except KeyError:
+        raise ValueError(f"unknown integrator {integrator!r}; "
+                         f"known: {sorted(INTEGRATOR_MAP)}") from None
+    d = {"type": mitsuba_type}
+    if mitsuba_type == "direct":
+        d.update(emitter_samples=1, bsdf_samples=1)
+        if "hide_emitters" in integ_kw:
+            d["hide_emitters"] = _as_bool(integ_kw["hide_emitters"])
+        return d
+    for key in ("max_depth", "rr_depth"):
+        if key in integ_kw:
+            d[key] = int(integ_kw[key])
+    if "hide_emitters" in integ_kw:
+        d["hide_emitters"] = _as_bool(integ_kw["hide_emitters"])
+    return d
+
+
+def _as_bool(value):
+    if isinstance(value, str):
+        return value.strip().lower() in ("1", "true", "yes", "on")
+    return bool(value)
+
+
+def stream_id(integrator, params):
+    """A 20-bit number identifying (estimator, parameters), mixed into the
+    seeds so that references of different integrators or parameters made
+    with the same ``seed`` are independent (equal seeds would make e.g.
+    ``path`` and ``lecture_path_nee`` nearly identical, sample by sample,
+    and a two-sample test between them meaningless)."""
+    text = json.dumps([INTEGRATOR_MAP.get(integrator, integrator),
+                       {str(k): str(v) for k, v in sorted((params or {}).items())}])
+    return int(hashlib.sha256(text.encode()).hexdigest()[:5], 16)
+
+
+def pass_seeds(seed, n_passes, width, height, stream=0):
+    """Mitsuba seeds of the passes of a reference with seed ``seed``.
+
+    Pass ``k`` uses ``((seed * 2^20 + stream) * SEED_STRIDE + k) * spacing``
+    (mod 2^32), ``stream`` from :func:`stream_id`. In ``scalar_rgb``
+    Mitsuba multiplies the seed by ``W * H`` and seeds each 32 x 32 block
+    from there; ``spacing`` is the number of ``W * H`` strides the padded
+    blocks span (1 when W, H are multiples of 32), so no two passes share a
+    stream. JIT variants hash (seed, lane) and need no spacing, but it costs
+    nothing.
+    """
+    if n_passes > config.SEED_STRIDE:
+        raise ValueError(f"at most {config.SEED_STRIDE} passes")
+    padded = math.ceil(width / 32) * math.ceil(height / 32) * 1024
+    spacing = math.ceil(padded / (width * height))
+    base = (seed * 2**20 + stream) * config.SEED_STRIDE
+    return [((base + k) * spacing) % 2**32 for k in range(n_passes)]
+
+
+def render_reference(scene_path_or_name, params, integrator, spp, seed,
+                     variant=None, pass_spp=None, log=None):
+    """Render a reference with Mitsuba.
+
+    Parameters
+    ----------
+    scene_path_or_name : str or Path
+        Scene XML file or built-in scene name.
+    params : dict
+        Values for the scene's ``<default>`` names (``width``, ``max_depth``
+        ...) and integrator options (``max_depth``, ``rr_depth``,
+        ``hide_emitters``).
+    integrator : str
+        One of :data:`INTEGRATOR_MAP` (our names).
+    spp, seed : int
+        Total samples per pixel; base seed (see :func:`pass_seeds`).
+    variant : str, optional
+        Mitsuba variant; default chosen by :func:`mitsuba_refs.variant.choose_variant`.
+    pass_spp : int, optional
+        Samples per pass (default :data:`~mitsuba_refs.config.PASS_SPP`).
+    log : callable, optional
+        Called with progress strings.
+
+    Returns
+    -------
+    Reference
+    """
+    from .variant import set_variant
+    from . import moments
+
+    path = resolve_scene(scene_path_or_name)
+    check_box_filter(path)
+    scene_kw, integ_kw = split_params(path, params)
+    chosen, reason = set_variant(variant)
+    import mitsuba as mi
+
+    scene_kw = dict(scene_kw, spp=str(min(spp, pass_spp or config.PASS_SPP)))
+    scene = mi.load_file(str(path), **scene_kw)
+    film = scene.sensors()[0].film()
+    if "BoxFilter" not in str(film.rfilter()).split("[")[0]:
+        raise ValueError(f"{path}: Mitsuba loaded a {film.rfilter()} filter")
+    width, height = (int(v) for v in film.crop_size())
+    nested = integrator_dict(integrator, integ_kw)
+    integ = mi.load_dict(moments.moment_dict(nested))
+
+    pass_spp = int(pass_spp or config.PASS_SPP)
+    n_passes = max(1, math.ceil(spp / pass_spp))
+    seeds = pass_seeds(seed, n_passes, width, height,
+                       stream_id(integrator, params))
+    passes, t0 = [], time.time()
+    remaining = spp
+    for k, s in enumerate(seeds):
+        n_k = min(pass_spp, remaining)
+        remaining -= n_k
+        mi.render(scene, integrator=integ, spp=n_k, seed=s)
+        m1, m2 = moments.read_moments(film)
+        passes.append((m1, m2, n_k))
+        if log:
+            log(f"  pass {k + 1}/{n_passes}: {n_k} spp, seed {s}")
+    m1, m2, n = moments.combine(passes)
+    var = moments.sample_variance(m1, m2, n)
+    elapsed = time.time() - t0
+    metadata = {
+        "scene": path.stem,
+        "scene_file": str(path),
+        "params": {k: str(v) for k, v in sorted((params or {}).items())},
+        "integrator": integrator,
+        "mitsuba_integrator": nested,
+        "variance_is_of_our_estimator": integrator not in MEAN_ONLY,
+        "spp": int(n),
+        "seed": int(seed),
+        "pass_seeds": seeds,
+        "pass_spp": pass_spp,
+        "width": width,
+        "height": height,
+        "variant": chosen,
+        "variant_reason": reason,
+        "mitsuba_version": mi.__version__,
+        "render_seconds": round(elapsed, 3),
+    }
+    return Reference(mean=m1, var=var, n=int(n), metadata=metadata)

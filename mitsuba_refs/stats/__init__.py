@@ -1,0 +1,23 @@
+"""Calibrated statistics for comparing Monte Carlo renders (pure functions on arrays).
+
+* :func:`compare_means`      -- same expected image? (tiled z tests + image mean, bias with CI)
+* :func:`compare_variances`  -- same per-sample variance? (kurtosis-robust tile t test)
+* :func:`convergence_law`    -- does RMSE fall as N^-1/2? (slope, ratio, bias floor, correlation)
+* :func:`first_diverging_bounce` -- which max_depth breaks first
+* :func:`per_test_alpha`, :class:`ErrorBudget` -- the suite-wide false-failure budget
+
+See docs/statistics.md for the assumptions and the measured calibration.
+"""
+from .bounce import depth_name, first_diverging_bounce
+from .budget import SUITE_ALPHA, ErrorBudget, per_test_alpha, suite_false_failure
+from .convergence import ConvergenceResult, convergence_law, image_mse, reference_mse_floor
+from .mean import MeanAgreement, compare_means, tile_z
+from .variance import VarianceAgreement, compare_variances
+
+__all__ = [
+    "MeanAgreement", "compare_means", "tile_z",
+    "VarianceAgreement", "compare_variances",
+    "ConvergenceResult", "convergence_law", "image_mse", "reference_mse_floor",
+    "depth_name", "first_diverging_bounce",
+    "SUITE_ALPHA", "ErrorBudget", "per_test_alpha", "suite_false_failure",
+]

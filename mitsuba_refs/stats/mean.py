@@ -1,0 +1,369 @@
+r"""Do two renderers agree on the expected image?  A tiled two-sample z test plus a whole-image test.
+
+Inputs per side: the per-pixel mean image, the per-pixel *per-sample* variance
+(unbiased sample variance of that pixel's samples) and the sample count ``n``.
+Side ``a`` is the image under test, side ``b`` the reference.
+
+Why tiles
+---------
+Radiance samples are heavily skewed (mostly ~0, rare large values when a path hits
+a small light).  A per-pixel z test with the pixel's own variance estimate is badly
+miscalibrated then (a pixel with no light hit has mean 0 *and* variance 0).  Summing
+the ``P`` pixels of a tile first gives a statistic built from ``n P`` samples, where the
+central limit theorem holds.  For tile :math:`T` and channel :math:`c`
+
+.. math::
+
+    \bar a_T = \frac1P \sum_{p\in T} a_p, \qquad
+    \widehat{\mathrm{Var}}(\bar a_T) = \frac{1}{P^2}\sum_{p\in T}\frac{v^a_p}{n^a_p}
+      = \frac{V^a_T}{P\, n^a_T}
+
+with :math:`V^a_T` the tile-average per-sample variance and :math:`n^a_T` the harmonic
+mean of the counts in the tile.
+
+Variance used in the denominator (the "no-hit" guard)
+-----------------------------------------------------
+If the test side saw *no* light hit in a tile while the reference (64x more samples)
+did, the test's own variance estimate is ~0 and the Welch z explodes although both
+sides are correct.  We therefore use, per tile and side,
+
+.. math::
+
+    \tilde V^a_T = \max\!\Big(V^a_T,\; V^{pool}_T\Big),\qquad
+    V^{pool}_T = \frac{n^a_T V^a_T + n^b_T V^b_T}{n^a_T + n^b_T},
+
+and :math:`z_T = (\bar a_T - \bar b_T)/\sqrt{\tilde V^a_T/(P n^a_T) + \tilde V^b_T/(P n^b_T)}`.
+Under the null of a *common* estimator, :math:`V^{pool}` is the best estimate of both
+variances; if the test side uses a *noisier* estimator its own (larger) variance wins
+the max; if it uses a better one the reference variance is used (conservative).  A
+numerical floor :math:`(\epsilon_{rel}\max(|\bar a_T|,|\bar b_T|))^2` is added to the
+squared standard error so that zero-variance pixels (black background, furnace tests)
+compare exactly up to float32 resolution; tiles whose two means are both exactly 0
+with zero variance carry no evidence and are left out of the family.  Equal-but-nonzero
+deterministic means give z = 0; unequal deterministic means give |z| = inf (p = 0) when
+``rel_floor=0`` and a huge |z| otherwise.
+
+Channels and the family
+-----------------------
+The three channels of one path are strongly correlated (grey light), so a Šidák
+correction over channels would be conservative (~alpha/3 for grey scenes).  The channel
+correlation :math:`R` is estimated image-wide from the per-pixel differences
+:math:`d_p = a_p - b_p` (mean 0 under the null), and a tile's p-value is that of its largest
+channel, :math:`P(\max_c|Z_c|\ge\max_c|z_{Tc}|)` for :math:`Z\sim N(0,R)`, computed by
+nested Gauss-Legendre quadrature.  Within the image the tiles are independent, so the
+smallest of the :math:`m` informative tiles' p-values is Šidák-adjusted,
+:math:`p_{tiles}=1-(1-p_{min})^m`.  A second component tests the whole-image means
+(same channel treatment; there the test side's own variances are used: 260k samples).
+The two components are combined by Šidák, :math:`p = 1-(1-\min(p_{tiles},p_{image}))^2`,
+valid for any correlation between them (Šidák's inequality for two-sided normal tests), and
+nearly exact here because the two are only weakly correlated.  Reject iff :math:`p\le\alpha`.
+
+Which tiles are reported as significant: those whose largest-channel |z| exceeds the
+per-tile critical value of the family.  A global bias too small to show in any one tile is
+caught by the image component ("no single tile stands out").
+
+Relative bias
+-------------
+The headline bias uses luminance :math:`Y = 0.2126R + 0.7152G + 0.0722B` of the image means,
+:math:`r = \bar Y_a/\bar Y_b - 1`.  Channel covariances are not supplied, so the standard
+error of :math:`\bar Y` uses the Cauchy-Schwarz bound :math:`\mathrm{sd}(\sum_c w_c X_c)\le\sum_c w_c\,\mathrm{sd}(X_c)`
+(exact for perfectly correlated channels, i.e. grey light; otherwise conservative).  The CI
+is the delta-method interval
+:math:`r \pm z_{1-\gamma/2}\,(1+r)\sqrt{(s_a/\bar Y_a)^2+(s_b/\bar Y_b)^2}`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import special
+
+from ._mvn import correlation_from_differences, p_max_abs
+from ._tiles import as_count, as_image, region_name, sidak, sidak_per_test, tile_counts, tile_sums
+
+__all__ = ["MeanAgreement", "compare_means", "tile_z", "LUMINANCE"]
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def _two_sided_p(z: np.ndarray) -> np.ndarray:
+    """Two-sided normal p-value 2 Φ(-|z|), accurate far in the tail."""
+    return special.erfc(np.abs(z) / math.sqrt(2.0))
+
+
+def _norm_ppf(q: float) -> float:
+    return float(special.ndtri(q))
+
+
+@dataclass(frozen=True, eq=False)
+class MeanAgreement:
+    """Result of :func:`compare_means` (side a = test, side b = reference).
+
+    Attributes
+    ----------
+    agree : bool
+        True unless the family test (tiles + image) rejects at level ``alpha``.
+    p_value : float
+        Family p-value (Šidák over the tile and image components).
+    alpha, tile : float, int
+        Level and base tile size used.
+    z_tiles : ndarray, shape (ceil(H/tile), ceil(W/tile), C)
+        Signed per-tile z, (test - reference)/se, 0 where no evidence.
+    n_tests : int
+        Informative tiles (some channel carries evidence).
+    n_significant : int
+        Tiles whose largest-channel |z| exceeds the per-tile critical value.
+    worst_tile : tuple (row, col, channel) or None
+        Tile-channel with the largest |z| (tile indices).
+    worst_z : float
+        Its z.
+    worst_region : str
+        Where the worst evidence sits in words (e.g. "top-left", "center", "whole image").
+    scale_p_values : dict
+        Component p-values: "<tile>px" (Šidák over tiles) and "image".
+    image_z : ndarray, shape (C,)
+        Per-channel z of the whole-image means.
+    rel_bias, rel_bias_ci : float, (float, float)
+        Luminance relative bias mean_a/mean_b - 1 and its CI (level ``ci_level``).
+    rel_bias_channels : ndarray, shape (C,)
+        Per-channel relative bias.
+    verdict : str
+        One-line human verdict.
+    """
+
+    agree: bool
+    p_value: float
+    alpha: float
+    tile: int
+    z_tiles: np.ndarray
+    n_tests: int
+    n_significant: int
+    worst_tile: tuple | None
+    worst_z: float
+    worst_region: str
+    scale_p_values: dict = field(default_factory=dict)
+    image_z: np.ndarray = None
+    rel_bias: float = 0.0
+    rel_bias_ci: tuple = (0.0, 0.0)
+    rel_bias_channels: np.ndarray = None
+    ci_level: float = 0.95
+    verdict: str = ""
+
+    def __bool__(self) -> bool:  # ``if compare_means(...):`` reads naturally
+        return bool(self.agree)
+
+
+def tile_z(mean_a, var_a, n_a, mean_b, var_b, n_b, tile: int, *, rel_floor: float = 1e-5):
+    r"""Signed per-tile, per-channel z of (a - b) with the no-hit guard (see module docs).
+
+    Parameters
+    ----------
+    mean_a, var_a, mean_b, var_b : array (H, W, C)
+        Per-pixel means and unbiased per-sample variances.
+    n_a, n_b : int or array (H, W)
+        Samples per pixel (>= 2).
+    tile : int
+        Tile edge in pixels (edge tiles may be partial).
+    rel_floor : float
+        Relative numerical floor on the standard error.
+
+    Returns
+    -------
+    z : ndarray (Ht, Wt, C)
+        z statistics; 0 for tiles with no evidence (both means 0, zero variance).
+    informative : ndarray of bool (Ht, Wt, C)
+        Tile-channels that carry evidence.
+    """
+    ma, va, mb, vb = (as_image(x, nm) for x, nm in
+                      ((mean_a, "mean_a"), (var_a, "var_a"), (mean_b, "mean_b"), (var_b, "var_b")))
+    h, w = ma.shape[:2]
+    na = as_count(n_a, (h, w), "n_a")
+    nb = as_count(n_b, (h, w), "n_b")
+    cnt = tile_counts(h, w, tile)[..., None]                      # P_T
+    abar = tile_sums(ma, tile) / cnt
+    bbar = tile_sums(mb, tile) / cnt
+    Va = tile_sums(np.maximum(va, 0.0), tile) / cnt               # tile-average per-sample variance
+    Vb = tile_sums(np.maximum(vb, 0.0), tile) / cnt
+    nha = (cnt[..., 0] / tile_sums(1.0 / na, tile))[..., None]    # harmonic mean count
+    nhb = (cnt[..., 0] / tile_sums(1.0 / nb, tile))[..., None]
+    Vp = (nha * Va + nhb * Vb) / (nha + nhb)
+    se2 = np.maximum(Va, Vp) / (cnt * nha) + np.maximum(Vb, Vp) / (cnt * nhb)
+    se2 = se2 + (rel_floor * np.maximum(np.abs(abar), np.abs(bbar))) ** 2
+    diff = abar - bbar
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(se2 > 0, diff / np.sqrt(se2), np.where(diff == 0, 0.0, np.sign(diff) * np.inf))
+    informative = (se2 > 0) | (diff != 0)
+    return z, informative
+
+
+def _solve_crit(level: float, R: np.ndarray) -> float:
+    """|z| threshold with P(max_c |Z_c| >= t) = level (bisection on the monotone tail)."""
+    lo, hi = 0.0, 40.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if p_max_abs(mid, R) > level:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+def _fmt_p(p: float) -> str:
+    if p >= 0.01:
+        return f"{p:.2f}"
+    if p > 0:
+        return f"{p:.1e}"
+    return "<1e-300"
+
+
+def _fmt_pct(x: float) -> str:
+    return f"{100 * x:+.1f}%".replace("-", "\u2212")
+
+
+def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alpha: float,
+                  ci_level: float = 0.95, rel_floor: float = 1e-5) -> MeanAgreement:
+    r"""Test whether two renders (a = test, b = reference) have the same expected image.
+
+    Parameters
+    ----------
+    mean_a, mean_b : array (H, W, C) or (H, W)
+        Per-pixel mean radiance.
+    var_a, var_b : array like the means
+        Per-pixel unbiased per-sample variance :math:`s^2 = \frac{1}{n-1}\sum (x_i-\bar x)^2`.
+    n_a, n_b : int or array (H, W)
+        Samples per pixel (>= 2).
+    tile : int, keyword
+        Tile edge (pixels); edge tiles may be partial.
+    alpha : float, keyword (required)
+        Family false-rejection level for this comparison (take it from
+        :func:`mitsuba_refs.stats.budget.per_test_alpha`).
+    ci_level : float
+        Level of the relative-bias confidence interval.
+    rel_floor : float
+        Relative numerical floor on standard errors (float32 resolution headroom).
+
+    Returns
+    -------
+    MeanAgreement
+        See its docstring.  The test is calibrated for skewed radiance when tiles hold
+        >= ~4000 samples of the test side (e.g. 8x8 tiles at 64 spp); see docs/statistics.md.
+
+    Notes
+    -----
+    Pixels must be independent (box reconstruction filter).  Pure function: no I/O.
+    """
+    if not (0.0 < alpha < 1.0):
+        raise ValueError("alpha must be in (0, 1)")
+    ma, va, mb, vb = (as_image(x, nm) for x, nm in
+                      ((mean_a, "mean_a"), (var_a, "var_a"), (mean_b, "mean_b"), (var_b, "var_b")))
+    if not (ma.shape == va.shape == mb.shape == vb.shape):
+        raise ValueError(f"shape mismatch: {ma.shape} {va.shape} {mb.shape} {vb.shape}")
+    for x, nm in ((ma, "mean_a"), (va, "var_a"), (mb, "mean_b"), (vb, "var_b")):
+        if not np.all(np.isfinite(x)):
+            raise ValueError(f"{nm} contains NaN or inf")
+    h, w, C = ma.shape
+    tile = int(tile)
+    if tile < 1:
+        raise ValueError("tile must be >= 1")
+
+    # ---- per-tile z at the base scale -----------------------------------------------
+    z0, inf0 = tile_z(ma, va, n_a, mb, vb, n_b, tile, rel_floor=rel_floor)
+    tile_inf = inf0.any(axis=2)
+    m0 = int(tile_inf.sum())                               # informative tiles
+    R = correlation_from_differences((ma - mb).reshape(-1, C))
+    zmax_t = float(np.max(np.abs(np.where(inf0, z0, 0.0)))) if m0 else 0.0
+    p_tile_min = p_max_abs(zmax_t, R) if m0 else 1.0     # smallest per-tile p (max over channels)
+    scale_p: dict[str, float] = {f"{tile}px": sidak(p_tile_min, m0)}
+
+    # ---- whole image, per channel (max over channels, correlation-aware) ------------
+    na = as_count(n_a, (h, w), "n_a")[..., None]
+    nb = as_count(n_b, (h, w), "n_b")[..., None]
+    npx = h * w
+    A = ma.mean(axis=(0, 1))
+    B = mb.mean(axis=(0, 1))
+    sa = np.sqrt((np.maximum(va, 0) / na).sum(axis=(0, 1))) / npx    # own variances: CLT-safe here
+    sb = np.sqrt((np.maximum(vb, 0) / nb).sum(axis=(0, 1))) / npx
+    se = np.sqrt(sa ** 2 + sb ** 2 + (rel_floor * np.maximum(np.abs(A), np.abs(B))) ** 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        image_z = np.where(se > 0, (A - B) / se, np.where(A == B, 0.0, np.sign(A - B) * np.inf))
+    scale_p["image"] = p_max_abs(float(np.max(np.abs(image_z))), R) if np.any(image_z != 0) else 1.0
+
+    p_family = sidak(min(scale_p.values()), len(scale_p))
+    agree = not (p_family <= alpha)
+
+    # ---- relative bias (luminance, CS-bounded se) -----------------------------------
+    wts = LUMINANCE if C == 3 else np.full(C, 1.0 / C)
+    YA, YB = float(wts @ A), float(wts @ B)
+    sYA, sYB = float(wts @ sa), float(wts @ sb)
+    zq = _norm_ppf(0.5 + ci_level / 2)
+    if YB > 0 and YA > 0:
+        ratio = YA / YB
+        sr = ratio * math.sqrt((sYA / YA) ** 2 + (sYB / YB) ** 2)
+        rel = ratio - 1.0
+        rel_ci = (rel - zq * sr, rel + zq * sr)
+    elif YA == YB:
+        rel, rel_ci = 0.0, (0.0, 0.0)
+    else:
+        rel, rel_ci = (math.inf if YB == 0 else -1.0), (math.nan, math.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel_ch = np.where(B != 0, A / B - 1.0, np.where(A == B, 0.0, np.inf))
+
+    # ---- where is it worst (base scale) ------------------------------------------
+    # per-tile critical |z|: solve p_max_abs(crit, R) = Šidák per-tile level
+    lvl = sidak_per_test(sidak_per_test(alpha, len(scale_p)), max(m0, 1))
+    if agree:          # then no tile can exceed the critical value
+        sig = np.zeros(z0.shape, dtype=bool)
+    else:
+        sig = inf0 & (np.abs(z0) > _solve_crit(lvl, R))
+    n_sig = int(sig.any(axis=2).sum())
+    if m0:
+        absz = np.where(inf0, np.abs(z0), -1.0)
+        idx = np.unravel_index(int(np.argmax(absz)), absz.shape)
+        worst_tile = tuple(int(i) for i in idx)
+        worst_z = float(z0[idx])
+        region = region_name((idx[0] + 0.5) * tile, (idx[1] + 0.5) * tile, h, w)
+    else:
+        worst_tile, worst_z, region = None, 0.0, "nowhere"
+
+    # ---- verdict -------------------------------------------------------------------
+    bias_txt = f"relative bias {_fmt_pct(rel)} [{_fmt_pct(rel_ci[0])}, {_fmt_pct(rel_ci[1])}]"
+    if agree:
+        verdict = f"agree (p={_fmt_p(p_family)}); {bias_txt}"
+    else:
+        parts = []
+        any_sig = sig.any(axis=2) if n_sig else None
+        if n_sig:
+            rows = np.flatnonzero(any_sig.any(axis=1))
+            cols = np.flatnonzero(any_sig.any(axis=0))
+            spread = (rows[-1] - rows[0] + 1) * tile >= h / 2 and (cols[-1] - cols[0] + 1) * tile >= w / 2
+            if spread and int(any_sig.sum()) >= max(4, any_sig.size // 4):
+                where = "whole image"
+            else:
+                where = f"{region} region"
+            rs = f"{rows[0]}" if rows[0] == rows[-1] else f"{rows[0]}-{rows[-1]}"
+            cs = f"{cols[0]}" if cols[0] == cols[-1] else f"{cols[0]}-{cols[-1]}"
+            parts.append(f"{int(any_sig.sum())} of {any_sig.size} {tile}px tiles, largest |z|={abs(worst_z):.1f} "
+                         f"at tile rows {rs}, cols {cs} ({where})")
+            region = where if where == "whole image" else region
+        else:
+            parts.append(f"no single tile stands out (largest |z|={abs(worst_z):.1f}); whole-image means differ "
+                         f"(max |z|={np.max(np.abs(image_z)):.1f})")
+            region = "whole image"
+        sig_img = (rel_ci[0] > 0 or rel_ci[1] < 0) and math.isfinite(rel)
+        if sig_img:
+            word = "too dark" if rel < 0 else "too bright"
+            parts.append(f"image {100 * abs(rel):.1f}% {word} [{100 * abs(rel_ci[0] if rel > 0 else rel_ci[1]):.1f}%, "
+                         f"{100 * abs(rel_ci[1] if rel > 0 else rel_ci[0]):.1f}%]")
+        else:
+            parts.append(f"image-level {bias_txt} (not significant)")
+        verdict = f"disagree (p={_fmt_p(p_family)}): " + ", ".join(parts)
+
+    for arr in (z0, image_z, rel_ch):
+        arr.flags.writeable = False
+    return MeanAgreement(
+        agree=agree, p_value=float(p_family), alpha=float(alpha), tile=tile, z_tiles=z0,
+        n_tests=m0, n_significant=n_sig, worst_tile=worst_tile, worst_z=worst_z,
+        worst_region=region, scale_p_values=scale_p, image_z=image_z, rel_bias=float(rel),
+        rel_bias_ci=(float(rel_ci[0]), float(rel_ci[1])), rel_bias_channels=rel_ch,
+        ci_level=float(ci_level), verdict=verdict)

@@ -1,0 +1,18 @@
+"""BSDFs in the local shading frame (Mitsuba 3 conventions, vectorized over (n, 3) arrays).
+
+See :mod:`pathtracer.bsdfs.base` for the conventions shared by every BSDF.
+"""
+from .base import BSDF, BSDFSample
+from .conductor import Conductor
+from .dielectric import Dielectric
+from .diffuse import Diffuse
+from .fresnel import fresnel_conductor, fresnel_dielectric, fresnel_schlick, reflect, refract
+from .microfacet import MicrofacetDistribution
+from .roughconductor import RoughConductor
+from .twosided import TwoSided
+
+__all__ = [
+    "BSDF", "BSDFSample", "Conductor", "Dielectric", "Diffuse", "MicrofacetDistribution",
+    "RoughConductor", "TwoSided", "fresnel_conductor", "fresnel_dielectric", "fresnel_schlick",
+    "reflect", "refract",
+]

@@ -1,0 +1,138 @@
+r"""Common interface of the BSDFs: the sample record and the abstract base class.
+
+Conventions (Mitsuba 3's)
+-------------------------
+* All directions are unit vectors in the local shading frame: :math:`z` is
+  the shading normal, :math:`\cos\theta = z`.
+* ``wi`` points from the surface toward where the light goes after the
+  scattering event (toward the camera when tracing from the camera).
+* ``wo`` is the sampled or evaluated direction toward the next vertex (the
+  light). Evaluation returns :math:`f(w_i, w_o)\,|\cos\theta_o|`: **the
+  cosine foreshortening factor is included**.
+* For a direction sampled from a smooth lobe, ``weight`` is
+  :math:`f\,|\cos\theta_o| / p`; for a Dirac lobe it is the factor that
+  multiplies the path throughput (Fresnel terms, colour, :math:`\eta^2`
+  radiance scaling, divided by the discrete lobe-selection probability).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class BSDFSample:
+    """Outcome of :meth:`BSDF.sample` for ``n`` shading points.
+
+    Attributes
+    ----------
+    wo : (n, 3) ndarray
+        Sampled direction, local frame.
+    weight : (n, 3) ndarray
+        Throughput multiplier: ``eval / pdf`` for smooth lobes, the Dirac
+        weight for delta lobes; 0 where ``valid`` is False.
+    pdf : (n,) ndarray
+        Solid-angle density of ``wo`` for smooth lobes. For delta lobes,
+        as in Mitsuba's ``BSDFSample3f.pdf``, the discrete probability of
+        the chosen lobe (1 for a mirror, :math:`F` or :math:`1 - F` for a
+        dielectric): use ``delta`` before using it for MIS. 0 where invalid.
+    delta : (n,) bool
+        The sampled lobe is a Dirac delta (no MIS / NEE against it).
+    eta : (n,) ndarray
+        Relative index of refraction of the crossing: 1 for reflection,
+        :math:`\\eta_{it}` (:math:`\\eta` entering, :math:`1/\\eta` leaving)
+        for transmission, as Mitsuba's ``bs.eta``.
+    valid : (n,) bool
+        False where no direction could be sampled (e.g. ``wi`` below a
+        one-sided surface, or ``wo`` below the surface for a rough conductor).
+    """
+
+    wo: np.ndarray
+    weight: np.ndarray
+    pdf: np.ndarray
+    delta: np.ndarray
+    eta: np.ndarray
+    valid: np.ndarray
+
+    def __len__(self) -> int:
+        return self.wo.shape[0]
+
+
+def as_colour(value) -> np.ndarray:
+    """An RGB colour as a (3,) float64 array (a scalar is repeated)."""
+    colour = np.asarray(value, dtype=np.float64)
+    return np.broadcast_to(colour, (3,)).copy()
+
+
+def make_sample(wo: np.ndarray, weight: np.ndarray, pdf: np.ndarray, delta,
+                eta, valid: np.ndarray) -> BSDFSample:
+    """Assemble a :class:`BSDFSample`, zeroing weight and pdf where invalid.
+
+    ``delta`` and ``eta`` may be scalars; they are broadcast to (n,).
+    """
+    n = wo.shape[0]
+    valid = np.asarray(valid, dtype=bool)
+    weight = np.where(valid[:, None], weight, 0.0)
+    pdf = np.where(valid, pdf, 0.0)
+    wo = np.where(np.isfinite(wo), wo, 0.0)
+    delta = np.broadcast_to(np.asarray(delta, dtype=bool), (n,)).copy()
+    eta = np.broadcast_to(np.asarray(eta, dtype=np.float64), (n,)).copy()
+    return BSDFSample(wo=wo, weight=weight, pdf=pdf, delta=delta, eta=eta, valid=valid)
+
+
+class BSDF:
+    """Abstract BSDF evaluated and sampled in the local shading frame.
+
+    Attributes
+    ----------
+    has_smooth : bool
+        Has a non-delta lobe: next-event estimation (and ``eval``/``pdf``)
+        are meaningful.
+    is_delta : bool
+        Every lobe is a Dirac delta: ``eval`` and ``pdf`` are identically 0.
+    """
+
+    has_smooth: bool = False
+    is_delta: bool = False
+
+    def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        r"""BSDF times foreshortening, :math:`f(w_i, w_o)\,|\cos\theta_o|` -> (n, 3)."""
+        raise NotImplementedError
+
+    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+        """Solid-angle density with which :meth:`sample` picks ``wo`` -> (n,) (0 for delta lobes)."""
+        raise NotImplementedError
+
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
+               hemisphere: str = "cosine") -> BSDFSample:
+        """Sample ``wo`` given ``wi``.
+
+        Parameters
+        ----------
+        wi : (n, 3) ndarray
+            Direction toward the previous vertex, local frame.
+        u1 : (n,) ndarray
+            Uniform sample for the choice of lobe.
+        u2 : (n, 2) ndarray
+            Uniform sample for the direction within the lobe.
+        hemisphere : {"cosine", "uniform"}
+            Only :class:`~pathtracer.bsdfs.diffuse.Diffuse` uses it; the
+            others accept and ignore it.
+        """
+        raise NotImplementedError
+
+    def eval_pdf(self, wi: np.ndarray, wo: np.ndarray,
+                 hemisphere: str = "cosine") -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`eval` and :meth:`pdf` together (convenience for NEE + MIS)."""
+        return self.eval(wi, wo), self.pdf(wi, wo, hemisphere=hemisphere)
+
+
+def zero_eval(wi: np.ndarray) -> np.ndarray:
+    """The (n, 3) zero array returned by ``eval`` of delta BSDFs."""
+    return np.zeros((wi.shape[0], 3))
+
+
+def zero_pdf(wi: np.ndarray) -> np.ndarray:
+    """The (n,) zero array returned by ``pdf`` of delta BSDFs."""
+    return np.zeros(wi.shape[0])

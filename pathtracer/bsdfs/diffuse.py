@@ -1,0 +1,82 @@
+r"""Smooth diffuse (Lambertian) BRDF, Mitsuba's ``diffuse`` plugin.
+
+.. math:: f(w_i, w_o) = \frac{\rho}{\pi}
+          \quad\text{for } \cos\theta_i > 0,\ \cos\theta_o > 0,\ \text{else } 0.
+
+The surface is one-sided: seen from below it is black (wrap it in
+:class:`~pathtracer.bsdfs.twosided.TwoSided` for a two-sided material).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import sampling
+from .base import BSDF, BSDFSample, as_colour, make_sample
+
+
+class Diffuse(BSDF):
+    r"""Lambertian reflector with RGB albedo ``reflectance`` (:math:`\rho`).
+
+    Sampling is cosine-weighted by default (:math:`p = \cos\theta_o/\pi`,
+    weight :math:`= \rho`, Mitsuba's choice); ``hemisphere="uniform"``
+    samples the hemisphere uniformly instead (:math:`p = 1/(2\pi)`,
+    weight :math:`= 2\rho\cos\theta_o`): same mean, larger variance, as in
+    the lecture's comparison.
+    """
+
+    has_smooth = True
+    is_delta = False
+
+    def __init__(self, reflectance=0.5):
+        self.reflectance = as_colour(reflectance)
+
+    def _active(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """Both directions strictly above the surface."""
+        return (wi[:, 2] > 0.0) & (wo[:, 2] > 0.0)
+
+    def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        r""":math:`\rho\,\cos\theta_o / \pi` where both directions are above the surface."""
+        cos_theta_o = np.where(self._active(wi, wo), wo[:, 2], 0.0)
+        return (sampling.INV_PI * cos_theta_o)[:, None] * self.reflectance
+
+    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+        r"""Density of :meth:`sample`: :math:`\cos\theta_o/\pi` (cosine) or :math:`1/(2\pi)` (uniform)."""
+        density = _hemisphere_pdf(wo, hemisphere)
+        return np.where(self._active(wi, wo), density, 0.0)
+
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
+               hemisphere: str = "cosine") -> BSDFSample:
+        """Sample ``wo`` on the upper hemisphere; invalid where ``wi`` is below the surface."""
+        wo = _hemisphere_sample(u2, hemisphere)
+        pdf = _hemisphere_pdf(wo, hemisphere)
+        valid = (wi[:, 2] > 0.0) & (pdf > 0.0)
+        weight = _hemisphere_weight(wo, hemisphere)[:, None] * self.reflectance
+        return make_sample(wo, weight, pdf, delta=False, eta=1.0, valid=valid)
+
+
+def _hemisphere_sample(u2: np.ndarray, hemisphere: str) -> np.ndarray:
+    """Cosine-weighted or uniform direction on the upper hemisphere."""
+    if hemisphere == "cosine":
+        return sampling.square_to_cosine_hemisphere(u2)
+    if hemisphere == "uniform":
+        return sampling.square_to_uniform_hemisphere(u2)
+    raise ValueError(f"hemisphere must be 'cosine' or 'uniform', not {hemisphere!r}")
+
+
+def _hemisphere_weight(wo: np.ndarray, hemisphere: str) -> np.ndarray:
+    r"""Ratio :math:`(\cos\theta_o/\pi) / p(w_o)`, simplified so that cosine sampling gives exactly 1.
+
+    Exact cancellation matters: a furnace scene then has zero variance.
+    """
+    if hemisphere == "cosine":
+        return np.ones(wo.shape[0])
+    return 2.0 * np.maximum(wo[:, 2], 0.0)
+
+
+def _hemisphere_pdf(wo: np.ndarray, hemisphere: str) -> np.ndarray:
+    """Solid-angle density of :func:`_hemisphere_sample`."""
+    if hemisphere == "cosine":
+        return sampling.square_to_cosine_hemisphere_pdf(wo)
+    if hemisphere == "uniform":
+        return sampling.square_to_uniform_hemisphere_pdf(wo)
+    raise ValueError(f"hemisphere must be 'cosine' or 'uniform', not {hemisphere!r}")

@@ -1,0 +1,116 @@
+r"""Rough conductor (microfacet BRDF), Mitsuba's ``roughconductor`` plugin.
+
+Torrance-Sparrow / Walter et al. with the half vector
+:math:`h = \mathrm{normalize}(w_i + w_o)`:
+
+.. math::
+    f(w_i, w_o)\cos\theta_o = \frac{F(w_i\cdot h)\,D(h)\,G_1(w_i, h)\,G_1(w_o, h)}{4\cos\theta_i}\,R_s
+    \qquad (\cos\theta_i > 0,\ \cos\theta_o > 0).
+
+(The :math:`\cos\theta_o` of the BRDF's denominator cancels the
+foreshortening.) With ``material="none"`` the Fresnel factor is 1; an
+explicit complex index ``eta + i k`` uses the exact conductor Fresnel.
+
+Sampling draws a visible normal :math:`m \sim D_{w_i}` and reflects
+:math:`w_i` about it; with the Jacobian :math:`1/(4\,w_o\cdot m)` of the
+reflection,
+
+.. math::
+    p(w_o) = \frac{D_{w_i}(m)}{4\,w_o\cdot m} = \frac{D(m)\,G_1(w_i, m)}{4\cos\theta_i},
+    \qquad \text{weight} = \frac{f\cos\theta_o}{p} = F\,G_1(w_o, m)\,R_s,
+
+using Mitsuba's :math:`G_1` (rational approximation for Beckmann, see
+:mod:`.microfacet`). Directions reflected below the surface are rejected.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import BSDF, BSDFSample, as_colour, make_sample
+from .fresnel import fresnel_conductor, reflect_about
+from .microfacet import MicrofacetDistribution, _dot, _normalize
+
+
+class RoughConductor(BSDF):
+    """Microfacet conductor.
+
+    Parameters
+    ----------
+    distribution : {"beckmann", "ggx"}
+    alpha_u, alpha_v : float
+        Roughness along the local tangent and bitangent (Mitsuba default 0.1).
+    specular_reflectance : (3,) array_like
+        Colour multiplying the reflection.
+    eta, k : (3,) array_like, optional
+        Complex index of refraction. The default ``0 + 1i`` is Mitsuba's
+        ``material="none"``: Fresnel factor exactly 1.
+    """
+
+    has_smooth = True
+    is_delta = False
+
+    def __init__(self, distribution: str = "beckmann", alpha_u: float = 0.1,
+                 alpha_v: float | None = None, specular_reflectance=1.0,
+                 eta=0.0, k=1.0):
+        self.distr = MicrofacetDistribution(distribution, alpha_u, alpha_v)
+        self.distribution = self.distr.distribution
+        self.alpha_u = self.distr.alpha_u
+        self.alpha_v = self.distr.alpha_v
+        self.specular_reflectance = as_colour(specular_reflectance)
+        self.eta_complex = as_colour(eta) + 1j * as_colour(k)
+        self._perfect_mirror = bool(np.all(self.eta_complex == 1j))
+
+    def fresnel(self, cos_theta: np.ndarray) -> np.ndarray:
+        """Conductor Fresnel factor times ``specular_reflectance`` -> (n, 3)."""
+        if self._perfect_mirror:
+            return np.broadcast_to(self.specular_reflectance, (cos_theta.shape[0], 3))
+        F = fresnel_conductor(cos_theta[:, None], self.eta_complex[None, :])
+        return F * self.specular_reflectance
+
+    def _half_vector(self, wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Half vector and the mask of pairs where both directions are above the surface."""
+        active = (wi[:, 2] > 0.0) & (wo[:, 2] > 0.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            h = _normalize(wi + wo)
+        active &= np.all(np.isfinite(h), axis=1)
+        return np.where(active[:, None], h, np.array([0.0, 0.0, 1.0])), active
+
+    def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        r""":math:`F\,D(h)\,G(w_i, w_o, h)\,R_s / (4\cos\theta_i)` -> (n, 3)."""
+        h, active = self._half_vector(wi, wo)
+        D = self.distr.eval(h)
+        G = self.distr.G(wi, wo, h)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            value = D * G / (4.0 * wi[:, 2])
+        value = np.where(active & (D != 0.0), value, 0.0)
+        return value[:, None] * self.fresnel(_dot(wi, h))
+
+    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+        r""":math:`D(h)\,G_1(w_i, h)/(4\cos\theta_i)` (Mitsuba's :math:`G_1`) -> (n,)."""
+        return self._pdf(wi, wo, self.distr.smith_g1)
+
+    def pdf_exact(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """Density that :meth:`sample` actually draws from (exact Smith G1; equals :meth:`pdf` for GGX)."""
+        return self._pdf(wi, wo, self.distr.smith_g1_exact)
+
+    def _pdf(self, wi: np.ndarray, wo: np.ndarray, smith_g1) -> np.ndarray:
+        """Reflection pdf with the given masking function; 0 where micro- and macro-surface disagree."""
+        h, active = self._half_vector(wi, wo)
+        active &= (_dot(wi, h) > 0.0) & (_dot(wo, h) > 0.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            result = self.distr.eval(h) * smith_g1(wi, h) / (4.0 * wi[:, 2])
+        return np.where(active, result, 0.0)
+
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
+               hemisphere: str = "cosine") -> BSDFSample:
+        """Reflect ``wi`` about a sampled visible normal; invalid if ``wi`` or ``wo`` is below the surface."""
+        up = wi[:, 2] > 0.0
+        wi_up = np.where(up[:, None], wi, np.array([0.0, 0.0, 1.0]))
+        m, pdf_m = self.distr.sample(wi_up, u2)
+        wo = reflect_about(wi_up, m)
+        cos_o_m = _dot(wo, m)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pdf = pdf_m / (4.0 * cos_o_m)
+        valid = up & (pdf_m > 0.0) & (wo[:, 2] > 0.0) & np.isfinite(pdf) & np.all(np.isfinite(m), axis=1)
+        weight = self.distr.smith_g1(wo, m)[:, None] * self.fresnel(_dot(wi_up, m))
+        return make_sample(wo, weight, pdf, delta=False, eta=1.0, valid=valid)

@@ -1,0 +1,277 @@
+"""Emitters: radiance seen on hits, next-event sampling and its pdf.
+
+Mitsuba's conventions (DESIGN.md):
+
+* one emitter is chosen uniformly, with probability 1 / N_emitters;
+* area lights are one-sided: a point emits towards ``w`` only if
+  ``dot(n_shading, w) > 0``;
+* area sampling: meshes pick a triangle proportionally to area, then a
+  uniform point; disks a uniform point; a sphere seen from outside samples
+  the cone it subtends, from inside a uniform point on its surface;
+* the solid-angle pdf of an area sample is ``pdf_area * dist^2 / |cos theta_light|``;
+* point lights are Dirac: weight ``I / r^2`` with pdf 1 (MIS weight 1).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import geometry
+from .sampling import (square_to_uniform_cone, square_to_uniform_cone_pdf,
+                       square_to_uniform_disk_concentric,
+                       square_to_uniform_sphere, square_to_uniform_triangle)
+from .scene.types import Scene
+from .vec import cross, dot, norm, normalize, to_world
+
+INV_FOUR_PI = 1.0 / (4.0 * np.pi)
+
+
+@dataclass
+class EmitterSample:
+    """A sampled light position seen from reference points.
+
+    Attributes
+    ----------
+    wo : (n, 3) unit direction from the reference point to the light.
+    dist : (n,) distance (inf for the environment).
+    pdf : (n,) solid-angle pdf, including the 1 / N_emitters choice (1 for Dirac lights).
+    weight : (n, 3) radiance / pdf, zero when the light faces away or is occluded.
+    delta : (n,) True for point lights.
+    """
+
+    wo: np.ndarray
+    dist: np.ndarray
+    pdf: np.ndarray
+    weight: np.ndarray
+    delta: np.ndarray
+
+
+def emitted_radiance(scene: Scene, hit, wi: np.ndarray) -> np.ndarray:
+    """Radiance leaving the hit points towards ``wi`` (unit, pointing away from the surface).
+
+    Area lights count on their front side only; rays that escaped see the
+    constant environment, if any.
+    """
+    radiance = np.zeros((len(wi), 3))
+    on_emitter = hit.valid & (scene.shape_emitter[np.maximum(hit.shape, 0)] >= 0)
+    front = on_emitter & (dot(hit.sh_n, wi) > 0)
+    if front.any():
+        table = _area_radiance_table(scene)
+        radiance[front] = table[scene.shape_emitter[hit.shape[front]]]
+    if scene.environment is not None:
+        radiance[~hit.valid] = scene.environment.radiance
+    return radiance
+
+
+def _area_radiance_table(scene: Scene) -> np.ndarray:
+    """Radiance of each emitter as an (N_emitters, 3) table (zero for non-area ones)."""
+    return np.array([e.radiance if e.kind == "area" else np.zeros(3) for e in scene.emitters])
+
+
+def pdf_emitter_direction(scene: Scene, ref_p: np.ndarray, hit, d: np.ndarray) -> np.ndarray:
+    """Solid-angle pdf with which next-event estimation from ``ref_p`` would pick the hit.
+
+    Parameters
+    ----------
+    ref_p : (n, 3) reference points (the previous path vertex).
+    hit : Hit reached from ``ref_p`` along unit directions ``d``.
+
+    Returns
+    -------
+    (n,) pdf including the 1 / N_emitters selection; 0 where the hit is not an
+    emitter or is seen from its back.
+    """
+    pdf = np.zeros(len(d))
+    n_emitters = scene.num_emitters
+    if n_emitters == 0:
+        return pdf
+    if scene.environment is not None:
+        pdf[~hit.valid] = INV_FOUR_PI / n_emitters
+    shape = np.maximum(hit.shape, 0)
+    lit = hit.valid & (scene.shape_emitter[shape] >= 0) & (dot(hit.sh_n, d) < 0)
+    for s in np.unique(hit.shape[lit]):
+        rows = np.flatnonzero(lit & (hit.shape == s))
+        dist2 = np.sum((hit.p[rows] - ref_p[rows]) ** 2, axis=1)
+        cos_light = np.abs(dot(d[rows], hit.sh_n[rows]))
+        if scene.shape_kind[s] == "sphere":
+            pdf[rows] = _sphere_pdf(scene, s, ref_p[rows], dist2, cos_light)
+        else:
+            pdf[rows] = dist2 / (cos_light * scene.shape_area[s])
+    pdf[lit] /= n_emitters
+    return pdf
+
+
+def _sphere_pdf(scene, shape, ref_p, dist2, cos_light):
+    """Cone pdf from outside a sphere, area pdf converted to solid angle from inside."""
+    k = scene.shape_prim[shape, 0]
+    center, radius = scene.sphere_center[k], scene.sphere_radius[k]
+    sin_alpha = radius / norm(center - ref_p)
+    cos_alpha = np.sqrt(np.maximum(1 - sin_alpha ** 2, 0))
+    outside = sin_alpha < 1 - 2.0 ** -24
+    cone = _cone_pdf(np.where(outside, cos_alpha, 0.0))
+    area = dist2 / (cos_light * scene.shape_area[shape])
+    return np.where(outside, cone, area)
+
+
+def _cone_pdf(cos_max: np.ndarray) -> np.ndarray:
+    """Solid-angle pdf of a uniform direction in cones of half-angle acos(cos_max)."""
+    axis = np.tile([0.0, 0.0, 1.0], (len(cos_max), 1))
+    return square_to_uniform_cone_pdf(axis, cos_max)
+
+
+def sample_emitter(scene: Scene, hit, u_choice: np.ndarray, u: np.ndarray,
+                   test_visibility: bool = True, emitter: int | None = None) -> EmitterSample:
+    """Next-event estimation: pick a light uniformly and a point on it.
+
+    Parameters
+    ----------
+    hit : Hit with the reference points (``hit.p``, geometric normal ``hit.n``).
+    u_choice : (n,) uniform numbers choosing the emitter.
+    u : (n, 2) uniform numbers choosing the point on it.
+    test_visibility : bool
+        Trace shadow rays and zero the weight of occluded samples.
+    emitter : int, optional
+        Sample this emitter instead of choosing one (no 1 / N_emitters factor);
+        ``u_choice`` is then ignored.
+    """
+    count = len(u_choice)
+    n_emitters = scene.num_emitters
+    sample = EmitterSample(np.zeros((count, 3)), np.full(count, np.inf), np.zeros(count),
+                           np.zeros((count, 3)), np.zeros(count, dtype=bool))
+    if n_emitters == 0 or count == 0:
+        return sample
+    if emitter is None:
+        which = np.minimum((u_choice * n_emitters).astype(np.int64), n_emitters - 1)
+    else:
+        which = np.full(count, emitter)
+    for e in np.unique(which):
+        rows = np.flatnonzero(which == e)
+        light = scene.emitters[e]
+        if light.kind == "point":
+            _sample_point(light, hit.p[rows], sample, rows)
+        elif light.kind == "constant":
+            _sample_environment(light, u[rows], sample, rows)
+        else:
+            _sample_area(scene, light, hit.p[rows], u[rows], sample, rows)
+    if emitter is None:
+        # Uniform emitter choice: pdf divided, weight multiplied, by N (Dirac pdf stays 1).
+        sample.pdf = np.where(sample.delta, sample.pdf, sample.pdf / n_emitters)
+        sample.weight *= n_emitters
+    if test_visibility:
+        live = np.flatnonzero(np.any(sample.weight > 0, axis=1))
+        blocked = shadowed(scene, hit.p[live], hit.n[live], sample.wo[live], sample.dist[live])
+        sample.weight[live[blocked]] = 0.0
+    return sample
+
+
+def shadowed(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
+             dist: np.ndarray) -> np.ndarray:
+    """True where the segment from ``p`` (normal ``n``) along ``wo`` for ``dist`` is blocked."""
+    finite = np.isfinite(dist)
+    blocked = np.zeros(len(dist), dtype=bool)
+    if finite.any():
+        target = p[finite] + wo[finite] * dist[finite, None]
+        o, d, tmax = geometry.spawn_ray_to(p[finite], n[finite], target)
+        blocked[finite] = geometry.occluded(scene, o, d, tmax)
+    if (~finite).any():
+        o = geometry.spawn_ray(p[~finite], n[~finite], wo[~finite])
+        blocked[~finite] = geometry.occluded(scene, o, wo[~finite], np.full((~finite).sum(), np.inf))
+    return blocked
+
+
+def _sample_point(emitter, ref_p, sample, rows):
+    to_light = emitter.position - ref_p
+    dist = norm(to_light)
+    sample.wo[rows] = to_light / dist[:, None]
+    sample.dist[rows] = dist
+    sample.pdf[rows] = 1.0
+    sample.delta[rows] = True
+    sample.weight[rows] = emitter.intensity / (dist ** 2)[:, None]
+
+
+def _sample_environment(emitter, u, sample, rows):
+    sample.wo[rows] = square_to_uniform_sphere(u)
+    sample.pdf[rows] = INV_FOUR_PI
+    sample.weight[rows] = emitter.radiance / INV_FOUR_PI
+
+
+def _sample_area(scene, emitter, ref_p, u, sample, rows):
+    shape = emitter.shape
+    kind = scene.shape_kind[shape]
+    if kind == "sphere":
+        point, normal, pdf = _sample_sphere(scene, shape, ref_p, u)
+    else:
+        point, normal = (_sample_disk if kind == "disk" else _sample_mesh)(scene, shape, u)
+        pdf = None
+    to_light = point - ref_p
+    dist = norm(to_light)
+    wo = to_light / np.where(dist > 0, dist, 1.0)[:, None]
+    cos_light = dot(wo, normal)
+    if pdf is None:
+        pdf = dist ** 2 / (np.abs(cos_light) * scene.shape_area[shape])
+    # One-sided: the light emits only on the side its normal faces.
+    facing = (cos_light < 0) & (dist > 0) & np.isfinite(pdf) & (pdf > 0)
+    pdf = np.where(facing, pdf, 0.0)
+    sample.wo[rows] = wo
+    sample.dist[rows] = dist
+    sample.pdf[rows] = pdf
+    sample.weight[rows] = np.where(facing[:, None],
+                                   emitter.radiance / np.where(facing, pdf, 1.0)[:, None], 0.0)
+
+
+def _sample_mesh(scene, shape, u):
+    """Triangle chosen proportionally to area (u_x reused), then a uniform point on it."""
+    cdf = scene.shape_tri_cdf[shape]
+    begin = scene.shape_prim[shape, 0]
+    local = np.minimum(np.searchsorted(cdf, u[:, 0], side="right"), len(cdf) - 1)
+    low = np.where(local > 0, cdf[np.maximum(local - 1, 0)], 0.0)
+    u_x = np.clip((u[:, 0] - low) / np.maximum(cdf[local] - low, 1e-300), 0.0, 1.0 - 1e-16)
+    tri = begin + local
+    b = square_to_uniform_triangle(np.stack((u_x, u[:, 1]), axis=1))
+    p0, p1, p2 = scene.tri_p[tri, 0], scene.tri_p[tri, 1], scene.tri_p[tri, 2]
+    b0 = 1 - b[:, 0] - b[:, 1]
+    point = b0[:, None] * p0 + b[:, 0:1] * p1 + b[:, 1:2] * p2
+    n0, n1, n2 = scene.tri_n[tri, 0], scene.tri_n[tri, 1], scene.tri_n[tri, 2]
+    normal = normalize(b0[:, None] * n0 + b[:, 0:1] * n1 + b[:, 1:2] * n2)
+    return point, normal
+
+
+def _sample_disk(scene, shape, u):
+    k = scene.shape_prim[shape, 0]
+    to_world = scene.disk_to_world[k]
+    local = square_to_uniform_disk_concentric(u)
+    point = local[:, 0:1] * to_world[:3, 0] + local[:, 1:2] * to_world[:3, 1] + to_world[:3, 3]
+    normal = normalize(np.linalg.inv(to_world[:3, :3]).T @ np.array([0.0, 0.0, 1.0])[:, None]).T
+    normal = np.repeat(-normal if scene.disk_flip[k] else normal, len(u), axis=0)
+    return point, normal
+
+
+def _sample_sphere(scene, shape, ref_p, u):
+    """Cone sampling from outside, uniform area sampling from inside (Mitsuba's rule)."""
+    k = scene.shape_prim[shape, 0]
+    center, radius = scene.sphere_center[k], scene.sphere_radius[k]
+    flip = scene.sphere_flip[k]
+    to_center = center - ref_p
+    dist_c = norm(to_center)
+    radius_adj = radius * ((1 + 8.94e-5) if flip else (1 - 8.94e-5))
+    outside = dist_c > radius_adj
+    # Outside: uniform direction in the subtended cone, point = nearest intersection.
+    sin_max = np.minimum(radius / np.maximum(dist_c, 1e-300), 1.0)
+    cos_max = np.sqrt(np.maximum(1 - sin_max ** 2, 0))
+    axis = to_center / np.maximum(dist_c, 1e-300)[:, None]
+    d = to_world(square_to_uniform_cone(u, np.where(outside, cos_max, 0.0)), axis)
+    b = dot(d, to_center)
+    disc = np.maximum(b ** 2 - (dist_c ** 2 - radius ** 2), 0)
+    t = b - np.sqrt(disc)
+    cone_point = ref_p + d * t[:, None]
+    # Inside: uniform point on the whole sphere.
+    area_point = center + radius * square_to_uniform_sphere(u)
+    point = np.where(outside[:, None], cone_point, area_point)
+    outward = normalize(point - center)
+    to_point = point - ref_p
+    dist2 = dot(to_point, to_point)
+    cos_light = np.abs(dot(normalize(to_point), outward))
+    pdf = np.where(outside, _cone_pdf(cos_max),
+                   dist2 / (np.maximum(cos_light, 1e-300) * scene.shape_area[shape]))
+    return point, (-outward if flip else outward), pdf

@@ -1,0 +1,273 @@
+"""Ray-scene intersection for wavefronts of rays, and ray spawning.
+
+Triangles go through the BVH of :mod:`pathtracer.accel` (built once per
+scene, cached in ``scene._accel``); spheres and disks are few, so they are
+intersected analytically one shape at a time, each over all rays.
+
+Ray spawning follows Mitsuba 3 (``Interaction::offset_p``, ``spawn_ray``,
+``spawn_ray_to`` in include/mitsuba/render/interaction.h): there is no
+``tmin``; instead the origin is pushed off the surface along the geometric
+normal by ``(1 + max|p|) * RAY_EPSILON``, to the side the ray leaves to.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .accel import BVH
+from .vec import dot, max_abs, normalize
+
+RAY_EPSILON = 1500 * 2.0 ** -24  # Mitsuba's math::RayEpsilon for float32 (8.94e-5)
+SHADOW_EPSILON = 10 * RAY_EPSILON  # math::ShadowEpsilon
+
+
+@dataclass
+class Hit:
+    """Closest intersections of a batch of ``n`` rays.
+
+    Attributes
+    ----------
+    valid : (n,) bool
+        The ray hit something.
+    t : (n,) float64
+        Ray parameter of the hit (the distance for unit directions), inf on a miss.
+    p : (n, 3) float64
+        Hit point (0 on a miss). Triangles: interpolated from the vertices by
+        barycentrics; spheres: reprojected onto the sphere; disks: onto the
+        plane (as Mitsuba does).
+    n : (n, 3) float64
+        Unit geometric normal (0 on a miss). Triangles:
+        ``normalize(cross(p1 - p0, p2 - p0))``; spheres: outward, or inward
+        with ``flip_normals``; disks: the world image of local +z (inverse
+        transpose), negated with ``flip_normals``.
+    sh_n : (n, 3) float64
+        Unit shading normal: interpolated vertex normals for triangles, the
+        geometric normal otherwise.
+    shape : (n,) int32
+        Shape id, -1 on a miss.
+    prim : (n,) int64
+        Triangle index into ``tri_*``, or sphere / disk index into
+        ``sphere_*`` / ``disk_*``; -1 on a miss.
+    uv : (n, 2) float64
+        Triangles: barycentrics (b1, b2) of p1 and p2. Spheres: Mitsuba's
+        ``(phi / 2pi, theta / pi)`` in the local frame (z up). Disks: local
+        (x, y) on the unit disk.
+    """
+
+    valid: np.ndarray
+    t: np.ndarray
+    p: np.ndarray
+    n: np.ndarray
+    sh_n: np.ndarray
+    shape: np.ndarray
+    prim: np.ndarray
+    uv: np.ndarray
+
+
+def prepare(scene) -> BVH:
+    """Build (once) and return the scene's triangle BVH, cached in ``scene._accel``."""
+    if scene._accel is None:
+        scene._accel = BVH(scene.tri_p)
+    return scene._accel
+
+
+def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
+    """Closest hit of each ray ``o + t d`` with ``0 < t < tmax``.
+
+    Parameters
+    ----------
+    scene : Scene
+    o, d : (n, 3) float64
+        Origins and directions (unit directions make ``t`` a distance).
+    tmax : (n,) array, float or None
+        Far end of each ray; None means infinity.
+    """
+    o = np.asarray(o, np.float64)
+    d = np.asarray(d, np.float64)
+    n = len(o)
+    tmax = np.broadcast_to(np.inf if tmax is None else np.asarray(tmax, np.float64), (n,))
+    t, tri, b1, b2 = prepare(scene).intersect(o, d, tmax)
+    kind = np.where(tri >= 0, 0, -1)  # 0 triangle, 1 sphere, 2 disk
+    prim = tri.copy()
+    t = np.where(kind >= 0, t, tmax)  # the far end for the analytic shapes
+    for i in range(len(scene.sphere_radius)):
+        ts = _sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, t)
+        closer = ts < t
+        t[closer], kind[closer], prim[closer] = ts[closer], 1, i
+    for i in range(len(scene.disk_shape)):
+        td = _disk_t(scene.disk_to_local[i], o, d, t)
+        closer = td < t
+        t[closer], kind[closer], prim[closer] = td[closer], 2, i
+
+    t[kind < 0] = np.inf
+    hit = Hit(valid=kind >= 0, t=t, p=np.zeros((n, 3)), n=np.zeros((n, 3)),
+              sh_n=np.zeros((n, 3)), shape=np.full(n, -1, np.int32), prim=prim,
+              uv=np.zeros((n, 2)))
+    sel = np.flatnonzero(kind == 0)
+    if len(sel):
+        _fill_triangles(scene, hit, sel, b1[sel], b2[sel])
+    sel = np.flatnonzero(kind == 1)
+    if len(sel):
+        _fill_spheres(scene, hit, sel, o[sel], d[sel])
+    sel = np.flatnonzero(kind == 2)
+    if len(sel):
+        _fill_disks(scene, hit, sel, o[sel], d[sel])
+    return hit
+
+
+def occluded(scene, o: np.ndarray, d: np.ndarray, tmax) -> np.ndarray:
+    """(n,) bool: something lies on ``o + t d`` for some ``0 < t < tmax``."""
+    o = np.asarray(o, np.float64)
+    d = np.asarray(d, np.float64)
+    tmax = np.array(np.broadcast_to(np.asarray(tmax, np.float64), (len(o),)))
+    occ = prepare(scene).occluded(o, d, tmax)
+    for i in range(len(scene.sphere_radius)):
+        occ |= _sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, tmax) < tmax
+    for i in range(len(scene.disk_shape)):
+        occ |= _disk_t(scene.disk_to_local[i], o, d, tmax) < tmax
+    return occ
+
+
+# ----------------------------------------------------------------------
+# Ray spawning
+
+
+def offset_p(p: np.ndarray, n: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Mitsuba's ``offset_p``: ``p`` pushed along ``+-n`` to the side of ``d``.
+
+    The push is ``(1 + max|p|) * RAY_EPSILON`` long; its sign is the sign of
+    ``dot(n, d)`` (positive for zero, as ``mulsign`` treats +0).
+    """
+    mag = (1.0 + max_abs(p)) * RAY_EPSILON
+    mag = np.where(dot(n, d) >= 0.0, mag, -mag)
+    return p + mag[:, None] * n
+
+
+def spawn_ray(p: np.ndarray, n: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Origin of rays leaving surface points ``p`` (geometric normals ``n``) along ``d``.
+
+    The rays are ``(origin, d)`` with ``tmax = inf``: :func:`spawn_ray_inf`
+    returns all three.
+    """
+    return offset_p(p, n, d)
+
+
+def spawn_ray_inf(p: np.ndarray, n: np.ndarray, d: np.ndarray):
+    """Rays towards infinity (e.g. shadow rays to an environment).
+
+    Returns
+    -------
+    o : (n, 3) offset origin; d : (n, 3) the given directions;
+    tmax : (n,) all inf.
+    """
+    return offset_p(p, n, d), d, np.full(len(p), np.inf)
+
+
+def spawn_ray_to(p: np.ndarray, n: np.ndarray, target: np.ndarray):
+    """Shadow rays from surface points ``p`` to points ``target``, as Mitsuba's ``spawn_ray_to``.
+
+    Returns
+    -------
+    o : (n, 3)
+        Origin offset off the surface towards ``target`` (``offset_p(p, n, target - p)``).
+    d : (n, 3)
+        Unit direction from ``o`` to ``target``.
+    tmax : (n,)
+        ``|target - o| * (1 - SHADOW_EPSILON)``: the ray stops just short of
+        the target, so the surface that holds the target does not block it.
+    """
+    o = offset_p(p, n, target - p)
+    d = target - o
+    dist = np.sqrt(dot(d, d))
+    d = d / np.where(dist > 0, dist, 1.0)[:, None]
+    return o, d, dist * (1.0 - SHADOW_EPSILON)
+
+
+# ----------------------------------------------------------------------
+# Analytic shapes
+
+
+def _sphere_t(center, radius, o, d, tmax):
+    """Nearest root ``0 < t < tmax`` of the ray-sphere quadratic (inf if none).
+
+    Like Mitsuba, the ray origin is first moved to the point of the ray
+    closest to the center, which keeps the discriminant accurate for rays
+    starting far away or grazing the sphere.
+    """
+    dd = dot(d, d)
+    l = o - center
+    t_mid = -dot(l, d) / dd  # parameter of the point closest to the center
+    q = l + t_mid[:, None] * d
+    c = dot(q, q) - radius * radius
+    disc = -dd * c  # (B/2)^2 - A C, with B = 0 at the closest point
+    with np.errstate(invalid="ignore"):
+        half = np.sqrt(disc) / dd
+    t0, t1 = t_mid - half, t_mid + half
+    t = np.where(t0 > 0, t0, t1)
+    ok = (disc >= 0) & (t > 0) & (t < tmax)
+    return np.where(ok, t, np.inf)
+
+
+def _disk_t(to_local, o, d, tmax):
+    """Ray parameter where rays meet the unit disk z = 0 of a local frame (inf if not)."""
+    ol = o @ to_local[:3, :3].T + to_local[:3, 3]
+    dl = d @ to_local[:3, :3].T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -ol[:, 2] / dl[:, 2]
+        x = ol[:, 0] + t * dl[:, 0]
+        y = ol[:, 1] + t * dl[:, 1]
+        ok = (t > 0) & (t < tmax) & (x * x + y * y <= 1.0)
+    return np.where(ok, t, np.inf)
+
+
+# ----------------------------------------------------------------------
+# Surface data of the hits
+
+
+def _fill_triangles(scene, hit, sel, b1, b2):
+    k = hit.prim[sel]
+    v = scene.tri_p[k]
+    b0 = 1.0 - b1 - b2
+    w = np.stack((b0, b1, b2), axis=1)[:, :, None]
+    hit.p[sel] = (v * w).sum(axis=1)
+    e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
+    hit.n[sel] = normalize(np.cross(e1, e2))
+    hit.sh_n[sel] = normalize((scene.tri_n[k] * w).sum(axis=1))
+    hit.shape[sel] = scene.tri_shape[k]
+    hit.uv[sel, 0], hit.uv[sel, 1] = b1, b2
+
+
+def _fill_spheres(scene, hit, sel, o, d):
+    i = hit.prim[sel]
+    c, r = scene.sphere_center[i], scene.sphere_radius[i]
+    # Reproject onto the sphere (Mitsuba: p = c + r * normalize(ray(t) - c)).
+    nrm = normalize(o + hit.t[sel, None] * d - c)
+    hit.p[sel] = c + r[:, None] * nrm
+    nrm = np.where(scene.sphere_flip[i][:, None], -nrm, nrm)
+    hit.n[sel] = nrm
+    hit.sh_n[sel] = nrm
+    hit.shape[sel] = scene.sphere_shape[i]
+    local = (hit.p[sel] - c) / r[:, None]
+    phi = np.arctan2(local[:, 1], local[:, 0])
+    phi = np.where(phi < 0, phi + 2 * np.pi, phi)
+    hit.uv[sel, 0] = phi / (2 * np.pi)
+    hit.uv[sel, 1] = np.arccos(np.clip(local[:, 2], -1.0, 1.0)) / np.pi
+
+
+def _fill_disks(scene, hit, sel, o, d):
+    i = hit.prim[sel]
+    to_world, to_local = scene.disk_to_world[i], scene.disk_to_local[i]
+    # Normal transform = inverse transpose: row 2 of to_local's linear part.
+    nrm = normalize(to_local[:, 2, :3])
+    p = o + hit.t[sel, None] * d
+    # Reproject onto the plane through the disk center (as Mitsuba does).
+    center = to_world[:, :3, 3]
+    p = p + dot(center - p, nrm)[:, None] * nrm
+    hit.p[sel] = p
+    local = np.einsum("kij,kj->ki", to_local[:, :3, :3], p) + to_local[:, :3, 3]
+    hit.uv[sel] = local[:, :2]
+    nrm = np.where(scene.disk_flip[i][:, None], -nrm, nrm)
+    hit.n[sel] = nrm
+    hit.sh_n[sel] = nrm
+    hit.shape[sel] = scene.disk_shape[i]

@@ -1,0 +1,211 @@
+"""The render driver: camera samples in bounded batches, mean and variance per pixel.
+
+Work is cut into *units*: a range of pixels times a block of at most
+``SAMPLE_BLOCK`` samples of each. A unit's radiance samples form a
+(pixels, samples, 3) array; per pixel it yields (n, mean, M2) through sums
+shifted by the pixel's first sample of the block (so equal samples give a
+variance of exactly zero), and blocks merge in order with Chan's formula.
+Random numbers depend only on (seed, pixel, sample index), and a pixel's
+samples are reduced in a fixed order, so the image is bit-identical whatever
+the batch size and the number of processes.
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+import multiprocessing
+
+import numpy as np
+
+from . import geometry
+from .camera import camera_rays
+from .integrators import Integrator, make_integrator
+from .rng import RandomStream, sample_keys
+from .scene.types import Scene
+
+#: Samples of one pixel reduced together; fixed so results never depend on batching.
+SAMPLE_BLOCK = 256
+#: Camera paths per batch (bounded memory: about 1 KB per path in flight).
+DEFAULT_BATCH = 1 << 15
+
+
+@dataclass
+class RenderResult:
+    """Per-pixel statistics of a render.
+
+    Attributes
+    ----------
+    mean : (H, W, 3) float64 pixel values (mean of the samples).
+    variance : (H, W, 3) float64 unbiased per-sample variance of each pixel.
+    spp, seed : int
+    integrator : str
+    options : dict of the integrator's options.
+    seconds : float wall-clock time.
+    scene : str the scene's source.
+    """
+
+    mean: np.ndarray
+    variance: np.ndarray
+    spp: int
+    seed: int
+    integrator: str
+    options: dict = field(default_factory=dict)
+    seconds: float = 0.0
+    scene: str = ""
+
+
+def integrator_for(scene: Scene, integrator=None, **options) -> Integrator:
+    """The integrator to use: an instance, a name, or the scene file's ``<integrator>``.
+
+    Options given here override those of the file.
+    """
+    if isinstance(integrator, Integrator):
+        return integrator
+    spec = scene.integrator
+    params = dict(spec.params) if integrator in (None, spec.name) else {}
+    params.update({k: v for k, v in options.items() if v is not None})
+    return make_integrator(integrator or spec.name, **params)
+
+
+def render(scene, integrator=None, spp: int | None = None, seed: int | None = None,
+           processes: int | None = None, batch_size: int = DEFAULT_BATCH,
+           progress: bool | None = None, **options) -> RenderResult:
+    """Render a scene and return per-pixel mean and variance.
+
+    Parameters
+    ----------
+    scene : Scene or str
+        A loaded scene, or a path / built-in name passed to ``load_scene``.
+    integrator : str or Integrator, optional
+        Defaults to the scene file's integrator.
+    spp, seed : int, optional
+        Default to the file's sampler ``sample_count`` and ``seed``.
+    processes : int, optional
+        Worker processes (default: every core). The image does not depend on it.
+    batch_size : int
+        Camera paths per batch. The image does not depend on it.
+    progress : bool, optional
+        Show a progress bar (default: when stderr is a terminal and the render is long).
+    **options
+        Integrator options (max_depth, rr_depth, roulette, hemisphere, ...).
+    """
+    if not isinstance(scene, Scene):
+        from .scene import load_scene
+        scene = load_scene(scene)
+    integrator = integrator_for(scene, integrator, **options)
+    spp = int(scene.spp if spp is None else spp)
+    seed = int(scene.seed if seed is None else seed)
+    if spp < 1:
+        raise ValueError(f"spp must be >= 1, got {spp}")
+    n_pixels = scene.camera.width * scene.camera.height
+    units = plan_units(n_pixels, spp, batch_size)
+    processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
+    if progress is None:
+        progress = sys.stderr.isatty() and n_pixels * spp >= 1 << 20
+    geometry.prepare(scene)   # build the BVH once, before workers fork
+
+    start = time.perf_counter()
+    stats = np.zeros((3, n_pixels, 3))   # per pixel: count, mean, M2 (count broadcast)
+    job = _Job(scene, integrator, spp, seed)
+    bar = _progress_bar(len(units), progress)
+    if processes == 1 or len(units) == 1:
+        for unit in units:
+            _merge(stats, unit, job.run(unit))
+            bar.update()
+    else:
+        ctx = multiprocessing.get_context("fork")
+        _Job.current = job
+        with ProcessPoolExecutor(processes, mp_context=ctx) as pool:
+            for unit, block in zip(units, pool.map(_run_current, units, chunksize=1)):
+                _merge(stats, unit, block)
+                bar.update()
+        _Job.current = None
+    bar.close()
+    count, mean, m2 = stats
+    variance = m2 / np.maximum(count - 1, 1)
+    shape = (scene.camera.height, scene.camera.width, 3)
+    return RenderResult(mean.reshape(shape), variance.reshape(shape), spp, seed, integrator.name,
+                        integrator.options(), time.perf_counter() - start, scene.source)
+
+
+def plan_units(n_pixels: int, spp: int, batch_size: int) -> list[tuple[int, int, int, int]]:
+    """Units (pixel_begin, pixel_end, sample_begin, sample_end), sample blocks outermost per pixel range."""
+    block = min(spp, SAMPLE_BLOCK)
+    pixels_per_unit = max(1, batch_size // block)
+    units = []
+    for p0 in range(0, n_pixels, pixels_per_unit):
+        p1 = min(n_pixels, p0 + pixels_per_unit)
+        for s0 in range(0, spp, SAMPLE_BLOCK):
+            units.append((p0, p1, s0, min(spp, s0 + SAMPLE_BLOCK)))
+    return units
+
+
+class _Job:
+    """Everything a worker needs to render one unit (inherited through fork)."""
+
+    current = None
+
+    def __init__(self, scene, integrator, spp, seed):
+        self.scene, self.integrator, self.spp, self.seed = scene, integrator, spp, seed
+
+    def run(self, unit):
+        """Radiance statistics (count, mean, M2) of a unit's pixels."""
+        p0, p1, s0, s1 = unit
+        pixels, samples = p1 - p0, s1 - s0
+        pixel = np.repeat(np.arange(p0, p1), samples)
+        sample = np.tile(np.arange(s0, s1), pixels)
+        rng = RandomStream(sample_keys(self.seed, pixel.astype(np.int64) * self.spp + sample))
+        rays = camera_rays(self.scene.camera, pixel, rng.next_2d())
+        radiance = self.integrator.radiance(self.scene, rays, rng)
+        return block_statistics(radiance.reshape(pixels, samples, 3))
+
+
+def _run_current(unit):
+    return _Job.current.run(unit)
+
+
+def block_statistics(x: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+    """(n, mean, M2) per pixel of samples ``x`` shaped (pixels, n, 3).
+
+    Sums are shifted by each pixel's first sample, so identical samples give
+    M2 = 0 exactly and the mean equals the sample exactly.
+    """
+    n = x.shape[1]
+    shift = x[:, :1, :]
+    centred = np.ascontiguousarray((x - shift).transpose(0, 2, 1))   # (pixels, 3, n)
+    s1 = centred.sum(axis=2)
+    s2 = (centred * centred).sum(axis=2)
+    mean = shift[:, 0, :] + s1 / n
+    m2 = np.maximum(s2 - s1 * s1 / n, 0.0)
+    return n, mean, m2
+
+
+def _merge(stats: np.ndarray, unit, block) -> None:
+    """Chan et al.'s parallel update of (count, mean, M2) for the unit's pixels."""
+    p0, p1 = unit[0], unit[1]
+    n_b, mean_b, m2_b = block
+    count, mean, m2 = stats[0, p0:p1], stats[1, p0:p1], stats[2, p0:p1]
+    n_a = count[:, :1]
+    total = n_a + n_b
+    delta = mean_b - mean
+    mean += delta * (n_b / total)
+    m2 += m2_b + delta * delta * (n_a * n_b / total)
+    count += n_b
+
+
+class _NoBar:
+    def update(self, n=1):
+        pass
+
+    def close(self):
+        pass
+
+
+def _progress_bar(total: int, enabled: bool):
+    if not enabled:
+        return _NoBar()
+    from tqdm import tqdm
+    return tqdm(total=total, unit="batch", desc="rendering", file=sys.stderr)

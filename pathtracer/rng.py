@@ -1,0 +1,85 @@
+"""Counter-based random numbers: a stream per camera sample, independent of chunking.
+
+Every camera sample (pixel, sample index) owns a 64-bit key; its k-th random
+number is ``hash(key, k)``. A batch of paths that advances in lock-step shares
+the counter ``k``, so splitting the image into chunks or processes never
+changes which numbers a path sees: the same seed gives the same image.
+The hash is the SplitMix64 finaliser, whose outputs on consecutive counters
+pass BigCrush.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+_GOLDEN_INT, _M1_INT, _MASK = 0x9E3779B97F4A7C15, 0xBF58476D1CE4E5B9, (1 << 64) - 1
+_GOLDEN = np.uint64(_GOLDEN_INT)
+_M1 = np.uint64(_M1_INT)
+_M2 = np.uint64(0x94D049BB133111EB)
+_INV_2_53 = 1.0 / 9007199254740992.0
+
+
+def mix64(x: np.ndarray) -> np.ndarray:
+    """SplitMix64 finaliser on a uint64 array (wrapping arithmetic)."""
+    x = (x ^ (x >> np.uint64(30))) * _M1
+    x = (x ^ (x >> np.uint64(27))) * _M2
+    return x ^ (x >> np.uint64(31))
+
+
+def sample_keys(seed: int, sample_ids: np.ndarray) -> np.ndarray:
+    """Keys of camera samples ``sample_ids`` (pixel * spp + sample) for ``seed``."""
+    seed_key = mix64(np.array([seed & 0xFFFFFFFFFFFFFFFF], dtype=np.uint64) + _GOLDEN)
+    return mix64(sample_ids.astype(np.uint64) * _GOLDEN ^ seed_key)
+
+
+class RandomStream:
+    """Uniform random numbers in [0, 1) for a batch of paths.
+
+    Parameters
+    ----------
+    keys : (n,) uint64
+        One key per path (see :func:`sample_keys`).
+    counter : int
+        Index of the next number in every path's sequence.
+    """
+
+    def __init__(self, keys: np.ndarray, counter: int = 0):
+        self.keys = keys
+        self.counter = counter
+
+    def __len__(self) -> int:
+        return self.keys.shape[0]
+
+    def next_1d(self) -> np.ndarray:
+        """The next number of every path -> (n,) float64 in [0, 1)."""
+        offset = np.uint64(((self.counter + 1) * _GOLDEN_INT) & _MASK)   # wraps like uint64
+        bits = mix64(self.keys + offset)
+        self.counter += 1
+        return (bits >> np.uint64(11)).astype(np.float64) * _INV_2_53
+
+    def next_2d(self) -> np.ndarray:
+        """The next two numbers of every path -> (n, 2)."""
+        return np.stack((self.next_1d(), self.next_1d()), axis=1)
+
+    def subset(self, index: np.ndarray) -> "RandomStream":
+        """The streams of paths ``index``, continuing at the same counter."""
+        return RandomStream(self.keys[index], self.counter)
+
+    def branch(self, copies: int) -> "RandomStream":
+        """``copies`` independent child streams per path (path-major order).
+
+        Used by recursive ray tracing, where one hit spawns N indirect rays.
+        Child j of path i is row ``i * copies + j``. Children keep the
+        counter, so they can be concatenated with streams that did not split.
+        """
+        parent = np.repeat(self.keys, copies)
+        child = np.tile(np.arange(copies, dtype=np.uint64), len(self.keys))
+        salt = np.uint64((self.counter * _M1_INT) & _MASK)
+        return RandomStream(mix64(parent ^ mix64(child + salt + _M2)), self.counter)
+
+    @staticmethod
+    def concatenate(streams: list["RandomStream"]) -> "RandomStream":
+        """One stream holding the paths of ``streams`` (all at the same counter)."""
+        counters = {s.counter for s in streams}
+        if len(counters) != 1:
+            raise ValueError(f"cannot concatenate streams at different counters {counters}")
+        return RandomStream(np.concatenate([s.keys for s in streams]), counters.pop())

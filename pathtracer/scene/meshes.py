@@ -1,0 +1,279 @@
+"""OBJ and PLY triangle-mesh readers and Mitsuba's vertex-normal rule.
+
+The readers return object-space data; :mod:`pathtracer.scene.build` applies
+``to_world`` and decides between file normals, recomputed smooth normals and
+flat normals, in the same order as Mitsuba (transform first, then recompute).
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+
+class MeshFormatError(ValueError):
+    """A mesh file that cannot be read; the loader adds the scene location."""
+
+
+@dataclass
+class MeshData:
+    """An indexed triangle mesh.
+
+    Attributes
+    ----------
+    positions : (V, 3) float64
+    normals : (V, 3) float64 or None
+        Per-vertex normals stored in the file, if any.
+    faces : (F, 3) int64
+        Vertex indices of each triangle, in file order.
+    """
+
+    positions: np.ndarray
+    normals: np.ndarray | None
+    faces: np.ndarray
+
+
+def read_obj(path: str) -> MeshData:
+    """Read a Wavefront OBJ file.
+
+    As in Mitsuba 3.9.1's reader, a mesh vertex is one distinct ``v/vt/vn``
+    index triple (a position used with two texture coordinates becomes two
+    vertices, which matters for recomputed normals), and an index a corner
+    leaves out is *inherited from the previous corner of the same face*
+    (``f 1/1 2 3`` gives keys 1/1, 2/1, 3/1). Polygons are fan-triangulated
+    ``(v0, v[i-1], v[i])``. Only ``v``, ``vn`` and ``f`` lines matter.
+
+    Raises
+    ------
+    MeshFormatError
+        On a malformed line, an invalid or negative index, or normals given
+        for only some face corners (Mitsuba leaves the others undefined).
+    """
+    positions, normals = [], []
+    vertex_of_key: dict[tuple, int] = {}
+    keys: list[tuple] = []
+    triangles: list[tuple] = []
+    with open(path, "r", encoding="utf-8", errors="replace") as f:
+        for lineno, line in enumerate(f, 1):
+            tokens = line.split()
+            if not tokens:
+                continue
+            head = tokens[0]
+            try:
+                if head == "v":
+                    positions.append([float(t) for t in tokens[1:4]])
+                    if len(positions[-1]) != 3:
+                        raise ValueError
+                elif head == "vn":
+                    normals.append([float(t) for t in tokens[1:4]])
+                    if len(normals[-1]) != 3:
+                        raise ValueError
+                elif head == "f":
+                    corners = []
+                    key = [0, 0, 0]
+                    for t in tokens[1:]:
+                        parts = t.split("/")
+                        if len(parts) > 3:
+                            raise ValueError
+                        for slot, text in enumerate(parts):
+                            if text:
+                                key[slot] = int(text)
+                        if min(key) < 0:
+                            raise MeshFormatError(
+                                f"{os.path.basename(path)}:{lineno}: negative (relative) OBJ "
+                                "indices are not supported (Mitsuba rejects them too)")
+                        if not 1 <= key[0] <= len(positions):
+                            raise MeshFormatError(
+                                f"{os.path.basename(path)}:{lineno}: reference to invalid vertex {key[0]}")
+                        if key[2] > len(normals):
+                            raise MeshFormatError(
+                                f"{os.path.basename(path)}:{lineno}: reference to invalid normal {key[2]}")
+                        frozen = tuple(key)
+                        if frozen not in vertex_of_key:
+                            vertex_of_key[frozen] = len(keys)
+                            keys.append(frozen)
+                        corners.append(vertex_of_key[frozen])
+                    for i in range(2, len(corners)):
+                        triangles.append((corners[0], corners[i - 1], corners[i]))
+            except MeshFormatError:
+                raise
+            except ValueError:
+                raise MeshFormatError(f"{os.path.basename(path)}:{lineno}: could not parse "
+                                      f"line \"{line.strip()}\"") from None
+    if not triangles:
+        raise MeshFormatError(f"{os.path.basename(path)}: no faces")
+    key_arr = np.array(keys, dtype=np.int64)
+    pos = np.array(positions, dtype=float)[key_arr[:, 0] - 1]
+    nrm = None
+    if normals:
+        if np.any(key_arr[:, 2] == 0):
+            raise MeshFormatError(f"{os.path.basename(path)}: the file has vn normals but some "
+                                  "face corners use none (Mitsuba leaves those undefined)")
+        nrm = np.array(normals, dtype=float)[key_arr[:, 2] - 1]
+    return MeshData(pos, nrm, np.array(triangles, dtype=np.int64))
+
+
+_PLY_TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
+    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
+    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}
+
+
+def _ply_header(f, name: str):
+    """Parse the header; returns (format, elements) with elements as
+    ``[(name, count, [(prop, type, list_count_type or None)])]``."""
+    if f.readline().strip() != b"ply":
+        raise MeshFormatError(f"{name}: not a PLY file (missing 'ply' magic)")
+    fmt, elements = None, []
+    while True:
+        raw = f.readline()
+        if not raw:
+            raise MeshFormatError(f"{name}: PLY header has no end_header")
+        tokens = raw.decode("ascii", "replace").split()
+        if not tokens or tokens[0] in ("comment", "obj_info"):
+            continue
+        if tokens[0] == "end_header":
+            break
+        try:
+            if tokens[0] == "format":
+                fmt = tokens[1]
+                if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
+                    raise MeshFormatError(f"{name}: unknown PLY format \"{fmt}\"")
+            elif tokens[0] == "element":
+                elements.append((tokens[1], int(tokens[2]), []))
+            elif tokens[0] == "property":
+                if tokens[1] == "list":
+                    elements[-1][2].append((tokens[4], _PLY_TYPES[tokens[3]], _PLY_TYPES[tokens[2]]))
+                else:
+                    elements[-1][2].append((tokens[2], _PLY_TYPES[tokens[1]], None))
+            else:
+                raise MeshFormatError(f"{name}: unexpected PLY header line \"{' '.join(tokens)}\"")
+        except (IndexError, KeyError, ValueError):
+            raise MeshFormatError(f"{name}: invalid PLY header line \"{' '.join(tokens)}\"") from None
+    if fmt is None:
+        raise MeshFormatError(f"{name}: PLY header has no format line")
+    return fmt, elements
+
+
+def _ply_dtype(props, endian: str) -> np.dtype:
+    """Fixed-size record of one element; lists are assumed to hold 3 entries
+    (the only case Mitsuba accepts), which the caller verifies."""
+    fields = []
+    for prop, typ, count_type in props:
+        if count_type is None:
+            fields.append((prop, endian + typ))
+        else:
+            fields.append((prop + ".count", endian + count_type))
+            fields.append((prop, endian + typ, (3,)))
+    return np.dtype(fields)
+
+
+def read_ply(path: str) -> MeshData:
+    """Read an ASCII or binary (little/big endian) PLY triangle mesh.
+
+    Vertex properties ``x, y, z`` are required, ``nx, ny, nz`` are used when
+    all present. Faces come from ``vertex_indices`` or ``vertex_index`` and
+    must be triangles, as Mitsuba requires.
+    """
+    name = os.path.basename(path)
+    with open(path, "rb") as f:
+        fmt, elements = _ply_header(f, name)
+        body = f.read()
+    data = {}
+    if fmt == "ascii":
+        tokens = body.split()
+        pos = 0
+        for el_name, count, props in elements:
+            width = sum(1 if c is None else 4 for _, _, c in props)
+            dtype = _ply_dtype(props, "<")
+            chunk = tokens[pos:pos + width * count]
+            if len(chunk) != width * count:
+                raise MeshFormatError(f"{name}: element {el_name}: file too short "
+                                      "(or a face is not a triangle)")
+            rows = np.array(chunk, dtype=float).reshape(count, width)
+            rec = np.zeros(count, dtype=dtype)
+            col = 0
+            for field_name in dtype.names:
+                n = 3 if dtype[field_name].shape else 1
+                rec[field_name] = rows[:, col:col + n].reshape(rec[field_name].shape)
+                col += n
+            data[el_name] = rec
+            pos += width * count
+    else:
+        endian = "<" if fmt == "binary_little_endian" else ">"
+        offset = 0
+        for el_name, count, props in elements:
+            dtype = _ply_dtype(props, endian)
+            size = dtype.itemsize * count
+            if offset + size > len(body):
+                raise MeshFormatError(f"{name}: element {el_name}: file too short "
+                                      "(or a face is not a triangle)")
+            data[el_name] = np.frombuffer(body, dtype=dtype, count=count, offset=offset)
+            offset += size
+    return _ply_mesh(data, elements, name)
+
+
+def _ply_mesh(data: dict, elements, name: str) -> MeshData:
+    props = {el_name: [p for p, _, _ in el_props] for el_name, _, el_props in elements}
+    if "vertex" not in data or not {"x", "y", "z"} <= set(props["vertex"]):
+        raise MeshFormatError(f"{name}: PLY file has no vertex element with x, y, z")
+    for el_name, _, el_props in elements:
+        if el_name == "vertex" and any(c is not None for _, _, c in el_props):
+            raise MeshFormatError(f"{name}: list properties on vertices are not supported")
+    v = data["vertex"]
+    positions = np.stack([v["x"], v["y"], v["z"]], axis=1).astype(float)
+    normals = None
+    if {"nx", "ny", "nz"} <= set(props["vertex"]):
+        normals = np.stack([v["nx"], v["ny"], v["nz"]], axis=1).astype(float)
+    face_field = next((k for k in ("vertex_indices", "vertex_index")
+                       if k in props.get("face", [])), None)
+    if face_field is None:
+        raise MeshFormatError(f"{name}: PLY file has no face element with vertex_indices")
+    faces = data["face"]
+    if np.any(faces[face_field + ".count"] != 3):
+        raise MeshFormatError(f"{name}: only triangle faces are supported "
+                              "(Mitsuba's PLY reader requires them too)")
+    idx = faces[face_field].astype(np.int64)
+    if idx.size and (idx.min() < 0 or idx.max() >= len(positions)):
+        raise MeshFormatError(f"{name}: face refers to a vertex that does not exist")
+    return MeshData(positions, normals, idx.reshape(-1, 3))
+
+
+def unit_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angle between rows of unit vectors, accurate also near 0 and pi
+    (``2 asin(|a - b| / 2)`` instead of ``acos(a . b)``)."""
+    dot = np.einsum("ij,ij->i", a, b)
+    near = 2.0 * np.arcsin(np.clip(np.linalg.norm(a - b, axis=1) / 2, 0, 1))
+    far = np.pi - 2.0 * np.arcsin(np.clip(np.linalg.norm(a + b, axis=1) / 2, 0, 1))
+    return np.where(dot < 0, far, near)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    length = np.linalg.norm(v, axis=1, keepdims=True)
+    return v / np.where(length > 0, length, 1.0)
+
+
+def smooth_vertex_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Mitsuba's rule for meshes without normals (Thuermer & Wuethrich 1998).
+
+    Each non-degenerate face adds its *unit* normal, weighted by the interior
+    angle at the corner, to each of its three vertices; the sums are
+    normalised. A vertex that receives nothing gets (1, 0, 0), as in Mitsuba.
+    """
+    p = positions[faces]  # (F, 3, 3)
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    valid = np.einsum("ij,ij->i", n, n) > 0
+    n = _unit(n)
+    acc = np.zeros_like(positions)
+    for k in range(3):
+        e1 = _unit(p[:, (k + 1) % 3] - p[:, k])
+        e2 = _unit(p[:, (k + 2) % 3] - p[:, k])
+        w = np.where(valid, unit_angle(e1, e2), 0.0)
+        np.add.at(acc, faces[:, k], n * w[:, None])
+    length = np.linalg.norm(acc, axis=1)
+    out = acc / np.where(length > 0, length, 1.0)[:, None]
+    out[length == 0] = (1.0, 0.0, 0.0)
+    return out

@@ -1,0 +1,178 @@
+"""Plain-array description of a loaded scene.
+
+The XML loader (:mod:`pathtracer.scene.build`) produces a :class:`Scene`; the
+geometry, BSDF, emitter and integrator modules only read it. Everything a
+wavefront needs per primitive lives in flat NumPy arrays so that a batch of
+hits can gather its data with one fancy-indexing operation.
+
+Conventions (Mitsuba 3's, see DESIGN.md):
+
+* Triangles of every mesh-like shape (``rectangle``, ``cube``, ``obj``,
+  ``ply``) are concatenated into one triangle soup. ``tri_p[k]`` holds the
+  three world-space vertices of triangle ``k``; the geometric normal is
+  ``normalize(cross(p1 - p0, p2 - p0))``. ``tri_n[k]`` holds the three
+  world-space shading normals (the face normal three times for flat shading).
+* Spheres are analytic (intersected in float64). Disks are analytic planar
+  shapes: the unit disk at z = 0 in local space, normal +z.
+* ``shape_*`` arrays are indexed by shape id; every primitive knows its shape.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class Camera:
+    """Mitsuba's ``perspective`` sensor with an ``hdrfilm``.
+
+    Attributes
+    ----------
+    to_world : (4, 4) ndarray
+        Camera-to-world transform. Camera space looks along +z, +y is up and
+        +x is *left* in the image (Mitsuba's convention).
+    x_fov : float
+        Horizontal field of view in degrees, already converted from the
+        ``fov_axis`` given in the file.
+    near_clip, far_clip : float
+        Clip distances measured along the optical axis.
+    width, height : int
+        Film resolution in pixels; row 0 is the top of the image.
+    """
+
+    to_world: np.ndarray
+    x_fov: float
+    near_clip: float = 1e-2
+    far_clip: float = 1e4
+    width: int = 256
+    height: int = 256
+
+
+@dataclass
+class AreaEmitter:
+    """One-sided area light attached to a shape (front = along the shading normal)."""
+
+    shape: int
+    radiance: np.ndarray  # (3,)
+    kind: str = "area"
+
+
+@dataclass
+class PointEmitter:
+    """Isotropic point light: radiant intensity ``intensity`` [W/sr], falling off as 1/r^2."""
+
+    position: np.ndarray  # (3,)
+    intensity: np.ndarray  # (3,)
+    kind: str = "point"
+
+
+@dataclass
+class ConstantEmitter:
+    """Uniform environment: every escaped ray sees ``radiance``."""
+
+    radiance: np.ndarray  # (3,)
+    kind: str = "constant"
+
+
+@dataclass
+class IntegratorSpec:
+    """The ``<integrator>`` element: its plugin name and parameters as parsed."""
+
+    name: str = "path"
+    params: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class Scene:
+    """Everything the renderer needs, as flat arrays.
+
+    Attributes
+    ----------
+    tri_p : (T, 3, 3) float64
+        Vertices of every triangle, world space.
+    tri_n : (T, 3, 3) float64
+        Unit shading normals at the three vertices, world space.
+    tri_shape : (T,) int32
+        Shape id of each triangle.
+    sphere_center : (S, 3) float64
+    sphere_radius : (S,) float64
+    sphere_flip : (S,) bool
+        ``flip_normals``: the normal points inwards.
+    sphere_shape : (S,) int32
+    disk_to_world : (D, 4, 4) float64
+    disk_to_local : (D, 4, 4) float64
+    disk_flip : (D,) bool
+    disk_shape : (D,) int32
+    shape_kind : list of str
+        ``'mesh'``, ``'sphere'`` or ``'disk'`` per shape.
+    shape_prim : (N, 2) int64
+        For a mesh, the half-open triangle range ``[begin, end)`` in ``tri_*``;
+        for a sphere or disk, ``[index, index + 1)`` in its own arrays.
+    shape_bsdf : (N,) int32
+        Index into ``bsdfs`` per shape.
+    shape_emitter : (N,) int32
+        Index into ``emitters`` per shape, -1 if the shape does not emit.
+    shape_area : (N,) float64
+        Surface area per shape (world space).
+    shape_tri_cdf : list
+        Per mesh shape, the normalised cumulative area of its triangles
+        (for choosing a triangle proportionally to area); None otherwise.
+    shape_name : list of str
+        Human-readable origin, e.g. ``'rectangle "light" (scene.xml:42)'``.
+    bsdfs : list
+        BSDF objects from :mod:`pathtracer.bsdfs`.
+    emitters : list
+        :class:`AreaEmitter`, :class:`PointEmitter`, :class:`ConstantEmitter`.
+    environment : ConstantEmitter or None
+        The constant emitter, if any (at most one is allowed).
+    camera : Camera
+    spp : int
+        ``sample_count`` of the independent sampler.
+    seed : int
+        ``seed`` of the independent sampler.
+    integrator : IntegratorSpec
+    source : str
+        Path (or built-in name) of the scene file.
+    bbox : (2, 3) float64
+        World bounding box of all finite geometry.
+    """
+
+    tri_p: np.ndarray
+    tri_n: np.ndarray
+    tri_shape: np.ndarray
+    sphere_center: np.ndarray
+    sphere_radius: np.ndarray
+    sphere_flip: np.ndarray
+    sphere_shape: np.ndarray
+    disk_to_world: np.ndarray
+    disk_to_local: np.ndarray
+    disk_flip: np.ndarray
+    disk_shape: np.ndarray
+    shape_kind: list
+    shape_prim: np.ndarray
+    shape_bsdf: np.ndarray
+    shape_emitter: np.ndarray
+    shape_area: np.ndarray
+    shape_tri_cdf: list
+    shape_name: list
+    bsdfs: list
+    emitters: list
+    environment: ConstantEmitter | None
+    camera: Camera
+    spp: int = 16
+    seed: int = 0
+    integrator: IntegratorSpec = field(default_factory=IntegratorSpec)
+    source: str = "<memory>"
+    bbox: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))
+    # Built lazily by pathtracer.geometry (BVH over tri_p).
+    _accel: Any = None
+
+    @property
+    def num_triangles(self) -> int:
+        return int(self.tri_p.shape[0])
+
+    @property
+    def num_emitters(self) -> int:
+        return len(self.emitters)

@@ -1,0 +1,129 @@
+"""Evaluate and sample the BSDFs at a batch of hits, in world space.
+
+Each hit's BSDF is ``scene.bsdfs[scene.shape_bsdf[hit.shape]]``. Hits are
+grouped by BSDF so that every BSDF object works on one contiguous batch in its
+local shading frame (z = shading normal); directions go in and out of that
+frame here, so integrators never see local coordinates.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .scene.types import Scene
+from .vec import to_local, to_world
+
+
+@dataclass
+class ScatterSample:
+    """A sampled continuation, world space.
+
+    Attributes
+    ----------
+    wo : (n, 3) unit direction of the new ray.
+    weight : (n, 3) f cos / pdf (the Dirac weight for specular lobes).
+    pdf : (n,) solid-angle pdf (the lobe-choice probability for Dirac lobes).
+    delta : (n,) bool, True where a Dirac lobe was sampled.
+    eta : (n,) relative index of refraction crossed (1 for reflection).
+    """
+
+    wo: np.ndarray
+    weight: np.ndarray
+    pdf: np.ndarray
+    delta: np.ndarray
+    eta: np.ndarray
+
+
+def bsdf_index(scene: Scene, hit) -> np.ndarray:
+    """Index into ``scene.bsdfs`` of every hit (hits must be valid)."""
+    return scene.shape_bsdf[hit.shape]
+
+
+def _groups(scene: Scene, hit):
+    ids = bsdf_index(scene, hit)
+    for b in np.unique(ids):
+        yield scene.bsdfs[b], np.flatnonzero(ids == b)
+
+
+def has_smooth(scene: Scene, hit) -> np.ndarray:
+    """True where the hit's BSDF has a non-Dirac lobe (next-event estimation applies)."""
+    table = np.array([bsdf.has_smooth for bsdf in scene.bsdfs], dtype=bool)
+    return table[bsdf_index(scene, hit)]
+
+
+def is_delta(scene: Scene, hit) -> np.ndarray:
+    """True where every lobe of the hit's BSDF is a Dirac delta (mirror, glass)."""
+    table = np.array([bsdf.is_delta for bsdf in scene.bsdfs], dtype=bool)
+    return table[bsdf_index(scene, hit)]
+
+
+def eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray,
+              hemisphere: str = "cosine") -> tuple[np.ndarray, np.ndarray]:
+    """BSDF value f cos(theta_o) and sampling pdf for world directions.
+
+    Parameters
+    ----------
+    wi : (n, 3) unit direction towards the previous vertex (the camera side).
+    wo : (n, 3) unit direction towards the next vertex (e.g. the light).
+    hemisphere : {'cosine', 'uniform'}
+        Diffuse sampling strategy whose pdf is returned.
+    """
+    value = np.zeros((len(wi), 3))
+    pdf = np.zeros(len(wi))
+    for bsdf, rows in _groups(scene, hit):
+        n = hit.sh_n[rows]
+        wi_local, wo_local = to_local(wi[rows], n), to_local(wo[rows], n)
+        value[rows] = bsdf.eval(wi_local, wo_local)
+        pdf[rows] = bsdf.pdf(wi_local, wo_local, hemisphere=hemisphere)
+    return value, pdf
+
+
+def sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
+                hemisphere: str = "cosine") -> ScatterSample:
+    """Sample a continuation direction at every hit (see :class:`ScatterSample`)."""
+    count = len(wi)
+    out = ScatterSample(np.zeros((count, 3)), np.zeros((count, 3)), np.zeros(count),
+                        np.zeros(count, dtype=bool), np.ones(count))
+    for bsdf, rows in _groups(scene, hit):
+        n = hit.sh_n[rows]
+        bs = bsdf.sample(to_local(wi[rows], n), u1[rows], u2[rows], hemisphere=hemisphere)
+        out.wo[rows] = to_world(bs.wo, n)
+        out.weight[rows] = np.where(bs.valid[:, None], bs.weight, 0.0)
+        out.pdf[rows] = np.where(bs.valid, bs.pdf, 0.0)
+        out.delta[rows] = bs.delta
+        out.eta[rows] = np.where(bs.valid, bs.eta, 1.0)
+    return out
+
+
+@dataclass
+class DielectricLobes:
+    """Both Dirac lobes of a smooth dielectric, world space.
+
+    Attributes
+    ----------
+    F : (n,) Fresnel reflectance.
+    wo_r, wo_t : (n, 3) reflected and refracted directions.
+    weight_r : (n, 3) F times specular_reflectance.
+    weight_t : (n, 3) (1 - F) times specular_transmittance times the 1/eta^2 radiance scaling.
+    """
+
+    F: np.ndarray
+    wo_r: np.ndarray
+    weight_r: np.ndarray
+    wo_t: np.ndarray
+    weight_t: np.ndarray
+
+
+def dielectric_lobes(scene: Scene, hit, wi: np.ndarray) -> DielectricLobes:
+    """Both lobes at hits whose BSDF is a smooth dielectric (for splitting estimators)."""
+    count = len(wi)
+    out = DielectricLobes(np.zeros(count), np.zeros((count, 3)), np.zeros((count, 3)),
+                          np.zeros((count, 3)), np.zeros((count, 3)))
+    for bsdf, rows in _groups(scene, hit):
+        n = hit.sh_n[rows]
+        F, wo_r, weight_r, wo_t, weight_t = bsdf.lobes(to_local(wi[rows], n))
+        out.F[rows] = F
+        out.wo_r[rows], out.weight_r[rows] = to_world(wo_r, n), weight_r
+        out.wo_t[rows], out.weight_t[rows] = to_world(wo_t, n), weight_t
+    return out

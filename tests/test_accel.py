@@ -1,0 +1,148 @@
+"""The triangle BVH agrees with brute force, is watertight and honours tmin/tmax."""
+import numpy as np
+import pytest
+
+from pathtracer.accel import BVH
+
+
+def random_soup(rng, n, size=0.3):
+    """``n`` random triangles scattered in [0, 10]^3."""
+    return rng.random((n, 1, 3)) * 10 + rng.normal(size=(n, 3, 3)) * size
+
+
+def random_rays(rng, n, lo=-1.0, hi=11.0):
+    o = rng.uniform(lo, hi, (n, 3))
+    d = rng.normal(size=(n, 3))
+    return o, d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def lat_long_sphere(k):
+    """Closed triangulated unit sphere: shared vertices, 4 k^2 triangles."""
+    th, ph = np.meshgrid(np.linspace(0, np.pi, k + 1), np.linspace(0, 2 * np.pi, 2 * k + 1))
+    v = np.stack((np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)), -1)
+    v[-1] = v[0]  # identical seam vertices: the seam must not leak
+    a, b, c, d = v[:-1, :-1], v[:-1, 1:], v[1:, :-1], v[1:, 1:]
+    return np.concatenate((np.stack((a, b, d), 2).reshape(-1, 3, 3),
+                           np.stack((a, d, c), 2).reshape(-1, 3, 3)))
+
+
+def test_matches_brute_force_on_random_soup():
+    rng = np.random.default_rng(1)
+    tri = random_soup(rng, 1500)
+    o, d = random_rays(rng, 10_000)
+    t, prim, b1, b2 = BVH(tri).intersect(o, d)
+    tb, primb, _, _ = BVH(tri, brute_force_max=10**9).intersect(o, d)
+    assert 0.2 < np.mean(prim >= 0) < 0.9
+    np.testing.assert_array_equal(t, tb)
+    # Different prims only for exact ties in t.
+    assert np.all((prim == primb) | (t == tb))
+    h = prim >= 0
+    p = o[h] + t[h, None] * d[h]
+    v = tri[prim[h]]
+    q = v[:, 0] + b1[h, None] * (v[:, 1] - v[:, 0]) + b2[h, None] * (v[:, 2] - v[:, 0])
+    np.testing.assert_allclose(p, q, atol=1e-9)
+
+
+def test_tmax_and_occluded_consistent_with_intersect():
+    rng = np.random.default_rng(2)
+    tri = random_soup(rng, 800)
+    o, d = random_rays(rng, 10_000)
+    bvh = BVH(tri)
+    t, prim, _, _ = bvh.intersect(o, d)
+    tmax = rng.uniform(0, 12, len(o))
+    t2, prim2, _, _ = bvh.intersect(o, d, tmax)
+    closer = t < tmax
+    np.testing.assert_array_equal(t2[closer], t[closer])
+    assert np.all(prim2[~closer] == -1) and np.all(np.isinf(t2[~closer]))
+    np.testing.assert_array_equal(bvh.occluded(o, d, tmax), closer)
+    np.testing.assert_array_equal(bvh.occluded(o, d), prim >= 0)
+
+
+@pytest.mark.parametrize("n_tris", [1, 2, 12, 31])
+def test_small_scenes_brute_force_equals_tree(n_tris):
+    rng = np.random.default_rng(n_tris)
+    tri = random_soup(rng, n_tris, size=3.0)
+    o, d = random_rays(rng, 3000)
+    small = BVH(tri)
+    assert small.brute_force
+    tree = BVH(tri, brute_force_max=0)
+    for a, b in zip(small.intersect(o, d), tree.intersect(o, d)):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(small.occluded(o, d, 5.0), tree.occluded(o, d, 5.0))
+
+
+def test_watertight_closed_mesh():
+    rng = np.random.default_rng(3)
+    tri = lat_long_sphere(40)  # 6400 triangles
+    bvh = BVH(tri)
+    # Random rays from inside, and rays aimed exactly at vertices and edge
+    # midpoints (shared by 2-6 triangles), from inside and from outside.
+    verts = tri.reshape(-1, 3)
+    mids = 0.5 * (tri[:, 0] + tri[:, 1])
+    targets = np.concatenate((verts[rng.integers(0, len(verts), 3000)],
+                              mids[rng.integers(0, len(mids), 3000)]))
+    inside = rng.normal(size=(len(targets), 3)) * 0.2
+    outside = rng.normal(size=(len(targets), 3))
+    outside *= 3 / np.linalg.norm(outside, axis=1, keepdims=True)
+    o_rand = rng.uniform(-0.55, 0.55, (5000, 3))  # inside the unit sphere
+    d_rand = rng.normal(size=(5000, 3))
+    o = np.concatenate((inside, outside, o_rand))
+    d = np.concatenate((targets - inside, targets - outside, d_rand))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    t, prim, _, _ = bvh.intersect(o, d)
+    assert np.all(prim >= 0), f"{np.sum(prim < 0)} rays slipped through"
+    assert np.all(bvh.occluded(o, d))
+
+
+def test_axis_aligned_rays_and_flat_boxes():
+    # A grid of axis-aligned unit quads in z = 0 (zero-thickness boxes), hit
+    # by rays along -z exactly through shared edges and corners, and rays
+    # parallel to the plane that must miss.
+    k = 16
+    x, y = np.meshgrid(np.arange(k, dtype=float), np.arange(k, dtype=float))
+    c = np.stack((x, y, np.zeros_like(x)), -1).reshape(-1, 3)
+    ex, ey = np.array([1.0, 0, 0]), np.array([0, 1.0, 0])
+    tri = np.concatenate((np.stack((c, c + ex, c + ex + ey), 1),
+                          np.stack((c, c + ex + ey, c + ey), 1)))
+    g = np.stack(np.meshgrid(np.arange(0, k + 0.1, 0.5), np.arange(0, k + 0.1, 0.5)), -1)
+    o = np.concatenate((g.reshape(-1, 2), np.full((g.size // 2, 1), 2.0)), axis=1)
+    d = np.tile([0.0, 0.0, -1.0], (len(o), 1))
+    bvh = BVH(tri)
+    t, prim, _, _ = bvh.intersect(o, d)
+    assert np.all(prim >= 0) and np.allclose(t, 2.0)
+    par = np.tile([1.0, 0.0, 0.0], (len(o), 1))
+    o2 = o.copy()
+    o2[:, 0] -= 20
+    assert np.all(bvh.intersect(o2, par)[1] == -1)
+
+
+def test_no_hits_behind_origin_or_at_zero():
+    tri = lat_long_sphere(8)
+    bvh = BVH(tri, brute_force_max=0)
+    o = np.array([[0.0, 0.0, 5.0], [0.0, 0.0, 1.0]])  # outside; on the pole vertex
+    d = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])  # both pointing away
+    t, prim, _, _ = bvh.intersect(o, d)
+    assert np.all(prim == -1) and np.all(np.isinf(t))
+
+
+def test_empty_mesh():
+    bvh = BVH(np.zeros((0, 3, 3)))
+    o, d = np.zeros((5, 3)), np.tile([0.0, 0.0, 1.0], (5, 1))
+    t, prim, _, _ = bvh.intersect(o, d)
+    assert np.all(prim == -1) and np.all(np.isinf(t))
+    assert not bvh.occluded(o, d, 1.0).any()
+
+
+def test_far_away_origins():
+    # Rays from 1e4 units away (float32 slab rounding is ~1e-3 there) still
+    # hit small triangles exactly where brute force does.
+    rng = np.random.default_rng(4)
+    tri = random_soup(rng, 400, size=0.5)
+    target = rng.uniform(0, 10, (4000, 3))
+    o = rng.normal(size=(4000, 3))
+    o *= 1e4 / np.linalg.norm(o, axis=1, keepdims=True)
+    d = target - o
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    t, prim, _, _ = BVH(tri).intersect(o, d)
+    tb, primb, _, _ = BVH(tri, brute_force_max=10**9).intersect(o, d)
+    np.testing.assert_array_equal(t, tb)

@@ -1,0 +1,59 @@
+"""Camera rays against Mitsuba's own perspective sensor (sensor.sample_ray)."""
+import numpy as np
+import pytest
+
+from pathtracer.camera import camera_rays
+from pathtracer.scene import load_scene
+
+SENSOR_XML = """<scene version="3.0.0">
+  <sensor type="perspective">
+    <float name="fov" value="{fov}"/>
+    <string name="fov_axis" value="{axis}"/>
+    <float name="near_clip" value="{near}"/>
+    <transform name="to_world">
+      <lookat origin="1, 2, 3" target="0.2, -0.1, 0.3" up="0.1, 1, 0"/>
+    </transform>
+    <film type="hdrfilm">
+      <integer name="width" value="{width}"/>
+      <integer name="height" value="{height}"/>
+      <rfilter type="box"/>
+    </film>
+  </sensor>
+</scene>"""
+
+CASES = [("x", 45, 64, 48, 0.01), ("y", 30, 48, 64, 1.5), ("smaller", 60, 80, 32, 0.1),
+         ("larger", 60, 32, 80, 0.01), ("diagonal", 70, 64, 64, 0.01)]
+
+
+@pytest.mark.parametrize("axis,fov,width,height,near", CASES)
+def test_camera_rays_match_mitsuba(tmp_path, axis, fov, width, height, near):
+    mi = pytest.importorskip("mitsuba", reason="live Mitsuba needed to compare camera rays")
+    mi.set_variant("scalar_rgb")
+    path = tmp_path / "camera.xml"
+    path.write_text(SENSOR_XML.format(fov=fov, axis=axis, near=near, width=width, height=height))
+    camera = load_scene(str(path)).camera
+    sensor = mi.load_file(str(path)).sensors()[0]
+
+    rng = np.random.default_rng(3)
+    count = 2000
+    pixel = rng.integers(0, width * height, count)
+    u = rng.random((count, 2))
+    ours = camera_rays(camera, pixel, u)
+    film = np.stack(((pixel % width + u[:, 0]) / width, (pixel // width + u[:, 1]) / height), axis=1)
+    for k in range(count):
+        ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(*film[k]), mi.Point2f(0.5, 0.5))
+        np.testing.assert_allclose(ours.d[k], np.array(ray.d), atol=2e-6)
+        np.testing.assert_allclose(ours.o[k], np.array(ray.o), atol=2e-5)
+        assert ours.tmax[k] == pytest.approx(float(ray.maxt), rel=1e-5)
+
+
+def test_image_orientation():
+    """Row 0 is the top of the image and the image's right is -left (Mitsuba's convention)."""
+    camera = load_scene("cornell-box", width=64, height=64).camera
+    centre = camera_rays(camera, np.array([32 * 64 + 32]), np.zeros((1, 2))).d[0]
+    top = camera_rays(camera, np.array([0 * 64 + 32]), np.zeros((1, 2))).d[0]
+    right = camera_rays(camera, np.array([32 * 64 + 63]), np.zeros((1, 2))).d[0]
+    up = camera.to_world[:3, 1]
+    left = camera.to_world[:3, 0]
+    assert np.dot(top - centre, up) > 0
+    assert np.dot(right - centre, left) < 0

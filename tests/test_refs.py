@@ -1,0 +1,316 @@
+"""Tests of the reference side (mitsuba_refs).
+
+Parts that need a live Mitsuba are marked ``mitsuba`` and skipped with a
+reason when it is missing. Statistical tests use the tile-aggregated Welch z
+(8 x 8 tile sums, Sidak over tiles, alpha = 1e-4 per test).
+"""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from mitsuba_refs import config
+from mitsuba_refs.cache import (ReferenceUnavailable, get_reference,
+                                reference_paths, store, validate)
+from mitsuba_refs.exr import read_reference_exr, write_reference_exr
+from mitsuba_refs.render import Reference, resolve_scene
+
+REPO = Path(__file__).resolve().parent.parent
+ALPHA = 1e-4
+
+try:
+    import mitsuba  # noqa: F401
+    HAVE_MITSUBA = True
+except ImportError:
+    HAVE_MITSUBA = False
+
+needs_mitsuba = pytest.mark.skipif(not HAVE_MITSUBA,
+                                   reason="needs a live Mitsuba 3 install")
+
+
+# --------------------------------------------------------------- helpers
+
+def tile_welch(mean_a, var_a, n_a, mean_b, var_b, n_b, tile=8, alpha=ALPHA):
+    """Welch z of 8x8 tile sums of two renders; returns (passed, worst z,
+    per-tile threshold). ``var_*`` are per-sample variances."""
+    h, w, c = mean_a.shape
+    th, tw = h // tile, w // tile
+
+    def tiles(x):
+        return x[:th * tile, :tw * tile].reshape(th, tile, tw, tile, c).sum(axis=(1, 3))
+
+    diff = tiles(mean_a) - tiles(mean_b)
+    se = np.sqrt(tiles(var_a) / n_a + tiles(var_b) / n_b)
+    z = np.where(se > 0, diff / np.where(se > 0, se, 1), 0.0)
+    # exact agreement where both are noiseless
+    z = np.where((se == 0) & (np.abs(diff) > 1e-6 * (1 + np.abs(tiles(mean_b)))),
+                 np.inf, z)
+    n_tests = z.size
+    alpha_tile = 1 - (1 - alpha) ** (1 / n_tests)
+    threshold = stats.norm.isf(alpha_tile / 2)
+    return bool(np.all(np.abs(z) < threshold)), float(np.max(np.abs(z))), threshold
+
+
+def fake_reference(h=8, w=8, seed=0):
+    rng = np.random.default_rng(seed)
+    mean = rng.random((h, w, 3))
+    var = rng.random((h, w, 3))
+    meta = {"scene": "furnace", "width": w, "height": h, "spp": 16,
+            "integrator": "path", "variant": "none", "mitsuba_version": "test"}
+    return Reference(mean=mean, var=var, n=16, metadata=meta)
+
+
+@pytest.fixture
+def scene_copy(tmp_path):
+    """A private copy of furnace.xml (safe to edit)."""
+    dst = tmp_path / "scene" / "furnace.xml"
+    dst.parent.mkdir()
+    shutil.copy(resolve_scene("furnace"), dst)
+    return dst
+
+
+PARAMS = {"width": "8", "height": "8"}
+
+
+# ------------------------------------------------- cache (no Mitsuba needed)
+
+def test_exr_roundtrip(tmp_path):
+    ref = fake_reference()
+    write_reference_exr(tmp_path / "a.exr", ref.mean, ref.var, {"spp": 16, "integrator": "path"})
+    mean, var, attrs = read_reference_exr(tmp_path / "a.exr")
+    assert np.allclose(mean, ref.mean.astype(np.float32))
+    assert np.allclose(var, ref.var.astype(np.float32))
+    assert attrs["spp"] == 16 and attrs["integrator"] == "path"
+
+
+def test_cache_roundtrip(scene_copy, tmp_path):
+    ref = fake_reference()
+    store(ref, scene_copy, PARAMS, "path", 16, 3, directory=tmp_path)
+    status, detail, loaded = validate(scene_copy, PARAMS, "path", 16, 3, directory=tmp_path)
+    assert status == "ok", detail
+    assert np.allclose(loaded.mean, ref.mean, atol=1e-6)
+    assert np.allclose(loaded.var, ref.var, atol=1e-6)
+    assert loaded.n == 16
+    # get_reference returns it without rendering
+    again = get_reference(scene_copy, PARAMS, "path", 16, 3, directory=tmp_path, render=False)
+    assert np.array_equal(again.mean, loaded.mean)
+    # recursive / smallpt share path's reference
+    assert validate(scene_copy, PARAMS, "smallpt", 16, 3, directory=tmp_path)[0] == "ok"
+
+
+def test_missing_raises_clear_error(scene_copy, tmp_path):
+    with pytest.raises(ReferenceUnavailable, match="missing"):
+        get_reference(scene_copy, PARAMS, "path", 16, 3, directory=tmp_path, render=False)
+
+
+@pytest.mark.parametrize("change", ["scene", "params", "integrator", "spp", "seed"])
+def test_stale_detected(scene_copy, tmp_path, change):
+    store(fake_reference(), scene_copy, PARAMS, "path", 16, 3, directory=tmp_path)
+    args = dict(scene=scene_copy, params=dict(PARAMS), integrator="path", spp=16, seed=3)
+    if change == "scene":
+        scene_copy.write_text(scene_copy.read_text().replace(
+            '<default name="albedo" value="0.5"/>', '<default name="albedo" value="0.6"/>'))
+        status = validate(**args, directory=tmp_path)[0]
+        assert status == "stale"
+        with pytest.raises(ReferenceUnavailable, match="stale"):
+            get_reference(**args, directory=tmp_path, render=False)
+        return
+    if change == "params":
+        args["params"]["albedo"] = "0.7"
+    elif change == "integrator":
+        args["integrator"] = "path_nee"
+    elif change == "spp":
+        args["spp"] = 32
+    elif change == "seed":
+        args["seed"] = 4
+    # a different identity never returns the old file's pixels
+    assert validate(**args, directory=tmp_path)[0] != "ok"
+
+
+def test_stale_when_included_mesh_changes(tmp_path):
+    d = tmp_path / "scene"
+    d.mkdir()
+    shutil.copy(resolve_scene("mesh"), d / "mesh.xml")
+    shutil.copy(resolve_scene("mesh").parent / "mesh-bumpy-sphere.ply", d)
+    store(fake_reference(), d / "mesh.xml", PARAMS, "path", 16, 3, directory=tmp_path)
+    assert validate(d / "mesh.xml", PARAMS, "path", 16, 3, directory=tmp_path)[0] == "ok"
+    ply = d / "mesh-bumpy-sphere.ply"
+    data = bytearray(ply.read_bytes())
+    data[-1] ^= 1
+    ply.write_bytes(bytes(data))
+    assert validate(d / "mesh.xml", PARAMS, "path", 16, 3, directory=tmp_path)[0] == "stale"
+
+
+@pytest.mark.parametrize("damage", ["truncate", "nan", "shape", "pixels", "sidecar"])
+def test_corrupt_detected(scene_copy, tmp_path, damage):
+    ref = fake_reference()
+    exr, sidecar = store(ref, scene_copy, PARAMS, "path", 16, 3, directory=tmp_path)
+    meta = json.loads(sidecar.read_text())
+    if damage == "truncate":
+        exr.write_bytes(exr.read_bytes()[:200])
+    elif damage == "nan":
+        mean = ref.mean.copy()
+        mean[2, 3, 1] = np.nan
+        _, _, attrs = read_reference_exr(exr)
+        write_reference_exr(exr, mean, ref.var, {k: attrs[k] for k in ("key",)})
+    elif damage == "shape":
+        meta["width"] = 16
+        sidecar.write_text(json.dumps(meta))
+    elif damage == "pixels":
+        _, _, attrs = read_reference_exr(exr)
+        keep = {k: v for k, v in attrs.items() if k in ("key", "spp")}
+        write_reference_exr(exr, ref.mean * 1.01, ref.var, keep)
+    elif damage == "sidecar":
+        sidecar.write_text("{not json")
+    status, detail, loaded = validate(scene_copy, PARAMS, "path", 16, 3, directory=tmp_path)
+    assert status == "corrupt", detail
+    assert loaded is None
+    with pytest.raises(ReferenceUnavailable, match="corrupt"):
+        get_reference(scene_copy, PARAMS, "path", 16, 3, directory=tmp_path, render=False)
+
+
+# ------------------------------------------------------ committed references
+
+def committed(scene, integrator, **extra):
+    w, h = config.test_resolution(scene)
+    params = {"width": str(w), "height": str(h), **{k: str(v) for k, v in extra.items()}}
+    status, detail, ref = validate(scene, params, integrator, config.REF_SPP, config.REF_SEED,
+                                   directory=REPO / "mitsuba_refs" / "references")
+    if status == "missing":
+        pytest.skip(f"committed reference not built: {detail}")
+    assert status == "ok", f"{scene}/{integrator}: {status} ({detail})"
+    return ref
+
+
+def test_committed_reference_loads_without_mitsuba():
+    code = (
+        "import sys; sys.modules['mitsuba'] = None; sys.modules['drjit'] = None\n"
+        "from mitsuba_refs import get_reference, config\n"
+        "r = get_reference('cornell-box', {'width': '64', 'height': '64'}, 'path',"
+        " config.REF_SPP, config.REF_SEED, render=False)\n"
+        "print(r.n, r.mean.shape)\n")
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    env.pop(config.ENV_CACHE, None)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, cwd=REPO)
+    if "not built" in out.stderr or "missing" in out.stderr:
+        pytest.skip("committed reference not built")
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split()[0] == str(config.REF_SPP)
+
+
+def _scenes_for(integrator):
+    scenes = list(config.BUILTIN_SCENES)
+    if integrator == "path_bsdf":
+        scenes.remove("point-light")  # point lights cannot be hit
+    return scenes
+
+
+@pytest.mark.parametrize("integrator", ["path_bsdf", "path_nee"])
+@pytest.mark.parametrize("scene", config.BUILTIN_SCENES)
+def test_committed_lecture_refs_agree_with_path(scene, integrator):
+    """The lecture estimators' references have the same mean as ``path``'s."""
+    if scene not in _scenes_for(integrator):
+        pytest.skip("BSDF sampling cannot find point lights")
+    a, b = committed(scene, integrator), committed(scene, "path")
+    ok, zmax, thr = tile_welch(a.mean, a.var, a.n, b.mean, b.var, b.n)
+    assert ok, f"{scene}: max |z| = {zmax:.2f} >= {thr:.2f}"
+
+
+@pytest.mark.parametrize("scene", config.BUILTIN_SCENES)
+def test_committed_direct_equals_path_depth2(scene):
+    a, b = committed(scene, "direct"), committed(scene, "path", max_depth=2)
+    ok, zmax, thr = tile_welch(a.mean, a.var, a.n, b.mean, b.var, b.n)
+    assert ok, f"{scene}: max |z| = {zmax:.2f} >= {thr:.2f}"
+
+
+# ------------------------------------------------------ live Mitsuba tests
+
+@pytest.fixture(scope="module")
+def mi_variant():
+    if not HAVE_MITSUBA:
+        pytest.skip("needs a live Mitsuba 3 install")
+    from mitsuba_refs.variant import set_variant
+    variant, _ = set_variant()
+    return variant
+
+
+def _spp(variant, jit, scalar):
+    return jit if variant != "scalar_rgb" else scalar
+
+
+@needs_mitsuba
+def test_variant_choice_and_override(monkeypatch):
+    from mitsuba_refs.variant import choose_variant
+    v, reason = choose_variant("scalar_rgb")
+    assert v == "scalar_rgb" and "explicit" in reason
+    monkeypatch.setenv(config.ENV_VARIANT, "scalar_rgb")
+    assert choose_variant()[0] == "scalar_rgb"
+    monkeypatch.delenv(config.ENV_VARIANT)
+    v, reason = choose_variant()
+    assert v in ("llvm_ad_rgb", "scalar_rgb") and reason
+
+
+@needs_mitsuba
+def test_moment_mean_equals_path_render(mi_variant):
+    import mitsuba as mi
+    from mitsuba_refs import moments
+    scene = mi.load_file(str(resolve_scene("cornell-box")), width=32, height=32)
+    spp = 16
+    plain = np.array(mi.render(scene, integrator=mi.load_dict({"type": "path"}), spp=spp, seed=7))
+    mi.render(scene, integrator=mi.load_dict(moments.moment_dict({"type": "path"})),
+              spp=spp, seed=7)
+    m1, m2 = moments.read_moments(scene.sensors()[0].film())
+    assert np.allclose(m1, plain[..., :3], rtol=1e-5, atol=1e-5)
+    assert np.all(m2 >= m1 * m1 - 1e-4)
+
+
+@needs_mitsuba
+def test_moment_variance_furnace(mi_variant):
+    """Furnace, BSDF sampling, roulette from depth 1 (q = rho, weight 1):
+    the number of emitter hits is 1 + Geometric, mean 1/(1-rho), per-sample
+    variance rho/(1-rho)^2 = 2 for rho = 0.5; without roulette and with
+    max_depth D all samples equal (1 - rho^D)/(1 - rho): zero variance."""
+    from mitsuba_refs.render import render_reference
+    spp = _spp(mi_variant, 256, 32)
+    ref = render_reference("furnace", {"width": 32, "height": 32, "rr_depth": 1},
+                           "path_bsdf", spp, 5, variant=mi_variant)
+    n_pix = ref.mean[..., 0].size
+    # mean over pixels of the sample variance: sd ~ sqrt(mu4 - s^4)/sqrt(N)
+    assert abs(ref.mean.mean() - 2.0) < 5 * np.sqrt(2.0 / (spp * n_pix))
+    assert abs(ref.var.mean() - 2.0) < 0.15 * (256 / spp) ** 0.5
+    ref = render_reference("furnace", {"width": 32, "height": 32, "max_depth": 3,
+                                       "rr_depth": 100}, "path_bsdf", 8, 5, variant=mi_variant)
+    assert np.allclose(ref.mean, 1.75, atol=1e-5)
+    assert np.all(ref.var < 1e-9)
+
+
+@needs_mitsuba
+@pytest.mark.parametrize("integrator", ["path_bsdf", "path_nee"])
+def test_lecture_integrators_mean_agrees_with_path_live(mi_variant, integrator):
+    """Live render on the Cornell box: each lecture estimator vs ``path``."""
+    from mitsuba_refs.render import render_reference
+    spp = _spp(mi_variant, 512, 16)
+    size = 64 if mi_variant != "scalar_rgb" else 32
+    params = {"width": size, "height": size}
+    a = render_reference("cornell-box", params, integrator, spp, 11, variant=mi_variant)
+    b = render_reference("cornell-box", params, "path", spp, 12, variant=mi_variant)
+    ok, zmax, thr = tile_welch(a.mean, a.var, a.n, b.mean, b.var, b.n)
+    assert ok, f"max |z| = {zmax:.2f} >= {thr:.2f}"
+
+
+@needs_mitsuba
+def test_box_filter_enforced(tmp_path, mi_variant):
+    from mitsuba_refs.render import render_reference
+    src = resolve_scene("furnace").read_text().replace('<rfilter type="box"/>',
+                                                         '<rfilter type="gaussian"/>')
+    (tmp_path / "g.xml").write_text(src)
+    with pytest.raises(ValueError, match="box"):
+        render_reference(tmp_path / "g.xml", {}, "path", 4, 0, variant=mi_variant)

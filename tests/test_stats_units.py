@@ -1,0 +1,217 @@
+"""Unit tests of mitsuba_refs.stats and mitsuba_refs.diagnostics (deterministic, fast).
+
+Tests that draw random numbers use fixed seeds; where an assertion is statistical its
+false-failure probability (over seeds) is stated and < 1e-4."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mitsuba_refs.stats import (ErrorBudget, compare_means, compare_variances, convergence_law,
+                                first_diverging_bounce, image_mse, per_test_alpha, reference_mse_floor,
+                                suite_false_failure)
+from mitsuba_refs.stats._mvn import p_max_abs
+from mitsuba_refs.stats._tiles import region_name, tile_counts, tile_sums
+from mitsuba_refs.stats.simulate import make_scene, render_stats
+
+
+def _pair(h=40, w=56, n_a=64, n_b=4096, seed=0, p_range=(0.1, 0.6)):
+    sc = make_scene(h, w, seed=seed, p_range=p_range)
+    rng = np.random.default_rng(seed + 100)
+    ma, va = render_stats(sc, n_a, 1, rng)
+    mb, vb = render_stats(sc, n_b, 1, rng)
+    return ma[0], va[0], mb[0], vb[0]
+
+
+def test_tile_sums_partial_edges():
+    x = np.arange(5 * 7, dtype=float).reshape(5, 7)
+    s = tile_sums(x, 4)
+    assert s.shape == (2, 2)
+    assert s.sum() == x.sum()
+    assert s[1, 1] == x[4:, 4:].sum()
+    assert tile_counts(5, 7, 4).tolist() == [[16, 12], [4, 3]]
+
+
+def test_region_names():
+    assert region_name(1, 1, 90, 90) == "top-left"
+    assert region_name(45, 45, 90, 90) == "center"
+    assert region_name(80, 45, 90, 90) == "bottom"
+    assert region_name(45, 85, 90, 90) == "right"
+
+
+def test_p_max_abs_limits():
+    from scipy import special
+    one = special.erfc(3 / math.sqrt(2))
+    assert p_max_abs(3.0, np.eye(1)) == pytest.approx(one)
+    assert p_max_abs(3.0, np.eye(3)) == pytest.approx(1 - (1 - one) ** 3, rel=1e-6)
+    full = p_max_abs(3.0, np.ones((3, 3)))
+    assert one <= full <= 1.2 * one                      # nearly one test when channels are identical
+    assert p_max_abs(np.inf, np.eye(3)) == 0.0
+
+
+def test_mean_agree_non_multiple_size_and_fields():
+    """Not multiples of the tile (40x56 with tile 16 -> partial edge tiles).  A correct pair
+    agrees at alpha=1e-4 (fixed seed; false failure < 1e-4 by calibration)."""
+    ma, va, mb, vb = _pair()
+    r = compare_means(ma, va, 64, mb, vb, 4096, tile=16, alpha=1e-4)
+    assert r.agree and bool(r)
+    assert r.z_tiles.shape == (3, 4, 3)
+    assert r.verdict.startswith("agree (p=")
+    assert "relative bias" in r.verdict
+    assert r.rel_bias_ci[0] <= r.rel_bias <= r.rel_bias_ci[1]
+    with pytest.raises(ValueError):
+        r.z_tiles[0, 0, 0] = 1.0                          # read-only result arrays
+
+
+def test_mean_black_and_deterministic_tiles():
+    h = w = 16
+    m = np.zeros((h, w, 3))
+    v = np.zeros((h, w, 3))
+    m[:8, :8] = 0.5                                       # a deterministic grey tile, rest black
+    r = compare_means(m, v, 16, m.copy(), v, 1024, alpha=1e-3)
+    assert r.agree and r.p_value == 1.0
+    assert r.n_tests == 1                                  # black tiles carry no evidence
+    m2 = m.copy()
+    m2[:8, :8] *= 1 + 1e-8                                 # float noise: still equal
+    assert compare_means(m2, v, 16, m, v, 1024, alpha=1e-3).agree
+    m3 = m.copy()
+    m3[8:, 8:] = 0.01                                      # deterministic but different
+    r3 = compare_means(m3, v, 16, m, v, 1024, alpha=1e-3)
+    assert not r3.agree and r3.p_value == 0.0
+    assert r3.worst_tile[:2] == (1, 1) and r3.worst_region == "bottom-right"
+    r4 = compare_means(m3, v, 16, m, v, 1024, alpha=1e-3, rel_floor=0.0)
+    assert np.isinf(r4.z_tiles[1, 1]).all()
+
+
+def test_mean_verdict_names_region_and_bias():
+    ma, va, mb, vb = _pair(64, 64, n_a=1024, n_b=16384, seed=3)
+    s = np.ones_like(ma)
+    s[:16, :16] = 0.85                                     # 15 % too dark in the top-left
+    r = compare_means(ma * s, va * s ** 2, 1024, mb, vb, 16384, alpha=1e-3)
+    assert not r.agree
+    assert "top-left" in r.verdict and "too dark" in r.verdict
+    assert r.worst_z < 0 and r.n_significant >= 2
+    g = compare_means(ma * 0.9, va * 0.81, 1024, mb, vb, 16384, alpha=1e-3)
+    assert "10." in g.verdict or "9." in g.verdict        # "image 10.0% too dark [...]"
+    assert g.rel_bias_ci[0] < -0.09 < g.rel_bias_ci[1] or abs(g.rel_bias + 0.1) < 0.01
+
+
+def test_mean_determinism_and_validation():
+    ma, va, mb, vb = _pair(seed=4)
+    r1 = compare_means(ma * 0.95, va, 64, mb, vb, 4096, alpha=0.01)
+    r2 = compare_means(ma * 0.95, va, 64, mb, vb, 4096, alpha=0.01)
+    assert r1.verdict == r2.verdict and r1.p_value == r2.p_value
+    with pytest.raises(ValueError):
+        compare_means(ma, va, 1, mb, vb, 4096, alpha=0.01)         # n < 2
+    with pytest.raises(ValueError):
+        compare_means(ma[:-1], va, 64, mb, vb, 4096, alpha=0.01)   # shapes
+    bad = ma.copy()
+    bad[0, 0, 0] = np.nan
+    with pytest.raises(ValueError):
+        compare_means(bad, va, 64, mb, vb, 4096, alpha=0.01)
+    with pytest.raises(TypeError):
+        compare_means(ma, va, 64, mb, vb, 4096)                    # alpha is required
+
+
+def test_mean_one_side_missed_rare_light():
+    """Test side saw no light hits in a tile the reference did hit rarely: the no-hit
+    guard keeps this from being called a disagreement (Welch alone gives z ~ -5)."""
+    h = w = 16
+    ma = np.full((h, w, 3), 0.3)
+    va = np.full((h, w, 3), 0.09)
+    mb, vb = ma.copy(), va.copy()
+    mb[:8, :8] += 0.01                                     # reference: 1e-4 hits of value 100
+    vb[:8, :8] += 1.0
+    r = compare_means(ma, va, 64, mb, vb, 4096, alpha=1e-3)
+    assert r.agree
+
+
+def test_variance_basic_and_verdict():
+    ma, va, mb, vb = _pair(64, 64, seed=6)
+    r = compare_variances(va, 64, vb, 4096, alpha=1e-3)
+    assert r.agree and r.ratio_ci[0] <= r.ratio <= r.ratio_ci[1]
+    assert r.verdict.startswith("variance agrees")
+    r3 = compare_variances(va * 3, 64, vb, 4096, alpha=1e-3)
+    assert not r3.agree and "3.0" in r3.verdict and "the reference" in r3.verdict
+    loc = va.copy()
+    loc[48:, 48:] *= 20                                    # a firefly corner
+    r4 = compare_variances(loc, 64, vb, 4096, alpha=1e-3)
+    assert not r4.agree and r4.n_outliers >= 1 and r4.worst_region == "bottom-right"
+    assert compare_variances(va, 64, vb, 4096, alpha=1e-3).verdict == r.verdict   # deterministic
+    with pytest.raises(ValueError):
+        compare_variances(np.zeros((16, 16, 3)), 64, np.zeros((16, 16, 3)), 64, alpha=0.01)
+
+
+def test_image_mse_and_floor():
+    rng = np.random.default_rng(0)
+    ref = rng.random((8, 8, 3))
+    rv = np.full((8, 8, 3), 0.5)
+    assert reference_mse_floor(rv, 100) == pytest.approx(0.005)
+    assert image_mse(ref + 0.1, ref, rv, 100) == pytest.approx(0.01 - 0.005)
+    assert image_mse(ref, ref, rv, np.full((8, 8), 100)) == pytest.approx(-0.005)
+
+
+def test_convergence_exact_law_and_failures():
+    spp = np.array([1, 4, 16, 64, 256])
+    rng = np.random.default_rng(1)
+    good = (2.0 / spp) * (1 + 0.02 * rng.standard_normal((6, 5)))
+    r = convergence_law(spp, good, alpha=1e-3)
+    assert r.passed and r.slope_ci[0] <= -1 <= r.slope_ci[1]
+    assert r.ratio_ci[0] <= 2 <= r.ratio_ci[1]
+    assert r.verdict.startswith("converges as N^-1/2")
+    flat = 2.0 * (1 + 0.02 * rng.standard_normal((6, 5)))
+    rf = convergence_law(spp, flat, alpha=1e-3)
+    assert not rf.passed and rf.correlated and "correlated" in rf.verdict
+    floor = (2.0 / spp + 0.01) * (1 + 0.02 * rng.standard_normal((6, 5)))
+    rb = convergence_law(spp, floor, alpha=1e-3, image_mean=1.0)
+    assert rb.floor_detected and "bias floor" in rb.verdict
+    assert 100 < rb.floor_spp < 400 and rb.bias_rel == pytest.approx(0.1, rel=0.3)
+    with pytest.raises(ValueError):
+        convergence_law(spp, good[:1], alpha=1e-3)
+    w = convergence_law(spp, good, ref_mse_floor=0.005, alpha=1e-3)
+    assert w.warnings and "longer reference" in w.verdict
+
+
+def test_first_diverging_bounce():
+    class R:
+        def __init__(self, agree, p=0.5):
+            self.agree, self.p_value, self.verdict = agree, p, "v"
+    d, t = first_diverging_bounce({1: R(True), 2: R(False, 1e-9), 3: R(False, 1e-12)})
+    assert d == 2 and t.startswith("direct light (bounce 2) disagrees") and "directly visible" in t
+    d, t = first_diverging_bounce({2: R(False, 1e-9), 3: R(False)})
+    assert d == 2 and "already disagrees" in t
+    d, t = first_diverging_bounce({1: R(True), -1: R(True), 3: R(True)})
+    assert d is None and "all depths agree" in t
+    d, t = first_diverging_bounce({1: R(True), 4: R(False), -1: R(False)})
+    assert d == 4 and "2 indirect bounces (bounce 4)" in t
+
+
+def test_budget():
+    assert per_test_alpha(50) == pytest.approx(2e-5)
+    a = per_test_alpha(50, method="sidak")
+    assert suite_false_failure(a, 50) == pytest.approx(1e-3)
+    assert suite_false_failure(0.01, 50) == pytest.approx(0.395, abs=1e-3)
+    b = ErrorBudget(1e-3)
+    b.register("x")
+    b.register("y", weight=3)
+    assert b.alpha("y") == pytest.approx(7.5e-4) and b.worst_case_suite_alpha() == pytest.approx(1e-3)
+    with pytest.raises(ValueError):
+        per_test_alpha(0)
+
+
+def test_diagnostics_write_pngs(tmp_path):
+    from mitsuba_refs import diagnostics as dg
+    ma, va, mb, vb = _pair(32, 48, seed=8)
+    r = compare_means(ma * 0.9, va, 64, mb, vb, 4096, alpha=1e-3)
+    p1 = dg.plot_mean_comparison(tmp_path / "mean.png", ma * 0.9, mb, r, "synthetic 10% dark")
+    rv = compare_variances(va, 64, vb, 4096, alpha=1e-3)
+    p2 = dg.plot_variance_comparison(tmp_path / "var.png", va, vb, rv, "synthetic")
+    spp = np.array([1, 4, 16, 64])
+    mse = (1.0 / spp) * (1 + 0.05 * np.random.default_rng(0).standard_normal((5, 4)))
+    rc = convergence_law(spp, mse, alpha=1e-3)
+    p3 = dg.plot_convergence(tmp_path / "sub" / "conv.png", spp, mse, rc, "synthetic")
+    for p in (p1, p2, p3):
+        with open(p, "rb") as f:
+            assert f.read(8) == b"\x89PNG\r\n\x1a\n"
