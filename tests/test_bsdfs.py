@@ -500,10 +500,6 @@ def _f32(x: np.ndarray) -> np.ndarray:
     return np.asarray(x, dtype=np.float32).astype(np.float64)
 
 
-def _rgb(mi, value):
-    return {"type": "rgb", "value": list(map(float, value))}
-
-
 class _MitsubaBSDF:
     """Loop over Mitsuba's scalar BSDF calls with the identity shading frame."""
 

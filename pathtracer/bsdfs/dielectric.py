@@ -72,3 +72,18 @@ class Dielectric(BSDF):
         eta = np.where(selected_r, 1.0, eta_it)
         valid = np.ones(wi.shape[0], dtype=bool)
         return make_sample(wo, weight, pdf, delta=True, eta=eta, valid=valid)
+
+    def lobes(self, wi: np.ndarray):
+        r"""Both Dirac lobes at once, for estimators that split or pick lobes themselves.
+
+        Returns
+        -------
+        F : (n,) Fresnel reflectance.
+        wo_r, weight_r : reflected direction and :math:`F R_s`.
+        wo_t, weight_t : refracted direction and :math:`(1 - F) T_s \eta_{ti}^2`
+            (zero under total internal reflection).
+        """
+        F, cos_theta_t, _, eta_ti = fresnel_dielectric(wi[:, 2], self.eta)
+        weight_r = F[:, None] * self.specular_reflectance
+        weight_t = ((1.0 - F) * eta_ti * eta_ti)[:, None] * self.specular_transmittance
+        return F, reflect(wi), weight_r, refract(wi, cos_theta_t, eta_ti), weight_t

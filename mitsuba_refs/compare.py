@@ -1,0 +1,211 @@
+"""One comparison of a ``pathtracer`` integrator with Mitsuba 3 on one scene file.
+
+Four verdicts, each from :mod:`mitsuba_refs.stats`:
+
+* mean: our image at ``TEST_MAX_SPP`` against the reference (4096 spp),
+  tile-aggregated z test;
+* variance: only where Mitsuba runs the same estimator (``path``,
+  ``path_bsdf``, ``path_nee``, ``direct``), per-sample variance ratio;
+* convergence: MSE against the reference over the spp ladder
+  ``CONVERGENCE_LADDER`` with ``CONVERGENCE_REPLICAS`` independent replicas
+  (slope -1 in log-log, RMSE(N)/RMSE(4N) = 2, no bias floor);
+* first diverging bounce: the mean test at max_depth = 1, 2, 3 against the
+  per-bounce references, naming the first depth that disagrees.
+
+Our renders and the reference use the same XML file and parameters.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import config
+from .cache import get_reference
+from .stats import (compare_means, compare_variances, convergence_law, first_diverging_bounce,
+                    image_mse, reference_mse_floor)
+
+#: spp ladder and replica count of the convergence test (4x steps: RMSE should halve).
+CONVERGENCE_LADDER = (1, 4, 16, 64)
+CONVERGENCE_REPLICAS = 4
+#: Our integrators whose Mitsuba reference runs the same estimator (variance comparable).
+SAME_ESTIMATOR = ("path", "path_bsdf", "path_nee", "direct")
+#: Seeds of our renders: far from each other and from the references' seeds.
+TEST_SEED = 1000
+CONVERGENCE_SEED = 2000
+#: Depths for per-bounce localisation; ``direct`` stops at 2 by construction.
+BOUNCE_DEPTHS = config.PER_BOUNCE_DEPTHS
+
+
+def reference_integrator(name: str) -> str:
+    """The reference estimator for one of our integrators (mean-only ones map to ``path``)."""
+    return name if name in SAME_ESTIMATOR else "path"
+
+
+def default_params(scene: str) -> dict:
+    """The test film size of a built-in scene (the committed references' resolution)."""
+    if scene in config.BUILTIN_SCENES:
+        width, height = config.test_resolution(scene)
+        return {"width": width, "height": height}
+    return {}
+
+
+@dataclass
+class Comparison:
+    """Verdicts of one comparison; ``agree`` is True when every test run passed."""
+
+    scene: str
+    integrator: str
+    params: dict
+    spp: int
+    mean: object
+    variance: object = None
+    convergence: object = None
+    convergence_mse: np.ndarray = None
+    bounce: tuple = None
+    pictures: dict = field(default_factory=dict)
+    seconds: float = 0.0
+    hints: list = field(default_factory=list)
+
+    @property
+    def agree(self) -> bool:
+        parts = [self.mean.agree]
+        if self.variance is not None:
+            parts.append(self.variance.agree)
+        if self.convergence is not None:
+            parts.append(self.convergence.passed)
+        return all(parts)
+
+    def report(self) -> str:
+        """A few lines a student can read."""
+        status = "AGREES with Mitsuba" if self.agree else "DISAGREES with Mitsuba"
+        lines = [f"{self.integrator} on {self.scene} ({self.spp} spp): {status}",
+                 f"  mean:        {self.mean.verdict}"]
+        if self.variance is not None:
+            lines.append(f"  variance:    {self.variance.verdict}")
+        else:
+            lines.append("  variance:    not compared (Mitsuba has no run of this estimator; mean only)")
+        if self.convergence is not None:
+            lines.append(f"  convergence: {self.convergence.verdict}")
+        if self.bounce is not None:
+            lines.append(f"  bounces:     {self.bounce[1]}")
+        for hint in self.hints:
+            lines.append(f"  likely cause: {hint}")
+        for name, path in self.pictures.items():
+            lines.append(f"  picture ({name}): {path}")
+        lines.append(f"  ({self.seconds:.1f} s)")
+        return "\n".join(lines)
+
+
+def render_ours(scene, integrator, params, spp, seed, processes=None, **options):
+    """Our render of ``scene`` with ``params``: (mean, variance)."""
+    from pathtracer import load_scene, render
+    result = render(load_scene(scene, **params), integrator, spp=spp, seed=seed,
+                    processes=processes, progress=False, **options)
+    return result.mean, result.variance
+
+
+def compare(scene: str, integrator="path", params: dict | None = None, *,
+            spp: int = config.TEST_MAX_SPP, alpha: float = 1e-3, convergence: bool = True,
+            bounces: bool | None = None, out_dir=None, processes=None, render=render_ours,
+            log=None) -> Comparison:
+    """Compare one integrator with Mitsuba on ``scene``.
+
+    Parameters
+    ----------
+    scene : str
+        Built-in scene name or XML path (the same file Mitsuba renders).
+    integrator : str or pathtracer.Integrator
+        Ours; an instance (e.g. a student's) is rendered as is and compared
+        with the reference of its ``name``.
+    params : dict, optional
+        Scene parameters (``-D``); built-in scenes default to the test film size.
+    spp : int
+        Samples per pixel of our mean/variance render (at most TEST_MAX_SPP
+        for the committed references to be 64x as precise).
+    alpha : float
+        Significance level of each of the tests.
+    convergence : bool
+        Run the convergence-law test.
+    bounces : bool, optional
+        Localise the first diverging bounce (default: only when the mean disagrees).
+    out_dir : path, optional
+        Where diagnostic pictures go (written for every failed test).
+    render : callable
+        ``render(scene, integrator, params, spp, seed, processes=..., max_depth=...)``
+        returning (mean, variance); the autograder passes an isolated one.
+    """
+    start = time.perf_counter()
+    name = integrator if isinstance(integrator, str) else integrator.name
+    params = {**default_params(scene), **(params or {})}
+    ref_name = reference_integrator(name)
+    reference = get_reference(scene, params, ref_name, log=log)
+
+    mean, variance = render(scene, integrator, params, spp, TEST_SEED, processes=processes)
+    result = Comparison(scene, name, params, spp,
+                        compare_means(mean, variance, spp, reference.mean, reference.var,
+                                      reference.n, alpha=alpha))
+    if name in SAME_ESTIMATOR:
+        result.variance = compare_variances(variance, spp, reference.var, reference.n, alpha=alpha)
+    if convergence:
+        result.convergence, result.convergence_mse = convergence_test(
+            scene, integrator, params, reference, alpha, processes, render)
+    if bounces or (bounces is None and not result.mean.agree):
+        result.bounce = localise_bounce(scene, integrator, name, params, spp, alpha, processes, render, log)
+    from .explain import hints
+    result.hints = hints(result)
+    if out_dir is not None:
+        result.pictures = write_pictures(result, Path(out_dir), mean, variance, reference)
+    result.seconds = time.perf_counter() - start
+    return result
+
+
+def convergence_test(scene, integrator, params, reference, alpha, processes, render):
+    """MSE(N) over the ladder for independent replicas, then the convergence law.
+
+    Returns the :class:`ConvergenceResult` and the (replicas, levels) MSE table.
+    """
+    mse = np.zeros((CONVERGENCE_REPLICAS, len(CONVERGENCE_LADDER)))
+    for k in range(CONVERGENCE_REPLICAS):
+        for j, n in enumerate(CONVERGENCE_LADDER):
+            seed = CONVERGENCE_SEED + 100 * k + j
+            test_mean, _ = render(scene, integrator, params, n, seed, processes=processes)
+            mse[k, j] = image_mse(test_mean, reference.mean, reference.var, reference.n)
+    law = convergence_law(np.array(CONVERGENCE_LADDER), mse,
+                          ref_mse_floor=reference_mse_floor(reference.var, reference.n),
+                          alpha=alpha, image_mean=float(reference.mean.mean()))
+    return law, mse
+
+
+def localise_bounce(scene, integrator, name, params, spp, alpha, processes, render, log=None):
+    """First max_depth at which our render and Mitsuba's ``path`` disagree in mean."""
+    depths = [d for d in BOUNCE_DEPTHS if not (name == "direct" and d > 2)]
+    results = {}
+    for depth in depths:
+        depth_params = {**params, "max_depth": depth}
+        reference = get_reference(scene, depth_params, "path", log=log)
+        mean, variance = render(scene, integrator, params, spp, TEST_SEED + depth,
+                                processes=processes, max_depth=depth)
+        results[depth] = compare_means(mean, variance, spp, reference.mean, reference.var,
+                                       reference.n, alpha=alpha)
+    return first_diverging_bounce(results)
+
+
+def write_pictures(result: Comparison, out_dir: Path, mean, variance, reference) -> dict:
+    """Diagnostic PNGs for the failed tests (all tests when everything agrees: none)."""
+    from .diagnostics import plot_convergence, plot_mean_comparison, plot_variance_comparison
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stem = f"{Path(str(result.scene)).stem}-{result.integrator}"
+    title = f"{result.integrator} vs Mitsuba on {result.scene}"
+    pictures = {"mean": plot_mean_comparison(out_dir / f"{stem}-mean.png", mean, reference.mean,
+                                             result.mean, title)}
+    if result.variance is not None:
+        pictures["variance"] = plot_variance_comparison(out_dir / f"{stem}-variance.png", variance,
+                                                        reference.var, result.variance, title)
+    if result.convergence is not None:
+        pictures["convergence"] = plot_convergence(out_dir / f"{stem}-convergence.png",
+                                                   np.array(CONVERGENCE_LADDER), result.convergence_mse,
+                                                   result.convergence, title)
+    return {k: str(v) for k, v in pictures.items()}
