@@ -242,8 +242,9 @@ def _sample_disk(scene, shape, u):
     to_world = scene.disk_to_world[k]
     local = square_to_uniform_disk_concentric(u)
     point = local[:, 0:1] * to_world[:3, 0] + local[:, 1:2] * to_world[:3, 1] + to_world[:3, 3]
-    normal = normalize(np.linalg.inv(to_world[:3, :3]).T @ np.array([0.0, 0.0, 1.0])[:, None]).T
-    normal = np.repeat(-normal if scene.disk_flip[k] else normal, len(u), axis=0)
+    normal = np.linalg.inv(to_world[:3, :3]).T @ np.array([0.0, 0.0, 1.0])   # normals: inverse transpose
+    normal *= (-1.0 if scene.disk_flip[k] else 1.0) / np.linalg.norm(normal)
+    normal = np.tile(normal, (len(u), 1))
     return point, normal
 
 

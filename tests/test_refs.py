@@ -219,9 +219,22 @@ def test_committed_lecture_refs_agree_with_path(scene, integrator):
     """The lecture estimators' references have the same mean as ``path``'s."""
     if scene not in _scenes_for(integrator):
         pytest.skip("BSDF sampling cannot find point lights")
+    if scene == "furnace":
+        pytest.xfail("Mitsuba 3.9.1 `path` is biased (+0.16 %) in the furnace: MIS with "
+                     "emitter sampling of a sphere seen from inside; see "
+                     "test_committed_furnace_analytic")
     a, b = committed(scene, integrator), committed(scene, "path")
     ok, zmax, thr = tile_welch(a.mean, a.var, a.n, b.mean, b.var, b.n)
     assert ok, f"{scene}: max |z| = {zmax:.2f} >= {thr:.2f}"
+
+
+@pytest.mark.parametrize("integrator", ["path_bsdf", "path_nee"])
+def test_committed_furnace_analytic(integrator):
+    """Furnace (rho = 0.5, Le = 1): L = Le / (1 - rho) = 2 in every pixel."""
+    ref = committed("furnace", integrator)
+    n_total = ref.n * ref.mean[..., 0].size
+    z = (ref.mean.mean() - 2.0) / np.sqrt(ref.var.mean() / n_total)
+    assert abs(z) < stats.norm.isf(ALPHA / 2), f"z = {z:.2f}, mean {ref.mean.mean():.5f}"
 
 
 @pytest.mark.parametrize("scene", config.BUILTIN_SCENES)

@@ -199,7 +199,7 @@ def conv_scene():
     return make_scene(32, 32, seed=5, p_range=(0.1, 0.6))
 
 
-def test_convergence_false_rejection(conv_scene):
+def test_mse_law_false_rejection(conv_scene):
     """A correct estimator, K=8 replicas, ladder 1..256 spp, 16384-spp reference, 400
     seeds: rejections at alpha = 0.05 and 0.2 within Binomial(400, alpha) 1-1e-5
     intervals.  False-failure <= 2e-5."""
@@ -212,7 +212,7 @@ def test_convergence_false_rejection(conv_scene):
     _check_rate(400 - cover, 400, 0.05)
 
 
-def test_convergence_detects_correlated_samples(conv_scene):
+def test_mse_law_detects_correlated_samples(conv_scene):
     """Every sample of a pixel identical (random numbers reused): MSE flat.  Fails with the
     'correlated' diagnosis in all 100 seeds at alpha=2e-5 (measured p ~1e-9..1e-13;
     a miss needs |t| < 9 on a slope 1.0 from -1 with se ~0.03: P << 1e-4)."""
@@ -222,7 +222,7 @@ def test_convergence_detects_correlated_samples(conv_scene):
     assert "correlated" in res[0].verdict
 
 
-def test_convergence_detects_bias_floor(conv_scene):
+def test_mse_law_detects_bias_floor(conv_scene):
     """A 5 % multiplicative bias: the MSE levels off (~700 spp).  Floor detected at
     alpha=1e-3 in >= 90 of 100 seeds (measured 100/100) and the verdict reports the bias as
     ~5-6 % (RMS over the image / mean).  With true power >= 0.98, P(< 90) < 1e-4."""

@@ -153,7 +153,7 @@ def test_image_mse_and_floor():
     assert image_mse(ref, ref, rv, np.full((8, 8), 100)) == pytest.approx(-0.005)
 
 
-def test_convergence_exact_law_and_failures():
+def test_mse_law_exact_and_failures():
     spp = np.array([1, 4, 16, 64, 256])
     rng = np.random.default_rng(1)
     good = (2.0 / spp) * (1 + 0.02 * rng.standard_normal((6, 5)))

@@ -1,0 +1,217 @@
+"""The MIS path tracer, with every contribution routed to Heckbert path classes.
+
+The same estimator as :mod:`pathtracer.integrators.path` (the same random
+numbers in the same order: with the same seed, the class ``L.*E`` is the
+``path`` image bit for bit), plus a DFA state per path and per class
+(:mod:`pathtracer.pathclasses`)::
+
+    state = delta[start, E]                         at the camera
+    state = delta[state, letter(BSDF at x_k)]       when the path scatters at x_k
+    emitter hit at x_k:   counts in class c  iff  accept_c[delta_c[state, L]]
+    shadow ray from x_k:  counts in class c  iff  accept_c[delta_c[delta_c[state, letter(x_k)], L]]
+
+A path's contribution at vertex k is ``beta * Le * w`` (emission found by
+BSDF sampling) or ``beta * f * Le / p * w`` (the shadow ray), exactly as in
+``path``; it is added to every class whose automaton accepts. Classes that
+partition path space therefore sum to the ``path`` image up to float rounding.
+
+``radiance`` (the integrator contract) returns the first class only, so
+``render(scene, PathClassIntegrator("LS+DE"))`` renders the caustics alone;
+:func:`render_classes` renders all classes of one integrator in one pass.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
+from ..pathclasses import LETTER, _parse_glossy, bsdf_letters, compile_classes
+from ..sampling import power_heuristic
+from ..shading import eval_bsdf, has_smooth, sample_bsdf
+from .base import Integrator, spawn, subset_hit, trace
+
+_L, _E = LETTER["L"], LETTER["E"]
+
+
+class PathClassIntegrator(Integrator):
+    """MIS path tracer that keeps one image per path class.
+
+    Parameters
+    ----------
+    classes : str or list of str
+        Path expressions in Heckbert's notation, light first (``"LS+DE"``).
+    glossy : {'G', 'D', 'S'} or float
+        Letter of rough conductors, or an alpha threshold (<= t: S, else D);
+        see :mod:`pathtracer.pathclasses`.
+    **options
+        As for every integrator (max_depth, rr_depth, roulette, ...).
+    """
+
+    name = "pathclass"
+
+    def __init__(self, classes="L.*E", glossy="G", **options):
+        super().__init__(**options)
+        self.classes = compile_classes(classes)
+        if not self.classes:
+            raise ValueError("at least one path class is needed")
+        self.glossy = _parse_glossy(glossy)
+
+    @property
+    def expressions(self) -> list[str]:
+        return [c.expression for c in self.classes]
+
+    def options(self):
+        return dict(super().options(), classes=self.expressions, glossy=self.glossy)
+
+    def radiance(self, scene, rays, rng):
+        """The first class's radiance sample per ray -> (n, 3)."""
+        return self.radiance_classes(scene, rays, rng)[:, 0, :]
+
+    def radiance_classes(self, scene, rays, rng):
+        """One radiance sample per ray and class -> (n, n_classes, 3)."""
+        n = len(rays)
+        K = len(self.classes)
+        L = np.zeros((n, K, 3))
+        if self.max_depth == 0:
+            return L
+        letters = bsdf_letters(scene, self.glossy)
+        deltas = [c.delta for c in self.classes]
+        accepts = [c.accept for c in self.classes]
+        # state after the eye, one column per class
+        state = np.tile(np.array([c.delta[c.start, _E] for c in self.classes], dtype=np.int32), (n, 1))
+
+        def add(rows, states, value):
+            """Add ``value`` (m, 3) to the classes accepting ``states`` + L."""
+            for k in range(K):
+                ok = accepts[k][deltas[k][states[:, k], _L]]
+                if ok.any():
+                    L[rows, k] += np.where(ok[:, None], value, 0.0)
+
+        row = np.arange(n)
+        beta, eta = np.ones((n, 3)), np.ones(n)
+        prev_p = rays.o.copy()
+        prev_pdf, prev_delta = np.ones(n), np.ones(n, dtype=bool)
+        d = rays.d
+        hit = self.trace_camera(scene, rays)
+        depth = 0
+        while len(row):
+            wi = -d
+            Le = emitted_radiance(scene, hit, wi)
+            pdf_light = np.where(prev_delta, 0.0, pdf_emitter_direction(scene, prev_p, hit, d))
+            add(row, state, beta * Le * power_heuristic(prev_pdf, pdf_light)[:, None])
+
+            live = np.flatnonzero(hit.valid & (depth + 1 < self.depth_limit))
+            row, beta, eta, wi, state = row[live], beta[live], eta[live], wi[live], state[live]
+            hit, rng = subset_hit(hit, live), rng.subset(live)
+            if not len(row):
+                break
+
+            # this vertex's letter, appended to every class's automaton
+            letter = letters[scene.shape_bsdf[hit.shape]]
+            state = np.stack([deltas[k][state[:, k], letter] for k in range(K)], axis=1)
+
+            light = sample_emitter(scene, hit, rng.next_1d(), rng.next_2d())
+            f_light, pdf_bsdf = eval_bsdf(scene, hit, wi, light.wo, self.hemisphere)
+            w_light = np.where(light.delta, 1.0, power_heuristic(light.pdf, pdf_bsdf))
+            use = has_smooth(scene, hit) & (light.pdf > 0)
+            add(row, state, np.where(use[:, None], beta * f_light * light.weight * w_light[:, None], 0.0))
+
+            bs = sample_bsdf(scene, hit, wi, rng.next_1d(), rng.next_2d(), self.hemisphere)
+            beta, eta = beta * bs.weight, eta * bs.eta
+            prev_p, prev_pdf, prev_delta = hit.p, bs.pdf, bs.delta
+            depth += 1
+
+            throughput_max = beta.max(axis=1)
+            survive, beta = self.roulette_survivors(beta, eta, depth, rng.next_1d())
+            keep = np.flatnonzero(survive & (throughput_max > 0))
+            row, beta, eta, state = row[keep], beta[keep], eta[keep], state[keep]
+            prev_p, prev_pdf, prev_delta = prev_p[keep], prev_pdf[keep], prev_delta[keep]
+            rng = rng.subset(keep)
+            next_rays = spawn(subset_hit(hit, keep), bs.wo[keep])
+            d = next_rays.d
+            hit = trace(scene, next_rays)
+        return L
+
+
+class _ClassJob:
+    """Renders one unit of all classes (inherited by forked workers)."""
+
+    current = None
+
+    def __init__(self, scene, integrator, spp, seed):
+        self.scene, self.integrator, self.spp, self.seed = scene, integrator, spp, seed
+
+    def run(self, unit):
+        from ..camera import camera_rays
+        from ..render import block_statistics
+        from ..rng import RandomStream, sample_keys
+        p0, p1, s0, s1 = unit
+        pixels, samples = p1 - p0, s1 - s0
+        pixel = np.repeat(np.arange(p0, p1), samples)
+        sample = np.tile(np.arange(s0, s1), pixels)
+        rng = RandomStream(sample_keys(self.seed, pixel.astype(np.int64) * self.spp + sample))
+        rays = camera_rays(self.scene.camera, pixel, rng.next_2d())
+        values = self.integrator.radiance_classes(self.scene, rays, rng)
+        return block_statistics(values.reshape(pixels, samples, -1))
+
+
+def _run_current(unit):
+    return _ClassJob.current.run(unit)
+
+
+def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int | None = 1,
+                   batch_size: int | None = None, progress: bool = False, glossy="G", **options):
+    """Render one image per path class in a single pass.
+
+    Random numbers are keyed exactly as in :func:`pathtracer.render`, so with
+    the same ``seed`` and options the classes are a split of the ``path`` image.
+
+    Returns
+    -------
+    dict with ``classes`` (list of str), ``mean`` and ``variance``
+    ((n_classes, H, W, 3) each), ``spp``, ``seed``, ``seconds``.
+    """
+    import multiprocessing
+    import os
+    import time
+    from concurrent.futures import ProcessPoolExecutor
+
+    from .. import geometry
+    from ..render import DEFAULT_BATCH, _merge, _progress_bar, plan_units
+    from ..scene import load_scene
+    from ..scene.types import Scene
+
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene)
+    integrator = PathClassIntegrator(classes, glossy=glossy, **options)
+    K = len(integrator.classes)
+    n_pixels = scene.camera.width * scene.camera.height
+    units = plan_units(n_pixels, int(spp), batch_size or max(1024, DEFAULT_BATCH // max(1, K // 2)))
+    processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
+    geometry.prepare(scene)
+    start = time.perf_counter()
+    stats = np.zeros((3, n_pixels, 3 * K))
+    job = _ClassJob(scene, integrator, int(spp), int(seed))
+    bar = _progress_bar(len(units), progress)
+    if processes == 1 or len(units) == 1:
+        for unit in units:
+            _merge(stats, unit, job.run(unit))
+            bar.update()
+    else:
+        _ClassJob.current = job
+        ctx = multiprocessing.get_context("fork")
+        with ProcessPoolExecutor(processes, mp_context=ctx) as pool:
+            for unit, block in zip(units, pool.map(_run_current, units, chunksize=1)):
+                _merge(stats, unit, block)
+                bar.update()
+        _ClassJob.current = None
+    bar.close()
+    count, mean, m2 = stats
+    variance = m2 / np.maximum(count - 1, 1)
+    h, w = scene.camera.height, scene.camera.width
+
+    def per_class(a):
+        return a.reshape(h, w, K, 3).transpose(2, 0, 1, 3)
+
+    return dict(classes=integrator.expressions, mean=per_class(mean), variance=per_class(variance),
+                spp=int(spp), seed=int(seed), seconds=time.perf_counter() - start,
+                options=integrator.options())

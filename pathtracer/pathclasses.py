@@ -1,0 +1,387 @@
+r"""Heckbert's path classes: regular expressions over path vertices, compiled to DFAs.
+
+A light path is written as the string of its vertices from the light to the
+eye (Heckbert 1990, the lecture's "Heckbert's Classification" slides)::
+
+    L   a light source          (an emitter hit, a light sample, the environment)
+    D   a diffuse reflection    (``diffuse``)
+    S   a specular event        (``conductor``, ``dielectric``: a Dirac lobe)
+    G   a glossy reflection     (``roughconductor``), unless folded into D or S
+    E   the eye
+
+Syntax of a class expression (whitespace is ignored)::
+
+    L D S G E     one vertex of that kind
+    .             any scattering vertex, i.e. (D|S|G)
+    [DS]          one of the listed letters
+    (r)  r|s      grouping, alternation
+    r*  r+  r?    zero or more, one or more, zero or one
+
+Examples (the lecture's): direct lighting ``LDE``, indirect diffuse ``LDD+E``,
+caustics ``LS+DE``, specular chains ``LS*E``, everything ``L(D|S)*E`` (or
+``L.*E`` when glossy surfaces are present). The whole path must match.
+
+A path tracer builds paths from the eye, so the expression is *reversed*
+(``LS+DE`` becomes ``ED S+ L``) and compiled into a deterministic finite
+automaton whose transition table is a NumPy array: every path in a wavefront
+carries its DFA state, each new vertex is one table lookup
+``state = delta[state, letter]`` for the whole batch, and a contribution
+(an emitter hit, or a shadow ray) counts in a class iff the state after
+appending ``L`` is accepting.
+
+Glossy surfaces
+---------------
+:func:`bsdf_letters` gives each BSDF of a scene its letter. With
+``glossy='G'`` (default) a rough conductor is its own letter ``G``. With
+``glossy`` a number t, a rough conductor whose (mean) roughness alpha <= t
+counts as ``S`` (a sharp, nearly mirror-like lobe) and one with alpha > t
+as ``D``; ``glossy='D'`` or ``'S'`` folds every glossy surface into that
+letter. ``twosided`` takes the letter of its nested BSDF; an unknown BSDF is
+``S`` if it is purely Dirac, else ``D``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: The alphabet, in the column order of the transition tables.
+ALPHABET = "LDSGE"
+LETTER = {c: i for i, c in enumerate(ALPHABET)}
+SCATTERING = "DSG"
+
+#: The lecture's named classes (regex -> description).
+LECTURE_CLASSES = {
+    "LE": "emitters seen directly",
+    "LDE": "direct lighting on diffuse surfaces",
+    "LDD+E": "indirect diffuse (inter-reflections)",
+    "LS+DE": "caustics",
+    "LS*E": "specular chains (lights seen in mirrors and glass)",
+    "L(D|S|G)*E": "everything",
+}
+
+
+class PathRegexError(ValueError):
+    """A malformed path expression (the message points at the offending character)."""
+
+
+# ---------------------------------------------------------------------------------------
+# parsing: expression -> tree of ('sym', frozenset) | ('cat', [..]) | ('alt', [..])
+#          | ('star', t) | ('plus', t) | ('opt', t) | ('eps',)
+
+class _Parser:
+    def __init__(self, text: str):
+        self.text = text
+        self.chars = [(i, c) for i, c in enumerate(text) if not c.isspace()]
+        self.pos = 0
+
+    def error(self, message: str):
+        where = self.chars[self.pos][0] if self.pos < len(self.chars) else len(self.text)
+        raise PathRegexError(f"path expression {self.text!r}: {message} at column {where + 1}")
+
+    def peek(self):
+        return self.chars[self.pos][1] if self.pos < len(self.chars) else None
+
+    def parse(self):
+        if not self.chars:
+            raise PathRegexError("empty path expression")
+        tree = self.alternation()
+        if self.peek() is not None:
+            self.error(f"unexpected {self.peek()!r}")
+        return tree
+
+    def alternation(self):
+        parts = [self.concatenation()]
+        while self.peek() == "|":
+            self.pos += 1
+            parts.append(self.concatenation())
+        return parts[0] if len(parts) == 1 else ("alt", parts)
+
+    def concatenation(self):
+        parts = []
+        while self.peek() is not None and self.peek() not in "|)":
+            parts.append(self.repetition())
+        if not parts:
+            return ("eps",)
+        return parts[0] if len(parts) == 1 else ("cat", parts)
+
+    def repetition(self):
+        node = self.atom()
+        while self.peek() is not None and self.peek() in "*+?":
+            op = {"*": "star", "+": "plus", "?": "opt"}[self.peek()]
+            self.pos += 1
+            node = (op, node)
+        return node
+
+    def atom(self):
+        c = self.peek()
+        if c is None:
+            self.error("expression ends early")
+        if c == "(":
+            self.pos += 1
+            node = self.alternation()
+            if self.peek() != ")":
+                self.error("missing ')'")
+            self.pos += 1
+            return node
+        if c == "[":
+            self.pos += 1
+            letters = set()
+            while self.peek() is not None and self.peek() != "]":
+                letters.add(self.letter())
+            if self.peek() != "]":
+                self.error("missing ']'")
+            self.pos += 1
+            if not letters:
+                self.error("empty letter set []")
+            return ("sym", frozenset(letters))
+        if c == ".":
+            self.pos += 1
+            return ("sym", frozenset(SCATTERING))
+        if c in "*+?":
+            self.error(f"{c!r} repeats nothing")
+        if c == ")":
+            self.error("unbalanced ')'")
+        return ("sym", frozenset(self.letter()))
+
+    def letter(self):
+        c = self.peek().upper()
+        if c not in ALPHABET:
+            self.error(f"unknown vertex letter {self.peek()!r} (use {', '.join(ALPHABET)}, '.')")
+        self.pos += 1
+        return c
+
+
+def parse(expression: str):
+    """Parse a path expression into a syntax tree (raises :class:`PathRegexError`)."""
+    return _Parser(expression).parse()
+
+
+def reverse(tree):
+    """The tree of the reversed language (concatenations read backwards)."""
+    kind = tree[0]
+    if kind == "cat":
+        return ("cat", [reverse(t) for t in reversed(tree[1])])
+    if kind == "alt":
+        return ("alt", [reverse(t) for t in tree[1]])
+    if kind in ("star", "plus", "opt"):
+        return (kind, reverse(tree[1]))
+    return tree
+
+
+# ---------------------------------------------------------------------------------------
+# Thompson NFA and subset construction
+
+class _NFA:
+    def __init__(self):
+        self.eps = []      # state -> list of states
+        self.edges = []    # state -> list of (letters, state)
+
+    def new(self) -> int:
+        self.eps.append([])
+        self.edges.append([])
+        return len(self.eps) - 1
+
+    def build(self, tree) -> tuple[int, int]:
+        """Fragment (start, end) recognising ``tree``."""
+        kind = tree[0]
+        if kind == "sym":
+            s, e = self.new(), self.new()
+            self.edges[s].append((tree[1], e))
+            return s, e
+        if kind == "eps":
+            s, e = self.new(), self.new()
+            self.eps[s].append(e)
+            return s, e
+        if kind == "cat":
+            first_s, prev_e = self.build(tree[1][0])
+            for part in tree[1][1:]:
+                s, e = self.build(part)
+                self.eps[prev_e].append(s)
+                prev_e = e
+            return first_s, prev_e
+        if kind == "alt":
+            s, e = self.new(), self.new()
+            for part in tree[1]:
+                ps, pe = self.build(part)
+                self.eps[s].append(ps)
+                self.eps[pe].append(e)
+            return s, e
+        inner_s, inner_e = self.build(tree[1])
+        s, e = self.new(), self.new()
+        self.eps[s].append(inner_s)
+        self.eps[inner_e].append(e)
+        if kind in ("star", "opt"):
+            self.eps[s].append(e)
+        if kind in ("star", "plus"):
+            self.eps[inner_e].append(inner_s)
+        return s, e
+
+    def closure(self, states) -> frozenset:
+        stack, seen = list(states), set(states)
+        while stack:
+            for t in self.eps[stack.pop()]:
+                if t not in seen:
+                    seen.add(t)
+                    stack.append(t)
+        return frozenset(seen)
+
+
+@dataclass(frozen=True, eq=False)
+class PathClass:
+    """A compiled path class.
+
+    Attributes
+    ----------
+    expression : str
+        The class in Heckbert's notation, as written (light first).
+    delta : (n_states, 5) int32
+        Transition table of the DFA of the *reversed* expression (eye first);
+        columns follow :data:`ALPHABET`. State 0 is the dead state.
+    accept : (n_states,) bool
+    start : int
+    """
+
+    expression: str
+    delta: np.ndarray
+    accept: np.ndarray
+    start: int
+
+    @property
+    def n_states(self) -> int:
+        return int(self.delta.shape[0])
+
+    def step(self, state: np.ndarray, letter) -> np.ndarray:
+        """States after reading ``letter`` (a letter, a code, or an array of codes per path)."""
+        if isinstance(letter, str):
+            letter = LETTER[letter]
+        return self.delta[state, letter]
+
+    def matches(self, path: str) -> bool:
+        """Whether the string ``path`` (light first, e.g. ``'LDSE'``) is in the class."""
+        state = self.start
+        for c in reversed(path.upper()):
+            if c not in LETTER:
+                raise PathRegexError(f"unknown vertex letter {c!r} in path {path!r}")
+            state = int(self.delta[state, LETTER[c]])
+        return bool(self.accept[state])
+
+    def __repr__(self) -> str:
+        return f"PathClass({self.expression!r}, {self.n_states} states)"
+
+
+def compile_class(expression: str) -> PathClass:
+    """Compile a path expression (light first) into the DFA of its reversal (eye first)."""
+    tree = reverse(parse(expression))
+    nfa = _NFA()
+    start, end = nfa.build(tree)
+    dead = frozenset()
+    first = nfa.closure([start])
+    index = {dead: 0, first: 1}
+    order = [dead, first]
+    rows = []
+    i = 0
+    while i < len(order):
+        current = order[i]
+        row = []
+        for c in ALPHABET:
+            moved = [t for s in current for letters, t in nfa.edges[s] if c in letters]
+            target = nfa.closure(moved) if moved else dead
+            if target not in index:
+                index[target] = len(order)
+                order.append(target)
+            row.append(index[target])
+        rows.append(row)
+        i += 1
+    delta = np.array(rows, dtype=np.int32)
+    accept = np.array([end in states for states in order], dtype=bool)
+    return PathClass(expression, delta, accept, 1)
+
+
+def compile_classes(expressions) -> list[PathClass]:
+    """Compile several expressions (a single string is one class)."""
+    if isinstance(expressions, str):
+        expressions = [expressions]
+    return [e if isinstance(e, PathClass) else compile_class(e) for e in expressions]
+
+
+def enumerate_paths(max_vertices: int, letters: str = SCATTERING):
+    """Every path string ``L x_k ... x_1 E`` with 0 <= k <= ``max_vertices`` scattering vertices."""
+    import itertools
+    for k in range(max_vertices + 1):
+        for middle in itertools.product(letters, repeat=k):
+            yield "L" + "".join(middle) + "E"
+
+
+def is_partition(expressions, max_vertices: int = 6, letters: str = SCATTERING) -> tuple[bool, str]:
+    """Check that the classes are disjoint and cover every path up to ``max_vertices`` bounces.
+
+    Returns (ok, explanation): the first path matched by no class or by two.
+    """
+    classes = compile_classes(expressions)
+    for path in enumerate_paths(max_vertices, letters):
+        hits = [c.expression for c in classes if c.matches(path)]
+        if len(hits) != 1:
+            what = "no class" if not hits else f"several classes ({', '.join(hits)})"
+            return False, f"path {path} is matched by {what}"
+    return True, f"every path with up to {max_vertices} scattering vertices is in exactly one class"
+
+
+# ---------------------------------------------------------------------------------------
+# the letter of each BSDF
+
+def bsdf_letter(bsdf, glossy="G") -> str:
+    """Heckbert letter of one BSDF object (see the module docstring for ``glossy``)."""
+    from .bsdfs import Conductor, Dielectric, Diffuse, RoughConductor, TwoSided
+    if isinstance(bsdf, TwoSided):
+        return bsdf_letter(bsdf.nested, glossy)
+    if isinstance(bsdf, Diffuse):
+        return "D"
+    if isinstance(bsdf, (Conductor, Dielectric)):
+        return "S"
+    if isinstance(bsdf, RoughConductor):
+        if isinstance(glossy, str):
+            if glossy.upper() not in ("G", "D", "S"):
+                raise ValueError(f"glossy must be 'G', 'D', 'S' or an alpha threshold, got {glossy!r}")
+            return glossy.upper()
+        alpha = _roughness(bsdf)
+        return "S" if alpha <= float(glossy) else "D"
+    return "S" if getattr(bsdf, "is_delta", False) else "D"
+
+
+def _roughness(bsdf) -> float:
+    """Mean microfacet roughness of a rough BSDF (geometric mean of alpha_u, alpha_v)."""
+    for owner in (bsdf, getattr(bsdf, "distribution", None), getattr(bsdf, "mf", None)):
+        if owner is not None and hasattr(owner, "alpha_u"):
+            return float(np.sqrt(owner.alpha_u * owner.alpha_v))
+    for value in vars(bsdf).values():
+        if hasattr(value, "alpha_u"):
+            return float(np.sqrt(value.alpha_u * value.alpha_v))
+    raise ValueError(f"cannot find the roughness of {bsdf!r}")
+
+
+def bsdf_letters(scene, glossy="G") -> np.ndarray:
+    """Letter code (index into :data:`ALPHABET`) of every BSDF of ``scene``."""
+    return np.array([LETTER[bsdf_letter(b, glossy)] for b in scene.bsdfs], dtype=np.int32)
+
+
+def describe_letters(scene, glossy="G") -> list[str]:
+    """'name: letter' for each BSDF of the scene, for reports."""
+    return [f"{type(b).__name__}"
+            + (f"({type(b.nested).__name__})" if hasattr(b, "nested") else "")
+            + f" -> {bsdf_letter(b, glossy)}" for b in scene.bsdfs]
+
+
+def _parse_glossy(value):
+    """'G' / 'D' / 'S' stay letters; anything numeric becomes a float threshold."""
+    if isinstance(value, (int, float)):
+        return float(value)
+    try:
+        return float(value)
+    except ValueError:
+        return str(value).upper()
+
+
+__all__ = ["ALPHABET", "LETTER", "LECTURE_CLASSES", "PathClass", "PathRegexError", "parse",
+           "reverse", "compile_class", "compile_classes", "is_partition", "enumerate_paths",
+           "bsdf_letter", "bsdf_letters", "describe_letters"]

@@ -1,0 +1,30 @@
+"""Every integrator on every built-in scene against the committed Mitsuba 3 references.
+
+Mean: tile-aggregated z test against Mitsuba's ``path`` (or the same estimator).
+Variance: where Mitsuba runs the same estimator (path, path_bsdf, path_nee,
+direct), the per-sample variance ratio must be 1. Each assertion uses the
+suite's per-test alpha (tests/budget.py). References are committed, so these
+run without Mitsuba.
+"""
+import pytest
+
+from mitsuba_refs.compare import SAME_ESTIMATOR, compare
+from pathtracer import INTEGRATORS
+from tests.budget import ALPHA
+from tests.scenes import AGREEMENT_CASES, NOISELESS, integrator_options, spp_for
+
+
+@pytest.mark.parametrize("scene,integrator", AGREEMENT_CASES)
+def test_mean_and_variance_agree_with_mitsuba(scene, integrator):
+    comparison = compare(scene, integrator, spp=spp_for(integrator), alpha=ALPHA,
+                         convergence=False, bounces=False, processes=2,
+                         options=integrator_options(integrator))
+    assert comparison.mean.agree, comparison.report()
+    if (scene, integrator) in NOISELESS:
+        assert comparison.variance is None, comparison.report()
+    elif integrator in SAME_ESTIMATOR:
+        assert comparison.variance is not None and comparison.variance.agree, comparison.report()
+
+
+def test_every_integrator_is_covered():
+    assert {i for _, i in AGREEMENT_CASES} == set(INTEGRATORS)
