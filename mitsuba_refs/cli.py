@@ -112,7 +112,12 @@ def cmd_build(args):
 
 
 #: name -> function(subparsers) returning the handler; extend to add commands.
-SUBCOMMANDS = {"build": _add_build}
+def _add_compare(subparsers):
+    from .cli_compare import add_compare
+    return add_compare(subparsers)
+
+
+SUBCOMMANDS = {"build": _add_build, "compare": _add_compare}
 
 
 def make_parser():

@@ -37,6 +37,12 @@ SAME_ESTIMATOR = ("path", "path_bsdf", "path_nee", "direct")
 #: tile where rare light hits happened not to occur (estimated variance 0) would look
 #: significant. smallpt samples BSDFs only, recursive uses shadow rays without MIS.
 CLOSEST_ESTIMATOR = {"smallpt": "path_bsdf", "recursive": "path_nee"}
+#: Each replica image is split into INTERLEAVE x INTERLEAVE interleaved sub-lattices
+#: (pixel (i, j) -> lattice (i mod s, j mod s)). Pixels are independent, so the
+#: sub-lattices are independent pseudo-replicas that all see the whole image: the
+#: mean MSE is unchanged and its uncertainty gets K * s^2 - 1 degrees of freedom
+#: instead of K - 1, which is what gives the test power at a small alpha.
+INTERLEAVE = 4
 #: Seeds of our renders: far from each other and from the references' seeds.
 TEST_SEED = 1000
 CONVERGENCE_SEED = 2000
@@ -71,6 +77,7 @@ class Comparison:
     convergence_mse: np.ndarray = None
     ladder: tuple = CONVERGENCE_LADDER
     bounce: tuple = None
+    bounce_results: dict = None
     pictures: dict = field(default_factory=dict)
     seconds: float = 0.0
     hints: list = field(default_factory=list)
@@ -170,13 +177,34 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
             scene, integrator, params, reference, alpha, processes, render, ladder, replicas)
         result.ladder = tuple(ladder)
     if bounces or (bounces is None and not result.mean.agree):
-        result.bounce = localise_bounce(scene, integrator, name, params, spp, alpha, processes, render, log)
+        result.bounce_results = localise_bounce(scene, integrator, name, params, spp, alpha,
+                                                processes, render, log)
+        result.bounce = first_diverging_bounce(result.bounce_results)
     from .explain import hints
     result.hints = hints(result)
     if out_dir is not None:
         result.pictures = write_pictures(result, Path(out_dir), mean, variance, reference)
     result.seconds = time.perf_counter() - start
     return result
+
+
+def check_convergence(scene: str, integrator="path", params: dict | None = None, *,
+                      alpha: float = 1e-3, ladder=CONVERGENCE_LADDER,
+                      replicas=CONVERGENCE_REPLICAS, processes=None, render=render_ours,
+                      options=None, log=None):
+    """The convergence-law test alone (see :func:`compare`).
+
+    Returns
+    -------
+    (ConvergenceResult, (replicas, levels) MSE table)
+    """
+    name = integrator if isinstance(integrator, str) else integrator.name
+    params = {**default_params(scene), **(params or {})}
+    reference = get_reference(scene, params, reference_integrator(name), log=log)
+    if options:
+        render = _with_options(render, options)
+    return convergence_test(scene, integrator, params, reference, alpha, processes, render,
+                            ladder, replicas)
 
 
 def _with_options(render, options):
@@ -189,14 +217,19 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
                      ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS):
     """MSE(N) over the ladder for independent replicas, then the convergence law.
 
-    Returns the :class:`ConvergenceResult` and the (replicas, levels) MSE table.
+    Returns the :class:`ConvergenceResult` and the (replicas * INTERLEAVE^2, levels)
+    MSE table (one row per replica and sub-lattice).
     """
-    mse = np.zeros((replicas, len(ladder)))
+    lattices = [(a, b) for a in range(INTERLEAVE) for b in range(INTERLEAVE)]
+    mse = np.zeros((replicas * len(lattices), len(ladder)))
     for k in range(replicas):
         for j, n in enumerate(ladder):
             seed = CONVERGENCE_SEED + 100 * k + j
             test_mean, _ = render(scene, integrator, params, n, seed, processes=processes)
-            mse[k, j] = image_mse(test_mean, reference.mean, reference.var, reference.n)
+            for m, (a, b) in enumerate(lattices):
+                part = np.s_[a::INTERLEAVE, b::INTERLEAVE]
+                mse[k * len(lattices) + m, j] = image_mse(test_mean[part], reference.mean[part],
+                                                          reference.var[part], reference.n)
     law = convergence_law(np.array(ladder), mse,
                           ref_mse_floor=reference_mse_floor(reference.var, reference.n),
                           alpha=alpha, image_mean=float(reference.mean.mean()))
@@ -204,7 +237,7 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
 
 
 def localise_bounce(scene, integrator, name, params, spp, alpha, processes, render, log=None):
-    """First max_depth at which our render and Mitsuba's ``path`` disagree in mean."""
+    """Mean agreement with Mitsuba's ``path`` at max_depth = 1, 2, 3: {depth: MeanAgreement}."""
     depths = [d for d in BOUNCE_DEPTHS if not (name == "direct" and d > 2)]
     results = {}
     for depth in depths:
@@ -214,7 +247,7 @@ def localise_bounce(scene, integrator, name, params, spp, alpha, processes, rend
                                 processes=processes, max_depth=depth)
         results[depth] = compare_means(mean, variance, spp, reference.mean, reference.var,
                                        reference.n, alpha=alpha)
-    return first_diverging_bounce(results)
+    return results
 
 
 def write_pictures(result: Comparison, out_dir: Path, mean, variance, reference) -> dict:

@@ -53,6 +53,13 @@ def hints(comparison) -> list[str]:
         if comparison.bounce is not None and comparison.bounce[0] is not None:
             depth = comparison.bounce[0]
             out.append(f"first wrong at max_depth={depth}: {BOUNCE_CAUSES.get(depth, BOUNCE_CAUSES[3])}")
+            at_depth = comparison.bounce_results[depth]
+            if depth == 2 and at_depth.rel_bias_ci[0] > 0:
+                out.append(f"direct light is {100 * at_depth.rel_bias:.0f}% too bright "
+                           f"[{100 * at_depth.rel_bias_ci[0]:.0f}%, {100 * at_depth.rel_bias_ci[1]:.0f}%]: "
+                           "emission is probably counted twice, by the shadow ray and again when "
+                           "the BSDF-sampled ray hits the light (count it only after specular "
+                           "bounces, or weight both with MIS)")
         if mean.worst_region and mean.worst_region != "whole image":
             out.append(f"the largest difference (|z| = {abs(mean.worst_z):.1f}) is in the "
                        f"{mean.worst_region} of the image: look at what is there (see the z-map)")

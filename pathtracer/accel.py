@@ -516,3 +516,145 @@ def _ray9(o, d, scene_max):
     inv = 1.0 / d
     e = SLAB_EPS * (np.abs(o).max(axis=0) + scene_max + 1e-30)
     return np.concatenate((inv, -(o + e) * inv, -(o - e) * inv)).astype(np.float32)
+
+
+# ----------------------------------------------------------------------
+# Small meshes: every ray against every triangle, float32 filter + float64 refit
+
+SMALL_MAX = 64  # triangles up to which :class:`SmallMesh` beats the BVH
+SMALL_CHUNK = 2048  # rays per chunk: the (3T, chunk) float32 work arrays stay in L2
+SMALL_BARY_EPS = 1e-5  # barycentric slack of the float32 filter (covers its rounding)
+
+
+class SmallMesh:
+    """All-pairs intersection for scenes with few triangles (e.g. box rooms).
+
+    Each triangle is written as three affine functions of a point x: the
+    signed distance to its plane, ``c - n.x``, and the barycentrics ``b1 =
+    a1.(x - p0)``, ``b2 = a2.(x - p0)`` (a1, a2: the dual basis of the edges
+    in the plane). For a ray, two small float32 matrix products give those
+    functions at the origin and their rates along the direction for every
+    triangle at once; then ``t = dist / rate`` and ``b = b(o) + t b'(d)``
+    with a handful of in-place ufuncs on (T, chunk) arrays. The closest
+    accepted triangle per ray is one integer ``min``: the float32 ``t`` with
+    its low mantissa bits replaced by the triangle index (negative ``t``,
+    NaN and rejected pairs compare above ``inf`` as unsigned integers).
+
+    The winner is then intersected again in float64 (Möller–Trumbore, as
+    :class:`BVH` does), so the returned ``t`` and barycentrics have full
+    precision; float32 only decides which triangle. Its slack of
+    ``SMALL_BARY_EPS`` on the barycentrics keeps shared edges watertight.
+    The results match :class:`BVH` except at near-ties within float32
+    rounding (adjacent triangles, coplanar overlaps).
+    """
+
+    def __init__(self, tri_p: np.ndarray):
+        tri_p = np.asarray(tri_p, np.float64).reshape(-1, 3, 3)
+        self.num_triangles = T = len(tri_p)
+        if T > 1 << 8:
+            raise ValueError(f"SmallMesh holds at most 256 triangles, got {T}")
+        self.brute_force = True
+        self._bits = max(1, int(np.ceil(np.log2(max(T, 2)))))
+        p0, e1, e2 = tri_p[:, 0], tri_p[:, 1] - tri_p[:, 0], tri_p[:, 2] - tri_p[:, 0]
+        n = np.cross(e1, e2)
+        nn = np.einsum("ij,ij->i", n, n)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = np.where(nn > 0, 1.0 / nn, np.nan)  # degenerate triangles: NaN, never hit
+            a1 = np.cross(e2, n) * inv[:, None]
+            a2 = np.cross(n, e1) * inv[:, None]
+            unit = n * np.sqrt(inv)[:, None]
+        mo = np.zeros((3 * T, 4))
+        md = np.zeros((3 * T, 3))
+        for k, (a, sign) in enumerate(((unit, -1.0), (a1, 1.0), (a2, 1.0))):
+            mo[k * T:(k + 1) * T, :3] = sign * a
+            mo[k * T:(k + 1) * T, 3] = -sign * np.einsum("ij,ij->i", a, p0)
+            md[k * T:(k + 1) * T] = a
+        self._mo = mo.astype(np.float32)
+        self._md = md.astype(np.float32)
+        self._index = np.arange(T, dtype=np.uint32)[:, None]
+        self._tri = _tri_data(tri_p).T.copy()  # (9, T) float64 for the refit
+        self._work = None
+
+    def _buffers(self, m):
+        if self._work is None or self._work[0].shape[1] < m:
+            T = self.num_triangles
+            self._work = (np.empty((4, m), np.float32), np.empty((3, m), np.float32),
+                          np.empty((3 * T, m), np.float32), np.empty((3 * T, m), np.float32),
+                          np.empty((T, m), np.float32), np.empty((T, m), bool))
+        return [w[:, :m] if w.ndim == 2 else w for w in self._work]
+
+    def _closest_keys(self, o, d):
+        """Packed (t, triangle) key of the nearest accepted triangle per ray (o, d: (3, m))."""
+        m = o.shape[1]
+        T = self.num_triangles
+        o4, d3, ao, ad, low, bad = self._buffers(m)
+        if o4.shape[1] != m:  # views of the first m columns are not contiguous: fresh ones
+            o4, d3 = np.empty((4, m), np.float32), np.empty((3, m), np.float32)
+            ao, ad = np.empty((3 * T, m), np.float32), np.empty((3 * T, m), np.float32)
+            low, bad = np.empty((T, m), np.float32), np.empty((T, m), bool)
+        o4[:3] = o
+        o4[3] = 1.0
+        d3[...] = d
+        np.matmul(self._mo, o4, out=ao)
+        np.matmul(self._md, d3, out=ad)
+        t, b1, b2 = ao[:T], ad[T:2 * T], ad[2 * T:]
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            t /= ad[:T]
+            b1 *= t
+            b1 += ao[T:2 * T]
+            b2 *= t
+            b2 += ao[2 * T:]
+            np.minimum(b1, b2, out=low)
+            b0 = np.add(b1, b2, out=ao[T:2 * T])
+            np.subtract(1.0, b0, out=b0)
+            np.minimum(low, b0, out=low)
+        np.less(low, -SMALL_BARY_EPS, out=bad)
+        np.copyto(t, -1.0, where=bad)
+        key = t.view(np.uint32)
+        key &= np.uint32(~((1 << self._bits) - 1) & 0xFFFFFFFF)
+        key |= self._index
+        return key.min(axis=0)
+
+    def _refit(self, o, d, prim):
+        """Float64 Möller–Trumbore of rays (3, m) against their triangles ``prim``."""
+        tri = np.take(self._tri, prim, axis=1)
+        e1, e2 = tri[3:6], tri[6:9]
+        px = d[1] * e2[2] - d[2] * e2[1]
+        py = d[2] * e2[0] - d[0] * e2[2]
+        pz = d[0] * e2[1] - d[1] * e2[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / (e1[0] * px + e1[1] * py + e1[2] * pz)
+            s = o - tri[0:3]
+            b1 = (s[0] * px + s[1] * py + s[2] * pz) * inv
+            qx = s[1] * e1[2] - s[2] * e1[1]
+            qy = s[2] * e1[0] - s[0] * e1[2]
+            qz = s[0] * e1[1] - s[1] * e1[0]
+            b2 = (d[0] * qx + d[1] * qy + d[2] * qz) * inv
+            t = (e2[0] * qx + e2[1] * qy + e2[2] * qz) * inv
+        return t, b1, b2
+
+    def intersect(self, o, d, tmax=None):
+        """Closest hit of each ray (same contract as :meth:`BVH.intersect`)."""
+        o, d, tmax = _rays(o, d, tmax)
+        n = o.shape[1]
+        t = np.full(n, np.inf)
+        prim = np.full(n, -1, np.int64)
+        b1, b2 = np.zeros(n), np.zeros(n)
+        if not self.num_triangles or not n:
+            return t, prim, b1, b2
+        key = np.empty(n, np.uint32)
+        for s in range(0, n, SMALL_CHUNK):
+            sl = slice(s, s + SMALL_CHUNK)
+            key[sl] = self._closest_keys(o[:, sl], d[:, sl])
+        rows = np.flatnonzero(key < np.uint32(0x7F800000))  # a finite, positive t
+        if len(rows):
+            cand = (key[rows] & np.uint32((1 << self._bits) - 1)).astype(np.int64)
+            tt, u, v = self._refit(np.take(o, rows, axis=1), np.take(d, rows, axis=1), cand)
+            ok = (tt > 0.0) & (tt < tmax[rows])
+            rows, cand = rows[ok], cand[ok]
+            t[rows], prim[rows], b1[rows], b2[rows] = tt[ok], cand, u[ok], v[ok]
+        return t, prim, b1, b2
+
+    def occluded(self, o, d, tmax=None):
+        """(n,) bool: some triangle lies on the ray with ``0 < t < tmax``."""
+        return self.intersect(o, d, tmax)[1] >= 0

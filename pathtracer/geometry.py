@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .accel import BVH
+from .accel import BVH, SMALL_MAX, SmallMesh
 from .vec import dot, max_abs, normalize
 
 RAY_EPSILON = 1500 * 2.0 ** -24  # Mitsuba's math::RayEpsilon for float32 (8.94e-5)
@@ -65,10 +65,16 @@ class Hit:
     uv: np.ndarray
 
 
-def prepare(scene) -> BVH:
-    """Build (once) and return the scene's triangle BVH, cached in ``scene._accel``."""
+def prepare(scene) -> BVH | SmallMesh:
+    """Build (once) and return the scene's triangle accelerator, cached in ``scene._accel``.
+
+    Up to :data:`pathtracer.accel.SMALL_MAX` triangles (rooms built of
+    rectangles and cubes) every ray is tested against every triangle by
+    :class:`pathtracer.accel.SmallMesh`; larger meshes get a :class:`BVH`.
+    """
     if scene._accel is None:
-        scene._accel = BVH(scene.tri_p)
+        tri = scene.tri_p
+        scene._accel = SmallMesh(tri) if 0 < len(tri) <= SMALL_MAX else BVH(tri)
     return scene._accel
 
 
@@ -225,15 +231,50 @@ def _disk_t(to_local, o, d, tmax):
 # Surface data of the hits
 
 
+class TriangleTables:
+    """Per-triangle data that hit shading reads, computed once per scene.
+
+    Attributes
+    ----------
+    p0, e1, e2 : (T, 3) first vertex and edges ``p1 - p0``, ``p2 - p0``.
+    n : (T, 3) unit geometric normal ``normalize(cross(e1, e2))``.
+    flat_n : (T, 3) unit shading normal of triangles whose three vertex
+        normals are equal (rectangles, cubes, flat meshes); NaN elsewhere.
+    smooth : (T,) bool, the vertex normals differ (interpolate them).
+    """
+
+    def __init__(self, tri_p, tri_n):
+        self.p0 = np.ascontiguousarray(tri_p[:, 0])
+        self.e1 = tri_p[:, 1] - tri_p[:, 0]
+        self.e2 = tri_p[:, 2] - tri_p[:, 0]
+        self.n = normalize(np.cross(self.e1, self.e2))
+        self.smooth = ~(np.all(tri_n[:, 0] == tri_n[:, 1], axis=1)
+                        & np.all(tri_n[:, 0] == tri_n[:, 2], axis=1))
+        self.flat_n = normalize(tri_n[:, 0])
+        self.any_smooth = bool(self.smooth.any())
+
+
+def _triangle_tables(scene) -> TriangleTables:
+    accel = prepare(scene)
+    tables = getattr(accel, "_tables", None)
+    if tables is None:
+        tables = accel._tables = TriangleTables(scene.tri_p, scene.tri_n)
+    return tables
+
+
 def _fill_triangles(scene, hit, sel, b1, b2):
     k = hit.prim[sel]
-    v = scene.tri_p[k]
-    b0 = 1.0 - b1 - b2
-    w = np.stack((b0, b1, b2), axis=1)[:, :, None]
-    hit.p[sel] = (v * w).sum(axis=1)
-    e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
-    hit.n[sel] = normalize(np.cross(e1, e2))
-    hit.sh_n[sel] = normalize((scene.tri_n[k] * w).sum(axis=1))
+    tab = _triangle_tables(scene)
+    hit.p[sel] = tab.p0[k] + b1[:, None] * tab.e1[k] + b2[:, None] * tab.e2[k]
+    hit.n[sel] = tab.n[k]
+    sh_n = tab.flat_n[k]
+    if tab.any_smooth:
+        rows = np.flatnonzero(tab.smooth[k])
+        if len(rows):
+            kr, u, v = k[rows], b1[rows, None], b2[rows, None]
+            nv = scene.tri_n[kr]
+            sh_n[rows] = normalize((1.0 - u - v) * nv[:, 0] + u * nv[:, 1] + v * nv[:, 2])
+    hit.sh_n[sel] = sh_n
     hit.shape[sel] = scene.tri_shape[k]
     hit.uv[sel, 0], hit.uv[sel, 1] = b1, b2
 

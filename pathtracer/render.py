@@ -11,6 +11,7 @@ the batch size and the number of processes.
 """
 from __future__ import annotations
 
+import copy
 import os
 import sys
 import time
@@ -63,11 +64,24 @@ def integrator_for(scene: Scene, integrator=None, **options) -> Integrator:
     Options given here override those of the file.
     """
     if isinstance(integrator, Integrator):
-        return integrator
+        return _with_options(integrator, {k: v for k, v in options.items() if v is not None})
     spec = scene.integrator
     params = dict(spec.params) if integrator in (None, spec.name) else {}
     params.update({k: v for k, v in options.items() if v is not None})
     return make_integrator(integrator or spec.name, **params)
+
+
+def _with_options(integrator: Integrator, options: dict) -> Integrator:
+    """A copy of an integrator instance with some options replaced (never silently ignored)."""
+    if not options:
+        return integrator
+    unknown = [k for k in options if not hasattr(integrator, k)]
+    if unknown:
+        raise ValueError(f"integrator {integrator.name!r} has no option(s) {', '.join(unknown)}")
+    clone = copy.copy(integrator)
+    for key, value in options.items():
+        setattr(clone, key, type(getattr(integrator, key))(value))
+    return clone
 
 
 def render(scene, integrator=None, spp: int | None = None, seed: int | None = None,

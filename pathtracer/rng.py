@@ -62,7 +62,10 @@ class RandomStream:
 
     def subset(self, index: np.ndarray) -> "RandomStream":
         """The streams of paths ``index``, continuing at the same counter."""
-        return RandomStream(self.keys[index], self.counter)
+        index = np.asarray(index)
+        if index.dtype == bool:
+            index = np.flatnonzero(index)
+        return RandomStream(np.take(self.keys, index), self.counter)
 
     def branch(self, copies: int) -> "RandomStream":
         """``copies`` independent child streams per path (path-major order).

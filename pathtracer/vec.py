@@ -28,32 +28,61 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
          a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]), axis=1)
 
 
+def _frame_columns(n: np.ndarray):
+    """Columns of the tangents (s, t) of Duff et al.'s frame around unit normals ``n``.
+
+    Returns ``(nx, ny, nz), (s0, s1, s2), (t0, t1, t2)`` as (n,) arrays.
+    """
+    nx, ny, nz = n[:, 0], n[:, 1], n[:, 2]
+    sign = np.where(nz >= 0, 1.0, -1.0)
+    a = -1.0 / (sign + nz)
+    b = nx * ny * a
+    sb = sign * b
+    s0 = 1.0 + sign * (nx * nx) * a
+    s2 = -sign * nx
+    t1 = sign + (ny * ny) * a
+    return (nx, ny, nz), (s0, sb, s2), (b, t1, -ny)
+
+
 def coordinate_system(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two tangents completing the unit normals ``n`` to orthonormal frames.
 
     Uses the branchless construction of Duff et al. (2017), "Building an
     orthonormal basis, revisited", the same construction Mitsuba uses.
     """
-    sign = np.where(n[:, 2] >= 0, 1.0, -1.0)
-    a = -1.0 / (sign + n[:, 2])
-    b = n[:, 0] * n[:, 1] * a
-    s = np.stack((1.0 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]), axis=1)
-    t = np.stack((b, sign + n[:, 1] ** 2 * a, -n[:, 1]), axis=1)
-    return s, t
+    _, s, t = _frame_columns(n)
+    return np.stack(s, axis=1), np.stack(t, axis=1)
 
 
 def to_local(v: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Express world vectors ``v`` in the frame (s, t, n) built around ``n``."""
-    s, t = coordinate_system(n)
-    return np.stack((dot(v, s), dot(v, t), dot(v, n)), axis=1)
+    """Express world vectors ``v`` in the frame (s, t, n) built around ``n``.
+
+    Written out per component (no (n, 3) tangent arrays are built).
+    """
+    (nx, ny, nz), (s0, s1, s2), (t0, t1, t2) = _frame_columns(n)
+    vx, vy, vz = v[:, 0], v[:, 1], v[:, 2]
+    out = np.empty((len(v), 3))
+    out[:, 0] = vx * s0 + vy * s1 + vz * s2
+    out[:, 1] = vx * t0 + vy * t1 + vz * t2
+    out[:, 2] = vx * nx + vy * ny + vz * nz
+    return out
 
 
 def to_world(v: np.ndarray, n: np.ndarray) -> np.ndarray:
     """Inverse of :func:`to_local`."""
-    s, t = coordinate_system(n)
-    return v[:, 0:1] * s + v[:, 1:2] * t + v[:, 2:3] * n
+    (nx, ny, nz), (s0, s1, s2), (t0, t1, t2) = _frame_columns(n)
+    x, y, z = v[:, 0], v[:, 1], v[:, 2]
+    out = np.empty((len(v), 3))
+    out[:, 0] = x * s0 + y * t0 + z * nx
+    out[:, 1] = x * s1 + y * t1 + z * ny
+    out[:, 2] = x * s2 + y * t2 + z * nz
+    return out
 
 
 def max_abs(p: np.ndarray) -> np.ndarray:
-    """Largest absolute coordinate of each row -> (n,)."""
-    return np.max(np.abs(p), axis=1)
+    """Largest absolute coordinate of each row -> (n,).
+
+    Two elementwise maxima: a reduction along an axis of length 3 is ~5x slower.
+    """
+    a = np.abs(p)
+    return np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])

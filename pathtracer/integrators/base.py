@@ -136,8 +136,15 @@ def skip_emitters(scene: Scene, rays: Rays, hit):
 
 
 def subset_hit(hit, rows):
-    """The hits ``rows`` of a batch (works on any dataclass of arrays)."""
-    return type(hit)(**{k: v[rows] for k, v in vars(hit).items()})
+    """The hits ``rows`` of a batch (works on any dataclass of arrays).
+
+    ``rows`` are integer indices (``np.take`` along axis 0 is several times
+    faster than fancy indexing of (n, 3) arrays) or a boolean mask.
+    """
+    rows = np.asarray(rows)
+    if rows.dtype == bool:
+        rows = np.flatnonzero(rows)
+    return type(hit)(**{k: np.take(v, rows, axis=0) for k, v in vars(hit).items()})
 
 
 def replace_hits(hit, rows, new):

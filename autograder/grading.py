@@ -1,0 +1,322 @@
+"""The checks a submission is graded on, their parts, points, limits and statistical budget.
+
+A *check* is one scene x one integrator. It runs :func:`mitsuba_refs.compare.compare` with a
+``render`` hook that renders in the student's isolated process (:mod:`autograder.isolation`)
+and scores its parts:
+
+``mean``         the image agrees with Mitsuba's (tile + whole-image z test);
+``variance``     the per-sample variance agrees with Mitsuba's run of the *same* estimator;
+``convergence``  the error falls as N^-1/2 (no bias floor, independent samples).
+
+Variance and convergence points are awarded only when the mean is right: they grade the
+quality of a correct estimator. When anything fails, the check also renders the student's
+integrator at max_depth = 1, 2, 3 against the per-bounce references to say which bounce
+breaks first (evidence for the hints, never scored), and writes the z-map pictures.
+
+Error budget
+------------
+Every scored part is one statistical test. A correct submission must lose points with
+probability at most ``SUBMISSION_ALPHA`` = 1e-3 in total, so each of the ``N`` scored parts
+runs at ``alpha = SUBMISSION_ALPHA / N`` (Bonferroni, valid under any dependence; the mean,
+variance and convergence tests each control their own internal families at that level).
+"""
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mitsuba_refs import config as refs_config
+from mitsuba_refs.stats import ErrorBudget
+
+from .isolation import Limits, StudentFailure, StudentProcess
+
+#: Chance that grading a correct submission costs it any point (whole submission).
+SUBMISSION_ALPHA = 1e-3
+#: Samples per pixel of the mean/variance render (the references have 64x as many).
+SPP = refs_config.TEST_MAX_SPP
+#: Memory limit of the student's process (address space; the reference needs ~330 MB).
+MEMORY_MB = 640
+#: Most stdout + stderr a submission may print per test.
+OUTPUT_BYTES = 1 << 20
+#: Multiplies every time limit (``AUTOGRADER_TIME_SCALE``; the project's CI sets it > 1 because
+#: its machines are shared, Gradescope runs with 1).
+TIME_SCALE = float(os.environ.get("AUTOGRADER_TIME_SCALE", "1"))
+#: Depths of the per-bounce sweep (explanations only).
+BOUNCE_DEPTHS = refs_config.PER_BOUNCE_DEPTHS
+#: Samples per pixel of the second, independent render of the sample-independence evidence.
+INDEPENDENCE_SPP = 16
+
+
+@dataclass(frozen=True)
+class Check:
+    """One graded comparison.
+
+    Attributes
+    ----------
+    id : str  unique, also the pytest parameter id
+    integrator : str  the student's integrator graded (``INTEGRATORS`` key)
+    scene : str  built-in scene (the committed references' film size)
+    parts : tuple of (part, points)
+    seconds : float  wall-clock limit of the student's process for the whole check
+    camera : bool  grade the student's ``camera_rays`` (with the reference ``direct``)
+    title : str
+    """
+
+    id: str
+    integrator: str
+    scene: str
+    parts: tuple
+    seconds: float
+    camera: bool = False
+    title: str = ""
+
+    @property
+    def points(self) -> float:
+        return float(sum(p for _, p in self.parts))
+
+
+def _cornell(integrator, seconds, title):
+    return Check(f"{integrator}-cornell-box", integrator, "cornell-box",
+                 (("mean", 6), ("variance", 2), ("convergence", 2)), seconds,
+                 title=f"{title} on the Cornell box")
+
+
+def _glass(integrator, seconds, title):
+    return Check(f"{integrator}-glass", integrator, "cornell-caustics",
+                 (("mean", 4), ("variance", 1)), seconds,
+                 title=f"{title} with a mirror and a glass sphere")
+
+
+#: The graded checks, in order. Time limits are 2-3x the reference solution's time on one
+#: core (15.6, 19.4, 25.2, 9.4, 2.7, 3.9, 4.5, 1.6, 1.1 s; docs/autograder.md) and add up to
+#: 250 s, inside Gradescope's 5 minutes even if every test of a submission hangs.
+CHECKS = (
+    _cornell("path_bsdf", 45, "Path tracing with BSDF sampling (slide 'Path Tracing')"),
+    _cornell("path_nee", 50, "Path tracing with shadow rays (slide 'Path Tracing with Shadow Rays')"),
+    _cornell("path", 60, "Path tracing with MIS (slide 'Path Tracing Algorithm')"),
+    _cornell("direct", 30, "Direct illumination (slide 'Direct Illumination')"),
+    _glass("path_bsdf", 15, "Path tracing with BSDF sampling"),
+    _glass("path_nee", 15, "Path tracing with shadow rays"),
+    _glass("path", 15, "Path tracing with MIS"),
+    _glass("direct", 10, "Direct illumination"),
+    Check("camera", "direct", "quad-light", (("mean", 5),), 10, camera=True,
+          title="Perspective camera (camera_rays)"),
+)
+
+CHECKS_BY_ID = {c.id: c for c in CHECKS}
+
+
+def budget() -> ErrorBudget:
+    """The submission's error budget: one registered test per scored part."""
+    b = ErrorBudget(SUBMISSION_ALPHA)
+    for check in CHECKS:
+        for part, _ in check.parts:
+            b.register(f"{check.id}/{part}")
+    return b
+
+
+#: Per-test level of every scored part.
+ALPHA = budget().alpha(f"{CHECKS[0].id}/mean")
+
+
+@dataclass
+class Part:
+    name: str
+    points: float
+    max_points: float
+    passed: bool
+    detail: str
+
+
+@dataclass
+class CheckResult:
+    """What a check found: scored parts, hints (with numbers), pictures, the report."""
+
+    check: Check
+    parts: list = field(default_factory=list)
+    hints: list = field(default_factory=list)
+    pictures: dict = field(default_factory=dict)
+    failure: str = ""
+    failure_kind: str = ""
+    comparison: object = None
+    bounce: dict = None
+    seconds: float = 0.0
+
+    @property
+    def score(self) -> float:
+        return float(sum(p.points for p in self.parts))
+
+    @property
+    def max_score(self) -> float:
+        return self.check.points
+
+    @property
+    def passed(self) -> bool:
+        return not self.failure and all(p.passed for p in self.parts)
+
+    def report(self) -> str:
+        """The text the student reads on Gradescope."""
+        c = self.check
+        lines = [f"{c.title}: {c.integrator} on {c.scene}, {SPP} spp, compared with Mitsuba 3 "
+                 f"({self.score:g}/{self.max_score:g} points)"]
+        if self.failure:
+            lines.append(f"FAILED: {self.failure}")
+        for p in self.parts:
+            status = "ok  " if p.passed else "FAIL"
+            lines.append(f"  [{status}] {p.name:<11} {p.points:g}/{p.max_points:g}  {p.detail}")
+        if self.bounce:
+            lines.append("  per bounce: " + "; ".join(
+                f"max_depth={d}: {'agrees' if r.agree else 'DISAGREES'} "
+                f"(x{1 + r.rel_bias:.3f})" for d, r in sorted(self.bounce.items())))
+        for hint in self.hints:
+            lines.append(f"  likely cause: {hint}")
+        for name, path in self.pictures.items():
+            lines.append(f"  picture ({name}): {path}")
+        lines.append(f"  ({self.seconds:.1f} s)")
+        return "\n".join(lines)
+
+
+def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
+              limits: Limits | None = None, history: dict | None = None,
+              alpha: float | None = None) -> CheckResult:
+    """Grade one check of implementation ``impl`` (module name or path).
+
+    Parameters
+    ----------
+    out_dir : path, optional  where z-map pictures go (failed checks only)
+    seed_offset : int  added to every render seed (false-failure calibration)
+    limits : Limits, optional  default: the check's time limit, MEMORY_MB, OUTPUT_BYTES
+    history : dict, optional  ``check id -> CheckResult`` of earlier checks (hints compare them)
+    alpha : float, optional  per-part level (default :data:`ALPHA`)
+    """
+    from mitsuba_refs.compare import compare
+
+    start = time.perf_counter()
+    alpha = ALPHA if alpha is None else alpha
+    limits = limits or Limits(check.seconds * TIME_SCALE, MEMORY_MB, OUTPUT_BYTES)
+    result = CheckResult(check)
+    camera = "student" if check.camera else "reference"
+    run_as = f"reference:{check.integrator}" if check.camera else check.integrator
+
+    from mitsuba_refs.compare import TEST_SEED, default_params
+    main_render = {}
+
+    with StudentProcess(impl, limits) as student:
+        def render(scene, integrator, params, spp, seed, processes=None, max_depth=None, **_):
+            image = student.render(scene, run_as, params, spp, seed + seed_offset,
+                                   max_depth=max_depth, camera=camera)
+            if seed == TEST_SEED and max_depth is None and spp == SPP:
+                main_render["image"] = image
+            return image
+
+        wants_convergence = any(name == "convergence" for name, _ in check.parts)
+        try:
+            comparison = compare(check.scene, check.integrator, spp=SPP, alpha=alpha,
+                                 convergence=wants_convergence, bounces=False, render=render)
+        except StudentFailure as failure:
+            result.failure, result.failure_kind = str(failure), failure.kind
+            result.parts = [Part(name, 0.0, float(points), False, "not graded: see above")
+                            for name, points in check.parts]
+            result.seconds = time.perf_counter() - start
+            return result
+        result.comparison = comparison
+        result.parts = score_parts(check, comparison)
+        if not all(p.passed for p in result.parts):
+            from . import hints
+            evidence = hints.Evidence(check=check, comparison=comparison, history=history or {})
+            try:
+                if check.camera:
+                    evidence.camera = hints.camera_evidence(check, student)
+                else:
+                    evidence.sweep = _bounce_sweep(check, render, alpha=alpha)
+                    result.bounce = {d: s[0] for d, s in evidence.sweep.items()} or None
+                    if "image" in main_render:
+                        extra = render(check.scene, check.integrator, default_params(check.scene),
+                                       INDEPENDENCE_SPP, TEST_SEED + 7919)
+                        evidence.independence = hints.independence(
+                            main_render["image"], SPP, extra, INDEPENDENCE_SPP)
+            except StudentFailure as failure:
+                evidence.incomplete = str(failure).splitlines()[0]
+            result.hints = hints.explain(evidence)
+            if out_dir is not None:
+                result.pictures = _pictures(result, comparison, main_render, Path(out_dir))
+    result.seconds = time.perf_counter() - start
+    return result
+
+
+def score_parts(check: Check, comparison) -> list:
+    """Points of each part from a comparison (variance/convergence need a right mean)."""
+    mean_ok = bool(comparison.mean.agree)
+    parts = []
+    for name, points in check.parts:
+        if name == "mean":
+            ok, detail = mean_ok, comparison.mean.verdict
+        elif name == "variance":
+            test = comparison.variance
+            ok = mean_ok and test is not None and bool(test.agree)
+            detail = test.verdict if test is not None else "not compared"
+            if not mean_ok:
+                detail = "needs a right mean first; " + detail
+        elif name == "convergence":
+            test = comparison.convergence
+            ok = mean_ok and test is not None and bool(test.passed)
+            detail = test.verdict if test is not None else "not run"
+            if not mean_ok:
+                detail = "needs a right mean first; " + detail
+        else:
+            raise ValueError(f"unknown part {name!r}")
+        parts.append(Part(name, float(points) if ok else 0.0, float(points), ok, detail))
+    return parts
+
+
+def _bounce_sweep(check: Check, render, alpha: float) -> dict:
+    """{max_depth: (MeanAgreement, test mean, reference mean)}: the student's integrator vs
+    Mitsuba's per-bounce ``path`` references (explanations only, never scored)."""
+    from mitsuba_refs.cache import get_reference
+    from mitsuba_refs.compare import TEST_SEED, default_params
+    from mitsuba_refs.stats import compare_means
+
+    params = default_params(check.scene)
+    depths = [d for d in BOUNCE_DEPTHS if not (check.integrator == "direct" and d > 2)]
+    out = {}
+    for depth in depths:
+        reference = get_reference(check.scene, {**params, "max_depth": depth}, "path")
+        mean, variance = render(check.scene, check.integrator, params, SPP, TEST_SEED + depth,
+                                max_depth=depth)
+        out[depth] = (compare_means(mean, variance, SPP, reference.mean, reference.var,
+                                    reference.n, alpha=alpha), mean, reference.mean)
+    return out
+
+
+def _pictures(result: CheckResult, comparison, main_render, out_dir: Path) -> dict:
+    """The z-map (and variance / convergence) pictures of a failed check."""
+    from mitsuba_refs.cache import get_reference
+    from mitsuba_refs.compare import default_params, reference_integrator, write_pictures
+    if "image" not in main_render:
+        return {}
+    check = result.check
+    reference = get_reference(check.scene, default_params(check.scene),
+                              reference_integrator(check.integrator))
+    mean, variance = main_render["image"]
+    out_dir.mkdir(parents=True, exist_ok=True)
+    scene = comparison.scene
+    comparison.scene = check.id
+    try:
+        return write_pictures(comparison, out_dir, mean, variance, reference)
+    except Exception as error:  # pictures are a courtesy: never fail grading on them
+        return {"error": f"could not draw pictures: {error}"}
+    finally:
+        comparison.scene = scene
+
+
+def grade(impl: str, checks=CHECKS, out_dir=None, seed_offset: int = 0, log=None) -> list:
+    """Run every check of ``impl`` in order; returns the CheckResults."""
+    history = {}
+    for check in checks:
+        result = run_check(check, impl, out_dir=out_dir, seed_offset=seed_offset, history=history)
+        history[check.id] = result
+        if log:
+            log(result.report())
+    return list(history.values())

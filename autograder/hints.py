@@ -1,0 +1,262 @@
+"""From the evidence of a failed check to the likely cause, in a student's words.
+
+The rules of :mod:`mitsuba_refs.explain` (image brightness factors, the first diverging
+bounce, variance and convergence patterns) run first; the rules here add what only the
+autograder sees, each quoting the numbers it rests on:
+
+* the *added term* at the first wrong depth: ``(test_d - ref_{d-1}) / (ref_d - ref_{d-1})``,
+  the brightness ratio of just what bounce d contributes (direct light at d = 2), compared
+  with the classic factors (2: emission counted twice, 1/pi, ...);
+* where the error sits (top / bottom third of the image at that depth): the cosine at the
+  light matters most next to it (ceiling), the distance squared far from it (floor);
+* depths 1-3 right but the full image wrong: long paths (roulette, depth cut);
+* sample independence: a second render with another seed differs from the first by
+  ``R`` times what the per-pixel variances predict (R ~ 1 for independent samples, biased or
+  not; R >> 1 when samples reuse random numbers);
+* glass: the same integrator right on the Cornell box but wrong with a glass sphere;
+* camera: the field of view measured from the student's own rays.
+
+A rule never runs a test of its own; hints are explanations, never points.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+#: Integrators that combine light and BSDF sampling with MIS weights.
+MIS_INTEGRATORS = ("path", "direct")
+#: Integrators with shadow rays.
+SHADOW_RAY_INTEGRATORS = ("path", "direct", "path_nee")
+#: R above this: samples are not independent (R ~ 1 +- 0.1 for independent ones at 64x64).
+CORRELATED_R = 3.0
+
+
+@dataclass
+class Evidence:
+    """Everything the rules may look at (filled by :func:`autograder.grading.run_check`)."""
+
+    check: object
+    comparison: object
+    history: dict = field(default_factory=dict)
+    sweep: dict = None            # depth -> (MeanAgreement, test mean, reference mean)
+    independence: float = None    # R, see module docstring
+    camera: dict = None           # measured field of view, see camera_evidence
+    incomplete: str = ""
+
+
+def independence(first, n_first, second, n_second) -> float:
+    """R = mean (m1 - m2)^2 / mean(v1/n1 + v2/n2) over pixels and channels (bias cancels)."""
+    m1, v1 = first
+    m2, v2 = second
+    predicted = float(np.mean(v1 / n_first + v2 / n_second))
+    observed = float(np.mean((m1 - m2) ** 2))
+    return observed / predicted if predicted > 0 else (math.inf if observed > 0 else 1.0)
+
+
+def _lum(image) -> float:
+    return float(np.asarray(image).reshape(-1, 3).sum(axis=0) @ LUMINANCE)
+
+
+def _band_ratios(test, ref) -> tuple:
+    """Brightness ratio test/ref of the top and bottom thirds of an image."""
+    h = test.shape[0]
+    top, bottom = slice(0, h // 3), slice(h - h // 3, h)
+    ratio = []
+    for band in (top, bottom):
+        r = _lum(ref[band])
+        ratio.append(_lum(test[band]) / r if r > 0 else math.nan)
+    return tuple(ratio)
+
+
+def _first_wrong(sweep) -> int | None:
+    bad = [d for d in sorted(sweep) if not sweep[d][0].agree]
+    return bad[0] if bad else None
+
+
+def _added_ratio(sweep, depth) -> float:
+    """Brightness ratio of what depth ``depth`` adds to depth - 1 (both against Mitsuba)."""
+    _, test, ref = sweep[depth]
+    if depth == 1 or depth - 1 not in sweep:
+        base = 0.0
+    else:
+        base = _lum(sweep[depth - 1][2])
+    added_ref = _lum(ref) - base
+    return (_lum(test) - base) / added_ref if added_ref > 0 else math.nan
+
+
+def _near(value, factor, tolerance=0.12) -> bool:
+    return math.isfinite(value) and abs(value / factor - 1) < tolerance
+
+
+def camera_evidence(check, student) -> dict:
+    """Field of view (degrees) of the student's rays through the film's edge midpoints."""
+    from mitsuba_refs.compare import default_params
+    from pathtracer import load_scene
+    from pathtracer.camera import camera_rays
+    params = default_params(check.scene)
+    camera = load_scene(check.scene, **params).camera
+    w, h = camera.width, camera.height
+    # left/right edge midpoints, top/bottom edge midpoints (pixel + film offset)
+    pixel = np.array([(h // 2) * w, (h // 2) * w + w - 1, w // 2, (h - 1) * w + w // 2])
+    u = np.array([[0.0, 0.5], [1.0 - 1e-9, 0.5], [0.5, 0.0], [0.5, 1.0 - 1e-9]])
+    if h % 2:
+        u[:2, 1] = 0.5
+    _, d = student.rays(check.scene, params, pixel, u)
+    ref = camera_rays(camera, pixel, u)
+
+    def angle(a, b):
+        cos = np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b))
+        return math.degrees(math.acos(float(np.clip(cos, -1, 1))))
+    return dict(x_fov=angle(d[0], d[1]), y_fov=angle(d[2], d[3]),
+                x_ref=angle(ref.d[0], ref.d[1]), y_ref=angle(ref.d[2], ref.d[3]),
+                mirrored=bool(np.dot(d[0] - d[1], ref.d[0] - ref.d[1]) < 0),
+                flipped=bool(np.dot(d[2] - d[3], ref.d[2] - ref.d[3]) < 0))
+
+
+def _camera_hints(cam) -> list:
+    out = []
+    if cam["mirrored"]:
+        out.append("your image is mirrored left-right: in Mitsuba's camera +x points to the "
+                   "image's left (right = -left)")
+    if cam["flipped"]:
+        out.append("your image is upside down: row 0 is the top of the image")
+    dx, dy = cam["x_fov"] - cam["x_ref"], cam["y_fov"] - cam["y_ref"]
+    if abs(dx) > 0.5 or abs(dy) > 0.5:
+        swapped = abs(cam["y_fov"] - cam["x_ref"]) < 0.5 or abs(cam["x_fov"] - cam["y_ref"]) < 0.5
+        text = (f"field of view wrong: your rays span {cam['x_fov']:.1f} deg horizontally and "
+                f"{cam['y_fov']:.1f} deg vertically, the scene's camera {cam['x_ref']:.1f} x "
+                f"{cam['y_ref']:.1f} deg")
+        if swapped:
+            text += ": the fov is applied to the wrong axis (fov_axis; x_fov is horizontal, " \
+                    "the vertical extent is tan(x_fov/2) * height/width)"
+        else:
+            text += ": check tan(fov/2) (degrees vs radians, half angle) and the aspect ratio"
+        out.append(text)
+    return out
+
+
+def _sweep_hints(ev: Evidence) -> list:
+    """Rules on the per-bounce sweep."""
+    sweep, name = ev.sweep, ev.check.integrator
+    out = []
+    if not sweep:
+        return out
+    depth = _first_wrong(sweep)
+    ratios = ", ".join(f"max_depth={d}: x{1 + sweep[d][0].rel_bias:.3f}" for d in sorted(sweep))
+    if depth is None:
+        if not ev.comparison.mean.agree:
+            r = 1 + ev.comparison.mean.rel_bias
+            out.append(f"bounces 1-{max(sweep)} agree with Mitsuba ({ratios}) but the full image is "
+                       f"x{r:.3f}: the error is in long paths: Russian roulette without dividing "
+                       "the survivors by their probability, or a depth cut (a fixed maximum number "
+                       "of bounces although max_depth = -1)")
+        return out
+    added = _added_ratio(sweep, depth)
+    top, bottom = _band_ratios(sweep[depth][1], sweep[depth][2])
+    numbers = (f"(first wrong at max_depth={depth}; what that bounce adds is x{added:.2f} "
+               f"Mitsuba's; top third x{top:.2f}, bottom third x{bottom:.2f}; {ratios})")
+    if depth == 1:
+        if added < 0.5:
+            out.append("light sources seen directly are missing: add the emitted radiance Le "
+                       f"when the camera ray's first hit is on a light (emission missed on the first hit) {numbers}")
+        else:
+            out.append(f"directly visible emitters are wrong: emitted radiance, one-sided emitters "
+                       f"or the camera {numbers}")
+        return out
+    if depth == 2:
+        if _near(added, 2.0, 0.2) and name == "path_nee":
+            out.append("direct light about twice too bright with shadow rays: emission counted twice "
+                       "(once by the shadow ray, once when the BSDF-sampled ray lands on the light); "
+                       f"add Le after a bounce only if that bounce was specular {numbers}")
+        elif _near(added, 1 / math.pi):
+            out.append("direct light darker by a factor near pi: an extra 1/pi (the diffuse BRDF is "
+                       f"rho/pi, once), or a pdf that already includes 1/pi used twice {numbers}")
+        elif _near(added, math.pi):
+            out.append(f"direct light brighter by a factor near pi: the 1/pi of the diffuse BRDF is "
+                       f"missing {numbers}")
+        elif added > 1.05 and name == "path_bsdf":
+            out.append("direct light too bright without light sampling: emitters must be one-sided "
+                       "(emit only on the side their normal faces), and Le counted once per hit "
+                       f"{numbers}")
+        elif added > 1.05 and name in MIS_INTEGRATORS and top > 1.3 * bottom:
+            out.append("direct light too bright, most near the light (top): the light-sampling pdf "
+                       "misses the cosine at the light, p = d^2 / (A |cos theta_light|) "
+                       f"{numbers}")
+        elif added > 1.05 and name in MIS_INTEGRATORS and bottom > 1.3 * top:
+            out.append("direct light too bright, most far from the light (bottom): the light-"
+                       "sampling pdf misses the distance squared, p = d^2 / (A |cos theta_light|) "
+                       f"{numbers}")
+        elif added > 1.05 and name in MIS_INTEGRATORS:
+            out.append("direct light too bright and evenly so: the MIS weights do not sum to one "
+                       "(e.g. BSDF-sampled emission added with weight 1 although the shadow ray also "
+                       f"counts it; use the power heuristic on both) {numbers}")
+        elif added < 0.95 and name in SHADOW_RAY_INTEGRATORS:
+            out.append("direct light too dark with shadow rays: shadow rays are blocked too often, "
+                       "a self-intersection (offset the origin along the normal, stop the ray just "
+                       "short of the light), or the light-sampling pdf / BSDF value "
+                       f"{numbers}")
+        elif added < 0.95 and name == "path_bsdf":
+            out.append("direct light too dark with BSDF sampling: the throughput must be multiplied "
+                       f"by f cos / pdf (the pdf of the sampled direction) {numbers}")
+        else:
+            from mitsuba_refs.explain import BOUNCE_CAUSES
+            out.append(f"{BOUNCE_CAUSES[2]} {numbers}")
+        return out
+    from mitsuba_refs.explain import BOUNCE_CAUSES
+    out.append(f"only bounce >= 3 is wrong, the indirect term: {BOUNCE_CAUSES[3].split(': ', 1)[-1]}; "
+               f"the weight of a sampled direction is f cos / pdf with the pdf it was drawn "
+               f"from (cosine and pdf both needed) {numbers}")
+    return out
+
+
+def _glass_hints(ev: Evidence) -> list:
+    check = ev.check
+    if check.scene != "cornell-caustics" or ev.comparison.mean.agree:
+        return []
+    diffuse = ev.history.get(f"{check.integrator}-cornell-box")
+    if diffuse is not None and not diffuse.passed:
+        return [f"fix {check.integrator} on the Cornell box first: it fails there too"]
+    m = ev.comparison.mean
+    where = f"largest |z| = {abs(m.worst_z):.1f} in the {m.worst_region}"
+    prefix = ("the Cornell box check of this integrator passed, so the diffuse part is right; "
+              if diffuse is not None else "")
+    return [f"{prefix}wrong with the mirror and glass spheres ({where}; image x{1 + m.rel_bias:.3f}): "
+            "look at the specular (delta) bounces: exact dielectric Fresnel (not Schlick), eta = "
+            "int_ior / ext_ior and its inverse when leaving the glass, normals flipped for back "
+            "faces (ray offsets on the side the ray leaves), the 1/eta^2 radiance scaling, and "
+            "emission after a specular bounce"]
+
+
+def explain(ev: Evidence) -> list:
+    """Likely causes, most specific first, each with its numbers."""
+    from mitsuba_refs import explain as base
+    comparison = ev.comparison
+    out = []
+    if ev.camera is not None:
+        out += _camera_hints(ev.camera)
+    out += _glass_hints(ev)
+    correlated = ev.independence is not None and ev.independence > CORRELATED_R
+    if correlated:
+        out.append(f"samples are not independent: two renders with different seeds differ "
+                   f"{ev.independence:.1f}x more than the per-pixel variances predict (1 expected): "
+                   "the same random numbers are reused across samples (use the rng you are given, "
+                   "one stream per ray; never reseed)")
+    if ev.check.scene != "cornell-caustics" and not correlated:
+        out += _sweep_hints(ev)
+    generic = base.hints(comparison)
+    if ev.independence is not None and not correlated:
+        # The convergence rules read a slope; with independent samples a flat slope is a bias.
+        generic = [h for h in generic if "random numbers are reused" not in h
+                   and "not independent" not in h]
+    if out:
+        # The specific rules already explain the mean; keep the variance / convergence ones.
+        generic = [h for h in generic if not h.startswith("image ") and "first wrong" not in h]
+    for hint in generic:
+        if hint not in out:
+            out.append(hint)
+    if ev.incomplete:
+        out.append(f"(explanation incomplete: {ev.incomplete})")
+    return out

@@ -1,0 +1,339 @@
+"""Benchmark: camera paths per second per process, ``pathtracer`` against Mitsuba 3.
+
+Run ``python -m experiments.bench [--quick] [--json OUT]``. In one run, on the
+same scene files at the same resolution and spp:
+
+* ``pathtracer`` (the integrator named in :data:`CASES`), Mitsuba
+  ``scalar_rgb`` and Mitsuba ``llvm_ad_rgb`` (its ``path`` integrator), each in
+  a fresh child process pinned to one core, so every figure is *per process*;
+  Mitsuba's first render (which includes loading kernels or JIT compiling
+  them) is reported apart from the steady state (the best of the repeats);
+* the scaling of ``pathtracer`` from one to two worker processes (all cores);
+* the peak memory of a ``pathtracer`` render at 1024 x 1024, 64 spp (two
+  processes; the parent's and the largest worker's peak RSS).
+
+Each timing is repeated (``--repeats``); the table shows the best, and the JSON
+holds every repeat, so the spread can be judged on a shared machine. Mitsuba
+is optional: without it (or without a working libLLVM) those columns say why.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ROOT / "pathtracer" / "scenes"
+
+#: (label, scene file stem, our integrator, Mitsuba's integrator, aspect height/width).
+CASES = [
+    ("cornell-box", "cornell-box", "path", "path", 1.0),
+    ("smallpt", "smallpt", "smallpt", "path", 0.75),
+    ("mesh", "mesh", "path", "path", 1.0),
+]
+
+#: The targets of the performance issue, as (label, description).
+TARGETS = {
+    "cornell-box": "ours >= scalar and >= 0.5 x llvm",
+    "smallpt": "ours >= 1.5 x scalar",
+    "mesh": "ours >= scalar / 3",
+}
+
+
+# ---------------------------------------------------------------------------------------
+# measurements, each in a child process
+
+
+def _pin(core: int | None) -> None:
+    if core is not None and hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {core})
+
+
+def _peak_rss_mb() -> tuple[float, float]:
+    """Peak resident set size of this process and of its largest waited-for child, MB."""
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    child = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
+    return own, child
+
+
+def measure_ours(spec: dict) -> dict:
+    """Time ``pathtracer.render`` on one scene (``spec``: see :func:`main`)."""
+    _pin(spec.get("core"))
+    from pathtracer import load_scene, render
+    scene = load_scene(str(SCENES / f"{spec['scene']}.xml"), width=spec["width"],
+                       height=spec["height"])
+    processes = spec.get("processes", 1)
+    # Warm-up: builds the BVH, touches every code path once.
+    render(scene, integrator=spec["integrator"], spp=1, seed=99, processes=1, progress=False)
+    times, cpu = [], []
+    for r in range(spec["repeats"]):
+        start, start_cpu = time.perf_counter(), time.process_time()
+        render(scene, integrator=spec["integrator"], spp=spec["spp"], seed=r,
+               processes=processes, progress=False)
+        times.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
+    paths = spec["width"] * spec["height"] * spec["spp"]
+    own, child = _peak_rss_mb()
+    return dict(times=times, cpu=cpu, paths=paths, rss_mb=own, child_rss_mb=child)
+
+
+def measure_mitsuba(spec: dict) -> dict:
+    """Time ``mi.render`` on one scene in variant ``spec['variant']``, one thread."""
+    _pin(spec.get("core"))
+    import drjit as dr
+    import mitsuba as mi
+    mi.set_variant(spec["variant"])
+    try:
+        dr.set_thread_count(1)
+    except Exception:   # pragma: no cover - older drjit
+        pass
+    scene = mi.load_file(str(SCENES / f"{spec['scene']}.xml"), width=spec["width"],
+                         height=spec["height"], spp=spec["spp"])
+    integrator = mi.load_dict({"type": spec["mi_integrator"]})
+    times, cpu = [], []
+    for r in range(spec["repeats"] + 1):   # the first render includes JIT compilation
+        start, start_cpu = time.perf_counter(), time.process_time()
+        image = mi.render(scene, integrator=integrator, spp=spec["spp"], seed=r)
+        _ = image.numpy() if hasattr(image, "numpy") else image   # forces evaluation
+        times.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
+    paths = spec["width"] * spec["height"] * spec["spp"]
+    return dict(first=times[0], times=times[1:], cpu=cpu[1:], paths=paths)
+
+
+def _child(kind: str, spec: dict, timeout: float) -> dict:
+    """Run a measurement in a fresh interpreter; its result or {'error': why}."""
+    cmd = [sys.executable, "-m", "experiments.bench", "--_child", kind, json.dumps(spec)]
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    try:
+        proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True,
+                              timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return {"error": f"timed out after {timeout:.0f} s"}
+    for line in reversed(proc.stdout.splitlines()):
+        if line.startswith("{"):
+            return json.loads(line)
+    tail = (proc.stderr or proc.stdout).strip().splitlines()
+    return {"error": f"exit {proc.returncode}: " + (tail[-1] if tail else "no output")}
+
+
+# ---------------------------------------------------------------------------------------
+# the run
+
+
+def _rate(result: dict, best: bool = True) -> float | None:
+    if not result or "error" in result or not result.get("times"):
+        return None
+    t = min(result["times"]) if best else statistics.median(result["times"])
+    return result["paths"] / t
+
+
+def _cpu_rate(result: dict) -> float | None:
+    """Paths per CPU-second (best repeat): robust to other jobs on a shared machine."""
+    if not result or "error" in result or not result.get("cpu"):
+        return None
+    return result["paths"] / max(min(result["cpu"]), 1e-9)
+
+
+def _spread(result: dict) -> str:
+    if not result or "error" in result or len(result.get("times", [])) < 2:
+        return ""
+    rates = sorted(result["paths"] / t for t in result["times"])
+    return f"{rates[0] / 1e3:.0f}-{rates[-1] / 1e3:.0f}k"
+
+
+def run(args) -> dict:
+    res = args.resolution
+    report = dict(
+        date=datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+        machine=f"{platform.machine()}, {os.cpu_count()} cores, {platform.processor() or _cpu_name()},"
+                f" Python {platform.python_version()}",
+        resolution=res, spp=args.spp, repeats=args.repeats, scenes={})
+    mitsuba_variants = [] if args.no_mitsuba else ["scalar_rgb", "llvm_ad_rgb"]
+    for label, stem, ours, theirs, aspect in CASES:
+        if args.scenes is not None and label not in args.scenes:
+            continue
+        spec = dict(scene=stem, width=res, height=max(1, int(round(res * aspect))), spp=args.spp,
+                    repeats=args.repeats, core=args.core)
+        row = dict(integrator=ours, mitsuba_integrator=theirs, width=spec["width"],
+                   height=spec["height"])
+        _log(f"{label}: pathtracer {ours}")
+        row["ours"] = _child("ours", dict(spec, integrator=ours), args.timeout)
+        for variant in mitsuba_variants:
+            _log(f"{label}: mitsuba {variant} {theirs}")
+            row[variant] = _child("mitsuba", dict(spec, variant=variant, mi_integrator=theirs),
+                                  args.timeout)
+        report["scenes"][label] = row
+    if not args.no_scaling:
+        spec = dict(scene="cornell-box", width=res, height=res, spp=args.spp * 2,
+                    repeats=args.repeats, integrator="path", core=None)
+        _log("scaling: 1 and 2 processes")
+        one = _child("ours", dict(spec, processes=1), args.timeout)
+        two = _child("ours", dict(spec, processes=2), args.timeout)
+        report["scaling"] = dict(one=one, two=two)
+    if not args.no_memory:
+        mres, mspp = args.memory
+        spec = dict(scene="cornell-box", width=mres, height=mres, spp=mspp, repeats=1,
+                    integrator="path", processes=2, core=None)
+        _log(f"memory: {mres}x{mres}, {mspp} spp, 2 processes")
+        report["memory"] = _child("ours", spec, max(args.timeout, 3600))
+    summarise(report)
+    return report
+
+
+def _cpu_name() -> str:
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return "unknown CPU"
+
+
+def _log(text: str) -> None:
+    print(f"[bench] {text}", file=sys.stderr, flush=True)
+
+
+def summarise(report: dict) -> None:
+    """Add the derived figures (rates, ratios, targets met) to ``report``."""
+    for label, row in report["scenes"].items():
+        ours = _rate(row["ours"])
+        scalar, llvm = _rate(row.get("scalar_rgb")), _rate(row.get("llvm_ad_rgb"))
+        row["rate"] = dict(ours=ours, scalar_rgb=scalar, llvm_ad_rgb=llvm)
+        row["cpu_rate"] = {k: _cpu_rate(row.get(k)) for k in ("ours", "scalar_rgb", "llvm_ad_rgb")}
+        # Ratios of paths per CPU-second: on a shared machine the wall-clock figures of
+        # runs made minutes apart see different loads; CPU time does not.
+        cpu = row["cpu_rate"]
+        ours_c, scalar_c, llvm_c = cpu["ours"], cpu["scalar_rgb"], cpu["llvm_ad_rgb"]
+        row["ratio"] = dict(scalar_rgb=ours_c / scalar_c if ours_c and scalar_c else None,
+                            llvm_ad_rgb=ours_c / llvm_c if ours_c and llvm_c else None)
+        rs, rl = row["ratio"]["scalar_rgb"], row["ratio"]["llvm_ad_rgb"]
+        if label == "cornell-box":
+            met = None if rs is None or rl is None else (rs >= 1.0 and rl >= 0.5)
+        elif label == "smallpt":
+            met = None if rs is None else rs >= 1.5
+        else:
+            met = None if rs is None else rs >= 1 / 3
+        row["target"], row["target_met"] = TARGETS[label], met
+    if "scaling" in report:
+        one, two = _rate(report["scaling"]["one"]), _rate(report["scaling"]["two"])
+        report["scaling"]["rate_one"], report["scaling"]["rate_two"] = one, two
+        report["scaling"]["speedup"] = two / one if one and two else None
+    if "memory" in report and "error" not in report["memory"]:
+        m = report["memory"]
+        m["peak_mb"] = m["rss_mb"] + m["child_rss_mb"] * 2  # parent + both workers (bound)
+        m["target_met"] = m["peak_mb"] <= 300
+
+
+def _fmt(x, unit=1e3, digits=0, suffix="k") -> str:
+    return "n/a" if x is None else f"{x / unit:.{digits}f}{suffix}"
+
+
+def _num(x) -> str:
+    return "n/a" if x is None else f"{x:.2f}"
+
+
+def table(report: dict) -> str:
+    """The results as a Markdown table (and a few lines below it)."""
+    lines = [f"Benchmark {report['date']} on {report['machine']}; "
+             f"{report['spp']} spp, width {report['resolution']}, best of {report['repeats']}; "
+             "camera paths/s per process (1 core each), wall clock; in brackets paths per "
+             "CPU-second (less sensitive to other jobs on the machine).", "",
+             "| scene | ours (integrator) | Mitsuba scalar_rgb | Mitsuba llvm_ad_rgb (JIT, first render) "
+             "| ours / scalar (CPU) | ours / llvm (CPU) | target | met |",
+             "|---|---|---|---|---|---|---|---|"]
+    for label, row in report["scenes"].items():
+        rate = row["rate"]
+        llvm = row.get("llvm_ad_rgb") or {}
+        jit = "" if "first" not in llvm else \
+            f" ({llvm['first'] - min(llvm['times']):.2f} s, {llvm['first']:.2f} s)"
+        if "error" in llvm:
+            jit = f" ({llvm['error'][:60]})"
+        scalar = row.get("scalar_rgb") or {}
+        scalar_err = f" ({scalar['error'][:60]})" if "error" in scalar else ""
+        ours_err = f" ({row['ours']['error'][:80]})" if "error" in row["ours"] else ""
+        ratio = row["ratio"]
+        met = {True: "yes", False: "**no**", None: "n/a"}[row["target_met"]]
+        lines.append(
+            f"| {label} ({row['width']}x{row['height']}) | {_fmt(rate['ours'])} "
+            f"[{_fmt(row['cpu_rate']['ours'])}] ({row['integrator']}, "
+            f"spread {_spread(row['ours'])}){ours_err} | {_fmt(rate['scalar_rgb'])} "
+            f"[{_fmt(row['cpu_rate']['scalar_rgb'])}]{scalar_err} | "
+            f"{_fmt(rate['llvm_ad_rgb'])} [{_fmt(row['cpu_rate']['llvm_ad_rgb'])}]{jit} | "
+            f"{_num(ratio['scalar_rgb'])} | {_num(ratio['llvm_ad_rgb'])} | "
+            f"{row['target']} | {met} |")
+    if "scaling" in report:
+        s = report["scaling"]
+        sp = s.get("speedup")
+        lines.append("")
+        lines.append(f"Scaling (cornell-box, path, all cores): 1 process {_fmt(s.get('rate_one'))} paths/s, "
+                     f"2 processes {_fmt(s.get('rate_two'))} paths/s: "
+                     f"{_num(sp)}x (target >= 1.8x: "
+                     f"{'n/a' if sp is None else ('yes' if sp >= 1.8 else 'no')}).")
+    if "memory" in report:
+        m = report["memory"]
+        if "error" in m:
+            lines.append(f"Peak memory: {m['error']}")
+        else:
+            lines.append(f"Peak memory (cornell-box path, {m['paths']:,} paths, 2 processes): parent "
+                         f"{m['rss_mb']:.0f} MB + 2 x worker {m['child_rss_mb']:.0f} MB = "
+                         f"{m['peak_mb']:.0f} MB (target <= 300 MB: "
+                         f"{'yes' if m['target_met'] else 'no'}); "
+                         f"{m['paths'] / min(m['times']) / 1e3:.0f}k paths/s.")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true",
+                        help="tiny renders, one repeat, small memory run (a smoke test)")
+    parser.add_argument("--json", type=Path, default=None, help="write the results here")
+    parser.add_argument("--resolution", type=int, default=None,
+                        help="film width (default 128; --quick: 32)")
+    parser.add_argument("--spp", type=int, default=None, help="samples per pixel (default 16; --quick: 4)")
+    parser.add_argument("--repeats", type=int, default=None,
+                        help="timed renders per measurement (default 3; --quick: 1)")
+    parser.add_argument("--core", type=int, default=0, help="core the per-process runs are pinned to")
+    parser.add_argument("--memory", type=int, nargs=2, default=None, metavar=("RES", "SPP"),
+                        help="resolution and spp of the peak-memory render (default 1024 64; "
+                             "--quick: 128 2)")
+    parser.add_argument("--scenes", type=lambda text: [x for x in text.split(",") if x],
+                        default=None, help="comma-separated subset of the scenes ('' for none)")
+    parser.add_argument("--no-mitsuba", action="store_true", help="skip Mitsuba")
+    parser.add_argument("--no-scaling", action="store_true", help="skip the 1 -> 2 process run")
+    parser.add_argument("--no-memory", action="store_true", help="skip the peak-memory run")
+    parser.add_argument("--timeout", type=float, default=900, help="seconds per measurement")
+    parser.add_argument("--_child", nargs=2, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args._child:
+        kind, spec = args._child
+        result = (measure_ours if kind == "ours" else measure_mitsuba)(json.loads(spec))
+        print(json.dumps(result))
+        return 0
+    defaults = dict(resolution=(128, 32), spp=(16, 4), repeats=(3, 1), memory=((1024, 64), (128, 2)))
+    for name, (full, quick) in defaults.items():
+        if getattr(args, name) is None:
+            setattr(args, name, quick if args.quick else full)
+    if args.core is not None and hasattr(os, "sched_getaffinity") \
+            and args.core not in os.sched_getaffinity(0):
+        args.core = None
+    report = run(args)
+    print(table(report))
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(report, indent=1))
+        print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

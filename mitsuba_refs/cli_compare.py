@@ -1,0 +1,81 @@
+"""``mitsuba-refs compare``: one integrator against Mitsuba on one scene, with verdicts.
+
+Exit code 0 when every verdict agrees, 1 when one disagrees, 2 on bad input
+(unknown scene or integrator, malformed -D, a reference that is neither
+cached nor renderable).
+"""
+from __future__ import annotations
+
+import sys
+
+from . import config
+from .compare import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
+
+
+def _positive_ints(text: str) -> tuple[int, ...]:
+    values = tuple(int(v) for v in text.split(","))
+    if not values or min(values) < 1:
+        raise ValueError(text)
+    return values
+
+
+def add_compare(subparsers):
+    from pathtracer import INTEGRATORS
+
+    p = subparsers.add_parser(
+        "compare", help="compare a pathtracer integrator with Mitsuba (mean, variance, convergence)",
+        description="Render SCENE with one of pathtracer's integrators and with Mitsuba 3 (or load "
+                    "the cached reference), and decide with calibrated tests whether they agree in "
+                    "mean and variance and whether the error obeys the N^-1/2 law. On disagreement, "
+                    "the first diverging bounce and the likely cause are printed and diagnostic "
+                    "pictures are written. Exit code: 0 agree, 1 disagree, 2 bad input.")
+    p.add_argument("scene", help="built-in scene name or Mitsuba 3 XML file")
+    p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
+                   help="scene parameter for both renderers (repeatable); built-in scenes default "
+                        "to the committed references' film size")
+    p.add_argument("--integrator", default="path", choices=sorted(INTEGRATORS),
+                   help="pathtracer integrator to test (default: path)")
+    p.add_argument("--spp", type=int, default=config.TEST_MAX_SPP,
+                   help=f"samples per pixel of the mean/variance render (default {config.TEST_MAX_SPP})")
+    p.add_argument("--alpha", type=float, default=1e-3,
+                   help="significance level of each test (default 1e-3)")
+    p.add_argument("--ladder", type=_positive_ints, default=CONVERGENCE_LADDER,
+                   help="spp ladder of the convergence test, comma-separated "
+                        f"(default {','.join(map(str, CONVERGENCE_LADDER))})")
+    p.add_argument("--replicas", type=int, default=CONVERGENCE_REPLICAS,
+                   help=f"independent replicas per ladder level (default {CONVERGENCE_REPLICAS})")
+    p.add_argument("--no-convergence", action="store_true", help="skip the convergence test")
+    p.add_argument("--bounces", choices=("auto", "always", "never"), default="auto",
+                   help="per-bounce localisation: when the mean disagrees (auto), always or never")
+    p.add_argument("--out", default="out/compare", help="folder for the diagnostic pictures")
+    p.add_argument("--processes", type=int, default=None, help="worker processes (default: all cores)")
+    return run_compare
+
+
+def run_compare(args) -> int:
+    from pathtracer import SceneError
+    from .cache import ReferenceUnavailable
+    from .compare import compare
+
+    params = {}
+    for item in args.defines:
+        name, sep, value = item.partition("=")
+        if not sep or not name:
+            print(f"mitsuba-refs compare: error: -D expects name=value, got {item!r}", file=sys.stderr)
+            return 2
+        params[name] = value
+    if args.spp < 1 or args.replicas < 2 or not 0 < args.alpha < 1:
+        print("mitsuba-refs compare: error: need --spp >= 1, --replicas >= 2 and 0 < --alpha < 1",
+              file=sys.stderr)
+        return 2
+    bounces = {"auto": None, "always": True, "never": False}[args.bounces]
+    try:
+        result = compare(args.scene, args.integrator, params, spp=args.spp, alpha=args.alpha,
+                         convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
+                         processes=args.processes, ladder=args.ladder, replicas=args.replicas,
+                         log=lambda message: print(message, file=sys.stderr))
+    except (SceneError, ReferenceUnavailable, ValueError, FileNotFoundError) as error:
+        print(f"mitsuba-refs compare: error: {error}", file=sys.stderr)
+        return 2
+    print(result.report())
+    return 0 if result.agree else 1

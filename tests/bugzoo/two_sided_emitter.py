@@ -1,0 +1,30 @@
+"""Two-sided emitters: path_bsdf counts an area light's radiance on both of its sides,
+although Mitsuba's area lights emit only on the side their normal faces.
+
+The Cornell box light hangs 1 cm below the ceiling facing down; its back lights the ceiling
+around it, which becomes too bright (top of the image).
+Expected hint: emitters are one-sided.
+"""
+import numpy as np
+
+from pathtracer.integrators import path_bsdf
+from pathtracer.integrators.base import subset_hit
+from pathtracer.vec import dot
+
+from _mutate import mutate, registry
+
+BUG = "area lights emit on both sides"
+CHECK = "path_bsdf-cornell-box"
+EXPECTED = ("one-sided",)
+
+
+def _two_sided(emitted_radiance):
+    def buggy(scene, hit, wi):
+        flipped = subset_hit(hit, np.arange(len(wi)))
+        sign = np.where(dot(hit.sh_n, wi) < 0, -1.0, 1.0)
+        flipped.sh_n = hit.sh_n * sign[:, None]
+        return emitted_radiance(scene, flipped, wi)
+    return buggy
+
+
+INTEGRATORS = registry(mutate(path_bsdf.PathBSDFIntegrator, path_bsdf, emitted_radiance=_two_sided))

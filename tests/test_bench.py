@@ -1,0 +1,25 @@
+"""Smoke test of the benchmark script (not a timing assertion): --quick runs and gives sane numbers."""
+import json
+import math
+
+from experiments import bench
+
+
+def test_quick_bench_produces_sane_numbers(tmp_path, capsys):
+    out = tmp_path / "bench.json"
+    # Mitsuba is exercised by the full benchmark; the smoke test stays fast and self-contained.
+    assert bench.main(["--quick", "--no-mitsuba", "--no-scaling", "--resolution", "16",
+                       "--spp", "2", "--memory", "64", "1", "--json", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert set(report["scenes"]) == {"cornell-box", "smallpt", "mesh"}
+    for label, row in report["scenes"].items():
+        assert "error" not in row["ours"], (label, row["ours"])
+        rate = row["rate"]["ours"]
+        assert rate is not None and math.isfinite(rate) and 1e2 < rate < 1e9, (label, rate)
+        assert row["ours"]["paths"] == row["width"] * row["height"] * report["spp"]
+        assert row["rate"]["scalar_rgb"] is None and row["target_met"] is None  # no Mitsuba run
+    memory = report["memory"]
+    assert "error" not in memory, memory
+    assert 10 < memory["rss_mb"] < 4000 and memory["peak_mb"] >= memory["rss_mb"]
+    table = capsys.readouterr().out
+    assert "| cornell-box" in table and "Peak memory" in table
