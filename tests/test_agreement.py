@@ -13,6 +13,8 @@ from pathtracer import INTEGRATORS
 from tests.budget import ALPHA
 from tests.scenes import AGREEMENT_CASES, NOISELESS, integrator_options, spp_for
 
+pytestmark = pytest.mark.statistical(assertions=2)
+
 
 @pytest.mark.parametrize("scene,integrator", AGREEMENT_CASES)
 def test_mean_and_variance_agree_with_mitsuba(scene, integrator):

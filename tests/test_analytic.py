@@ -16,6 +16,8 @@ from pathtracer.camera import camera_rays
 from pathtracer.geometry import intersect
 from tests.budget import ALPHA
 
+pytestmark = pytest.mark.statistical(assertions=1)
+
 ALL = sorted(INTEGRATORS)
 #: Integrators that only sample BSDFs: a point light is a Dirac delta they can never hit.
 BSDF_ONLY = ("path_bsdf", "smallpt")

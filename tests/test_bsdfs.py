@@ -1,6 +1,6 @@
 """Tests of the BSDFs: sampling vs density (chi-square), estimator identities, physics, and Mitsuba 3.
 
-Chi-square tests run at alpha = 1e-5 each (see tests/chi2.py for the budget).
+Chi-square tests run at the suite's per-test alpha (tests/budget.py).
 The last section compares eval, pdf and sample with Mitsuba's own plugins
 (scalar_rgb, float32 on their side) and is skipped when mitsuba is absent.
 """
@@ -13,6 +13,8 @@ from pathtracer import sampling
 from pathtracer.bsdfs import (Conductor, Dielectric, Diffuse, RoughConductor, TwoSided,
                               fresnel_dielectric, fresnel_schlick, reflect, refract)
 from pathtracer.bsdfs.fresnel import fresnel_conductor, schlick_f0
+
+pytestmark = pytest.mark.statistical(assertions=1)
 
 try:
     from tests.chi2 import chi2_from_counts, chi2_sphere

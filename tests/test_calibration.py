@@ -21,6 +21,8 @@ from mitsuba_refs.compare import default_params, render_ours
 from mitsuba_refs.stats import compare_means, compare_variances
 from tests.budget import ALPHA
 
+pytestmark = pytest.mark.statistical(assertions=1)
+
 SEEDS = 200
 NOMINAL = 0.05
 SCENE, INTEGRATOR, SPP = "cornell-box", "path", 8

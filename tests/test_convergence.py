@@ -16,6 +16,8 @@ from pathtracer.integrators.path import PathIntegrator
 from tests.budget import ALPHA
 from tests.scenes import AGREEMENT_CASES, NOISELESS, integrator_options
 
+pytestmark = pytest.mark.statistical(assertions=1)
+
 LADDER = (1, 4, 16)
 REPLICAS = 4
 

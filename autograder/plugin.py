@@ -1,0 +1,154 @@
+"""The autograder's pytest plugin (entry point ``pytest11: autograder``).
+
+Options
+-------
+``--impl PATH_OR_MODULE``   the implementation to grade (default :mod:`autograder.solution`)
+``--gradescope RESULTS``    write Gradescope's ``results.json`` there, after every test
+``--grading-pictures DIR``  where z-map pictures of failed checks go (default: next to RESULTS)
+
+Markers
+-------
+``@pytest.mark.points(n)``                 the test's max score (default 1)
+``@pytest.mark.visibility("visible" | "after_due_date" | "hidden")``  Gradescope visibility
+
+Partial credit: a test takes the ``grade`` fixture and calls ``grade.set(score, output)``
+(score in points, at most the marker's ``n``); a test that passes without setting a score
+gets full points, a failing one its score so far (0 by default).
+"""
+from __future__ import annotations
+
+import os
+import time
+
+import pytest
+
+from .results import Results
+
+_RESULTS = pytest.StashKey[Results]()
+
+
+def pytest_addoption(parser):
+    group = parser.getgroup("autograder")
+    group.addoption("--impl", default=None, metavar="PATH_OR_MODULE",
+                    help="implementation to grade: module name, .py file or package folder "
+                         "(default: autograder.solution, the reference solution)")
+    group.addoption("--gradescope", default=None, metavar="RESULTS_JSON",
+                    help="write Gradescope results.json here, atomically after every test")
+    group.addoption("--grading-pictures", default=None, metavar="DIR",
+                    help="folder for the z-map pictures of failed checks")
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "points(n): max score of a graded test")
+    config.addinivalue_line("markers", "visibility(v): Gradescope visibility: visible, "
+                                       "after_due_date, after_published or hidden")
+    path = config.getoption("--gradescope")
+    if path:
+        config.stash[_RESULTS] = Results(path)
+
+
+class Grade:
+    """Per-test score holder (the ``grade`` fixture)."""
+
+    def __init__(self, max_score: float):
+        self.max_score = float(max_score)
+        self.score = None
+        self.output = ""
+
+    def set(self, score: float, output: str = "") -> None:
+        self.score = max(0.0, min(float(score), self.max_score))
+        self.output = output
+
+
+def points_of(item) -> float:
+    marker = item.get_closest_marker("points")
+    return float(marker.args[0]) if marker and marker.args else 1.0
+
+
+def visibility_of(item) -> str:
+    marker = item.get_closest_marker("visibility")
+    return str(marker.args[0]) if marker and marker.args else "visible"
+
+
+def test_name(item) -> str:
+    doc = getattr(item, "function", None) and item.function.__doc__
+    title = doc.strip().splitlines()[0] if doc else item.name
+    if "[" in item.name:
+        title = f"{title} [{item.name.split('[', 1)[1]}"
+    return title
+
+
+@pytest.fixture
+def grade(request) -> Grade:
+    """Record a partial score: ``grade.set(points, output)``."""
+    holder = Grade(points_of(request.node))
+    request.node._autograder_grade = holder
+    return holder
+
+
+@pytest.fixture(scope="session")
+def implementation(request) -> str:
+    """The ``--impl`` to grade (absolute path or module name)."""
+    from .contract import DEFAULT_IMPLEMENTATION
+    impl = request.config.getoption("--impl") or DEFAULT_IMPLEMENTATION
+    return os.path.abspath(impl) if os.path.exists(impl) else impl
+
+
+@pytest.fixture(scope="session")
+def pictures_dir(request, tmp_path_factory):
+    folder = request.config.getoption("--grading-pictures")
+    results = request.config.getoption("--gradescope")
+    if folder:
+        return folder
+    if results:
+        return os.path.join(os.path.dirname(os.path.abspath(results)), "pictures")
+    return str(tmp_path_factory.mktemp("pictures"))
+
+
+def pytest_collection_modifyitems(session, config, items):
+    results = config.stash.get(_RESULTS, None)
+    if results is None:
+        return
+    for item in items:
+        results.add_pending(item.nodeid, test_name(item), points_of(item), visibility_of(item))
+    results.write()
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    report = outcome.get_result()
+    results = item.config.stash.get(_RESULTS, None)
+    if results is None:
+        return
+    failed_now = report.failed
+    done = (report.when == "call") or (report.when == "setup" and (report.failed or report.skipped))
+    if not done:
+        return
+    holder = getattr(item, "_autograder_grade", None)
+    max_score = points_of(item)
+    passed = report.passed and not failed_now
+    if holder is not None and holder.score is not None:
+        score = holder.score if not passed else (holder.score if holder.score < max_score else max_score)
+    else:
+        score = max_score if passed else 0.0
+    output = holder.output if holder is not None and holder.output else ""
+    if report.failed and not output:
+        output = _failure_text(report)
+    elif report.skipped:
+        output = f"skipped: {report.longrepr[2] if isinstance(report.longrepr, tuple) else report.longrepr}"
+    results.record(item.nodeid, test_name(item), score, max_score, passed and score >= max_score,
+                   output, visibility_of(item))
+
+
+def _failure_text(report) -> str:
+    crash = getattr(report.longrepr, "reprcrash", None)
+    if crash is not None:
+        return crash.message
+    return str(report.longrepr)[-3000:]
+
+
+def pytest_sessionfinish(session, exitstatus):
+    results = session.config.stash.get(_RESULTS, None)
+    if results is not None:
+        results.write()

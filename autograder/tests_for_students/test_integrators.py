@@ -1,0 +1,30 @@
+"""The graded tests: one per check of :data:`autograder.grading.CHECKS`.
+
+Run with ``pytest -p autograder.plugin autograder/tests_for_students --impl PATH
+--gradescope results.json`` (``-p`` is not needed when the project is installed: the plugin
+is registered as a pytest11 entry point). Points and visibility come from the markers; each
+test scores its parts (mean / variance / convergence) for partial credit.
+"""
+import pytest
+
+from autograder.grading import CHECKS, run_check
+
+_HISTORY = {}
+
+
+def _params():
+    for check in CHECKS:
+        visibility = "visible"
+        if check.scene == "cornell-caustics":
+            visibility = "after_due_date"       # the glass checks are revealed after the deadline
+        yield pytest.param(check, id=check.id, marks=[pytest.mark.points(check.points),
+                                                      pytest.mark.visibility(visibility)])
+
+
+@pytest.mark.parametrize("check", list(_params()))
+def test_check(check, implementation, pictures_dir, grade):
+    """Agreement with Mitsuba 3"""
+    result = run_check(check, implementation, out_dir=pictures_dir, history=_HISTORY)
+    _HISTORY[check.id] = result
+    grade.set(result.score, result.report())
+    assert result.passed, result.report()
