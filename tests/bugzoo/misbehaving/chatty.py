@@ -1,0 +1,13 @@
+"""Misbehaving submission: chatty."""
+import sys
+
+from _base import registry
+
+
+def radiance(self, scene, rays, rng):
+    for _ in range(100000):
+        print('debug: radiance of a path is', 0.123456789)
+    return __import__('numpy').zeros((len(rays), 3))
+
+
+INTEGRATORS = registry(radiance)

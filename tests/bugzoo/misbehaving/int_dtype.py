@@ -1,0 +1,11 @@
+"""Misbehaving submission: int_dtype."""
+import numpy as np
+
+from _base import registry
+
+
+def radiance(self, scene, rays, rng):
+    return np.zeros((len(rays), 3), dtype=np.int64)
+
+
+INTEGRATORS = registry(radiance)

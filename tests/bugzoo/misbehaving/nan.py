@@ -1,0 +1,13 @@
+"""Misbehaving submission: nan."""
+import numpy as np
+
+from _base import registry
+
+
+def radiance(self, scene, rays, rng):
+    out = np.zeros((len(rays), 3))
+    out[5] = np.nan
+    return out
+
+
+INTEGRATORS = registry(radiance)
