@@ -42,7 +42,8 @@ def read_exr(path) -> RenderResult:
     """Read a file written by :func:`write_exr` back into a :class:`RenderResult`."""
     import OpenEXR
 
-    with OpenEXR.File(str(path)) as exr:
+    # separate_channels: OpenEXR would otherwise group R, G, B (and var.*) into one array.
+    with OpenEXR.File(str(path), separate_channels=True) as exr:
         header, channels = exr.header(), exr.channels()
         mean = np.stack([channels[c].pixels for c in "RGB"], axis=2).astype(np.float64)
         variance = np.stack([channels[f"var.{c}"].pixels for c in "RGB"], axis=2).astype(np.float64)

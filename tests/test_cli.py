@@ -1,0 +1,66 @@
+"""The command lines: outputs, headers, and one-line errors with exit code 2."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from pathtracer.cli import main
+from pathtracer.io import read_exr
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "pathtracer.cli", *args], capture_output=True,
+                          text=True, timeout=300)
+
+
+def test_render_writes_exr_with_mean_variance_and_header_and_a_png(tmp_path):
+    out = tmp_path / "cbox.exr"
+    code = main(["render", "cornell-box", "-D", "width=16", "-D", "height=16", "--spp", "4",
+                 "--seed", "3", "--integrator", "path_nee", "--max-depth", "3", "--processes", "1",
+                 "-o", str(out)])
+    assert code == 0 and out.exists() and out.with_suffix(".png").exists()
+    result = read_exr(out)
+    assert result.mean.shape == (16, 16, 3) and result.variance.shape == (16, 16, 3)
+    assert result.spp == 4 and result.seed == 3 and result.integrator == "path_nee"
+    assert result.options["max_depth"] == 3
+    assert result.mean.mean() > 0 and np.all(result.variance >= 0)
+
+
+def test_render_help_documents_every_option():
+    text = run("render", "--help").stdout
+    for option in ("-D", "--integrator", "--spp", "--seed", "--max-depth", "--roulette",
+                   "--hemisphere", "--branches", "--processes", "-o"):
+        assert option in text
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["render", "cornell-box", "--spp", "0", "-o", "x.exr"], "--spp"),
+    (["render", "cornell-box", "--integrator", "nope", "-o", "x.exr"], "--integrator"),
+    (["render", "cornell-box", "-D", "width", "-o", "x.exr"], "name=value"),
+    (["render", "no-such-scene", "-o", "x.exr"], "no-such-scene"),
+    (["render", "cornell-box", "--branches", "2", "-o", "x.exr"], "branches"),
+])
+def test_bad_arguments_give_one_line_and_exit_code_2(args, needle):
+    done = run(*args)
+    assert done.returncode == 2
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0] and "Traceback" not in done.stderr
+
+
+def test_bad_scene_file_names_file_line_and_plugin(tmp_path):
+    scene = tmp_path / "bad.xml"
+    scene.write_text('<scene version="3.0.0">\n  <bsdf type="plastic"/>\n</scene>\n')
+    done = run("render", str(scene), "-o", str(tmp_path / "x.exr"))
+    assert done.returncode == 2 and "bad.xml:2" in done.stderr and "plastic" in done.stderr
+
+
+def test_scenes_lists_the_built_in_scenes():
+    names = run("scenes").stdout.split()
+    assert {"cornell-box", "cornell-caustics", "smallpt", "veach-mis", "mesh", "furnace"} <= set(names)
+
+
+def test_mitsuba_refs_compare_exit_codes(tmp_path):
+    from mitsuba_refs.cli import main as refs_main
+    assert refs_main(["compare", "no-such-scene"]) == 2
+    assert refs_main(["compare", "cornell-box", "-D", "oops"]) == 2
