@@ -44,7 +44,7 @@ def read_exr(path) -> RenderResult:
 
     # separate_channels: OpenEXR would otherwise group R, G, B (and var.*) into one array.
     with OpenEXR.File(str(path), separate_channels=True) as exr:
-        header, channels = exr.header(), exr.channels()
+        header, channels = dict(exr.header()), exr.channels()   # the file's dict is cleared on close
         mean = np.stack([channels[c].pixels for c in "RGB"], axis=2).astype(np.float64)
         variance = np.stack([channels[f"var.{c}"].pixels for c in "RGB"], axis=2).astype(np.float64)
     options = json.loads(header.get("integrator_options", "{}"))
