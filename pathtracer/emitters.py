@@ -47,6 +47,13 @@ class EmitterSample:
     delta: np.ndarray
 
 
+def hit_emitter(scene: Scene, hit) -> np.ndarray:
+    """Index of the area emitter at each hit, -1 where none (a miss or a non-emitting shape)."""
+    if len(scene.shape_emitter) == 0:
+        return np.full(len(hit.valid), -1)
+    return np.where(hit.valid, scene.shape_emitter[np.maximum(hit.shape, 0)], -1)
+
+
 def emitted_radiance(scene: Scene, hit, wi: np.ndarray) -> np.ndarray:
     """Radiance leaving the hit points towards ``wi`` (unit, pointing away from the surface).
 
@@ -54,7 +61,7 @@ def emitted_radiance(scene: Scene, hit, wi: np.ndarray) -> np.ndarray:
     constant environment, if any.
     """
     radiance = np.zeros((len(wi), 3))
-    on_emitter = hit.valid & (scene.shape_emitter[np.maximum(hit.shape, 0)] >= 0)
+    on_emitter = hit_emitter(scene, hit) >= 0
     front = on_emitter & (dot(hit.sh_n, wi) > 0)
     if front.any():
         table = _area_radiance_table(scene)
@@ -88,8 +95,7 @@ def pdf_emitter_direction(scene: Scene, ref_p: np.ndarray, hit, d: np.ndarray) -
         return pdf
     if scene.environment is not None:
         pdf[~hit.valid] = INV_FOUR_PI / n_emitters
-    shape = np.maximum(hit.shape, 0)
-    lit = hit.valid & (scene.shape_emitter[shape] >= 0) & (dot(hit.sh_n, d) < 0)
+    lit = (hit_emitter(scene, hit) >= 0) & (dot(hit.sh_n, d) < 0)
     for s in np.unique(hit.shape[lit]):
         rows = np.flatnonzero(lit & (hit.shape == s))
         dist2 = np.sum((hit.p[rows] - ref_p[rows]) ** 2, axis=1)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import geometry
+from ..emitters import hit_emitter
 from ..camera import Rays
 from ..scene.types import Scene
 
@@ -126,7 +127,7 @@ def spawn(hit, wo: np.ndarray) -> Rays:
 def skip_emitters(scene: Scene, rays: Rays, hit):
     """Continue rays through area emitters until they hit something else (hide_emitters)."""
     for _ in range(64):
-        on_light = hit.valid & (scene.shape_emitter[np.maximum(hit.shape, 0)] >= 0)
+        on_light = hit_emitter(scene, hit) >= 0
         if not on_light.any():
             break
         rows = np.flatnonzero(on_light)
