@@ -232,6 +232,8 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
                 else:
                     evidence.sweep = _bounce_sweep(check, render, alpha=alpha)
                     result.bounce = {d: s[0] for d, s in evidence.sweep.items()} or None
+                    evidence.probe = student.probe(check.scene, default_params(check.scene),
+                                                   check.integrator)
                     if "image" in main_render:
                         extra = render(check.scene, check.integrator, default_params(check.scene),
                                        INDEPENDENCE_SPP, TEST_SEED + 7919)

@@ -262,6 +262,14 @@ class StudentProcess:
         self.last_render = (seed, max_depth, mean, variance)
         return mean, variance
 
+    def probe(self, scene, params, integrator, n=4096, seed=99):
+        """(distinct results of the student's integrator, of the reference one) for ``n``
+        copies of the centre pixel's ray with independent random streams."""
+        params = {str(k): str(v) for k, v in (params or {}).items()}
+        student, reference = self.request("probe", dict(scene=scene, params=params,
+                                                        integrator=integrator, n=n, seed=seed))
+        return int(student), int(reference)
+
     def rays(self, scene, params, pixel, u_film):
         """The student's ``camera_rays`` for given pixels and film samples: ``(o, d)``."""
         params = {str(k): str(v) for k, v in (params or {}).items()}
@@ -438,6 +446,30 @@ class _Server:
         else:
             self.render_module.camera_rays = self.reference_camera
 
+    def probe(self, payload):
+        """Distinct results of ``n`` copies of one camera ray, each with its own random
+        stream: (student's count, reference integrator's count)."""
+        from pathtracer import geometry
+        from pathtracer.integrators import INTEGRATORS as REFERENCE
+        from pathtracer.rng import RandomStream, sample_keys
+        scene = self.scene(payload["scene"], payload["params"])
+        geometry.prepare(scene)
+        self.camera("reference")
+        n, name = int(payload["n"]), payload["integrator"]
+        camera = scene.camera
+        pixel = np.full(n, (camera.height // 2) * camera.width + camera.width // 2)
+        rays = self.render_module.camera_rays(camera, pixel, np.full((n, 2), 0.5))
+        counts = []
+        for integrator in (self.integrator(scene, name, None),
+                           REFERENCE[name]() if name in REFERENCE else None):
+            if integrator is None:
+                counts.append(-1)
+                continue
+            rng = RandomStream(sample_keys(int(payload["seed"]), np.arange(n, dtype=np.int64)))
+            out = integrator.radiance(scene, rays, rng)
+            counts.append(int(len(np.unique(np.round(out, 12), axis=0))))
+        return tuple(counts)
+
     def handle(self, kind, payload):
         if kind == "ping":
             return ("ok", True)
@@ -451,6 +483,8 @@ class _Server:
             result = render(scene, integrator, spp=payload["spp"], seed=payload["seed"],
                             processes=1, progress=False)
             return ("ok", result.mean, result.variance)
+        if kind == "probe":
+            return ("ok",) + self.probe(payload)
         if kind == "rays":
             scene = self.scene(payload["scene"], payload["params"])
             self.camera("student")

@@ -20,7 +20,7 @@ import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -260,12 +260,20 @@ class ResultStore:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.records: dict[str, dict] = {}
         if self.path.exists():
-            for line in self.path.read_text().splitlines():
+            text = self.path.read_text()
+            good = []
+            for line in text.splitlines():
                 try:
                     record = json.loads(line)
                 except ValueError:
                     continue
                 self.records[record["key"]] = record
+                good.append(line)
+            if len(good) != len(text.splitlines()) or (text and not text.endswith("\n")):
+                # drop the torn line, so that new records start on a line of their own
+                tmp = self.path.with_suffix(".tmp")
+                tmp.write_text("".join(line + "\n" for line in good))
+                os.replace(tmp, self.path)
 
     def __contains__(self, key) -> bool:
         return key in self.records

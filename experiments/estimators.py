@@ -42,12 +42,16 @@ def build_parser():
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
                         help="which comparisons to run (default: all)")
-    parser.add_argument("--spp", type=int, default=64, help="spp of the mis / hemisphere / roulette renders")
+    parser.add_argument("--spp", type=int, default=16,
+                        help="spp of the hemisphere / roulette renders (default: %(default)s)")
+    parser.add_argument("--mis-spp", type=int, default=64, help="spp of the MIS renders (default: %(default)s)")
     parser.add_argument("--mis-scene", default="veach-mis", help="scene of the MIS part (default: veach-mis)")
     parser.add_argument("--mis-size", type=int, nargs=2, default=(128, 96), metavar=("W", "H"))
     parser.add_argument("--scene", default="cornell-box",
                         help="scene of the hemisphere / roulette / recursive parts (default: cornell-box)")
-    parser.add_argument("--budget", type=float, default=3.0,
+    parser.add_argument("--repeats", type=int, default=2,
+                        help="renders per configuration; the fastest time counts (default: %(default)s)")
+    parser.add_argument("--budget", type=float, default=2.0,
                         help="recursive part: seconds per configuration at equal time (default: %(default)s)")
     parser.add_argument("--branches", type=int, nargs="+", default=[2, 4, 8],
                         help="recursive part: N indirect rays per hit (default: %(default)s)")
@@ -65,9 +69,26 @@ def pixel_variance(variance) -> float:
     return float(np.mean(variance))
 
 
-def render(scene, integrator, spp, seed, workers, **options):
+def render(scene, integrator, spp, seed, workers, repeats=1, **options):
+    """Render ``repeats`` times with independent seeds: the pooled image, and the *fastest*
+    time of one render (timings on a shared machine only ever get slower by noise)."""
     from pathtracer import render as _render
-    return _render(scene, integrator, spp=spp, seed=seed, processes=workers, progress=False, **options)
+    runs = []
+    for k in range(max(1, repeats)):
+        cpu = time.process_time()
+        r = _render(scene, integrator, spp=spp, seed=seed + 7919 * k, processes=workers, progress=False,
+                    **options)
+        if workers == 1:   # CPU time of this process: immune to other programs on the machine
+            r.seconds = time.process_time() - cpu
+        runs.append(r)
+    if len(runs) == 1:
+        return runs[0]
+    first = runs[0]
+    first.mean = sum(r.mean for r in runs) / len(runs)
+    first.variance = sum(r.variance for r in runs) / len(runs)
+    first.spp = spp * len(runs)
+    first.seconds = min(r.seconds for r in runs) * len(runs)
+    return first
 
 
 def _axes_images(ax, image, exposure, title):
@@ -97,6 +118,7 @@ def _bars(ax, labels, values, colours, fmt, title, ylabel, log=False):
 
 def part_mis(args, bar):
     """BSDF sampling vs light sampling vs MIS on the glossy plates, direct light only."""
+    import matplotlib
     import matplotlib.pyplot as plt
     from pathtracer import load_scene
     w, h = args.mis_size
@@ -105,7 +127,7 @@ def part_mis(args, bar):
                ("path", "MIS (power heuristic)")]
     results, rows = {}, []
     for i, (name, label) in enumerate(configs):
-        r = render(scene, name, args.spp, args.seed + i, args.workers, max_depth=2)
+        r = render(scene, name, args.mis_spp, args.seed + i, args.workers, args.repeats, max_depth=2)
         results[name] = r
         var = pixel_variance(r.variance)
         seconds_per_spp = r.seconds / r.spp
@@ -124,20 +146,28 @@ def part_mis(args, bar):
     from matplotlib.colors import LogNorm
     norm = LogNorm(vmin=max(np.percentile(positive, 2), 1e-6), vmax=np.percentile(positive, 99.8))
     for j, (name, label) in enumerate(configs):
-        _axes_images(axes[0, j], results[name].mean, exposure, f"{label}\n{args.spp} spp, same exposure")
-        im = axes[1, j].imshow(np.where(std[name] > 0, std[name], np.nan), norm=norm, cmap="magma",
+        _axes_images(axes[0, j], results[name].mean, exposure, f"{label}\n{results[name].spp} spp, same exposure")
+        magma = matplotlib.colormaps["magma"].with_extremes(bad="0.8")
+        im = axes[1, j].imshow(np.where(std[name] > 0, std[name], np.nan), norm=norm, cmap=magma,
                                interpolation="nearest")
-        axes[1, j].set_title(f"{label}: per-sample std. dev.", fontsize=9)
+        axes[1, j].set_title(f"{label}: per-sample std. dev.\n(grey: zero)", fontsize=9)
         axes[1, j].set_xticks([])
         axes[1, j].set_yticks([])
         fig.colorbar(im, ax=axes[1, j], fraction=0.035, pad=0.02).set_label("radiance")
     vb, vl = results["path_bsdf"].variance.mean(axis=2), results["path_nee"].variance.mean(axis=2)
+    mb, ml = results["path_bsdf"].mean.mean(axis=2), results["path_nee"].mean.mean(axis=2)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.log2((vb + 1e-12) / (vl + 1e-12))
+        ratio = np.log2(vb / vl)
+    # A strategy that never found the light shows zero variance but a zero mean where the
+    # other one sees light: it is the worse one there (infinitely so), not the better.
+    ratio = np.where((vb == 0) & (ml > 0), 8.0, ratio)
+    ratio = np.where((vl == 0) & (mb > 0), -8.0, ratio)
     ratio = np.where((vb == 0) & (vl == 0), np.nan, np.clip(ratio, -8, 8))
-    im = axes[0, 3].imshow(ratio, cmap="RdBu", vmin=-8, vmax=8, interpolation="nearest")
-    axes[0, 3].set_title("which strategy wins where:\nlog2 var(BSDF) / var(light)\n"
-                         "blue: light sampling better, red: BSDF sampling better", fontsize=9)
+    cmap = matplotlib.colormaps["RdBu"].with_extremes(bad="0.8")
+    im = axes[0, 3].imshow(ratio, cmap=cmap, vmin=-8, vmax=8, interpolation="nearest")
+    axes[0, 3].set_title("which strategy wins where: log2 var(BSDF) / var(light)\n"
+                         "blue: light sampling better, red: BSDF sampling better\n"
+                         "(grey: no light reaches the pixel)", fontsize=9)
     axes[0, 3].set_xticks([])
     axes[0, 3].set_yticks([])
     fig.colorbar(im, ax=axes[0, 3], fraction=0.035, pad=0.02).set_label("log2 variance ratio")
@@ -160,7 +190,8 @@ def part_hemisphere(args, bar):
     results, rows = {}, []
     for i, integrator in enumerate(("path_bsdf", "path")):
         for hemisphere in ("cosine", "uniform"):
-            r = render(scene, integrator, args.spp, args.seed + 10 + i, args.workers, hemisphere=hemisphere)
+            r = render(scene, integrator, args.spp, args.seed + 10 + i, 1, args.repeats,
+                       hemisphere=hemisphere)
             results[integrator, hemisphere] = r
             var = pixel_variance(r.variance)
             rows.append(dict(part="hemisphere", config=f"{integrator}, {hemisphere}", integrator=integrator,
@@ -181,9 +212,9 @@ def part_hemisphere(args, bar):
     fig, axes = plt.subplots(1, 4, figsize=(19, 4.6))
     exposure = common.auto_exposure(results["path_bsdf", "cosine"].mean)
     _axes_images(axes[0], results["path_bsdf", "cosine"].mean, exposure,
-                 f"path_bsdf, cosine-weighted, {args.spp} spp")
+                 f"path_bsdf, cosine-weighted, {results['path_bsdf', 'cosine'].spp} spp")
     _axes_images(axes[1], results["path_bsdf", "uniform"].mean, exposure,
-                 f"path_bsdf, uniform hemisphere, {args.spp} spp")
+                 f"path_bsdf, uniform hemisphere, {results['path_bsdf', 'uniform'].spp} spp")
     vu = results["path_bsdf", "uniform"].variance.mean(axis=2)
     vc = results["path_bsdf", "cosine"].variance.mean(axis=2)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -221,7 +252,7 @@ def part_roulette(args, bar):
     reference = common.get_reference(args.scene, params, "path")
     rows = []
     for i, (label, options) in enumerate(ROULETTE_CONFIGS):
-        r = render(scene, "path", args.spp, args.seed + 20 + i, args.workers, **options)
+        r = render(scene, "path", args.spp, args.seed + 20 + i, 1, args.repeats, **options)
         var = pixel_variance(r.variance)
         row = dict(part="roulette", config=label.replace("\n", " "), integrator="path", spp=r.spp,
                    seconds=r.seconds, variance=var, efficiency=1.0 / (var * r.seconds / r.spp),
@@ -239,7 +270,7 @@ def part_roulette(args, bar):
     colours = ["0.55", "C0", "C1", "C3"]
     fig, axes = plt.subplots(1, 3, figsize=(17, 4.8))
     _bars(axes[0], labels, [1e3 * r["seconds"] / r["spp"] for r in rows], colours, "{:.0f} ms",
-          "time per sample per pixel (whole image)", "milliseconds per spp")
+          "CPU time per sample per pixel (whole image)", "milliseconds per spp (one core)")
     _bars(axes[1], labels, [r["variance"] for r in rows], colours, "{:.3g}",
           "per-sample variance (mean over pixels)", "variance [radiance²]")
     _bars(axes[2], labels, [r["efficiency_relative"] for r in rows], colours, "{:.2f}×",
@@ -249,7 +280,7 @@ def part_roulette(args, bar):
             f"{l.splitlines()[0]} {'agrees' if r['agrees_with_mitsuba'] else 'DIFFERS'} "
             f"({100 * r['rel_bias']:+.1f}%)" for l, r in zip(labels, rows))
         fig.text(0.5, -0.04, text, ha="center", fontsize=9)
-    fig.suptitle(f"Russian roulette on {args.scene}, path (MIS), {args.spp} spp: "
+    fig.suptitle(f"Russian roulette on {args.scene}, path (MIS), {rows[0]['spp']} spp: "
                  "roulette trades variance for time, without bias", fontsize=11)
     fig.tight_layout()
     return rows, common.save_figure(fig, args.out, "estimators-roulette")
@@ -269,9 +300,10 @@ def part_recursive(args, bar):
                 for n in args.branches for d in args.depths]
     rows = []
     for i, (label, integrator, options, n, d) in enumerate(configs):
-        pilot_spp = 2
-        pilot = render(pilot_scene, integrator, pilot_spp, args.seed + 500 + i, 1, **options)
-        per_sample = pilot.seconds / (pilot_spp * 256)          # seconds per camera sample, one core
+        # pilot: time per camera sample on a small film (the same camera, so the same paths)
+        pilot_spp = 4 if n ** d <= 64 else 1
+        pilot = render(pilot_scene, integrator, pilot_spp, args.seed + 500 + i, 1, 2, **options)
+        per_sample = pilot.seconds / (pilot.spp * 256)          # seconds per camera sample, one core
         est_spp = args.budget * max(1, args.workers or common.cpu_count()) / (per_sample * pixels)
         row = dict(part="recursive", config=label, integrator=integrator, branches=n, branch_depth=d,
                    us_per_camera_sample=1e6 * per_sample)

@@ -34,8 +34,8 @@ def build_parser():
                         help="our integrator; Mitsuba runs the same estimator (default: %(default)s)")
     parser.add_argument("--spp", nargs="+", type=int, default=list(DEFAULT_SPP),
                         help="paths per pixel of each panel (default: %(default)s)")
-    parser.add_argument("--size", type=int, nargs=2, default=(96, 96), metavar=("W", "H"),
-                        help="film size in pixels (default: 96 96; -D width=... overrides)")
+    parser.add_argument("--size", type=int, nargs=2, default=(80, 80), metavar=("W", "H"),
+                        help="film size in pixels (default: 80 80; -D width=... overrides)")
     parser.add_argument("--seed", type=int, default=7000, help="base seed (default: %(default)s)")
     parser.add_argument("--no-mitsuba", action="store_true", help="render our tracer only")
     parser.add_argument("--variant", default=None, help="Mitsuba variant (default: probed)")
@@ -121,7 +121,7 @@ def plot(rows, levels, title, out, exposure):
                     ax.text(0.05, 0.5, note, transform=ax.transAxes, fontsize=8, wrap=True)
             else:
                 ax.imshow(common.tonemap(images[j], exposure), interpolation="nearest")
-                ax.set_xlabel(f"{seconds[j]:.2f} s", fontsize=8)
+                ax.set_xlabel(f"{seconds[j]:.2f} s so far", fontsize=8)
             if i == 0:
                 ax.set_title(f"{n} path{'s' if n > 1 else ''}/pixel", fontsize=10)
             if j == 0:

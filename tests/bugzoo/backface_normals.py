@@ -11,6 +11,7 @@ from pathtracer.camera import Rays
 from pathtracer.geometry import RAY_EPSILON, max_abs
 from pathtracer.integrators import path_bsdf
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
 
 BUG = "ray origins offset along the unflipped normal"

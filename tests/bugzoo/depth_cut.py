@@ -6,6 +6,7 @@ Expected hint: bias in long paths (a depth cut or roulette without 1/q).
 """
 from pathtracer.integrators import path_bsdf
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import registry
 
 BUG = "paths cut after 4 segments"

@@ -7,6 +7,7 @@ Expected hint: emission counted twice.
 """
 from pathtracer.integrators import path_nee
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
 
 BUG = "Le added after every bounce although the shadow ray already counted it"

@@ -9,6 +9,7 @@ from pathtracer.bsdfs.dielectric import Dielectric
 from pathtracer.integrators import path
 
 from _glass import with_dielectric
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import registry
 
 BUG = "relative index of refraction inverted"

@@ -8,6 +8,7 @@ import numpy as np
 
 from pathtracer.integrators import path_nee
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
 
 BUG = "diffuse BRDF divided by pi twice in the shadow-ray term"

@@ -8,6 +8,7 @@ Expected hint: light-sampling pdf (cosine at the light).
 from pathtracer.integrators import path
 
 from _lightpdf import hit_cosine, light_cosine, scale_sample
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
 
 BUG = "light pdf = d^2 / A: the cosine at the light is missing"

@@ -8,6 +8,7 @@ Expected hint: light-sampling pdf (distance squared).
 from pathtracer.integrators import direct
 
 from _lightpdf import hit_distance2, scale_sample
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
 
 BUG = "light pdf = 1/(|cos| A): the distance squared is missing"

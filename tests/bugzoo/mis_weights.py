@@ -13,6 +13,7 @@ from pathtracer.integrators.base import spawn, subset_hit, trace
 from pathtracer.sampling import power_heuristic
 from pathtracer.shading import eval_bsdf, has_smooth, sample_bsdf
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import registry
 
 BUG = "BSDF-sampled emission added with MIS weight 1"

@@ -9,6 +9,7 @@ import numpy as np
 from pathtracer.integrators import path_nee
 from pathtracer.vec import dot
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
 
 BUG = "indirect bounce weighted by f/p: the cosine is missing"

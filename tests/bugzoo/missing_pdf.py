@@ -9,6 +9,7 @@ import numpy as np
 
 from pathtracer.integrators import path_bsdf
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
 
 BUG = "throughput times f cos, not divided by the sampling pdf"

@@ -8,6 +8,7 @@ import numpy as np
 
 from pathtracer.integrators import path
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
 
 BUG = "Le not added when the camera ray hits a light"

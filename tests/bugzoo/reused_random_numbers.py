@@ -9,6 +9,7 @@ import numpy as np
 from pathtracer.integrators import path_bsdf
 from pathtracer.rng import RandomStream
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import registry
 
 BUG = "one random stream shared by every sample"

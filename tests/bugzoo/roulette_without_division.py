@@ -6,6 +6,7 @@ Expected hint: bias from roulette without dividing by its probability (or a dept
 """
 from pathtracer.integrators import path
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import registry
 
 BUG = "survivors of Russian roulette not divided by the survival probability"

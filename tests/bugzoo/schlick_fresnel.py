@@ -14,6 +14,7 @@ from pathtracer.bsdfs.fresnel import fresnel_dielectric, reflect, refract
 from pathtracer.integrators import path_bsdf
 
 from _glass import with_dielectric
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import registry
 
 BUG = "Fresnel reflectance from Schlick's approximation"

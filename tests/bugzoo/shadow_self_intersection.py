@@ -10,6 +10,7 @@ import numpy as np
 from pathtracer import geometry
 from pathtracer.integrators import path_nee
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
 
 BUG = "shadow rays start on the surface and end on the light: they hit themselves"

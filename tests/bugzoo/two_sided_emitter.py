@@ -11,6 +11,7 @@ from pathtracer.integrators import path_bsdf
 from pathtracer.integrators.base import subset_hit
 from pathtracer.vec import dot
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
 
 BUG = "area lights emit on both sides"

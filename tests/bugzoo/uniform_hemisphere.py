@@ -7,6 +7,7 @@ Expected hint: mean right, variance higher: the sampling pdf does not follow the
 """
 from pathtracer.integrators import path_nee
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import registry
 
 BUG = "uniform instead of cosine-weighted hemisphere sampling"

@@ -10,6 +10,7 @@ import numpy as np
 from pathtracer.integrators import path
 from pathtracer.vec import dot
 
+from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
 
 BUG = "directions drawn uniformly, weighted with the cosine pdf"

@@ -1,0 +1,114 @@
+"""The experiment scripts run on tiny settings and write their figures and numbers;
+sweeps resume after an interruption and run on a Dask cluster."""
+import json
+
+import numpy as np
+import pytest
+
+from experiments import common, convergence, estimators, pathclasses, progression, sweep
+
+
+@pytest.mark.parametrize("module", [convergence, progression, estimators, pathclasses, sweep])
+def test_help(module, capsys):
+    with pytest.raises(SystemExit) as stop:
+        module.main(["--help"])
+    assert stop.value.code == 0
+    assert "--out" in capsys.readouterr().out
+
+
+def _outputs(folder, *names):
+    for name in names:
+        assert (folder / name).is_file() and (folder / name).stat().st_size > 0, name
+
+
+def test_convergence(tmp_path, capsys):
+    out = tmp_path / "conv"
+    assert convergence.main(["--out", str(out), "--integrators", "path", "path_bsdf", "--spp", "1", "2", "4",
+                             "--replicas", "2", "--workers", "1", "--no-progress"]) == 0
+    _outputs(out, "convergence.png", "convergence.svg", "convergence.csv", "summary.csv", "summary.json",
+             "results.jsonl")
+    summary = json.loads((out / "summary.json").read_text())
+    assert [r["integrator"] for r in summary["rows"]] == ["path", "path_bsdf"]
+    assert all(-1.6 < r["mse_slope"] < -0.5 for r in summary["rows"])
+    assert "RMSE(N)/RMSE(4N)" in capsys.readouterr().out
+
+
+def test_progression_without_mitsuba(tmp_path):
+    out = tmp_path / "prog"
+    assert progression.main(["--out", str(out), "--size", "16", "16", "--spp", "1", "4", "--no-mitsuba",
+                             "--workers", "1", "--no-progress"]) == 0
+    _outputs(out, "progression.png", "progression.svg", "progression.csv", "progression.npz")
+    images = np.load(out / "progression.npz")
+    assert images["ours_4"].shape == (16, 16, 3)
+
+
+def test_progressive_mean_is_the_weighted_mean():
+    images, _ = progression.progressive(lambda add, j: np.full((1, 1, 3), float(j)), [1, 4, 16],
+                                        common.progress_bar(3, "t", False))
+    assert np.allclose(images[-1], (0 * 1 + 1 * 3 + 2 * 12) / 16)
+
+
+def test_estimators(tmp_path):
+    out = tmp_path / "est"
+    assert estimators.main(["--out", str(out), "--mis-size", "32", "24", "--mis-spp", "4", "--spp", "2",
+                            "--budget", "0.3", "--branches", "2", "--depths", "1", "2",
+                            "--workers", "1", "--no-progress"]) == 0
+    for part in estimators.PARTS:
+        _outputs(out, f"estimators-{part}.png", f"estimators-{part}.svg")
+    rows = json.loads((out / "estimators.json").read_text())["rows"]
+    assert {r["part"] for r in rows} == set(estimators.PARTS)
+    recursive = [r for r in rows if r["part"] == "recursive"]
+    assert recursive[2]["us_per_camera_sample"] > recursive[0]["us_per_camera_sample"]
+
+
+def test_pathclasses(tmp_path):
+    out = tmp_path / "pc"
+    assert pathclasses.main(["--out", str(out), "--size", "16", "16", "--spp", "4", "--workers", "1",
+                             "--no-progress"]) == 0
+    _outputs(out, "pathclasses.png", "pathclasses.svg", "pathclasses-bounces.png", "pathclasses.csv")
+    data = json.loads((out / "pathclasses.json").read_text())
+    assert data["partition_max_abs_error"] < 1e-10
+    assert len(data["bounces"]) == 3
+
+
+def _tasks():
+    return sweep.make_tasks(["cornell-box"], ["path_bsdf"], [1, 2], 2, 123)
+
+
+def test_sweep_writes_incrementally_and_resumes(tmp_path, monkeypatch):
+    out = tmp_path / "sweep"
+    assert sweep.main(["--out", str(out), "--scenes", "cornell-box", "--integrators", "path_bsdf",
+                       "--spp", "1", "2", "--seeds", "2", "--seed", "123", "--workers", "1",
+                       "--no-progress"]) == 0
+    _outputs(out, "sweep.png", "sweep.svg", "sweep.csv", "summary.csv")
+    lines = (out / "results.jsonl").read_text().splitlines()
+    assert len(lines) == 4 and all(json.loads(l)["rmse"] > 0 for l in lines)
+    # an interrupted sweep: the last record lost, the one before torn mid-write
+    (out / "results.jsonl").write_text("\n".join(lines[:2]) + "\n" + lines[2][:25])
+    calls = []
+    real = common.run_task
+    monkeypatch.setattr(common, "run_task", lambda task: calls.append(task) or real(task))
+    store = sweep.run_sweep(_tasks(), out, workers=1, progress=False)
+    assert len(calls) == 2 and len(store) == 4
+    calls.clear()
+    sweep.run_sweep(_tasks(), out, workers=1, progress=False)
+    assert calls == []
+
+
+def test_sweep_on_a_process_pool(tmp_path):
+    store = sweep.run_sweep(_tasks(), tmp_path, workers=2, progress=False)
+    inline = sweep.run_sweep(_tasks(), tmp_path / "inline", workers=1, progress=False)
+    for task in _tasks():   # the same seed gives the same image wherever it runs
+        assert store.get(task)["image_mean"] == inline.get(task)["image_mean"]
+
+
+def test_sweep_on_a_dask_local_cluster(tmp_path):
+    distributed = pytest.importorskip("distributed", reason="dask.distributed not installed "
+                                      "(pip install -e '.[dask]')")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        store = sweep.run_sweep(_tasks(), tmp_path, dask=cluster.scheduler_address, progress=False)
+    assert len(store) == 4
+    reference = sweep.run_sweep(_tasks()[:1], tmp_path / "inline", workers=1, progress=False)
+    task = _tasks()[0]
+    assert store.get(task)["image_mean"] == reference.get(task)["image_mean"]
