@@ -71,6 +71,11 @@ def build_parser() -> argparse.ArgumentParser:
                         help="diffuse sampling: cosine-weighted (default) or uniform")
     render.add_argument("--branches", type=_positive, help="recursive: indirect rays per hit")
     render.add_argument("--branch-depth", type=int, help="recursive: depth down to which hits branch")
+    render.add_argument("--paths", metavar="REGEX",
+                        help="render only the paths of a Heckbert class, light first, e.g. 'LS+DE' "
+                             "(caustics), 'LDE', 'L.*E' (MIS path tracer; see docs/experiments.md)")
+    render.add_argument("--glossy", default="G",
+                        help="--paths: letter of rough conductors, G, D, S or an alpha threshold")
     render.add_argument("--processes", type=_positive, help="worker processes (default: all cores)")
     render.add_argument("--exposure", type=float, default=0.0, help="PNG preview exposure in stops")
     render.add_argument("--no-progress", action="store_true", help="never show a progress bar")
@@ -100,7 +105,15 @@ def _render(args) -> int:
                    branch_depth=args.branch_depth)
     try:
         scene = load_scene(args.scene, **dict(args.defines))
-        result = render(scene, integrator=args.integrator, spp=args.spp, seed=args.seed,
+        integrator = args.integrator
+        if args.paths:
+            from .integrators.pathclass import PathClassIntegrator
+            if integrator not in (None, "path"):
+                raise ValueError("--paths works with the path integrator only")
+            integrator = PathClassIntegrator(args.paths, glossy=args.glossy,
+                                             **{k: v for k, v in options.items()
+                                                if v is not None and k not in ("branches", "branch_depth")})
+        result = render(scene, integrator=integrator, spp=args.spp, seed=args.seed,
                         processes=args.processes, progress=False if args.no_progress else None,
                         **{k: v for k, v in options.items() if v is not None})
     except (SceneError, ValueError, FileNotFoundError) as error:
