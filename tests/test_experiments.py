@@ -21,7 +21,7 @@ def _outputs(folder, *names):
         assert (folder / name).is_file() and (folder / name).stat().st_size > 0, name
 
 
-def test_convergence(tmp_path, capsys):
+def test_error_vs_spp_script(tmp_path, capsys):
     out = tmp_path / "conv"
     assert convergence.main(["--out", str(out), "--integrators", "path", "path_bsdf", "--spp", "1", "2", "4",
                              "--replicas", "2", "--workers", "1", "--no-progress"]) == 0
