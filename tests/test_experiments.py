@@ -8,7 +8,8 @@ import pytest
 from experiments import common, convergence, estimators, pathclasses, progression, sweep
 
 
-@pytest.mark.parametrize("module", [convergence, progression, estimators, pathclasses, sweep])
+@pytest.mark.parametrize("module", [convergence, progression, estimators, pathclasses, sweep],
+                         ids=["error-vs-spp", "progression", "estimators", "pathclasses", "sweep"])
 def test_help(module, capsys):
     with pytest.raises(SystemExit) as stop:
         module.main(["--help"])
