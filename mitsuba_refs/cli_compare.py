@@ -43,7 +43,8 @@ def add_compare(subparsers):
                    help="spp ladder of the convergence test, comma-separated "
                         f"(default {','.join(map(str, CONVERGENCE_LADDER))})")
     p.add_argument("--replicas", type=int, default=CONVERGENCE_REPLICAS,
-                   help=f"independent replicas per ladder level (default {CONVERGENCE_REPLICAS})")
+                   help="independent replicas at the top ladder level; lower levels get 4x as many "
+                        f"per 4x fewer spp, so every level renders as many samples (default {CONVERGENCE_REPLICAS})")
     p.add_argument("--no-convergence", action="store_true", help="skip the convergence test")
     p.add_argument("--bounces", choices=("auto", "always", "never"), default="auto",
                    help="per-bounce localisation: when the mean disagrees (auto), always or never")
@@ -64,8 +65,8 @@ def run_compare(args) -> int:
             print(f"mitsuba-refs compare: error: -D expects name=value, got {item!r}", file=sys.stderr)
             return 2
         params[name] = value
-    if args.spp < 1 or args.replicas < 2 or not 0 < args.alpha < 1:
-        print("mitsuba-refs compare: error: need --spp >= 1, --replicas >= 2 and 0 < --alpha < 1",
+    if args.spp < 1 or args.replicas < 1 or not 0 < args.alpha < 1:
+        print("mitsuba-refs compare: error: need --spp >= 1, --replicas >= 1 and 0 < --alpha < 1",
               file=sys.stderr)
         return 2
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]

@@ -7,8 +7,9 @@ Four verdicts, each from :mod:`mitsuba_refs.stats`:
 * variance: only where Mitsuba runs the same estimator (``path``,
   ``path_bsdf``, ``path_nee``, ``direct``), per-sample variance ratio;
 * convergence: MSE against the reference over the spp ladder
-  ``CONVERGENCE_LADDER`` with ``CONVERGENCE_REPLICAS`` independent replicas
-  (slope -1 in log-log, RMSE(N)/RMSE(4N) = 2, no bias floor);
+  ``CONVERGENCE_LADDER``, every level rendering the same number of samples
+  (``CONVERGENCE_REPLICAS`` independent replicas at the top level, 4x as many
+  per 4x fewer spp; slope -1 in log-log, RMSE(N)/RMSE(4N) = 2, no bias floor);
 * first diverging bounce: the mean test at max_depth = 1, 2, 3 against the
   per-bounce references, naming the first depth that disagrees.
 
@@ -16,20 +17,27 @@ Our renders and the reference use the same XML file and parameters.
 """
 from __future__ import annotations
 
+import dataclasses
+import functools
 import time
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from . import config
-from .cache import get_reference
+from .cache import get_reference, scene_hash
 from .stats import (compare_means, compare_variances, convergence_law, first_diverging_bounce,
-                    image_mse, reference_mse_floor)
+                    image_mse, rare_errors_dominate, reference_mse_floor)
 
-#: spp ladder and replica count of the convergence test (4x steps: RMSE should halve).
+#: spp ladder of the convergence test (4x steps: RMSE should halve) and the independent
+#: replicas at its top level; lower levels get more (:func:`level_replicas`).
 CONVERGENCE_LADDER = (1, 4, 16, 64)
-CONVERGENCE_REPLICAS = 4
+CONVERGENCE_REPLICAS = 2
+#: The replicas double (at every level) while rare bright paths carry the mean MSE
+#: (stats.rare_errors_dominate), up to this many times the first count.
+CONVERGENCE_MAX_GROWTH = 16
 #: Our integrators whose Mitsuba reference runs the same estimator (variance comparable).
 SAME_ESTIMATOR = ("path", "path_bsdf", "path_nee", "direct")
 #: Mean-only integrators are compared with the Mitsuba estimator closest to theirs.
@@ -74,7 +82,7 @@ class Comparison:
     mean: object
     variance: object = None
     convergence: object = None
-    convergence_mse: np.ndarray = None
+    convergence_mse: list = None
     ladder: tuple = CONVERGENCE_LADDER
     bounce: tuple = None
     bounce_results: dict = None
@@ -116,10 +124,30 @@ class Comparison:
 
 def render_ours(scene, integrator, params, spp, seed, processes=None, **options):
     """Our render of ``scene`` with ``params``: (mean, variance)."""
-    from pathtracer import load_scene, render
-    result = render(load_scene(scene, **params), integrator, spp=spp, seed=seed,
+    from pathtracer import render
+    result = render(loaded_scene(scene, params), integrator, spp=spp, seed=seed,
                     processes=processes, progress=False, **options)
     return result.mean, result.variance
+
+
+def loaded_scene(scene, params):
+    """``pathtracer.load_scene(scene, **params)``, reused while the files are unchanged.
+
+    The convergence test renders a scene up to hundreds of times; loading it (and building
+    a mesh's BVH) once saves most of the time on the 82k-triangle scene.
+    """
+    from pathtracer import load_scene
+    try:
+        content = scene_hash(scene)
+    except (OSError, ValueError, ET.ParseError):
+        return load_scene(scene, **params)     # let the loader report what is wrong
+    return _load_scene_cached(str(scene), content, tuple(sorted((str(k), str(v)) for k, v in params.items())))
+
+
+@functools.lru_cache(maxsize=4)
+def _load_scene_cached(scene, content, params):
+    from pathtracer import load_scene
+    return load_scene(scene, **dict(params))
 
 
 def compare(scene: str, integrator="path", params: dict | None = None, *,
@@ -153,7 +181,8 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
         ``render(scene, integrator, params, spp, seed, processes=..., max_depth=...)``
         returning (mean, variance); the autograder passes an isolated one.
     ladder, replicas
-        spp levels (4x steps) and independent replicas of the convergence test.
+        spp levels (4x steps) of the convergence test and its independent replicas at
+        the top level (equal work per level: :func:`level_replicas`).
     options : dict, optional
         Integrator options passed to every render of ours (e.g. branches).
     """
@@ -196,7 +225,7 @@ def check_convergence(scene: str, integrator="path", params: dict | None = None,
 
     Returns
     -------
-    (ConvergenceResult, (replicas, levels) MSE table)
+    (ConvergenceResult, list of per-level MSE arrays)
     """
     name = integrator if isinstance(integrator, str) else integrator.name
     params = {**default_params(scene), **(params or {})}
@@ -213,26 +242,52 @@ def _with_options(render, options):
     return render_with_options
 
 
+def level_replicas(ladder, replicas: int) -> list[int]:
+    """Independent renders per ladder level: ``replicas`` at the top, and as many below as
+    give every level the same number of samples (mitsuba_refs.stats.convergence: with
+    rare bright paths, fewer samples at the low levels would flatten the slope)."""
+    top = ladder[-1]
+    return [replicas * -(-top // n) for n in ladder]
+
+
 def convergence_test(scene, integrator, params, reference, alpha, processes, render,
                      ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS):
-    """MSE(N) over the ladder for independent replicas, then the convergence law.
+    """MSE(N) over the ladder with equal work per level, then the convergence law.
 
-    Returns the :class:`ConvergenceResult` and the (replicas * INTERLEAVE^2, levels)
-    MSE table (one row per replica and sub-lattice).
+    Starts with ``replicas`` renders at the top level and doubles the renders of every
+    level while a few renders carry the lowest level's mean MSE, at most
+    ``CONVERGENCE_MAX_GROWTH``-fold.  Returns the :class:`ConvergenceResult` and the MSEs:
+    one array per level, with one value per render and sub-lattice.
     """
-    lattices = [(a, b) for a in range(INTERLEAVE) for b in range(INTERLEAVE)]
-    mse = np.zeros((replicas * len(lattices), len(ladder)))
-    for k in range(replicas):
+    lattices = [np.s_[a::INTERLEAVE, b::INTERLEAVE] for a in range(INTERLEAVE) for b in range(INTERLEAVE)]
+    mse = [[] for _ in ladder]
+    lowest_image_mse = []
+    top, batch = 0, replicas
+    while True:
+        done, wanted = level_replicas(ladder, top), level_replicas(ladder, top + batch)
         for j, n in enumerate(ladder):
-            seed = CONVERGENCE_SEED + 100 * k + j
-            test_mean, _ = render(scene, integrator, params, n, seed, processes=processes)
-            for m, (a, b) in enumerate(lattices):
-                part = np.s_[a::INTERLEAVE, b::INTERLEAVE]
-                mse[k * len(lattices) + m, j] = image_mse(test_mean[part], reference.mean[part],
-                                                          reference.var[part], reference.n)
+            for k in range(done[j], wanted[j]):
+                test_mean, _ = render(scene, integrator, params, n, CONVERGENCE_SEED + 100_000 * j + k,
+                                      processes=processes)
+                mse[j] += [image_mse(test_mean[part], reference.mean[part], reference.var[part],
+                                     reference.n) for part in lattices]
+                if j == 0:
+                    lowest_image_mse.append(image_mse(test_mean, reference.mean, reference.var,
+                                                      reference.n))
+        top += batch
+        rare = rare_errors_dominate(lowest_image_mse)
+        if not rare or top >= replicas * CONVERGENCE_MAX_GROWTH:
+            break
+        batch = top
+    mse = [np.array(level) for level in mse]
     law = convergence_law(np.array(ladder), mse,
                           ref_mse_floor=reference_mse_floor(reference.var, reference.n),
                           alpha=alpha, image_mean=float(reference.mean.mean()))
+    if rare:
+        note = (f"rare bright paths carry the error even with {top} replicas at the top level: "
+                "this verdict is less reliable")
+        law = dataclasses.replace(law, warnings=law.warnings + (note,),
+                                  verdict=f"{law.verdict} [{note}]")
     return law, mse
 
 

@@ -101,18 +101,25 @@ def plot_mean_comparison(path, mean_test, mean_ref, agreement, title: str = "") 
 
 def plot_convergence(path, spp, mse, result, title: str = "") -> str:
     """RMSE vs spp, log-log: replica min-max band, replica mean with ±1 se bars, the fitted
-    law with slope and CI, and an N^-1/2 guide through the first level.  Non-positive MSEs
-    (possible after the reference-noise subtraction) are not drawn."""
+    law with slope and CI, and an N^-1/2 guide through the first level.  ``mse`` is a
+    (K, L) table or one array per level.  Non-positive MSEs (possible after the
+    reference-noise subtraction) are not drawn."""
     N = np.asarray(spp, dtype=np.float64)
-    Y = np.atleast_2d(np.asarray(mse, dtype=np.float64))
-    K = Y.shape[0]
-    ybar = Y.mean(axis=0)
-    with np.errstate(invalid="ignore"):
+    if isinstance(mse, (list, tuple)):
+        levels = [np.asarray(level, dtype=np.float64) for level in mse]
+    else:
+        levels = list(np.atleast_2d(np.asarray(mse, dtype=np.float64)).T)
+    sizes = np.array([level.size for level in levels])
+    ybar = np.array([level.mean() for level in levels])
+    low = np.array([level.min() for level in levels])
+    high = np.array([level.max() for level in levels])
+    with np.errstate(invalid="ignore", divide="ignore"):
         rm = np.sqrt(np.where(ybar > 0, ybar, np.nan))
-        rlo = np.sqrt(np.where(Y.min(0) > 0, Y.min(0), np.nan))
-        rhi = np.sqrt(np.where(Y.max(0) > 0, Y.max(0), np.nan))
-        se = Y.std(axis=0, ddof=1) / np.sqrt(K) if K > 1 else np.zeros_like(ybar)
+        rlo = np.sqrt(np.where(low > 0, low, np.nan))
+        rhi = np.sqrt(np.where(high > 0, high, np.nan))
+        se = np.array([level.std(ddof=1) if level.size > 1 else 0.0 for level in levels]) / np.sqrt(sizes)
         err = 0.5 * se / np.where(ybar > 0, np.sqrt(ybar), np.nan)        # d sqrt(y) = dy / (2 sqrt y)
+    K = f"{sizes[0]}" if np.all(sizes == sizes[0]) else f"{sizes[0]}..{sizes[-1]}"
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     ax.fill_between(N, rlo, rhi, color="C0", alpha=0.2, label=f"replica range (K={K})")
     ax.errorbar(N, rm, yerr=err, fmt="o", color="C0", label="RMSE of replica-mean MSE ± se")

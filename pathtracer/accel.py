@@ -19,6 +19,8 @@ using a ``tmin``).
 """
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 WIDTH = 4  # children per node of the traversed tree
@@ -573,15 +575,27 @@ class SmallMesh:
         self._md = md.astype(np.float32)
         self._index = np.arange(T, dtype=np.uint32)[:, None]
         self._tri = _tri_data(tri_p).T.copy()  # (9, T) float64 for the refit
-        self._work = None
+        # Scratch buffers per thread: renders running in threads share one scene.
+        self._scratch = threading.local()
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        del state["_scratch"]
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._scratch = threading.local()
 
     def _buffers(self, m):
-        if self._work is None or self._work[0].shape[1] < m:
+        work = getattr(self._scratch, "work", None)
+        if work is None or work[0].shape[1] < m:
             T = self.num_triangles
-            self._work = (np.empty((4, m), np.float32), np.empty((3, m), np.float32),
-                          np.empty((3 * T, m), np.float32), np.empty((3 * T, m), np.float32),
-                          np.empty((T, m), np.float32), np.empty((T, m), bool))
-        return [w[:, :m] if w.ndim == 2 else w for w in self._work]
+            work = self._scratch.work = (
+                np.empty((4, m), np.float32), np.empty((3, m), np.float32),
+                np.empty((3 * T, m), np.float32), np.empty((3 * T, m), np.float32),
+                np.empty((T, m), np.float32), np.empty((T, m), bool))
+        return [w[:, :m] if w.ndim == 2 else w for w in work]
 
     def _closest_keys(self, o, d):
         """Packed (t, triangle) key of the nearest accepted triangle per ray (o, d: (3, m))."""

@@ -130,13 +130,14 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
             _merge(stats, unit, job.run(unit))
             bar.update()
     else:
+        # Workers receive the job at fork (inherited, never pickled); no global in this
+        # process, so renders running concurrently in threads cannot swap jobs.
         ctx = multiprocessing.get_context("fork")
-        _Job.current = job
-        with ProcessPoolExecutor(processes, mp_context=ctx) as pool:
+        with ProcessPoolExecutor(processes, mp_context=ctx, initializer=_install_job,
+                                 initargs=(job,)) as pool:
             for unit, block in zip(units, pool.map(_run_current, units, chunksize=1)):
                 _merge(stats, unit, block)
                 bar.update()
-        _Job.current = None
     bar.close()
     count, mean, m2 = stats
     variance = m2 / np.maximum(count - 1, 1)
@@ -160,7 +161,7 @@ def plan_units(n_pixels: int, spp: int, batch_size: int) -> list[tuple[int, int,
 class _Job:
     """Everything a worker needs to render one unit (inherited through fork)."""
 
-    current = None
+    current = None     # set in each worker process by _install_job
 
     def __init__(self, scene, integrator, spp, seed):
         self.scene, self.integrator, self.spp, self.seed = scene, integrator, spp, seed
@@ -175,6 +176,10 @@ class _Job:
         rays = camera_rays(self.scene.camera, pixel, rng.next_2d())
         radiance = self.integrator.radiance(self.scene, rays, rng)
         return block_statistics(radiance.reshape(pixels, samples, 3))
+
+
+def _install_job(job):
+    _Job.current = job
 
 
 def _run_current(unit):

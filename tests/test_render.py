@@ -51,3 +51,16 @@ def test_units_cover_every_sample_once():
     for p0, p1, s0, s1 in units:
         covered[p0:p1, s0:s1] += 1
     assert np.all(covered == 1)
+
+
+def test_renders_in_threads_sharing_a_scene_match_sequential_ones(cbox):
+    """Dask workers run renders in threads over one loaded scene: no shared scratch state
+    (the small-mesh intersector's buffers once were, and images came out wrong)."""
+    from concurrent.futures import ThreadPoolExecutor
+    seeds = [11, 12, 13, 14]
+    alone = [render(cbox, "path", spp=2, seed=s, processes=1, batch_size=512).mean for s in seeds]
+    with ThreadPoolExecutor(4) as pool:
+        threaded = list(pool.map(lambda s: render(cbox, "path", spp=2, seed=s, processes=1,
+                                                  batch_size=512).mean, seeds))
+    for a, b in zip(alone, threaded):
+        assert np.array_equal(a, b)

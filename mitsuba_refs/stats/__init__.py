@@ -10,14 +10,16 @@ See docs/statistics.md for the assumptions and the measured calibration.
 """
 from .bounce import depth_name, first_diverging_bounce
 from .budget import SUITE_ALPHA, ErrorBudget, per_test_alpha, suite_false_failure
-from .convergence import ConvergenceResult, convergence_law, image_mse, reference_mse_floor
+from .convergence import (MIN_EFFECTIVE_ROWS, ConvergenceResult, convergence_law, effective_rows,
+                          image_mse, rare_errors_dominate, reference_mse_floor)
 from .mean import MeanAgreement, compare_means, tile_z
 from .variance import VarianceAgreement, compare_variances
 
 __all__ = [
     "MeanAgreement", "compare_means", "tile_z",
     "VarianceAgreement", "compare_variances",
-    "ConvergenceResult", "convergence_law", "image_mse", "reference_mse_floor",
+    "ConvergenceResult", "convergence_law", "effective_rows", "image_mse", "rare_errors_dominate",
+    "reference_mse_floor", "MIN_EFFECTIVE_ROWS",
     "depth_name", "first_diverging_bounce",
     "SUITE_ALPHA", "ErrorBudget", "per_test_alpha", "suite_false_failure",
 ]
