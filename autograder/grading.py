@@ -47,6 +47,10 @@ TIME_SCALE = float(os.environ.get("AUTOGRADER_TIME_SCALE", "1"))
 BOUNCE_DEPTHS = refs_config.PER_BOUNCE_DEPTHS
 #: Samples per pixel of the second, independent render of the sample-independence evidence.
 INDEPENDENCE_SPP = 16
+#: Convergence test of a graded check: ladder, renders at its top level, most growth while
+#: rare paths dominate (mitsuba_refs.compare.convergence_test). Equal work per level: 256
+#: image-spp (64 renders at 1 spp ... 1 at 64), at most 512, inside the time limits.
+CONVERGENCE = dict(ladder=(1, 4, 16, 64), replicas=1, max_growth=2)
 
 
 @dataclass(frozen=True)
@@ -61,6 +65,7 @@ class Check:
     parts : tuple of (part, points)
     seconds : float  wall-clock limit of the student's process for the whole check
     camera : bool  grade the student's ``camera_rays`` (with the reference ``direct``)
+    glass : bool  a scene with glass (revealed after the due date; glass-specific hints)
     title : str
     """
 
@@ -70,6 +75,7 @@ class Check:
     parts: tuple
     seconds: float
     camera: bool = False
+    glass: bool = False
     title: str = ""
 
     @property
@@ -83,10 +89,11 @@ def _cornell(integrator, seconds, title):
                  title=f"{title} on the Cornell box")
 
 
-def _glass(integrator, seconds, title):
-    return Check(f"{integrator}-glass", integrator, "cornell-caustics",
-                 (("mean", 4), ("variance", 1)), seconds,
-                 title=f"{title} with a mirror and a glass sphere")
+def _glass(integrator, seconds, title, scene="cornell-caustics"):
+    what = {"cornell-caustics": "a mirror and a glass sphere",
+            "glass-cube": "a glass cube (total internal reflection)"}[scene]
+    return Check(f"{integrator}-glass", integrator, scene, (("mean", 4), ("variance", 1)),
+                 seconds, glass=True, title=f"{title} with {what}")
 
 
 #: The graded checks, in order. Time limits are 2-3x the reference solution's time on one
@@ -99,7 +106,9 @@ CHECKS = (
     _cornell("direct", 30, "Direct illumination (slide 'Direct Illumination')"),
     _glass("path_bsdf", 15, "Path tracing with BSDF sampling"),
     _glass("path_nee", 15, "Path tracing with shadow rays"),
-    _glass("path", 15, "Path tracing with MIS"),
+    # The cube, not a sphere: inside a sphere no ray ever meets total internal reflection,
+    # so Schlick's approximation (0.5 % on the spheres) would go unnoticed; here it is +7 %.
+    _glass("path", 15, "Path tracing with MIS", scene="glass-cube"),
     _glass("direct", 10, "Direct illumination"),
     Check("camera", "direct", "quad-light", (("mean", 5),), 10, camera=True,
           title="Perspective camera (camera_rays)"),
@@ -214,7 +223,8 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
         wants_convergence = any(name == "convergence" for name, _ in check.parts)
         try:
             comparison = compare(check.scene, check.integrator, spp=SPP, alpha=alpha,
-                                 convergence=wants_convergence, bounces=False, render=render)
+                                 convergence=wants_convergence, bounces=False, render=render,
+                                 **CONVERGENCE)
         except StudentFailure as failure:
             result.failure, result.failure_kind = str(failure), failure.kind
             result.parts = [Part(name, 0.0, float(points), False, "not graded: see above")

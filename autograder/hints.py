@@ -223,7 +223,7 @@ def _sweep_hints(ev: Evidence) -> list:
 
 def _glass_hints(ev: Evidence) -> list:
     check = ev.check
-    if check.scene != "cornell-caustics" or ev.comparison.mean.agree:
+    if not check.glass or ev.comparison.mean.agree:
         return []
     diffuse = ev.history.get(f"{check.integrator}-cornell-box")
     if diffuse is not None and not diffuse.passed:
@@ -232,7 +232,7 @@ def _glass_hints(ev: Evidence) -> list:
     where = f"largest |z| = {abs(m.worst_z):.1f} in the {m.worst_region}"
     prefix = ("the Cornell box check of this integrator passed, so the diffuse part is right; "
               if diffuse is not None else "")
-    return [f"{prefix}wrong with the mirror and glass spheres ({where}; image x{1 + m.rel_bias:.3f}): "
+    return [f"{prefix}wrong with glass in the scene ({where}; image x{1 + m.rel_bias:.3f}): "
             "look at the specular (delta) bounces: exact dielectric Fresnel (not Schlick), eta = "
             "int_ior / ext_ior and its inverse when leaving the glass, normals flipped for back "
             "faces (ray offsets on the side the ray leaves), the 1/eta^2 radiance scaling, and "
@@ -261,7 +261,7 @@ def explain(ev: Evidence) -> list:
                    f"{r:.2f}x as much as the per-pixel variances predict (1 expected; {how}): "
                    "the same random numbers are reused across samples (use the rng you are given, "
                    "one stream per ray; never reseed or share one stream)")
-    if ev.check.scene != "cornell-caustics" and not correlated:
+    if not ev.check.glass and not correlated:
         out += _sweep_hints(ev)
     generic = base.hints(comparison)
     if ev.independence is not None and not correlated:

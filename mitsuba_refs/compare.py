@@ -153,8 +153,8 @@ def _load_scene_cached(scene, content, params):
 def compare(scene: str, integrator="path", params: dict | None = None, *,
             spp: int = config.TEST_MAX_SPP, alpha: float = 1e-3, convergence: bool = True,
             bounces: bool | None = None, out_dir=None, processes=None, render=render_ours,
-            ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS, options=None,
-            log=None) -> Comparison:
+            ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS,
+            max_growth=CONVERGENCE_MAX_GROWTH, options=None, log=None) -> Comparison:
     """Compare one integrator with Mitsuba on ``scene``.
 
     Parameters
@@ -180,9 +180,10 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     render : callable
         ``render(scene, integrator, params, spp, seed, processes=..., max_depth=...)``
         returning (mean, variance); the autograder passes an isolated one.
-    ladder, replicas
-        spp levels (4x steps) of the convergence test and its independent replicas at
-        the top level (equal work per level: :func:`level_replicas`).
+    ladder, replicas, max_growth
+        spp levels (4x steps) of the convergence test, its independent replicas at the
+        top level (equal work per level: :func:`level_replicas`) and the most its renders
+        may grow while rare paths dominate (:func:`convergence_test`).
     options : dict, optional
         Integrator options passed to every render of ours (e.g. branches).
     """
@@ -203,7 +204,8 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
         result.variance = compare_variances(variance, spp, reference.var, reference.n, alpha=alpha)
     if convergence:
         result.convergence, result.convergence_mse = convergence_test(
-            scene, integrator, params, reference, alpha, processes, render, ladder, replicas)
+            scene, integrator, params, reference, alpha, processes, render, ladder, replicas,
+            max_growth)
         result.ladder = tuple(ladder)
     if bounces or (bounces is None and not result.mean.agree):
         result.bounce_results = localise_bounce(scene, integrator, name, params, spp, alpha,
@@ -251,12 +253,13 @@ def level_replicas(ladder, replicas: int) -> list[int]:
 
 
 def convergence_test(scene, integrator, params, reference, alpha, processes, render,
-                     ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS):
+                     ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS,
+                     max_growth=CONVERGENCE_MAX_GROWTH):
     """MSE(N) over the ladder with equal work per level, then the convergence law.
 
     Starts with ``replicas`` renders at the top level and doubles the renders of every
-    level while a few renders carry the lowest level's mean MSE, at most
-    ``CONVERGENCE_MAX_GROWTH``-fold.  Returns the :class:`ConvergenceResult` and the MSEs:
+    level while a few renders carry the lowest level's mean MSE, at most ``max_growth``-fold.
+    Returns the :class:`ConvergenceResult` and the MSEs:
     one array per level, with one value per render and sub-lattice.
     """
     lattices = [np.s_[a::INTERLEAVE, b::INTERLEAVE] for a in range(INTERLEAVE) for b in range(INTERLEAVE)]
@@ -276,7 +279,7 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
                                                       reference.n))
         top += batch
         rare = rare_errors_dominate(lowest_image_mse)
-        if not rare or top >= replicas * CONVERGENCE_MAX_GROWTH:
+        if not rare or top >= replicas * max_growth:
             break
         batch = top
     mse = [np.array(level) for level in mse]

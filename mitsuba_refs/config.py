@@ -46,7 +46,7 @@ REF_SEED = 1
 
 #: Built-in scenes shipped in ``pathtracer/scenes``.
 BUILTIN_SCENES = (
-    "cornell-box", "cornell-caustics", "smallpt", "veach-mis", "mesh",
+    "cornell-box", "cornell-caustics", "glass-cube", "smallpt", "veach-mis", "mesh",
     "furnace", "quad-light", "point-light", "sky-sphere",
 )
 

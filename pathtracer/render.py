@@ -58,16 +58,24 @@ class RenderResult:
     scene: str = ""
 
 
+#: Options of the scene file's ``<integrator>`` that describe the light transport to compute
+#: (path length, roulette, visible emitters) rather than one estimator: they apply to every
+#: integrator that renders the file, as the Mitsuba references apply them to every estimator.
+SCENE_OPTIONS = ("max_depth", "rr_depth", "hide_emitters")
+
+
 def integrator_for(scene: Scene, integrator=None, **options) -> Integrator:
     """The integrator to use: an instance, a name, or the scene file's ``<integrator>``.
 
-    Options given here override those of the file.
+    The file's ``<integrator>`` parameters all apply when it is the one used; otherwise
+    its :data:`SCENE_OPTIONS` do. Options given here override those of the file.
     """
-    if isinstance(integrator, Integrator):
-        return _with_options(integrator, {k: v for k, v in options.items() if v is not None})
     spec = scene.integrator
-    params = dict(spec.params) if integrator in (None, spec.name) else {}
+    same = integrator is None or (isinstance(integrator, str) and integrator == spec.name)
+    params = {k: v for k, v in spec.params.items() if same or k in SCENE_OPTIONS}
     params.update({k: v for k, v in options.items() if v is not None})
+    if isinstance(integrator, Integrator):
+        return _with_options(integrator, params)
     return make_integrator(integrator or spec.name, **params)
 
 
