@@ -215,3 +215,17 @@ def test_results_file_is_replaced_atomically(tmp_path):
     results.validate(document)
     assert document["score"] == 1.5 and len(document["tests"][0]["output"]) < 9000
     assert not list(tmp_path.glob(".results-*"))
+
+
+def test_calibration_script_reports_rates_and_p_values(tmp_path, capsys):
+    from autograder import calibrate
+    out = tmp_path / "cal.json"
+    assert calibrate.main(["--seeds", "2", "--checks", "camera", "direct-glass", "--workers", "2",
+                           "--out", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert report["submissions"] == 2 and report["checks"] == ["camera", "direct-glass"]
+    assert report["part_p_values"] == 2 * 3          # camera mean; glass mean + variance
+    assert 0 <= report["min_p"] <= 1 and 0 <= report["ks_uniform_p"] <= 1
+    low, high = report["false_failure_ci95"]
+    assert 0 <= low <= report["false_failure_rate"] <= high <= 1
+    assert "correct submissions lost points" in capsys.readouterr().out

@@ -207,7 +207,9 @@ def test_committed_reference_loads_without_mitsuba():
 
 
 def _scenes_for(integrator):
-    scenes = list(config.BUILTIN_SCENES)
+    # The furnace is checked against its analytic value instead (test_committed_furnace_analytic):
+    # Mitsuba 3.9.1's own `path` is biased there (+0.16 %, tests/test_mitsuba_known_bias.py).
+    scenes = [s for s in config.BUILTIN_SCENES if s != "furnace"]
     if integrator == "path_bsdf":
         scenes.remove("point-light")  # point lights cannot be hit
     return scenes
@@ -217,10 +219,6 @@ def _scenes_for(integrator):
                                                for s in _scenes_for(i)])
 def test_committed_lecture_refs_agree_with_path(scene, integrator):
     """The lecture estimators' references have the same mean as ``path``'s."""
-    if scene == "furnace":
-        pytest.xfail("Mitsuba 3.9.1 `path` is biased (+0.16 %) in the furnace: MIS with "
-                     "emitter sampling of a sphere seen from inside; see "
-                     "test_committed_furnace_analytic")
     a, b = committed(scene, integrator), committed(scene, "path")
     ok, zmax, thr = tile_welch(a.mean, a.var, a.n, b.mean, b.var, b.n)
     assert ok, f"{scene}: max |z| = {zmax:.2f} >= {thr:.2f}"
