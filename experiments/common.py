@@ -226,22 +226,11 @@ class Task:
                     params=dict(self.params), options=dict(self.options), **dict(self.labels))
 
 
-_SCENES: dict = {}
-
-
-def load_scene_cached(scene: str, params: tuple):
-    """Load a scene once per worker process."""
-    from pathtracer import load_scene
-    key = (scene, params)
-    if key not in _SCENES:
-        _SCENES[key] = load_scene(scene, **dict(params))
-    return _SCENES[key]
-
-
 def run_task(task: Task) -> dict:
     """Render a task in this process (one core): mean, variance, seconds."""
     from pathtracer import render
-    scene = load_scene_cached(task.scene, task.params)
+    from mitsuba_refs.compare import loaded_scene    # once per worker while the files are unchanged
+    scene = loaded_scene(task.scene, dict(task.params))
     result = render(scene, task.integrator, spp=task.spp, seed=task.seed, processes=1,
                     progress=False, **dict(task.options))
     return dict(mean=result.mean, variance=result.variance, seconds=result.seconds,

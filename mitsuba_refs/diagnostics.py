@@ -104,11 +104,9 @@ def plot_convergence(path, spp, mse, result, title: str = "") -> str:
     law with slope and CI, and an N^-1/2 guide through the first level.  ``mse`` is a
     (K, L) table or one array per level.  Non-positive MSEs (possible after the
     reference-noise subtraction) are not drawn."""
+    from .stats.convergence import mse_levels
     N = np.asarray(spp, dtype=np.float64)
-    if isinstance(mse, (list, tuple)):
-        levels = [np.asarray(level, dtype=np.float64) for level in mse]
-    else:
-        levels = list(np.atleast_2d(np.asarray(mse, dtype=np.float64)).T)
+    levels, _ = mse_levels(mse, N.size)
     sizes = np.array([level.size for level in levels])
     ybar = np.array([level.mean() for level in levels])
     low = np.array([level.min() for level in levels])

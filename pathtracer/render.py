@@ -102,7 +102,9 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
     scene : Scene or str
         A loaded scene, or a path / built-in name passed to ``load_scene``.
     integrator : str or Integrator, optional
-        Defaults to the scene file's integrator.
+        Defaults to the scene file's integrator. The file's :data:`SCENE_OPTIONS`
+        (max_depth, rr_depth, hide_emitters) apply to any integrator, an instance's own
+        values included; pass them in ``options`` to override.
     spp, seed : int, optional
         Default to the file's sampler ``sample_count`` and ``seed``.
     processes : int, optional

@@ -72,7 +72,7 @@ from scipy import stats as sps
 
 from ._tiles import sidak, sidak_per_test
 
-__all__ = ["ConvergenceResult", "convergence_law", "effective_rows", "image_mse",
+__all__ = ["ConvergenceResult", "convergence_law", "effective_rows", "image_mse", "mse_levels",
            "rare_errors_dominate", "reference_mse_floor", "MIN_EFFECTIVE_ROWS"]
 
 #: Effective renders (:func:`effective_rows`) the lowest level needs for a calibrated t test.
@@ -188,23 +188,29 @@ def _fmt_p(p: float) -> str:
     return f"{p:.2f}" if p >= 0.01 else (f"{p:.1e}" if p > 0 else "<1e-300")
 
 
+def mse_levels(mse, n_levels: int) -> tuple[list, np.ndarray | None]:
+    """The MSEs of each level as float arrays, and the paired (K, L) table if given as one.
+
+    ``mse`` is a (K, L) table (rows paired across levels) or a list / tuple of L 1-D arrays
+    (independent levels).
+    """
+    if isinstance(mse, (list, tuple)) and len(mse) == n_levels and all(
+            np.ndim(level) == 1 for level in mse):
+        return [np.asarray(level, dtype=np.float64) for level in mse], None
+    table = np.asarray(mse, dtype=np.float64)
+    if table.ndim == 1:
+        table = table[None, :]
+    if table.ndim != 2 or table.shape[1] != n_levels:
+        raise ValueError("mse must be a (K, L) table or L per-level arrays, with "
+                         f"L = len(spp) = {n_levels}; got shape {np.shape(mse)}")
+    return list(table.T), table
+
+
 class _LevelMeans:
     """Mean MSE per level and the uncertainty of linear combinations of those means."""
 
     def __init__(self, mse, n_levels: int):
-        if isinstance(mse, (list, tuple)) and len(mse) == n_levels and all(
-                np.ndim(level) == 1 for level in mse):
-            self.levels = [np.asarray(level, dtype=np.float64) for level in mse]
-            self.paired = None
-        else:
-            table = np.asarray(mse, dtype=np.float64)
-            if table.ndim == 1:
-                table = table[None, :]
-            if table.ndim != 2 or table.shape[1] != n_levels:
-                raise ValueError("mse must be a (K, L) table or L per-level arrays, with "
-                                 f"L = len(spp) = {n_levels}; got shape {np.shape(mse)}")
-            self.levels = list(table.T)
-            self.paired = table
+        self.levels, self.paired = mse_levels(mse, n_levels)
         sizes = [level.size for level in self.levels]
         if min(sizes) < 2:
             raise ValueError("need >= 2 replicas at every level to estimate the uncertainty")
