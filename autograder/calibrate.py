@@ -9,15 +9,17 @@ render seed shifted, and reports
   counts below 0.05 and 0.01 and a Kolmogorov-Smirnov test against uniform check the
   calibration far more finely than the rare failures themselves.
 
-    python -m autograder.calibrate --seeds 40 --workers 2 --out out/grading-calibration.json
+    python -m autograder.calibrate --seeds 100 --out out/grading-calibration.json
 
-A seed costs one graded submission (about 24 s on one core).
+A seed costs one graded submission (about 24 s on one core). Each finished seed is appended
+to ``OUT.jsonl`` at once; running the command again resumes from there (``--fresh`` restarts).
 """
 from __future__ import annotations
 
 import argparse
 import json
-from concurrent.futures import ThreadPoolExecutor
+import time
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -46,24 +48,50 @@ def part_p_values(result) -> dict:
     return {part: float(p) for part, p in found.items() if part in scored}
 
 
-def summarise(submissions: list) -> dict:
-    """The report of :func:`main` from one list of CheckResults per repetition."""
-    lost = sum(any(r.score < r.max_score for r in results) for results in submissions)
-    p_values = [p for results in submissions for r in results for p in part_p_values(r).values()]
-    p = np.array(p_values)
-    low, high = clopper_pearson(lost, len(submissions))
+def seed_record(k: int, results: list, seconds: float) -> dict:
+    """One repetition as a JSON line: did it lose points, its part p-values, its time."""
     return {
-        "submissions": len(submissions),
+        "seed": k,
+        "lost_points": any(r.score < r.max_score for r in results),
+        "lost": {r.check.id: r.max_score - r.score for r in results if r.score < r.max_score},
+        "p_values": {f"{r.check.id}/{part}": p
+                     for r in results for part, p in part_p_values(r).items()},
+        "seconds": round(seconds, 2),
+    }
+
+
+def summarise(records: list) -> dict:
+    """The report of :func:`main` from the :func:`seed_record` of every repetition."""
+    lost = sum(record["lost_points"] for record in records)
+    p = np.array([v for record in records for v in record["p_values"].values()])
+    low, high = clopper_pearson(lost, len(records))
+    return {
+        "submissions": len(records),
         "lost_points": lost,
-        "false_failure_rate": lost / len(submissions),
+        "false_failure_rate": lost / len(records),
         "false_failure_ci95": [low, high],
         "designed_rate": grading.SUBMISSION_ALPHA,
+        "part_alpha": grading.ALPHA,
         "part_p_values": len(p),
         "below_0.05": int((p <= 0.05).sum()),
         "below_0.01": int((p <= 0.01).sum()),
+        "below_part_alpha": int((p <= grading.ALPHA).sum()),
         "min_p": float(p.min()) if p.size else None,
         "ks_uniform_p": float(stats.kstest(p, "uniform").pvalue) if p.size else None,
+        "seconds_per_submission": float(np.median([r["seconds"] for r in records])),
     }
+
+
+def read_records(path: Path, impl: str, checks: list) -> list:
+    """Repetitions already logged in ``path`` for the same implementation and checks."""
+    if not path.exists():
+        return []
+    records = []
+    for line in path.read_text().splitlines():
+        record = json.loads(line)
+        if record.get("impl") == impl and record.get("checks") == checks:
+            records.append(record)
+    return records
 
 
 def main(argv=None) -> int:
@@ -75,25 +103,50 @@ def main(argv=None) -> int:
                         help="grade only these checks (default: all)")
     parser.add_argument("--workers", type=int, default=1, help="submissions graded at once")
     parser.add_argument("--out", type=Path, default=Path("out/grading-calibration.json"))
+    parser.add_argument("--fresh", action="store_true",
+                        help="ignore the repetitions already logged beside --out")
     args = parser.parse_args(argv)
     if args.seeds < 1 or args.workers < 1:
         parser.error("--seeds and --workers must be >= 1")
     checks = [grading.CHECKS_BY_ID[c] for c in args.checks] if args.checks else grading.CHECKS
+    check_ids = [c.id for c in checks]
+
+    # Every finished repetition is appended at once, so a long sweep can be stopped and resumed.
+    log_path = args.out.with_suffix(".jsonl")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    if args.fresh:
+        log_path.unlink(missing_ok=True)
+    records = read_records(log_path, args.impl, check_ids)
+    done = {record["seed"] for record in records}
+    todo = [k for k in range(1, args.seeds + 1) if k not in done]
+    print(f"{len(done)} repetitions already in {log_path}; grading {len(todo)} more", flush=True)
+
+    def grade_one(k):
+        started = time.perf_counter()
+        results = grading.grade(args.impl, checks, seed_offset=SEED_STRIDE * k)
+        return seed_record(k, results, time.perf_counter() - started)
 
     start_fork_server()
-    with ThreadPoolExecutor(args.workers) as pool:
-        submissions = list(pool.map(
-            lambda k: grading.grade(args.impl, checks, seed_offset=SEED_STRIDE * k),
-            range(1, args.seeds + 1)))
-    report = summarise(submissions)
-    report.update(impl=args.impl, checks=[c.id for c in checks])
-    args.out.parent.mkdir(parents=True, exist_ok=True)
+    with ThreadPoolExecutor(args.workers) as pool, log_path.open("a") as log:
+        for future in as_completed([pool.submit(grade_one, k) for k in todo]):
+            record = dict(future.result(), impl=args.impl, checks=check_ids)
+            log.write(json.dumps(record) + "\n")
+            log.flush()
+            records.append(record)
+            lost = sum(r["lost_points"] for r in records)
+            print(f"seed {record['seed']}: {record['seconds']:.0f} s, "
+                  f"{'lost ' + str(record['lost']) if record['lost_points'] else 'full marks'}; "
+                  f"{lost}/{len(records)} lost so far", flush=True)
+
+    report = summarise([r for r in records if r["seed"] <= args.seeds])
+    report.update(impl=args.impl, checks=check_ids)
     args.out.write_text(json.dumps(report, indent=2))
     low, high = report["false_failure_ci95"]
     print(f"{report['lost_points']}/{report['submissions']} correct submissions lost points "
           f"(95 % CI [{low:.1%}, {high:.1%}]; designed <= {grading.SUBMISSION_ALPHA:g})")
     print(f"{report['part_p_values']} part p-values: {report['below_0.05']} <= 0.05, "
-          f"{report['below_0.01']} <= 0.01, min {report['min_p']:.2g}, "
+          f"{report['below_0.01']} <= 0.01, {report['below_part_alpha']} <= the part level "
+          f"{grading.ALPHA:.2g}, min {report['min_p']:.2g}, "
           f"KS vs uniform p = {report['ks_uniform_p']:.2f}")
     print(f"wrote {args.out}")
     return 0

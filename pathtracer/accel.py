@@ -523,6 +523,29 @@ def _ray9(o, d, scene_max):
 # ----------------------------------------------------------------------
 # Small meshes: every ray against every triangle, float32 filter + float64 refit
 
+_blas_limited = False
+
+
+def single_threaded_blas() -> None:
+    """Limit this process's BLAS to one thread (once; needs ``threadpoolctl``).
+
+    :class:`SmallMesh`'s matrix products are far too small for threads to pay,
+    and OpenBLAS's idle threads spin: with every core busy (render workers,
+    parallel tests, a grader beside a sweep) a render took 17x the CPU time
+    of the same render with one BLAS thread. The tracer parallelises over
+    processes instead, so this process-wide setting costs it nothing.
+    """
+    global _blas_limited
+    if _blas_limited:
+        return
+    _blas_limited = True
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:   # pragma: no cover - a declared dependency
+        return
+    threadpool_limits(1, user_api="blas")
+
+
 SMALL_MAX = 64  # triangles up to which :class:`SmallMesh` beats the BVH
 SMALL_CHUNK = 2048  # rays per chunk: the (3T, chunk) float32 work arrays stay in L2
 SMALL_BARY_EPS = 1e-5  # barycentric slack of the float32 filter (covers its rounding)
@@ -577,6 +600,7 @@ class SmallMesh:
         self._tri = _tri_data(tri_p).T.copy()  # (9, T) float64 for the refit
         # Scratch buffers per thread: renders running in threads share one scene.
         self._scratch = threading.local()
+        single_threaded_blas()
 
     def __getstate__(self):
         state = self.__dict__.copy()
@@ -586,6 +610,7 @@ class SmallMesh:
     def __setstate__(self, state):
         self.__dict__.update(state)
         self._scratch = threading.local()
+        single_threaded_blas()
 
     def _buffers(self, m):
         work = getattr(self._scratch, "work", None)

@@ -132,7 +132,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
     geometry.prepare(scene)   # build the BVH once, before workers fork
 
     start = time.perf_counter()
-    stats = np.zeros((3, n_pixels, 3))   # per pixel: count, mean, M2 (count broadcast)
+    stats = pixel_statistics(n_pixels)
     job = _Job(scene, integrator, spp, seed)
     bar = _progress_bar(len(units), progress)
     if processes == 1 or len(units) == 1:
@@ -149,8 +149,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
                 _merge(stats, unit, block)
                 bar.update()
     bar.close()
-    count, mean, m2 = stats
-    variance = m2 / np.maximum(count - 1, 1)
+    mean, variance = mean_and_variance(stats)
     shape = (scene.camera.height, scene.camera.width, 3)
     return RenderResult(mean.reshape(shape), variance.reshape(shape), spp, seed, integrator.name,
                         integrator.options(), time.perf_counter() - start, scene.source)
@@ -212,12 +211,24 @@ def block_statistics(x: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
     return n, mean, m2
 
 
-def _merge(stats: np.ndarray, unit, block) -> None:
+def pixel_statistics(n_pixels: int, channels: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Empty running statistics: count (n_pixels, 1) and mean, M2 as (2, n_pixels, channels)."""
+    return np.zeros((n_pixels, 1)), np.zeros((2, n_pixels, channels))
+
+
+def mean_and_variance(stats) -> tuple[np.ndarray, np.ndarray]:
+    """Per-pixel mean and sample variance; M2 becomes the variance in place (no third image)."""
+    count, (mean, m2) = stats
+    m2 /= np.maximum(count - 1, 1)
+    return mean, m2
+
+
+def _merge(stats, unit, block) -> None:
     """Chan et al.'s parallel update of (count, mean, M2) for the unit's pixels."""
     p0, p1 = unit[0], unit[1]
     n_b, mean_b, m2_b = block
-    count, mean, m2 = stats[0, p0:p1], stats[1, p0:p1], stats[2, p0:p1]
-    n_a = count[:, :1]
+    count, (mean, m2) = stats[0][p0:p1], stats[1][:, p0:p1]
+    n_a = count
     total = n_a + n_b
     delta = mean_b - mean
     mean += delta * (n_b / total)

@@ -146,3 +146,13 @@ def test_far_away_origins():
     t, prim, _, _ = BVH(tri).intersect(o, d)
     tb, primb, _, _ = BVH(tri, brute_force_max=10**9).intersect(o, d)
     np.testing.assert_array_equal(t, tb)
+
+
+def test_small_mesh_limits_blas_to_one_thread():
+    """SmallMesh's tiny float32 matmuls must not use OpenBLAS threads: idle ones spin and,
+    with the other cores busy, made a render cost 17x the CPU time."""
+    import threadpoolctl   # a dependency of the project
+    from pathtracer.accel import SmallMesh
+    SmallMesh(np.random.default_rng(0).random((4, 3, 3)))
+    blas = threadpoolctl.threadpool_info()
+    assert blas and all(lib["num_threads"] == 1 for lib in blas if lib["user_api"] == "blas")

@@ -28,15 +28,16 @@ def test_different_seeds_differ(cbox):
 
 def test_spp_beyond_one_sample_block_is_merged_exactly():
     """Pixels whose samples span several blocks: Chan's merge equals a direct computation."""
-    from pathtracer.render import _merge
+    from pathtracer.render import _merge, mean_and_variance, pixel_statistics
     rng = np.random.default_rng(0)
     x = rng.exponential(size=(5, 700, 3))
-    stats = np.zeros((3, 5, 3))
+    stats = pixel_statistics(5)
     for s0 in range(0, 700, 256):
         _merge(stats, (0, 5, s0, min(700, s0 + 256)), block_statistics(x[:, s0:s0 + 256]))
-    count, mean, m2 = stats
+    assert np.all(stats[0] == 700)
+    mean, variance = mean_and_variance(stats)
     np.testing.assert_allclose(mean, x.mean(axis=1), rtol=1e-13)
-    np.testing.assert_allclose(m2 / (count - 1), x.var(axis=1, ddof=1), rtol=1e-12)
+    np.testing.assert_allclose(variance, x.var(axis=1, ddof=1), rtol=1e-12)
 
 
 def test_identical_samples_have_exactly_zero_variance():

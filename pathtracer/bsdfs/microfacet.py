@@ -40,12 +40,17 @@ in Mitsuba, which makes our estimator statistically identical to theirs.
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import erf, erfc, erfinv
 
 from ..sampling import square_to_uniform_disk_concentric
 
 SQRT_PI = np.sqrt(np.pi)
 ALPHA_MIN = 1e-4
+
+
+def _special():
+    # Imported on first use: SciPy costs every process ~25 MB, and only Beckmann needs it.
+    from scipy import special
+    return special
 
 # Bracket (in slope units) of the Beckmann visible-slope inversion: the
 # slope density beyond |x| = 7 is below exp(-49) and never matters.
@@ -137,7 +142,7 @@ class MicrofacetDistribution:
         xy_alpha_2, tan_theta_alpha_2 = self._tan_theta_alpha_2(v)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             a = 1.0 / np.sqrt(tan_theta_alpha_2)
-            g1 = 2.0 / (1.0 + erf(a) + np.exp(-a * a) / (a * SQRT_PI))
+            g1 = 2.0 / (1.0 + _special().erf(a) + np.exp(-a * a) / (a * SQRT_PI))
         return self._g1_mask(v, m, g1, xy_alpha_2)
 
     def G(self, wi: np.ndarray, wo: np.ndarray, m: np.ndarray) -> np.ndarray:
@@ -229,7 +234,7 @@ def _beckmann_slope_cdf(x: np.ndarray, cos_theta: np.ndarray, sin_theta: np.ndar
         K(x) = \int_{-\infty}^{x} e^{-t^2}(\cos\theta - t\sin\theta)\,dt
              = \cos\theta\,\tfrac{\sqrt\pi}{2}\,\operatorname{erfc}(-x) + \sin\theta\,\tfrac{e^{-x^2}}{2}.
     """
-    return cos_theta * (0.5 * SQRT_PI) * erfc(-x) + sin_theta * 0.5 * np.exp(-x * x)
+    return cos_theta * (0.5 * SQRT_PI) * _special().erfc(-x) + sin_theta * 0.5 * np.exp(-x * x)
 
 
 def _beckmann_visible_slopes_11(cos_theta_i: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -250,11 +255,11 @@ def _beckmann_visible_slopes_11(cos_theta_i: np.ndarray, u: np.ndarray) -> tuple
     lo = np.full_like(hi, -_SLOPE_BOUND)
     target = u[:, 0] * _beckmann_slope_cdf(hi, cos_theta, sin_theta)
 
-    x0 = np.clip(erfinv(np.clip(2.0 * u[:, 0] - 1.0, -1.0 + 1e-15, 1.0 - 1e-15)), lo, hi)
+    x0 = np.clip(_special().erfinv(np.clip(2.0 * u[:, 0] - 1.0, -1.0 + 1e-15, 1.0 - 1e-15)), lo, hi)
     slope_x = _solve_increasing(x0, lo, hi, target, cos_theta, sin_theta)
 
     u_y = np.clip(u[:, 1], 1e-15, 1.0 - 1e-15)
-    slope_y = erfinv(2.0 * u_y - 1.0)
+    slope_y = _special().erfinv(2.0 * u_y - 1.0)
     return slope_x, slope_y
 
 

@@ -176,7 +176,8 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
     from concurrent.futures import ProcessPoolExecutor
 
     from .. import geometry
-    from ..render import DEFAULT_BATCH, _merge, _progress_bar, plan_units
+    from ..render import (DEFAULT_BATCH, _merge, _progress_bar, mean_and_variance,
+                          pixel_statistics, plan_units)
     from ..scene import load_scene
     from ..scene.types import Scene
 
@@ -189,7 +190,7 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
     processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
     geometry.prepare(scene)
     start = time.perf_counter()
-    stats = np.zeros((3, n_pixels, 3 * K))
+    stats = pixel_statistics(n_pixels, 3 * K)
     job = _ClassJob(scene, integrator, int(spp), int(seed))
     bar = _progress_bar(len(units), progress)
     if processes == 1 or len(units) == 1:
@@ -205,8 +206,7 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
                 bar.update()
         _ClassJob.current = None
     bar.close()
-    count, mean, m2 = stats
-    variance = m2 / np.maximum(count - 1, 1)
+    mean, variance = mean_and_variance(stats)
     h, w = scene.camera.height, scene.camera.width
 
     def per_class(a):
