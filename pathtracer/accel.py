@@ -425,16 +425,18 @@ class BVH:
             occ[r] = True
             tmax[r] = 0.0  # prunes every remaining stack entry of the ray
 
-        self._traverse(o, d, tmax, on_hit)
+        self._traverse(o, d, tmax, on_hit, any_hit=True)
 
-    def _traverse(self, o, d, tbest, on_hit):
+    def _traverse(self, o, d, tbest, on_hit, any_hit=False):
         """Depth-first traversal of one chunk of rays, all rays at once.
 
         Each ray has its own stack, a row of a 2-D array; every iteration pops
         one entry of each active ray, so rays visit nodes near to far and the
         pruning ``t_near < tbest`` is as tight as in a scalar ray tracer.
         Leaf hits closer than ``tbest`` are reported as
-        ``on_hit(rays, t, prim, b1, b2)``, which may shorten ``tbest``.
+        ``on_hit(rays, t, prim, b1, b2)``, which may shorten ``tbest``; with
+        ``any_hit`` a ray that hit something leaves the traversal at once
+        instead of popping its remaining entries one iteration at a time.
         """
         n = o.shape[1]
         ray9 = _ray9(o, d, self._scene_max)
@@ -456,6 +458,8 @@ class BVH:
                 t, p, u, v = self._leaf_test(o, d, r, ~node[lf], tbest)
                 h = t < np.inf
                 on_hit(r[h], t[h], p[h], u[h], v[h])
+                if any_hit:
+                    sp[r[h]] = 0
             inner = live & (node >= 0)
             if inner.any():
                 r, nd = act[inner], node[inner]
@@ -697,3 +701,69 @@ class SmallMesh:
     def occluded(self, o, d, tmax=None):
         """(n,) bool: some triangle lies on the ray with ``0 < t < tmax``."""
         return self.intersect(o, d, tmax)[1] >= 0
+
+
+# ----------------------------------------------------------------------
+# Scenes with one big mesh in a room: the room's few triangles first
+
+
+class SplitMesh:
+    """The triangles of small shapes in a :class:`SmallMesh`, the rest in a :class:`BVH`.
+
+    A large mesh standing in a room of rectangles is the common case: in one
+    BVH the room's huge triangles overlap every ray, and their boxes are
+    visited by all of them. Here the small part is intersected first, all
+    pairs at once; its hit distance then bounds the BVH traversal, so a ray
+    that meets a wall before the mesh's boxes is culled at the root, and a
+    shadow ray already blocked by the room never enters the tree. Triangle
+    indices in and out are those of the whole scene.
+
+    Parameters
+    ----------
+    tri_p : (T, 3, 3) ndarray
+        World-space triangle vertices.
+    small : (T,) bool
+        The triangles that go to the :class:`SmallMesh` (at most ``SMALL_MAX``).
+    """
+
+    def __init__(self, tri_p: np.ndarray, small: np.ndarray):
+        tri_p = np.asarray(tri_p, np.float64).reshape(-1, 3, 3)
+        self.num_triangles = len(tri_p)
+        self.brute_force = False
+        self._small_prim = np.flatnonzero(small)
+        self._big_prim = np.flatnonzero(~small)
+        self.small = SmallMesh(tri_p[self._small_prim])
+        self.big = BVH(tri_p[self._big_prim])
+
+    def intersect(self, o, d, tmax=None):
+        """Closest hit of each ray (same contract as :meth:`BVH.intersect`)."""
+        o = np.asarray(o, np.float64).reshape(-1, 3)
+        d = np.asarray(d, np.float64).reshape(-1, 3)
+        tmax = np.broadcast_to(np.inf if tmax is None else np.asarray(tmax, np.float64), (len(o),))
+        t, prim, b1, b2 = self.small.intersect(o, d, tmax)
+        hit = prim >= 0
+        prim[hit] = self._small_prim[prim[hit]]
+        t_big, prim_big, b1_big, b2_big = self.big.intersect(o, d, np.where(hit, t, tmax))
+        closer = np.flatnonzero(prim_big >= 0)   # only hits before the small part's
+        t[closer], prim[closer] = t_big[closer], self._big_prim[prim_big[closer]]
+        b1[closer], b2[closer] = b1_big[closer], b2_big[closer]
+        return t, prim, b1, b2
+
+    def occluded(self, o, d, tmax=None):
+        """(n,) bool: some triangle lies on the ray with ``0 < t < tmax``."""
+        o = np.asarray(o, np.float64).reshape(-1, 3)
+        d = np.asarray(d, np.float64).reshape(-1, 3)
+        tmax = np.broadcast_to(np.inf if tmax is None else np.asarray(tmax, np.float64), (len(o),))
+        occ = self.small.occluded(o, d, tmax)
+        rows = np.flatnonzero(~occ)
+        if len(rows):
+            occ[rows] = self.big.occluded(o[rows], d[rows], tmax[rows])
+        return occ
+
+
+def small_shapes(tri_shape: np.ndarray, max_triangles: int = SMALL_MAX) -> np.ndarray:
+    """(T,) bool: the triangles of the fewest-triangle shapes, at most ``max_triangles`` in all."""
+    shapes, counts = np.unique(tri_shape, return_counts=True)
+    order = np.argsort(counts, kind="stable")
+    taken = shapes[order][np.cumsum(counts[order]) <= max_triangles]
+    return np.isin(tri_shape, taken)

@@ -151,8 +151,10 @@ def sample_emitter(scene: Scene, hit, u_choice: np.ndarray, u: np.ndarray,
         which = np.minimum((u_choice * n_emitters).astype(np.int64), n_emitters - 1)
     else:
         which = np.full(count, emitter)
-    for e in np.unique(which):
-        rows = np.flatnonzero(which == e)
+    # One light (the common case) needs no grouping: every row, as a slice (no gathers).
+    groups = [(which[0], slice(None))] if n_emitters == 1 or emitter is not None else \
+        [(e, np.flatnonzero(which == e)) for e in np.unique(which)]
+    for e, rows in groups:
         light = scene.emitters[e]
         if light.kind == "point":
             _sample_point(light, hit.p[rows], sample, rows)
@@ -235,11 +237,13 @@ def _sample_mesh(scene, shape, u):
     u_x = np.clip((u[:, 0] - low) / np.maximum(cdf[local] - low, 1e-300), 0.0, 1.0 - 1e-16)
     tri = begin + local
     b = square_to_uniform_triangle(np.stack((u_x, u[:, 1]), axis=1))
-    p0, p1, p2 = scene.tri_p[tri, 0], scene.tri_p[tri, 1], scene.tri_p[tri, 2]
-    b0 = 1 - b[:, 0] - b[:, 1]
-    point = b0[:, None] * p0 + b[:, 0:1] * p1 + b[:, 1:2] * p2
+    tables = geometry.triangle_tables(scene)
+    b1, b2 = b[:, 0:1], b[:, 1:2]
+    point = tables.p0[tri] + b1 * tables.e1[tri] + b2 * tables.e2[tri]
+    if not tables.smooth[begin:begin + len(cdf)].any():   # flat lights: one normal each
+        return point, tables.flat_n[tri]
     n0, n1, n2 = scene.tri_n[tri, 0], scene.tri_n[tri, 1], scene.tri_n[tri, 2]
-    normal = normalize(b0[:, None] * n0 + b[:, 0:1] * n1 + b[:, 1:2] * n2)
+    normal = normalize((1 - b1 - b2) * n0 + b1 * n1 + b2 * n2)
     return point, normal
 
 

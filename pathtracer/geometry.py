@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .accel import BVH, SMALL_MAX, SmallMesh
+from .accel import BVH, SMALL_MAX, SmallMesh, SplitMesh, small_shapes
 from .vec import dot, max_abs, normalize
 
 RAY_EPSILON = 1500 * 2.0 ** -24  # Mitsuba's math::RayEpsilon for float32 (8.94e-5)
@@ -65,16 +65,24 @@ class Hit:
     uv: np.ndarray
 
 
-def prepare(scene) -> BVH | SmallMesh:
+def prepare(scene) -> BVH | SmallMesh | SplitMesh:
     """Build (once) and return the scene's triangle accelerator, cached in ``scene._accel``.
 
     Up to :data:`pathtracer.accel.SMALL_MAX` triangles (rooms built of
     rectangles and cubes) every ray is tested against every triangle by
-    :class:`pathtracer.accel.SmallMesh`; larger meshes get a :class:`BVH`.
+    :class:`pathtracer.accel.SmallMesh`. Larger scenes whose small shapes
+    hold some of the triangles (a mesh in a room) get a
+    :class:`pathtracer.accel.SplitMesh`; the others a :class:`BVH`.
     """
     if scene._accel is None:
         tri = scene.tri_p
-        scene._accel = SmallMesh(tri) if 0 < len(tri) <= SMALL_MAX else BVH(tri)
+        small = small_shapes(scene.tri_shape) if len(tri) > SMALL_MAX else None
+        if len(tri) <= SMALL_MAX:
+            scene._accel = SmallMesh(tri) if len(tri) else BVH(tri)
+        elif small.any():
+            scene._accel = SplitMesh(tri, small)
+        else:
+            scene._accel = BVH(tri)
     return scene._accel
 
 
@@ -254,7 +262,8 @@ class TriangleTables:
         self.any_smooth = bool(self.smooth.any())
 
 
-def _triangle_tables(scene) -> TriangleTables:
+def triangle_tables(scene) -> TriangleTables:
+    """The scene's :class:`TriangleTables` (built once, kept with its accelerator)."""
     accel = prepare(scene)
     tables = getattr(accel, "_tables", None)
     if tables is None:
@@ -264,7 +273,7 @@ def _triangle_tables(scene) -> TriangleTables:
 
 def _fill_triangles(scene, hit, sel, b1, b2):
     k = hit.prim[sel]
-    tab = _triangle_tables(scene)
+    tab = triangle_tables(scene)
     hit.p[sel] = tab.p0[k] + b1[:, None] * tab.e1[k] + b2[:, None] * tab.e2[k]
     hit.n[sel] = tab.n[k]
     sh_n = tab.flat_n[k]

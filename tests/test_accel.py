@@ -156,3 +156,31 @@ def test_small_mesh_limits_blas_to_one_thread():
     SmallMesh(np.random.default_rng(0).random((4, 3, 3)))
     blas = threadpoolctl.threadpool_info()
     assert blas and all(lib["num_threads"] == 1 for lib in blas if lib["user_api"] == "blas")
+
+
+def test_split_mesh_equals_one_bvh():
+    """A closed mesh inside a room of big triangles: the room in a SmallMesh first, the mesh in
+    a BVH, gives the hits of one BVH over both (indices of the whole scene) and the same
+    occlusion, with and without tmax."""
+    from pathtracer.accel import SplitMesh, small_shapes
+    rng = np.random.default_rng(5)
+    room = random_soup(rng, 12, size=6.0)
+    mesh = lat_long_sphere(24) * 2.0 + 5.0
+    tri = np.concatenate((mesh[:500], room, mesh[500:]))
+    shape = np.concatenate((np.zeros(500), np.arange(1, 13), np.zeros(len(mesh) - 500)))
+    small = small_shapes(shape.astype(np.int32))
+    assert small.sum() == 12 and np.all(small[500:512])
+    split, whole = SplitMesh(tri, small), BVH(tri)
+    o, d = random_rays(rng, 20_000)
+    t, prim, b1, b2 = split.intersect(o, d)
+    tw, primw, b1w, b2w = whole.intersect(o, d)
+    in_room = (prim >= 500) & (prim < 512)
+    assert np.mean(in_room) > 0.2 and np.mean((prim >= 0) & ~in_room) > 0.02   # 800 mesh hits
+    same = prim == primw
+    assert same.mean() > 0.999          # the rest: near-ties in float32 between room triangles
+    np.testing.assert_allclose(t[same], tw[same], rtol=1e-12)
+    np.testing.assert_allclose(b1[same], b1w[same], atol=1e-9)
+    tmax = rng.uniform(0, 12, len(o))
+    occ = split.occluded(o, d, tmax)
+    assert np.mean(occ == whole.occluded(o, d, tmax)) > 0.999
+    np.testing.assert_array_equal(occ, split.intersect(o, d, tmax)[1] >= 0)
