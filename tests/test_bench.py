@@ -25,3 +25,19 @@ def test_quick_bench_produces_sane_numbers(tmp_path, capsys):
     assert 10 < memory["peak_mb"] <= memory["rss_sum_mb"] and memory["pss_processes"] >= 1
     table = capsys.readouterr().out
     assert "| cornell-box" in table and "Peak memory" in table
+
+
+def test_profile_splits_a_render_into_stages(capsys):
+    """experiments.profile: stage shares are fractions that add up to the render, and they see
+    the estimator: smallpt traces no shadow rays, the MIS path tracer spends on both ray kinds."""
+    from experiments import profile
+    path = profile.profile_scene("cornell-box", "path", 16, 16, 2)
+    smallpt = profile.profile_scene("smallpt", "smallpt", 16, 12, 2)
+    for found in (path, smallpt):
+        stages = [s for s, _, _ in profile.STAGES] + ["everything else"]
+        assert all(found[s] >= -1e-9 for s in stages)
+        assert abs(sum(found[s] for s in stages) - found["total"]) < 1e-9
+    assert path["shadow rays (geometry.occluded)"] > 0 and path["closest hits (geometry.intersect)"] > 0
+    assert smallpt["shadow rays (geometry.occluded)"] == 0
+    assert profile.main(["--scenes", "cornell-box", "--resolution", "8", "--spp", "1"]) == 0
+    assert "| closest hits" in capsys.readouterr().out
