@@ -132,16 +132,28 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
     geometry.prepare(scene)   # build the BVH once, before workers fork
 
     start = time.perf_counter()
-    stats = pixel_statistics(n_pixels)
-    job = _Job(scene, integrator, spp, seed)
+    stats = run_units(_Job(scene, integrator, spp, seed), units, pixel_statistics(n_pixels),
+                      processes, progress)
+    mean, variance = mean_and_variance(stats)
+    shape = (scene.camera.height, scene.camera.width, 3)
+    return RenderResult(mean.reshape(shape), variance.reshape(shape), spp, seed, integrator.name,
+                        integrator.options(), time.perf_counter() - start, scene.source)
+
+
+def run_units(job, units, stats, processes: int, progress: bool):
+    """Run ``job.run(unit)`` for every unit and merge the blocks into ``stats`` (returned).
+
+    With ``processes`` > 1 the units go to forked workers that receive ``job`` at fork
+    (inherited, never pickled, no global in this process: renders running concurrently
+    in threads cannot swap jobs). Blocks are merged in unit order, so the result does not
+    depend on the number of processes.
+    """
     bar = _progress_bar(len(units), progress)
     if processes == 1 or len(units) == 1:
         for unit in units:
             _merge(stats, unit, job.run(unit))
             bar.update()
     else:
-        # Workers receive the job at fork (inherited, never pickled); no global in this
-        # process, so renders running concurrently in threads cannot swap jobs.
         ctx = multiprocessing.get_context("fork")
         with ProcessPoolExecutor(processes, mp_context=ctx, initializer=_install_job,
                                  initargs=(job,)) as pool:
@@ -149,10 +161,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
                 _merge(stats, unit, block)
                 bar.update()
     bar.close()
-    mean, variance = mean_and_variance(stats)
-    shape = (scene.camera.height, scene.camera.width, 3)
-    return RenderResult(mean.reshape(shape), variance.reshape(shape), spp, seed, integrator.name,
-                        integrator.options(), time.perf_counter() - start, scene.source)
+    return stats
 
 
 def plan_units(n_pixels: int, spp: int, batch_size: int) -> list[tuple[int, int, int, int]]:
@@ -170,7 +179,7 @@ def plan_units(n_pixels: int, spp: int, batch_size: int) -> list[tuple[int, int,
 class _Job:
     """Everything a worker needs to render one unit (inherited through fork)."""
 
-    current = None     # set in each worker process by _install_job
+    current = None     # the job (any object with ``run(unit)``), set in each worker by _install_job
 
     def __init__(self, scene, integrator, spp, seed):
         self.scene, self.integrator, self.spp, self.seed = scene, integrator, spp, seed
@@ -183,8 +192,12 @@ class _Job:
         sample = np.tile(np.arange(s0, s1), pixels)
         rng = RandomStream(sample_keys(self.seed, pixel.astype(np.int64) * self.spp + sample))
         rays = camera_rays(self.scene.camera, pixel, rng.next_2d())
-        radiance = self.integrator.radiance(self.scene, rays, rng)
-        return block_statistics(radiance.reshape(pixels, samples, 3))
+        values = self.estimate(rays, rng)
+        return block_statistics(values.reshape(pixels, samples, -1))
+
+    def estimate(self, rays, rng):
+        """(n, channels) values of the camera rays: the integrator's radiance."""
+        return self.integrator.radiance(self.scene, rays, rng)
 
 
 def _install_job(job):

@@ -27,6 +27,7 @@ from ..emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
 from ..pathclasses import LETTER, _parse_glossy, bsdf_letters, compile_classes
 from ..sampling import power_heuristic
 from ..shading import eval_bsdf, has_smooth, sample_bsdf
+from ..render import _Job
 from .base import Integrator, spawn, subset_hit, trace
 
 _L, _E = LETTER["L"], LETTER["E"]
@@ -132,30 +133,11 @@ class PathClassIntegrator(Integrator):
         return L
 
 
-class _ClassJob:
-    """Renders one unit of all classes (inherited by forked workers)."""
+class _ClassJob(_Job):
+    """Renders one unit of all classes: (n, 3 K) values per camera ray."""
 
-    current = None
-
-    def __init__(self, scene, integrator, spp, seed):
-        self.scene, self.integrator, self.spp, self.seed = scene, integrator, spp, seed
-
-    def run(self, unit):
-        from ..camera import camera_rays
-        from ..render import block_statistics
-        from ..rng import RandomStream, sample_keys
-        p0, p1, s0, s1 = unit
-        pixels, samples = p1 - p0, s1 - s0
-        pixel = np.repeat(np.arange(p0, p1), samples)
-        sample = np.tile(np.arange(s0, s1), pixels)
-        rng = RandomStream(sample_keys(self.seed, pixel.astype(np.int64) * self.spp + sample))
-        rays = camera_rays(self.scene.camera, pixel, rng.next_2d())
-        values = self.integrator.radiance_classes(self.scene, rays, rng)
-        return block_statistics(values.reshape(pixels, samples, -1))
-
-
-def _run_current(unit):
-    return _ClassJob.current.run(unit)
+    def estimate(self, rays, rng):
+        return self.integrator.radiance_classes(self.scene, rays, rng)
 
 
 def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int | None = 1,
@@ -170,14 +152,11 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
     dict with ``classes`` (list of str), ``mean`` and ``variance``
     ((n_classes, H, W, 3) each), ``spp``, ``seed``, ``seconds``.
     """
-    import multiprocessing
     import os
     import time
-    from concurrent.futures import ProcessPoolExecutor
 
     from .. import geometry
-    from ..render import (DEFAULT_BATCH, _merge, _progress_bar, mean_and_variance,
-                          pixel_statistics, plan_units)
+    from ..render import DEFAULT_BATCH, mean_and_variance, pixel_statistics, plan_units, run_units
     from ..scene import load_scene
     from ..scene.types import Scene
 
@@ -190,22 +169,8 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
     processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
     geometry.prepare(scene)
     start = time.perf_counter()
-    stats = pixel_statistics(n_pixels, 3 * K)
-    job = _ClassJob(scene, integrator, int(spp), int(seed))
-    bar = _progress_bar(len(units), progress)
-    if processes == 1 or len(units) == 1:
-        for unit in units:
-            _merge(stats, unit, job.run(unit))
-            bar.update()
-    else:
-        _ClassJob.current = job
-        ctx = multiprocessing.get_context("fork")
-        with ProcessPoolExecutor(processes, mp_context=ctx) as pool:
-            for unit, block in zip(units, pool.map(_run_current, units, chunksize=1)):
-                _merge(stats, unit, block)
-                bar.update()
-        _ClassJob.current = None
-    bar.close()
+    stats = run_units(_ClassJob(scene, integrator, int(spp), int(seed)), units,
+                      pixel_statistics(n_pixels, 3 * K), processes, progress)
     mean, variance = mean_and_variance(stats)
     h, w = scene.camera.height, scene.camera.width
 
