@@ -87,8 +87,24 @@ def analyse(store, tasks, references, ladder, replicas, alpha):
                                       alpha=alpha, image_mean=float(ref.mean.mean()))
             except ValueError as error:
                 print(f"note: {name}: no convergence law ({error})", file=sys.stderr)
-        out[name] = dict(table, law=law, agreement=agreement)
+        out[name] = dict(table, law=law, agreement=agreement,
+                         lowest_effective=rare_path_caution(table["mse"][:, 0]))
     return out
+
+
+def rare_path_caution(lowest_mses) -> float | None:
+    """Kish's effective number of replicas at the lowest level when a few carry its MSE, else None.
+
+    Every level has the same replicas here, so rare bright paths (small lights, caustics)
+    are mostly absent from the 1-spp renders and, when present, dominate their mean: the
+    slope can then flatten for a correct tracer. ``mitsuba_refs.compare`` avoids this with
+    equal samples per level; the figure only warns.
+    """
+    from mitsuba_refs.stats import effective_rows, rare_errors_dominate
+    lowest = np.asarray(lowest_mses, dtype=float)
+    if lowest.size < 2 or not np.isfinite(lowest).all() or not rare_errors_dominate(lowest):
+        return None
+    return effective_rows(lowest)
 
 
 def summary_rows(results, ladder):
@@ -258,6 +274,12 @@ def main(argv=None) -> int:
     print_table(rows)
     for r in rows:
         print(f"  {r['integrator']}: {r['convergence_verdict']}")
+        effective = results[r["integrator"]]["lowest_effective"]
+        if effective is not None:
+            print(f"  {r['integrator']}: caution: {effective:.1f} of "
+                  f"{args.replicas} replicas carry the {ladder[0]}-spp error (rare bright paths); "
+                  "the slope can flatten for a correct tracer: raise --replicas, or use "
+                  "`mitsuba-refs compare` (equal samples per level)")
         if r["mean_verdict"]:
             print(f"  {r['integrator']}: mean at {agreement_spp} spp: {r['mean_verdict']}")
     print(f"wrote {', '.join(figures)}, {out / 'summary.csv'}, {out / 'convergence.csv'}")

@@ -34,6 +34,12 @@ def test_error_vs_spp_script(tmp_path, capsys):
     assert "RMSE(N)/RMSE(4N)" in capsys.readouterr().out
 
 
+def test_convergence_figure_warns_when_rare_paths_carry_the_lowest_level():
+    assert convergence.rare_path_caution([1.0, 1.2, 0.9, 1.1]) is None
+    effective = convergence.rare_path_caution([40.0, 0.1, 0.1, 0.1])
+    assert effective is not None and 1.0 <= effective < 1.1
+
+
 def test_progression_without_mitsuba(tmp_path):
     out = tmp_path / "prog"
     assert progression.main(["--out", str(out), "--size", "16", "16", "--spp", "1", "4", "--no-mitsuba",
