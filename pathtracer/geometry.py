@@ -76,13 +76,11 @@ def prepare(scene) -> BVH | SmallMesh | SplitMesh:
     """
     if scene._accel is None:
         tri = scene.tri_p
-        small = small_shapes(scene.tri_shape) if len(tri) > SMALL_MAX else None
         if len(tri) <= SMALL_MAX:
             scene._accel = SmallMesh(tri) if len(tri) else BVH(tri)
-        elif small.any():
-            scene._accel = SplitMesh(tri, small)
         else:
-            scene._accel = BVH(tri)
+            small = small_shapes(scene.tri_shape)
+            scene._accel = SplitMesh(tri, small) if small.any() else BVH(tri)
     return scene._accel
 
 

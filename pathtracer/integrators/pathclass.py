@@ -25,9 +25,9 @@ import numpy as np
 
 from ..emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
 from ..pathclasses import LETTER, _parse_glossy, bsdf_letters, compile_classes
+from ..render import _Job
 from ..sampling import power_heuristic
 from ..shading import eval_bsdf, has_smooth, sample_bsdf
-from ..render import _Job
 from .base import Integrator, spawn, subset_hit, trace
 
 _L, _E = LETTER["L"], LETTER["E"]
