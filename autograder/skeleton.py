@@ -41,7 +41,7 @@ STUBS = {
 INIT = '''"""Your implementation: fill in every function that raises NotImplementedError.
 
 Grade it locally with
-    pytest -p autograder.plugin --pyargs autograder.tests_for_students --impl path/to/student
+    pytest --pyargs autograder.tests_for_students --impl path/to/student
 """
 from pathtracer.integrators.base import Integrator
 

@@ -1,8 +1,8 @@
 """The graded tests: one per check of :data:`autograder.grading.CHECKS`.
 
-Run with ``pytest -p autograder.plugin autograder/tests_for_students --impl PATH
---gradescope results.json`` (``-p`` is not needed when the project is installed: the plugin
-is registered as a pytest11 entry point). Points and visibility come from the markers; each
+Run with ``pytest autograder/tests_for_students --impl PATH
+--gradescope results.json``: the plugin is a pytest11 entry point of the installed project
+(from a source tree that is not pip-installed, add ``-p autograder.plugin``). Points and visibility come from the markers; each
 test scores its parts (mean / variance / convergence) for partial credit.
 """
 import pytest
