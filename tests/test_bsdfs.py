@@ -13,6 +13,7 @@ from pathtracer import sampling
 from pathtracer.bsdfs import (Conductor, Dielectric, Diffuse, RoughConductor, TwoSided,
                               fresnel_dielectric, fresnel_schlick, reflect, refract)
 from pathtracer.bsdfs.fresnel import fresnel_conductor, schlick_f0
+from tests.live_mitsuba import import_mitsuba_or_skip
 
 pytestmark = pytest.mark.statistical(assertions=1)
 
@@ -479,17 +480,8 @@ def test_dielectric_defaults_and_flags():
 # Comparison with Mitsuba 3's own plugins
 # --------------------------------------------------------------------------
 
-def _importorskip_mitsuba():
-    """The mitsuba module, or skip the test (with the reason) when it cannot be imported."""
-    try:
-        import mitsuba as mi
-    except ImportError as error:  # absent, or a broken install
-        pytest.skip(f"mitsuba is not importable ({error}): no comparison with Mitsuba 3")
-    return mi
-
-
 def _mitsuba():
-    mi = _importorskip_mitsuba()
+    mi = import_mitsuba_or_skip()
     try:
         mi.set_variant("scalar_rgb")
     except Exception as error:  # pragma: no cover - depends on the install

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from pathtracer import sampling
+from tests.live_mitsuba import import_mitsuba_or_skip
 
 pytestmark = pytest.mark.statistical(assertions=1)
 
@@ -15,15 +16,6 @@ try:
     from tests.chi2 import ALPHA, chi2_from_counts, chi2_plane, chi2_sphere
 except ImportError:  # tests/ is not a package: pytest puts it on sys.path
     from chi2 import ALPHA, chi2_from_counts, chi2_plane, chi2_sphere
-
-
-def _importorskip_mitsuba():
-    """The mitsuba module, or skip the test (with the reason) when it cannot be imported."""
-    try:
-        import mitsuba as mi
-    except ImportError as error:  # absent, or a broken install
-        pytest.skip(f"mitsuba is not importable ({error}): no comparison with Mitsuba 3")
-    return mi
 
 
 def _unit(n, seed=0):
@@ -158,7 +150,7 @@ def test_chi2_detects_wrong_pdf():
 
 @pytest.mark.mitsuba
 def test_mitsuba_warps_identical():
-    mi = _importorskip_mitsuba()
+    mi = import_mitsuba_or_skip()
     mi.set_variant("scalar_rgb")
     u = np.random.default_rng(80).random((400, 2)).astype(np.float32).astype(np.float64)
     u[:4] = [[0.5, 0.5], [0.0, 0.0], [0.999, 0.25], [0.25, 0.999]]
@@ -185,7 +177,7 @@ def test_mitsuba_warps_identical():
 
 @pytest.mark.mitsuba
 def test_mitsuba_discrete_distribution():
-    mi = _importorskip_mitsuba()
+    mi = import_mitsuba_or_skip()
     mi.set_variant("scalar_rgb")
     weights = [0.5, 0.0, 2.0, 1.0, 0.25, 3.0]
     dist = mi.DiscreteDistribution(weights)
