@@ -50,10 +50,11 @@ def part_p_values(result) -> dict:
 
 def seed_record(k: int, results: list, seconds: float) -> dict:
     """One repetition as a JSON line: did it lose points, its part p-values, its time."""
+    lost = {r.check.id: r.max_score - r.score for r in results if r.score < r.max_score}
     return {
         "seed": k,
-        "lost_points": any(r.score < r.max_score for r in results),
-        "lost": {r.check.id: r.max_score - r.score for r in results if r.score < r.max_score},
+        "lost_points": bool(lost),
+        "lost": lost,
         "p_values": {f"{r.check.id}/{part}": p
                      for r in results for part, p in part_p_values(r).items()},
         "seconds": round(seconds, 2),

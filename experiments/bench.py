@@ -129,15 +129,21 @@ class PeakPss:
         self.sample()
 
 
+def warmed_scene(stem: str, integrator: str, width: int, height: int):
+    """The benchmark scene ``stem`` after one warm-up render (builds the accelerator, touches
+    every code path once), so that timings and profiles see the steady state."""
+    from pathtracer import load_scene, render
+    scene = load_scene(str(SCENES / f"{stem}.xml"), width=width, height=height)
+    render(scene, integrator=integrator, spp=1, seed=99, processes=1, progress=False)
+    return scene
+
+
 def measure_ours(spec: dict) -> dict:
     """Time ``pathtracer.render`` on one scene (``spec``: see :func:`main`)."""
     _pin(spec.get("core"))
-    from pathtracer import load_scene, render
-    scene = load_scene(str(SCENES / f"{spec['scene']}.xml"), width=spec["width"],
-                       height=spec["height"])
+    from pathtracer import render
+    scene = warmed_scene(spec["scene"], spec["integrator"], spec["width"], spec["height"])
     processes = spec.get("processes", 1)
-    # Warm-up: builds the BVH, touches every code path once.
-    render(scene, integrator=spec["integrator"], spp=1, seed=99, processes=1, progress=False)
     times, cpu = [], []
     # Sampling /proc every 20 ms takes CPU from the workers: only in the memory run.
     with (PeakPss() if spec.get("memory") else contextlib.nullcontext()) as pss:

@@ -25,7 +25,7 @@ import cProfile
 import pstats
 import time
 
-from .bench import CASES, SCENES
+from .bench import CASES, warmed_scene
 
 #: (stage, [(module path suffix, function name), ...], counted as cumulative or self time).
 STAGES = [
@@ -67,10 +67,9 @@ def stage_seconds(stats: pstats.Stats) -> dict:
 
 
 def profile_scene(stem: str, integrator: str, width: int, height: int, spp: int) -> dict:
-    """Stage seconds of one profiled render of ``SCENES/stem.xml``."""
-    from pathtracer import load_scene, render
-    scene = load_scene(str(SCENES / f"{stem}.xml"), width=width, height=height)
-    render(scene, integrator=integrator, spp=1, seed=99, processes=1, progress=False)
+    """Stage seconds of one profiled render of the benchmark scene ``stem``."""
+    from pathtracer import render
+    scene = warmed_scene(stem, integrator, width, height)
     profiler = cProfile.Profile()
     start = time.perf_counter()
     profiler.enable()

@@ -737,9 +737,7 @@ class SplitMesh:
 
     def intersect(self, o, d, tmax=None):
         """Closest hit of each ray (same contract as :meth:`BVH.intersect`)."""
-        o = np.asarray(o, np.float64).reshape(-1, 3)
-        d = np.asarray(d, np.float64).reshape(-1, 3)
-        tmax = np.broadcast_to(np.inf if tmax is None else np.asarray(tmax, np.float64), (len(o),))
+        o, d, tmax = _row_rays(o, d, tmax)
         t, prim, b1, b2 = self.small.intersect(o, d, tmax)
         hit = prim >= 0
         prim[hit] = self._small_prim[prim[hit]]
@@ -751,14 +749,19 @@ class SplitMesh:
 
     def occluded(self, o, d, tmax=None):
         """(n,) bool: some triangle lies on the ray with ``0 < t < tmax``."""
-        o = np.asarray(o, np.float64).reshape(-1, 3)
-        d = np.asarray(d, np.float64).reshape(-1, 3)
-        tmax = np.broadcast_to(np.inf if tmax is None else np.asarray(tmax, np.float64), (len(o),))
+        o, d, tmax = _row_rays(o, d, tmax)
         occ = self.small.occluded(o, d, tmax)
         rows = np.flatnonzero(~occ)
         if len(rows):
             occ[rows] = self.big.occluded(o[rows], d[rows], tmax[rows])
         return occ
+
+
+def _row_rays(o, d, tmax):
+    """Rays as (n, 3) float64 rows and tmax as (n,) (inf for None), for row-wise subsets."""
+    o = np.asarray(o, np.float64).reshape(-1, 3)
+    d = np.asarray(d, np.float64).reshape(-1, 3)
+    return o, d, np.broadcast_to(np.inf if tmax is None else np.asarray(tmax, np.float64), (len(o),))
 
 
 def small_shapes(tri_shape: np.ndarray, max_triangles: int = SMALL_MAX) -> np.ndarray:

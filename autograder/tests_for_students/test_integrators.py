@@ -2,8 +2,9 @@
 
 Run with ``pytest autograder/tests_for_students --impl PATH
 --gradescope results.json``: the plugin is a pytest11 entry point of the installed project
-(from a source tree that is not pip-installed, add ``-p autograder.plugin``). Points and visibility come from the markers; each
-test scores its parts (mean / variance / convergence) for partial credit.
+(from a source tree that is not pip-installed, add ``-p autograder.plugin``). Points and
+visibility come from the markers; each test scores its parts (mean / variance /
+convergence) for partial credit.
 """
 import pytest
 
