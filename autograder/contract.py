@@ -29,102 +29,97 @@ The project's own integrators follow the same contract: :mod:`autograder.solutio
 reference solution (``pathtracer.integrators.INTEGRATORS`` plus
 ``pathtracer.camera.camera_rays``) and is what ``--impl`` grades by default; the student
 skeleton (:mod:`autograder.skeleton`) is generated from it.
+
+What a submission may import: the student runtime (:mod:`autograder.runtime`), i.e. the
+tracer's building blocks with the integrators and the camera as stubs, NumPy and SciPy. The
+grader reads a submission's source before running it and refuses it, with zero points and a
+message saying why (:func:`refusal`), when it imports the reference solution, the grader or
+the references (``pathtracer.integrators.<algorithm>``, ``INTEGRATORS`` and the reference
+classes, ``pathtracer.camera.camera_rays``, ``autograder``, ``mitsuba_refs``, Mitsuba).
+The runtime makes those imports useless anyway; the refusal makes the message clear.
 """
 from __future__ import annotations
 
-import importlib
-import importlib.util
-import inspect
-import pkgutil
-import sys
-from dataclasses import dataclass
+import ast
+import os
 from pathlib import Path
 
 #: What ``--impl`` grades when it is not given.
 DEFAULT_IMPLEMENTATION = "autograder.solution"
 
-
-class ImplementationError(Exception):
-    """The implementation cannot be imported or does not follow the contract."""
-
-
-@dataclass
-class Implementation:
-    """A loaded implementation: its integrator classes by name and its camera (or None)."""
-
-    spec: str
-    integrators: dict
-    camera_rays: object = None
-
-
-def _import_path(path: Path):
-    """Import a ``.py`` file or a package directory under a private module name."""
-    path = path.resolve()
-    if path.is_dir():
-        init = path / "__init__.py"
-        if not init.exists():
-            raise ImplementationError(f"{path} is a folder without __init__.py (not a package)")
-        name, location, search = path.name, init, [str(path)]
-    else:
-        name, location, search = path.stem, path, None
-    module_name = f"student_impl_{name}".replace("-", "_")
-    # Absolute imports of sibling modules inside a single-file implementation keep working.
-    parent = str(path.parent)
-    if parent not in sys.path:
-        sys.path.insert(0, parent)
-    spec = importlib.util.spec_from_file_location(module_name, location,
-                                                  submodule_search_locations=search)
-    if spec is None or spec.loader is None:
-        raise ImplementationError(f"cannot import {path}")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[module_name] = module
-    spec.loader.exec_module(module)
-    return module
+#: Modules of the reference solution and of the grader a submission must not import.
+SOLUTION_MODULES = tuple(f"pathtracer.integrators.{name}" for name in (
+    "path", "path_bsdf", "path_nee", "direct", "recursive", "smallpt", "pathclass"))
+GRADER_PACKAGES = ("autograder", "mitsuba_refs", "mitsuba", "drjit")
+#: Names that are the reference solution wherever they are imported from.
+SOLUTION_NAMES = {
+    "pathtracer": {"INTEGRATORS", "make_integrator"},
+    "pathtracer.integrators": {"INTEGRATORS", "make_integrator", "PathIntegrator",
+                               "PathBSDFIntegrator", "PathNEEIntegrator", "DirectIntegrator",
+                               "RecursiveIntegrator", "SmallptIntegrator", "path", "path_bsdf",
+                               "path_nee", "direct", "recursive", "smallpt", "pathclass"},
+    "pathtracer.camera": {"camera_rays"},
+}
+#: Most source a submission may have (files, bytes) before the grader stops reading.
+MAX_FILES, MAX_BYTES = 200, 4 << 20
 
 
-def import_module(spec: str):
-    """The module named by ``spec``: a path (file or package folder) or a dotted module name."""
-    path = Path(spec)
-    if spec.endswith(".py") or path.is_dir() or path.exists():
-        if not path.exists():
-            raise ImplementationError(f"--impl {spec}: no such file or folder")
-        return _import_path(path)
-    return importlib.import_module(spec)
+def _forbidden(module: str) -> bool:
+    return (module in SOLUTION_MODULES or module.startswith(tuple(m + "." for m in SOLUTION_MODULES))
+            or module.split(".")[0] in GRADER_PACKAGES)
 
 
-def _integrator_classes(module) -> dict:
-    from pathtracer.integrators.base import Integrator
-    found = {}
-    modules = [module]
-    if hasattr(module, "__path__"):
-        for info in pkgutil.iter_modules(module.__path__):
-            modules.append(importlib.import_module(f"{module.__name__}.{info.name}"))
-    for mod in modules:
-        for _, obj in inspect.getmembers(mod, inspect.isclass):
-            if issubclass(obj, Integrator) and obj is not Integrator and obj.name != "base":
-                found.setdefault(obj.name, obj)
+def reference_imports(source: str, filename: str = "<submission>") -> list:
+    """Lines of ``source`` that import the reference solution or the grader: ``[(line, text)]``."""
+    found = []
+    for node in ast.walk(ast.parse(source, filename)):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if _forbidden(alias.name):
+                    found.append((node.lineno, f"import {alias.name}"))
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names = {alias.name for alias in node.names}
+            bad = names & SOLUTION_NAMES.get(node.module, set())
+            if _forbidden(node.module) or bad or "*" in names and node.module in SOLUTION_NAMES:
+                what = ", ".join(sorted(bad or names))
+                found.append((node.lineno, f"from {node.module} import {what}"))
+        elif isinstance(node, ast.Call) and getattr(node.func, "id", None) == "__import__" \
+                and node.args and isinstance(node.args[0], ast.Constant) \
+                and isinstance(node.args[0].value, str) and _forbidden(node.args[0].value):
+            found.append((node.lineno, f"__import__({node.args[0].value!r})"))
     return found
 
 
-def load_implementation(spec: str | None = None) -> Implementation:
-    """Import an implementation and check its shape (not its correctness).
+def source_files(impl: str) -> list:
+    """The Python files of a submission (a ``.py`` file or a package folder)."""
+    path = Path(impl)
+    files = sorted(path.rglob("*.py")) if path.is_dir() else [path]
+    return files[:MAX_FILES]
 
-    Raises
-    ------
-    ImplementationError
-        Import failure or a registry that breaks the contract; the message says which.
+
+def refusal(impl: str) -> str:
+    """Why the grader refuses to grade ``impl`` ("" when it does not).
+
+    A submission that imports the reference solution or the grader, or whose source cannot
+    be read or parsed, is refused.
     """
-    from pathtracer.integrators.base import Integrator
-    spec = spec or DEFAULT_IMPLEMENTATION
-    module = import_module(spec)
-    integrators = getattr(module, "INTEGRATORS", None)
-    if integrators is None:
-        integrators = _integrator_classes(module)
-    if not isinstance(integrators, dict):
-        raise ImplementationError(f"{spec}: INTEGRATORS must be a dict name -> class")
-    for name, cls in integrators.items():
-        if not (inspect.isclass(cls) and issubclass(cls, Integrator)):
-            raise ImplementationError(f"{spec}: INTEGRATORS[{name!r}] is not a subclass of "
-                                      "pathtracer.Integrator")
-    camera = getattr(module, "camera_rays", None)
-    return Implementation(spec, dict(integrators), camera)
+    problems, total = [], 0
+    for file in source_files(impl):
+        try:
+            data = file.read_bytes()
+        except OSError as error:
+            return f"cannot read {file.name}: {error.strerror}"
+        total += len(data)
+        if total > MAX_BYTES:
+            return f"the submission's Python source exceeds {MAX_BYTES >> 20} MB"
+        name = os.path.relpath(file, impl) if os.path.isdir(impl) else file.name
+        try:
+            found = reference_imports(data.decode("utf-8", "replace"), name)
+        except (SyntaxError, ValueError) as error:
+            return f"{name} is not valid Python: {error}"
+        problems += [f"{name}, line {line}: {text}" for line, text in found]
+    if not problems:
+        return ""
+    return ("your submission imports the reference solution or the grader, which submissions "
+            "must not use; write the integrators yourself (the grader's copy of pathtracer has "
+            "them as stubs):\n  " + "\n  ".join(problems[:10]))

@@ -30,7 +30,8 @@ from pathlib import Path
 from mitsuba_refs import config as refs_config
 from mitsuba_refs.stats import ErrorBudget
 
-from .isolation import Limits, StudentFailure, StudentProcess
+from .contract import refusal
+from .isolation import SOLUTION, Limits, StudentFailure, StudentProcess
 
 #: Chance that grading a correct submission costs it any point (whole submission).
 SUBMISSION_ALPHA = 1e-3
@@ -189,8 +190,9 @@ class CheckResult:
 
 def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
               limits: Limits | None = None, history: dict | None = None,
-              alpha: float | None = None) -> CheckResult:
-    """Grade one check of implementation ``impl`` (module name or path).
+              alpha: float | None = None, trusted: bool = False) -> CheckResult:
+    """Grade one check of implementation ``impl`` (a ``.py`` file, a package folder, or
+    ``"autograder.solution"``).
 
     Parameters
     ----------
@@ -199,6 +201,8 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
     limits : Limits, optional  default: the check's time limit, MEMORY_MB, OUTPUT_BYTES
     history : dict, optional  ``check id -> CheckResult`` of earlier checks (hints compare them)
     alpha : float, optional  per-part level (default :data:`ALPHA`)
+    trusted : bool  grade in the solution runtime without the refusal check (the reference
+        solution, the bug zoo and the correct alternatives; never a student's submission)
     """
     from mitsuba_refs.compare import compare
 
@@ -212,7 +216,16 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
     from mitsuba_refs.compare import TEST_SEED, default_params
     main_render = {}
 
-    with StudentProcess(impl, limits) as student:
+    trusted = trusted or impl == SOLUTION
+    refused = "" if trusted else refusal(impl)
+    try:
+        if refused:
+            raise StudentFailure(f"refused: {refused}", "refused")
+        student = StudentProcess(impl, limits, trusted=trusted)
+        student.start()
+    except StudentFailure as failure:
+        return _failed(result, failure, start)
+    with student:
         def render(scene, integrator, params, spp, seed, processes=None, max_depth=None, **_):
             image = student.render(scene, run_as, params, spp, seed + seed_offset,
                                    max_depth=max_depth, camera=camera)
@@ -226,11 +239,7 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
                                  convergence=wants_convergence, bounces=False, render=render,
                                  **CONVERGENCE)
         except StudentFailure as failure:
-            result.failure, result.failure_kind = str(failure), failure.kind
-            result.parts = [Part(name, 0.0, float(points), False, "not graded: see above")
-                            for name, points in check.parts]
-            result.seconds = time.perf_counter() - start
-            return result
+            return _failed(result, failure, start)
         result.comparison = comparison
         result.parts = score_parts(check, comparison)
         if not all(p.passed for p in result.parts):
@@ -254,6 +263,15 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
             result.hints = hints.explain(evidence)
             if out_dir is not None:
                 result.pictures = _pictures(result, comparison, main_render, Path(out_dir))
+    result.seconds = time.perf_counter() - start
+    return result
+
+
+def _failed(result: CheckResult, failure: StudentFailure, start: float) -> CheckResult:
+    """A check whose student process failed: zero points, the failure as the message."""
+    result.failure, result.failure_kind = str(failure), failure.kind
+    result.parts = [Part(name, 0.0, float(points), False, "not graded: see above")
+                    for name, points in result.check.parts]
     result.seconds = time.perf_counter() - start
     return result
 
@@ -323,11 +341,13 @@ def _pictures(result: CheckResult, comparison, main_render, out_dir: Path) -> di
         comparison.scene = scene
 
 
-def grade(impl: str, checks=CHECKS, out_dir=None, seed_offset: int = 0, log=None) -> list:
+def grade(impl: str, checks=CHECKS, out_dir=None, seed_offset: int = 0, log=None,
+          trusted: bool = False) -> list:
     """Run every check of ``impl`` in order; returns the CheckResults."""
     history = {}
     for check in checks:
-        result = run_check(check, impl, out_dir=out_dir, seed_offset=seed_offset, history=history)
+        result = run_check(check, impl, out_dir=out_dir, seed_offset=seed_offset, history=history,
+                           trusted=trusted)
         history[check.id] = result
         if log:
             log(result.report())

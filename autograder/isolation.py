@@ -1,45 +1,62 @@
-"""Run the student's code in a child process with a wall-clock, memory and output limit.
+"""Run a submission in a sandboxed process that cannot cheat, escape or outlive its test.
 
-One :class:`StudentProcess` serves one graded test: the parent sends render requests
-(scene name, film parameters, integrator name, spp, seed, max_depth) over a pipe and gets
-back ``(mean, variance)``. The child
+One :class:`StudentProcess` serves one graded test. It starts a fresh interpreter from the
+*student runtime* (:mod:`autograder.runtime`: the tracer without the reference solution)
+running :mod:`autograder.sandbox.child`, and talks to it over two pipes in plain frames
+(:mod:`autograder.sandbox.wire`: a JSON header and raw float64 arrays, checked against the
+exact names, dtypes and shapes expected; never pickle, so a reply cannot run code here).
 
-* is forked from a *fork server* started before any reference is loaded, so it holds no
-  reference image in memory, and it is never told a reference's path or the results file's;
-* starts its own session (process group), closes stdin, and sends stdout and stderr to a
-  capture file capped by ``RLIMIT_FSIZE``: a submission that prints more than the limit fails
-  the test;
-* has ``RLIMIT_AS`` (address space) as its memory limit, no core dumps, and a CPU-time limit
-  as a second line behind the parent's wall-clock deadline;
-* drops to an unprivileged user when the grader runs as root and ``AUTOGRADER_STUDENT_USER``
-  names one (the Gradescope setup script creates it; references and results are then not
-  readable or writable by the student's code at all);
-* checks every ``radiance`` call itself (shape ``(n, 3)``, real dtype, finite values) so that
-  the message names the first bad ray.
+Layers, from the strongest:
 
-Whatever the child does (raise, hang, ``os._exit``, segfault, exhaust memory, print
-megabytes) the parent turns it into a :class:`StudentFailure` with a message a student can
-act on, kills the whole process group, and grading goes on with the next test.
+* **A user of its own** when the grader runs as root and ``AUTOGRADER_STUDENT_USER`` names
+  one (Gradescope's setup creates ``student``): the references, the solution, the grader
+  and the results are not readable or writable by it (:func:`audit_environment` checks
+  this before grading and refuses to grade otherwise), it cannot signal the grader, and
+  every process of that user is killed when the test ends.
+* **A seccomp filter** (:mod:`autograder.sandbox.seccomp`): no new processes, no signals to
+  other processes, no file writes, no sockets, whatever the user.
+* **Resource limits**: address space, CPU time (behind the grader's wall-clock deadline),
+  output size, no core dumps, a process count under its own user.
+* **Its own session**: the whole process group is killed at the end of the test.
+* **An audit hook** in the child, for clear messages only (reading files outside the
+  runtime, the submission and the libraries; starting processes).
+
+Whatever the child does (raise, hang, exit, crash, exhaust memory, print megabytes, send
+garbage) the parent turns it into a :class:`StudentFailure` with a message a student can
+act on, kills it, and grading goes on with the next test.
 """
 from __future__ import annotations
 
-import multiprocessing
+import json
 import os
-import resource
+import shutil
 import signal
+import subprocess
 import sys
 import tempfile
 import time
-import traceback
-import types
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-#: Environment variables the child must not see (paths of references and results).
-PRIVATE_ENV = ("MITSUBA_REFS_CACHE", "AUTOGRADER_RESULTS", "AUTOGRADER_REFERENCES")
-#: Unprivileged user the child switches to when the grader runs as root.
+from . import runtime as runtimes
+from .sandbox import wire
+
+#: Unprivileged user the child runs as when the grader runs as root.
 ENV_STUDENT_USER = "AUTOGRADER_STUDENT_USER"
+#: Interpreter the child runs (default: the grader's), and the folders it imports NumPy and
+#: SciPy from (default: where the grader's come from), ``os.pathsep``-separated.
+ENV_STUDENT_PYTHON = "AUTOGRADER_STUDENT_PYTHON"
+ENV_STUDENT_SITE = "AUTOGRADER_STUDENT_SITE"
+#: The implementation that means "the reference solution" (graded in the solution runtime).
+SOLUTION = "autograder.solution"
+#: Most processes (threads included) of the student user while it runs.
+STUDENT_PROCESSES = 64
+#: Largest batch of camera rays the child may ask the grader for at once.
+MAX_CAMERA_BATCH = 1 << 20
+#: What an error frame may say it is.
+ERROR_KINDS = ("import", "memory", "not-implemented", "output", "exception", "protocol")
 
 
 @dataclass
@@ -58,6 +75,43 @@ class Limits:
     output_bytes: int = 1 << 20
 
 
+@dataclass
+class Environment:
+    """Where and as whom the child runs.
+
+    Attributes
+    ----------
+    python : str  the interpreter
+    site : list of str  folders with NumPy, SciPy and threadpoolctl
+    user : str or None  the unprivileged user (only when the grader runs as root)
+    """
+
+    python: str = field(default_factory=lambda: os.environ.get(ENV_STUDENT_PYTHON)
+                        or sys.executable)
+    site: list = field(default_factory=lambda: _site_dirs())
+    user: str | None = field(default_factory=lambda: os.environ.get(ENV_STUDENT_USER) or None)
+
+    def ids(self):
+        """(uid, gid) of the user, or None when the child runs as the grader's user."""
+        if not self.user or os.geteuid() != 0:
+            return None
+        import pwd
+        entry = pwd.getpwnam(self.user)
+        return entry.pw_uid, entry.pw_gid
+
+
+def _site_dirs() -> list:
+    given = os.environ.get(ENV_STUDENT_SITE)
+    if given:
+        return [p for p in given.split(os.pathsep) if p]
+    import numpy
+    import scipy
+    import threadpoolctl
+    dirs = [str(Path(m.__file__).resolve().parent.parent) for m in (numpy, scipy)]
+    dirs.append(str(Path(threadpoolctl.__file__).resolve().parent))
+    return list(dict.fromkeys(dirs))
+
+
 class StudentFailure(Exception):
     """The student's code failed in a way that fails the test (message for the student)."""
 
@@ -66,52 +120,60 @@ class StudentFailure(Exception):
         self.kind = kind
 
 
-_CONTEXT = None
-
-
-def context():
-    """The fork-server context (started lazily; preloads NumPy and the tracer only)."""
-    global _CONTEXT
-    if _CONTEXT is None:
-        ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["numpy", "pathtracer", "autograder.isolation"])
-        _CONTEXT = ctx
-    return _CONTEXT
-
-
-def start_fork_server() -> None:
-    """Start the fork server now, before the parent loads any reference."""
-    from multiprocessing import forkserver
-    context()
-    forkserver.ensure_running()
+class SetupError(Exception):
+    """The grading environment is not safe or not usable (a message for the course staff)."""
 
 
 # ----------------------------------------------------------------------------------------
-# Parent side
+# The student process
 
 
 class StudentProcess:
-    """The student's implementation in an isolated child, for one test.
+    """A submission in a sandboxed child, for one test.
+
+    Parameters
+    ----------
+    impl : str
+        A ``.py`` file or package folder, or :data:`SOLUTION`.
+    limits : Limits, optional
+    trusted : bool
+        Run in the *solution* runtime, where the reference integrators exist and a
+        submission may build on them: for the reference solution and the instructors' bug
+        zoo and alternatives only. Implied by ``impl == SOLUTION``.
+    environment : Environment, optional
 
     Use as a context manager; :meth:`render` has the signature of the ``render=`` hook of
     :func:`mitsuba_refs.compare.compare`.
     """
 
-    def __init__(self, impl: str, limits: Limits | None = None):
-        # The child works in a private folder: a relative path must be made absolute here.
-        self.impl = os.path.abspath(impl) if os.path.exists(impl) else impl
+    def __init__(self, impl: str, limits: Limits | None = None, *, trusted: bool = False,
+                 environment: Environment | None = None):
+        self.trusted = trusted or impl == SOLUTION
+        self.environment = environment or Environment()
+        # A solution runtime is readable by others only when the child needs it to be.
+        public = not self.trusted or self.environment.ids() is not None
+        self.runtime = runtimes.cached("solution" if self.trusted else "student", public)
+        if impl == SOLUTION:
+            impl = str(self.runtime / "solution")
+        if not os.path.exists(impl):
+            raise StudentFailure(f"no submission at {impl}", "import")
+        self.impl = os.path.realpath(impl)
         self.limits = limits or Limits()
         self.process = None
-        self.conn = None
         self.deadline = None
         self.calls = 0
         self.last_render = None
-        self._tmp = tempfile.TemporaryDirectory(prefix="autograder-")
-        self.output_path = os.path.join(self._tmp.name, "student-output.txt")
+        self.sandbox = []
+        self._private = tempfile.mkdtemp(prefix="autograder-")          # 0700: grader only
+        self._scratch = tempfile.mkdtemp(prefix="autograder-cwd-")      # the child's cwd
+        os.chmod(self._scratch, 0o755)
+        self.output_path = os.path.join(self._private, "student-output.txt")
+        self._pipes = ()
 
     # -- lifecycle -----------------------------------------------------------------------
     def __enter__(self):
-        self.start()
+        if self.process is None:
+            self.start()
         return self
 
     def __exit__(self, *exc):
@@ -119,50 +181,163 @@ class StudentProcess:
         return False
 
     def start(self):
-        ctx = context()
-        parent, child = ctx.Pipe(duplex=True)
-        limits = (float(self.limits.seconds), int(self.limits.memory_mb),
-                  int(self.limits.output_bytes))
-        os.chmod(self._tmp.name, 0o777)
-        self.process = ctx.Process(target=child_main, name="student",
-                                   args=(child, self.impl, limits, self.output_path), daemon=True)
+        """Start the child and wait for its "ready" frame (import errors are raised here)."""
+        if self.process is not None:
+            raise RuntimeError("this StudentProcess was started already")
+        ids = self.environment.ids()
+        request_r, request_w = os.pipe()
+        reply_r, reply_w = os.pipe()
+        root = self.impl if os.path.isdir(self.impl) else os.path.dirname(self.impl)
+        config = dict(
+            request_fd=request_r, reply_fd=reply_w, site=self.environment.site,
+            submission=self.impl, submission_root=root, trusted=self.trusted,
+            limits=dict(cpu_seconds=int(self.limits.seconds) + 10,
+                        memory_mb=int(self.limits.memory_mb),
+                        output_bytes=int(self.limits.output_bytes),
+                        processes=STUDENT_PROCESSES if ids else 0))
+        argv = [self.environment.python, "-S", "-E", "-s", "-B", "-c", runtimes.BOOT,
+                str(self.runtime), json.dumps(config)]
+        env = {"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8", "HOME": self._scratch,
+               "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+        user = dict(user=ids[0], group=ids[1], extra_groups=[]) if ids else {}
         self.deadline = time.monotonic() + self.limits.seconds
-        # The child must not re-run the parent's main script (pytest's or a user's).
-        main = sys.modules.get("__main__")
-        sys.modules["__main__"] = types.ModuleType("__main__")
+        with open(self.output_path, "wb") as capture:
+            try:
+                self.process = subprocess.Popen(
+                    argv, stdin=subprocess.DEVNULL, stdout=capture, stderr=capture,
+                    pass_fds=(request_r, reply_w), cwd=self._scratch, env=env,
+                    start_new_session=True, **user)
+            finally:
+                os.close(request_r)
+                os.close(reply_w)
+        self._pipes = (request_w, reply_r)
         try:
-            self.process.start()
-        finally:
-            sys.modules["__main__"] = main
-        child.close()
-        self.conn = parent
+            header, _ = self._receive({})
+            if header["status"] != "ready":
+                raise self._error(header)
+        except BaseException:
+            self.close()
+            raise
+        self.sandbox = [str(s) for s in header.get("sandbox", [])]
 
     def close(self):
+        """Stop the child and every process it may have left behind."""
         if self.process is not None:
-            if self.process.is_alive():
+            if self.process.poll() is None:
                 try:
-                    self.conn.send(("quit", None))
-                except (OSError, ValueError):
+                    wire.write_frame(self._pipes[0], {"kind": "quit"})
+                    self.process.wait(0.5)
+                except (OSError, subprocess.TimeoutExpired):
                     pass
-                self.process.join(0.5)
             self._kill()
-        if self.conn is not None:
-            self.conn.close()
-            self.conn = None
-        self._tmp.cleanup()
+        for fd in self._pipes:
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        self._pipes = ()
+        shutil.rmtree(self._private, ignore_errors=True)
+        shutil.rmtree(self._scratch, ignore_errors=True)
 
     def _kill(self):
-        proc = self.process
-        if proc.pid is not None:
-            for target in (lambda: os.killpg(proc.pid, signal.SIGKILL),
-                           lambda: os.kill(proc.pid, signal.SIGKILL)):
-                try:
-                    target()
-                except (ProcessLookupError, PermissionError, OSError):
-                    pass
-        proc.join(5)
+        process = self.process
+        try:
+            os.killpg(process.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+        ids = self.environment.ids()
+        if ids:
+            kill_user_processes(ids[0])
+        try:
+            process.wait(5)
+        except subprocess.TimeoutExpired:
+            pass
 
-    # -- requests ------------------------------------------------------------------------
+    # -- the conversation ----------------------------------------------------------------
+    def _receive(self, expect: dict, camera=None):
+        """The next reply frame; serves the child's camera requests on the way."""
+        while True:
+            try:
+                header, arrays = wire.read_frame(self._pipes[1], self.deadline,
+                                                 expect=None, max_payload=_payload_limit(expect))
+            except wire.WireTimeout:
+                self._kill()
+                self._check_output()
+                raise StudentFailure(
+                    f"time limit: your code did not finish within the {self.limits.seconds:.0f} "
+                    "s this test allows (an endless loop? paths that never terminate: Russian "
+                    "roulette or max_depth ignored?)", "timeout") from None
+            except wire.WireError as error:
+                raise self._broken(error) from None
+            status = header.get("status")
+            try:
+                if status == "camera" and camera is not None:
+                    self._answer_camera(arrays, camera)
+                    continue
+                if status in ("ok", "ready"):
+                    wire.check_arrays(arrays, expect)
+                    self._check_output()
+                    return header, arrays
+                if status == "error" and not arrays:
+                    self._check_output()        # printing too much explains the error
+                    return header, arrays
+            except wire.WireError as error:
+                self._kill()
+                raise StudentFailure(f"the student process sent a malformed reply ({error})",
+                                     "protocol") from None
+            self._kill()
+            raise StudentFailure(f"the student process sent an unexpected reply (status "
+                                 f"{str(status)[:40]!r})", "protocol")
+
+    def _answer_camera(self, arrays: dict, camera) -> None:
+        pixel, u_film = arrays.get("pixel"), arrays.get("u_film")
+        scene = camera["scene"]
+        n_pixels = scene.camera.width * scene.camera.height
+        ok = (set(arrays) == {"pixel", "u_film"} and pixel.dtype.kind == "i" and pixel.ndim == 1
+              and u_film.dtype.kind == "f" and u_film.shape == (len(pixel), 2)
+              and len(pixel) <= MAX_CAMERA_BATCH and np.isfinite(u_film).all()
+              and ((pixel >= 0) & (pixel < n_pixels)).all())
+        if not ok:
+            raise wire.WireError("bad camera request")
+        from pathtracer.camera import camera_rays
+        rays = camera_rays(scene.camera, pixel, u_film)
+        wire.write_frame(self._pipes[0], {"kind": "camera"},
+                         {"o": rays.o, "d": rays.d, "tmax": rays.tmax})
+
+    def request(self, header: dict, arrays: dict | None, expect: dict, camera=None) -> dict:
+        """Send one request and return the reply's arrays (errors: StudentFailure)."""
+        if self.process is None:
+            self.start()
+        if self.process.poll() is not None:
+            raise self._death()
+        try:
+            wire.write_frame(self._pipes[0], header, arrays)
+        except OSError:
+            raise self._death() from None
+        reply, data = self._receive(expect, camera)
+        if reply["status"] == "error":
+            raise self._error(reply)
+        return data
+
+    def _error(self, header: dict) -> StudentFailure:
+        kind, message = header.get("kind"), header.get("message")
+        if kind not in ERROR_KINDS or not isinstance(message, str):
+            self._kill()
+            return StudentFailure("the student process sent a malformed error reply", "protocol")
+        return StudentFailure(message[:20000], kind)
+
+    def _broken(self, error) -> StudentFailure:
+        """The pipe ended or carried garbage: a dead child explains itself, else malformed."""
+        if self.process.poll() is None:
+            try:
+                self.process.wait(1)
+            except subprocess.TimeoutExpired:
+                self._kill()
+                return StudentFailure(f"the student process sent a malformed reply ({error})",
+                                      "protocol")
+        return self._death()
+
+    # -- output and death ----------------------------------------------------------------
     def output(self, limit: int = 2000) -> str:
         """The first ``limit`` characters the student's code printed."""
         try:
@@ -179,52 +354,16 @@ class StudentProcess:
 
     def _check_output(self):
         if self.output_size() >= self.limits.output_bytes:
+            self._kill()
             raise StudentFailure(
                 f"your code printed more than {self.limits.output_bytes // 1024} KB of output "
                 "(print statements in the radiance loop?); remove them. It begins with:\n"
                 + self.output(300), "output")
 
-    def request(self, kind: str, payload: dict):
-        """Send one request and wait (at most until the test's deadline) for the reply."""
-        if self.process is None:
-            self.start()
-        if not self.process.is_alive():
-            raise self._death()
-        try:
-            self.conn.send((kind, payload))
-        except (OSError, ValueError, BrokenPipeError):
-            raise self._death() from None
-        remaining = self.deadline - time.monotonic()
-        try:
-            ready = remaining > 0 and self.conn.poll(remaining)
-        except (OSError, EOFError):
-            ready = True
-        if not ready:
-            self._kill()
-            self._check_output()
-            raise StudentFailure(
-                f"time limit: your code did not finish within the {self.limits.seconds:.0f} s "
-                "this test allows (an endless loop? paths that never terminate: Russian "
-                "roulette or max_depth ignored?)", "timeout")
-        try:
-            reply = self.conn.recv()
-        except (EOFError, OSError):
-            raise self._death() from None
-        except Exception as error:  # an unpicklable or garbled reply
-            self._kill()
-            raise StudentFailure(f"the grading process returned an unreadable reply ({error})",
-                                 "crash") from None
-        self._check_output()
-        status = reply[0]
-        if status == "error":
-            raise StudentFailure(reply[2], reply[1])
-        return reply[1:]
-
     def _death(self) -> StudentFailure:
         """A failure describing how the child ended."""
-        self.process.join(2)
-        code = self.process.exitcode
         self._kill()
+        code = self.process.returncode
         try:
             self._check_output()
         except StudentFailure as failure:
@@ -235,7 +374,8 @@ class StudentProcess:
             return StudentFailure("your code stopped answering (closed the grader's pipe)" + tail,
                                   "crash")
         if code < 0:
-            name = signal.Signals(-code).name if -code in signal.Signals._value2member_map_ else str(-code)
+            name = signal.Signals(-code).name if -code in signal.Signals._value2member_map_ \
+                else str(-code)
             why = {"SIGSEGV": "a segmentation fault (a crash inside a C extension?)",
                    "SIGKILL": "it was killed (out of memory?)",
                    "SIGXCPU": "it used up its CPU-time limit",
@@ -247,36 +387,97 @@ class StudentProcess:
             f"your code ended the grading process (exit code {code}, e.g. sys.exit() or "
             f"os._exit()) before returning a result" + tail, "crash")
 
+    # -- what the grader asks ------------------------------------------------------------
     def render(self, scene, integrator, params, spp, seed, processes=None, max_depth=None,
                camera="reference"):
-        """``(mean, variance)`` of the student's integrator; validated, else StudentFailure."""
+        """``(mean, variance)`` of the student's integrator; validated, else StudentFailure.
+
+        ``integrator`` ``"reference:NAME"`` renders the reference integrator *here* with the
+        student's ``camera_rays`` (the camera check).
+        """
         name = integrator if isinstance(integrator, str) else integrator.name
         params = {str(k): str(v) for k, v in (params or {}).items()}
-        payload = dict(scene=scene, params=params, integrator=name, spp=int(spp),
-                       seed=int(seed), max_depth=max_depth, camera=camera)
         self.calls += 1
-        mean, variance = self.request("render", payload)
-        width, height = int(params.get("width", 0)), int(params.get("height", 0))
-        mean = validate_image(mean, "mean", (height, width, 3) if width and height else None)
-        variance = validate_image(variance, "variance", mean.shape)
+        if name.startswith("reference:"):
+            mean, variance = self._render_with_student_camera(scene, name.split(":", 1)[1],
+                                                              params, spp, seed, max_depth)
+        else:
+            loaded = _scene(scene, params)
+            shape = (loaded.camera.height, loaded.camera.width, 3)
+            header = dict(kind="render", scene=scene, params=params, integrator=name,
+                          spp=int(spp), seed=int(seed),
+                          max_depth=None if max_depth is None else int(max_depth))
+            out = self.request(header, None, {"mean": ("f8", shape), "variance": ("f8", shape)},
+                               camera={"scene": loaded})
+            mean = validate_image(out["mean"], "mean", shape)
+            variance = validate_image(out["variance"], "variance", shape)
         self.last_render = (seed, max_depth, mean, variance)
         return mean, variance
+
+    def _render_with_student_camera(self, scene, name, params, spp, seed, max_depth):
+        from pathtracer import render
+        from pathtracer.camera import Rays, camera_rays
+        from pathtracer.integrators import make_integrator
+        loaded = _scene(scene, params)
+
+        def student_camera(camera, pixel, u_film):
+            o, d = self.rays(scene, params, pixel, u_film)
+            length = np.linalg.norm(d, axis=1, keepdims=True)
+            if not (length > 0).all():
+                raise StudentFailure("camera_rays returned zero-length directions", "output")
+            return Rays(o, d / length, camera_rays(camera, pixel, u_film).tmax)
+
+        options = {} if max_depth is None else {"max_depth": int(max_depth)}
+        result = render(loaded, make_integrator(name), spp=int(spp), seed=int(seed), processes=1,
+                        progress=False, camera=student_camera, **options)
+        return result.mean, result.variance
 
     def probe(self, scene, params, integrator, n=4096, seed=99):
         """(distinct results of the student's integrator, of the reference one) for ``n``
         copies of the centre pixel's ray with independent random streams."""
+        from pathtracer.camera import camera_rays
+        from pathtracer.integrators import make_integrator
+        from pathtracer.rng import RandomStream, sample_keys
         params = {str(k): str(v) for k, v in (params or {}).items()}
-        student, reference = self.request("probe", dict(scene=scene, params=params,
-                                                        integrator=integrator, n=n, seed=seed))
-        return int(student), int(reference)
+        loaded = _scene(scene, params)
+        camera = loaded.camera
+        pixel = np.full(n, (camera.height // 2) * camera.width + camera.width // 2)
+        rays = camera_rays(camera, pixel, np.full((n, 2), 0.5))
+        out = self.request(dict(kind="radiance", scene=scene, params=params, integrator=integrator,
+                                seed=int(seed)), {"o": rays.o, "d": rays.d, "tmax": rays.tmax},
+                           {"radiance": ("f8", (n, 3))})
+        student = validate_array(out["radiance"], "radiance", (n, 3))
+        reference = make_integrator(integrator)
+        ref = reference.radiance(loaded, rays, RandomStream(sample_keys(int(seed),
+                                                                        np.arange(n))))
+        return _distinct(student), _distinct(ref)
 
     def rays(self, scene, params, pixel, u_film):
         """The student's ``camera_rays`` for given pixels and film samples: ``(o, d)``."""
         params = {str(k): str(v) for k, v in (params or {}).items()}
-        o, d = self.request("rays", dict(scene=scene, params=params, pixel=np.asarray(pixel),
-                                         u_film=np.asarray(u_film)))
-        return (validate_array(o, "ray origins", (len(pixel), 3)),
-                validate_array(d, "ray directions", (len(pixel), 3)))
+        pixel = np.asarray(pixel, dtype=np.int64)
+        n = len(pixel)
+        out = self.request(dict(kind="rays", scene=scene, params=params),
+                           {"pixel": pixel, "u_film": np.asarray(u_film, dtype=np.float64)},
+                           {"o": ("f8", (n, 3)), "d": ("f8", (n, 3))})
+        return (validate_array(out["o"], "ray origins", (n, 3)),
+                validate_array(out["d"], "ray directions", (n, 3)))
+
+
+def _distinct(values: np.ndarray) -> int:
+    return int(len(np.unique(np.round(values, 12), axis=0)))
+
+
+def _payload_limit(expect: dict) -> int:
+    """Bytes a reply may carry: what is expected, or a camera request."""
+    expected = sum(8 * int(np.prod([d or 1 for d in shape])) for _, shape in expect.values())
+    return max(expected, MAX_CAMERA_BATCH * 24)
+
+
+def _scene(name, params):
+    """The grader's own copy of a built-in scene (cached by content)."""
+    from mitsuba_refs.compare import loaded_scene
+    return loaded_scene(name, params)
 
 
 def validate_array(x, what, shape=None) -> np.ndarray:
@@ -297,236 +498,130 @@ def validate_array(x, what, shape=None) -> np.ndarray:
 
 
 def validate_image(x, what, shape=None) -> np.ndarray:
+    """A finite, non-negative (H, W, 3) image, else StudentFailure."""
     x = validate_array(x, f"the rendered {what} image", shape)
     if x.ndim != 3 or x.shape[2] != 3:
         raise StudentFailure(f"the rendered {what} image has shape {x.shape}, expected (H, W, 3)",
                              "output")
+    if (x < 0).any():
+        raise StudentFailure(f"the rendered {what} image has negative values", "output")
     return x
 
 
 # ----------------------------------------------------------------------------------------
-# Child side
+# Processes and permissions of the student user
 
 
-def _apply_limits(seconds: float, memory_mb: int, output_bytes: int, output_path: str) -> None:
-    os.setsid()
-    for name in PRIVATE_ENV:
-        os.environ.pop(name, None)
-    fd = os.open(output_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
-    devnull = os.open(os.devnull, os.O_RDONLY)
-    os.dup2(devnull, 0)
-    os.dup2(fd, 1)
-    os.dup2(fd, 2)
-    os.close(fd)
-    os.close(devnull)
-    sys.stdout = os.fdopen(1, "w", buffering=1, closefd=False)
-    sys.stderr = os.fdopen(2, "w", buffering=1, closefd=False)
-    user = os.environ.pop(ENV_STUDENT_USER, None)
-    if user and os.geteuid() == 0:
-        import pwd
-        entry = pwd.getpwnam(user)
-        os.setgroups([])
-        os.setgid(entry.pw_gid)
-        os.setuid(entry.pw_uid)
-        os.chdir(os.path.dirname(output_path))
-    else:
-        os.chdir(os.path.dirname(output_path))
-    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-    cpu = int(seconds) + 10
-    resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
-    resource.setrlimit(resource.RLIMIT_FSIZE, (output_bytes, output_bytes))
-    memory = memory_mb * 1024 * 1024
-    resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+def user_processes(uid: int) -> list:
+    """Pids of every process owned by ``uid``."""
+    pids = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                if os.stat(f"/proc/{entry}").st_uid == uid:
+                    pids.append(int(entry))
+            except OSError:
+                pass
+    return pids
 
 
-def _student_traceback(error: BaseException, limit: int = 3000) -> str:
-    text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
-    if len(text) > limit:
-        text = "...\n" + text[-limit:]
-    return text
+def kill_user_processes(uid: int, seconds: float = 5.0) -> int:
+    """SIGKILL every process of ``uid`` until none is left; returns how many were killed.
+
+    The user must be dedicated to the grader (one grader at a time): anything it runs is a
+    submission's.
+    """
+    if uid == 0 or uid == os.getuid():
+        raise ValueError("refusing to kill the grader's own user's processes")
+    killed, stop = 0, time.monotonic() + seconds
+    while time.monotonic() < stop:
+        pids = user_processes(uid)
+        if not pids:
+            break
+        for pid in pids:
+            try:
+                os.kill(pid, signal.SIGKILL)
+                killed += 1
+            except OSError:
+                pass
+        time.sleep(0.01)
+    return killed
 
 
-class _Checked:
-    """Wraps an integrator's ``radiance`` with the contract's checks."""
+#: Checked once per grader process and environment.
+_AUDITED = {}
 
-    def __init__(self, radiance, name):
-        self.radiance, self.name = radiance, name
-
-    def __call__(self, scene, rays, rng):
-        n = len(rays)
-        out = self.radiance(scene, rays, rng)
-        if not isinstance(out, np.ndarray):
-            raise ContractError(f"{self.name}.radiance returned {type(out).__name__}, expected a "
-                                f"NumPy array of shape ({n}, 3)")
-        if out.shape != (n, 3):
-            raise ContractError(f"{self.name}.radiance returned shape {out.shape} for {n} rays, "
-                                f"expected ({n}, 3): one RGB radiance per ray")
-        if out.dtype.kind != "f":
-            raise ContractError(f"{self.name}.radiance returned dtype {out.dtype}, expected floats")
-        bad = ~np.isfinite(out)
-        if bad.any():
-            row = int(np.argwhere(bad)[0][0])
-            raise ContractError(
-                f"{self.name}.radiance returned {int(bad.any(axis=1).sum())} rays with NaN or Inf "
-                f"(first: ray {row}, value {out[row].tolist()}; a division by a zero pdf or "
-                "cosine?)")
-        negative = out < 0
-        if negative.any():
-            row = int(np.argwhere(negative)[0][0])
-            raise ContractError(f"{self.name}.radiance returned negative radiance for "
-                                f"{int(negative.any(axis=1).sum())} rays (first: ray {row}, "
-                                f"value {out[row].tolist()})")
-        return out
+PROBE = """
+import json, os, sys
+readable = []
+for root in json.loads(sys.argv[1]):
+    for folder, dirs, files in os.walk(root):
+        for name in files + dirs:
+            path = os.path.join(folder, name)
+            if os.access(path, os.R_OK) and not os.path.isdir(path):
+                readable.append(path)
+        if os.access(folder, os.R_OK) and folder != root:
+            readable.append(folder)
+    if os.access(root, os.R_OK) and os.path.isfile(root):
+        readable.append(root)
+import numpy
+print(json.dumps(readable))
+"""
 
 
-class ContractError(Exception):
-    """The student's output breaks the contract."""
+def private_paths(extra=()) -> list:
+    """What a submission must not read: the references, the solution, the grader."""
+    import autograder
+    import pathtracer
+    from mitsuba_refs import cache
+    tracer = Path(pathtracer.__file__).resolve().parent
+    paths = [cache.cache_dir(), tracer / "integrators", tracer / "camera.py",
+             Path(autograder.__file__).parent, *extra]
+    paths += runtimes.public_solution_runtimes()
+    return sorted({str(Path(p).resolve()) for p in paths if Path(p).exists()})
 
 
-def _checked_camera(camera_rays):
-    def checked(camera, pixel, u_film):
-        rays = camera_rays(camera, pixel, u_film)
-        n = len(pixel)
-        for field in ("o", "d"):
-            value = getattr(rays, field, None)
-            if not isinstance(value, np.ndarray) or value.shape != (n, 3):
-                raise ContractError(f"camera_rays: rays.{field} must be an array of shape ({n}, 3)")
-            if not np.isfinite(value).all():
-                raise ContractError(f"camera_rays: rays.{field} has NaN/Inf values")
-        return rays
-    return checked
+def audit_environment(environment: Environment | None = None, extra=()) -> list:
+    """Check, as the student user, that the child can run and can read nothing private.
+
+    Returns the private paths the student user can read (empty when safe). Only meaningful
+    when the child runs as its own user; returns ``[]`` otherwise.
+
+    Raises
+    ------
+    SetupError
+        The student user cannot run the interpreter or import NumPy.
+    """
+    environment = environment or Environment()
+    ids = environment.ids()
+    if not ids:
+        return []
+    key = (environment.python, tuple(environment.site), environment.user, tuple(extra))
+    if key in _AUDITED:
+        return _AUDITED[key]
+    code = "import sys; sys.path[:0] = " + repr(environment.site) + "\n" + PROBE
+    roots = private_paths(extra)
+    try:
+        done = subprocess.run([environment.python, "-S", "-E", "-s", "-B", "-c", code,
+                               json.dumps(roots)], capture_output=True, text=True, timeout=120,
+                              cwd="/", user=ids[0], group=ids[1], extra_groups=[],
+                              env={"PATH": "/usr/bin:/bin"})
+    except (OSError, subprocess.SubprocessError) as error:
+        raise SetupError(f"the student user {environment.user!r} cannot run "
+                         f"{environment.python}: {error}") from None
+    if done.returncode != 0:
+        raise SetupError(f"the student user {environment.user!r} cannot run "
+                         f"{environment.python} with NumPy from {environment.site}: "
+                         f"{done.stderr.strip()[-500:]}")
+    _AUDITED[key] = json.loads(done.stdout)
+    return _AUDITED[key]
 
 
-class _Server:
-    """The child's state: the implementation, loaded scenes, the original camera."""
-
-    def __init__(self, impl_spec):
-        import importlib
-        render_module = importlib.import_module("pathtracer.render")   # the module, not the function
-        self.render_module = render_module
-        self.reference_camera = render_module.camera_rays
-        self.scenes = {}
-        self.impl, self.import_error = None, None
-        try:
-            from .contract import load_implementation
-            self.impl = load_implementation(impl_spec)
-        except BaseException as error:  # noqa: BLE001 - anything the import does is reported
-            self.import_error = ("import", "importing your implementation failed:\n"
-                                 + _student_traceback(error))
-
-    def scene(self, name, params):
-        key = (name, tuple(sorted(params.items())))
-        if key not in self.scenes:
-            from pathtracer import load_scene
-            self.scenes[key] = load_scene(name, **params)
-        return self.scenes[key]
-
-    def integrator(self, scene, name, max_depth):
-        from pathtracer.integrators import INTEGRATORS as REFERENCE
-        if name.startswith("reference:"):
-            cls = REFERENCE[name.split(":", 1)[1]]
-        else:
-            cls = self.impl.integrators.get(name)
-            if cls is None:
-                raise ContractError(f"your implementation has no integrator named {name!r} "
-                                    f"(it has: {', '.join(sorted(self.impl.integrators)) or 'none'})")
-        spec = scene.integrator
-        options = dict(spec.params) if spec is not None and spec.name == name else {}
-        if max_depth is not None:
-            options["max_depth"] = int(max_depth)
-        integrator = cls(**options)
-        integrator.radiance = _Checked(integrator.radiance, name)
-        return integrator
-
-    def camera(self, which):
-        if which == "student":
-            if self.impl.camera_rays is None:
-                raise ContractError("your implementation has no camera_rays function")
-            self.render_module.camera_rays = _checked_camera(self.impl.camera_rays)
-        else:
-            self.render_module.camera_rays = self.reference_camera
-
-    def probe(self, payload):
-        """Distinct results of ``n`` copies of one camera ray, each with its own random
-        stream: (student's count, reference integrator's count)."""
-        from pathtracer import geometry
-        from pathtracer.integrators import INTEGRATORS as REFERENCE
-        from pathtracer.rng import RandomStream, sample_keys
-        scene = self.scene(payload["scene"], payload["params"])
-        geometry.prepare(scene)
-        self.camera("reference")
-        n, name = int(payload["n"]), payload["integrator"]
-        camera = scene.camera
-        pixel = np.full(n, (camera.height // 2) * camera.width + camera.width // 2)
-        rays = self.render_module.camera_rays(camera, pixel, np.full((n, 2), 0.5))
-        counts = []
-        for integrator in (self.integrator(scene, name, None),
-                           REFERENCE[name]() if name in REFERENCE else None):
-            if integrator is None:
-                counts.append(-1)
-                continue
-            rng = RandomStream(sample_keys(int(payload["seed"]), np.arange(n, dtype=np.int64)))
-            out = integrator.radiance(scene, rays, rng)
-            counts.append(int(len(np.unique(np.round(out, 12), axis=0))))
-        return tuple(counts)
-
-    def handle(self, kind, payload):
-        if kind == "ping":
-            return ("ok", True)
-        if self.import_error:
-            return ("error",) + self.import_error
-        if kind == "render":
-            from pathtracer import render
-            scene = self.scene(payload["scene"], payload["params"])
-            integrator = self.integrator(scene, payload["integrator"], payload["max_depth"])
-            self.camera(payload["camera"])
-            result = render(scene, integrator, spp=payload["spp"], seed=payload["seed"],
-                            processes=1, progress=False)
-            return ("ok", result.mean, result.variance)
-        if kind == "probe":
-            return ("ok",) + self.probe(payload)
-        if kind == "rays":
-            scene = self.scene(payload["scene"], payload["params"])
-            self.camera("student")
-            rays = self.render_module.camera_rays(scene.camera, payload["pixel"], payload["u_film"])
-            return ("ok", np.asarray(rays.o, np.float64), np.asarray(rays.d, np.float64))
-        return ("error", "protocol", f"unknown request {kind!r}")
-
-
-def child_main(conn, impl_spec, limits, output_path):
-    """Entry point of the student process."""
-    seconds, memory_mb, output_bytes = limits
-    _apply_limits(seconds, memory_mb, output_bytes, output_path)
-    server = _Server(impl_spec)
-    while True:
-        try:
-            kind, payload = conn.recv()
-        except (EOFError, OSError):
-            return
-        if kind == "quit":
-            return
-        try:
-            reply = server.handle(kind, payload)
-        except MemoryError:
-            reply = ("error", "memory", f"your code ran out of memory (limit {memory_mb} MB "
-                     "for the student process): do not keep per-bounce arrays of every path")
-        except NotImplementedError as error:
-            reply = ("error", "not-implemented", "not implemented yet: "
-                     + (str(error) or "NotImplementedError") + "\n" + _student_traceback(error, 800))
-        except ContractError as error:
-            reply = ("error", "output", str(error))
-        except RecursionError as error:
-            reply = ("error", "exception", "RecursionError (recursion too deep: use a loop over "
-                     "bounces)\n" + _student_traceback(error, 1200))
-        except BaseException as error:  # noqa: BLE001 - SystemExit included: reported, not obeyed
-            reply = ("error", "exception", "your code raised an exception:\n"
-                     + _student_traceback(error))
-        try:
-            sys.stdout.flush()
-            sys.stderr.flush()
-        except (OSError, ValueError):
-            pass
-        try:
-            conn.send(reply)
-        except (OSError, ValueError):
-            return
+def require_safe_environment(environment: Environment | None = None, extra=()) -> None:
+    """Raise :class:`SetupError` unless :func:`audit_environment` finds nothing readable."""
+    readable = audit_environment(environment, extra)
+    if readable:
+        shown = "\n  ".join(readable[:10]) + ("\n  ..." if len(readable) > 10 else "")
+        raise SetupError(f"the student user can read {len(readable)} private file(s) (references, "
+                         f"the solution or the grader); make them readable by root only "
+                         f"(the Gradescope setup.sh does), e.g.:\n  {shown}")

@@ -2,21 +2,30 @@
 
 The zip holds what Gradescope's Ubuntu image needs (https://gradescope-autograders.readthedocs.io):
 
-``setup.sh``        installs Python packages and this project (pathtracer, mitsuba_refs with
-                    its committed references, autograder) and creates the unprivileged user
-                    ``student`` the student's code runs as; Mitsuba is *not* installed;
-``run_autograder``  copies the submission, runs the graded tests with ``--impl`` and
-                    ``--gradescope /autograder/results/results.json``, and always leaves a
-                    valid results file (the plugin writes it after every test; a final
-                    fallback covers a grader that could not even start);
-``source/``         the project (pyproject.toml, pathtracer/, mitsuba_refs/, autograder/).
+``setup.sh``        creates a venv with the *dependencies* only (the project is not installed
+                    into it, so a submission, which runs with that interpreter, cannot import
+                    the grader or the solution from it), creates the unprivileged user
+                    ``student``, and makes ``source/`` (grader, solution, references) readable
+                    by root only;
+``run_autograder``  copies the submission, runs the graded tests as root with
+                    ``AUTOGRADER_STUDENT_USER=student`` (each test's student process runs as
+                    that user, from the student runtime without the solution, under seccomp;
+                    see :mod:`autograder.isolation`) and always leaves a valid results file;
+``source/``         the project (pyproject.toml, requirements.txt, pathtracer/, mitsuba_refs/,
+                    autograder/), used through ``PYTHONPATH``.
 
-The references are made readable by root only, and the results folder writable by root
-only, so the student's process (running as ``student``) can read neither.
+Both scripts take ``AUTOGRADER_ROOT`` (default ``/autograder``), so that the package can be
+tested end to end in a temporary folder; ``setup.sh`` also takes ``AUTOGRADER_PYTHON`` (an
+interpreter that already has the dependencies: no apt, no venv) and
+``AUTOGRADER_STUDENT_USER`` / ``AUTOGRADER_STUDENT_PYTHON`` / ``AUTOGRADER_STUDENT_SITE``
+(see :class:`autograder.isolation.Environment`), which it records in ``ROOT/env.sh`` for
+``run_autograder``. ``AUTOGRADER_PYTEST_ARGS`` adds pytest arguments (e.g. ``-k camera``).
 """
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
+import re
 import sys
 import zipfile
 from pathlib import Path
@@ -27,38 +36,61 @@ SKIP_SUFFIXES = (".pyc",)
 SKIP_PARTS = ("__pycache__", ".pytest_cache")
 
 SETUP_SH = """#!/usr/bin/env bash
-# Gradescope setup: runs once when the autograder image is built.
+# Gradescope setup: runs once when the autograder image is built (see autograder/package.py).
 set -euo pipefail
-apt-get update
-apt-get install -y python3 python3-pip python3-venv
-python3 -m venv /autograder/venv
-/autograder/venv/bin/pip install --upgrade pip
-/autograder/venv/bin/pip install /autograder/source pytest
-useradd --no-create-home --shell /usr/sbin/nologin student || true
-# References: readable by the grader (root) only.
-REFS=$(/autograder/venv/bin/python -c "import mitsuba_refs.cache as c; print(c.cache_dir())")
-chmod -R go-rwx "$REFS"
+ROOT=${AUTOGRADER_ROOT:-/autograder}
+STUDENT=${AUTOGRADER_STUDENT_USER:-student}
+if [ -z "${AUTOGRADER_PYTHON:-}" ]; then
+    apt-get update
+    apt-get install -y python3 python3-pip python3-venv
+    python3 -m venv "$ROOT/venv"
+    "$ROOT/venv/bin/pip" install --upgrade pip
+    # The dependencies only: the project stays in source/, readable by root alone.
+    "$ROOT/venv/bin/pip" install -r "$ROOT/source/requirements.txt" pytest
+    GRADER_PYTHON="$ROOT/venv/bin/python"
+else
+    GRADER_PYTHON="$AUTOGRADER_PYTHON"
+fi
+id -u "$STUDENT" >/dev/null 2>&1 || useradd --system --no-create-home --shell /usr/sbin/nologin "$STUDENT"
+chmod 755 "$ROOT"
+chown -R root:root "$ROOT/source"
+chmod -R go-rwx "$ROOT/source"
+{
+    echo "GRADER_PYTHON='$GRADER_PYTHON'"
+    echo "export AUTOGRADER_STUDENT_USER='$STUDENT'"
+    [ -n "${AUTOGRADER_STUDENT_PYTHON:-}" ] && echo "export AUTOGRADER_STUDENT_PYTHON='$AUTOGRADER_STUDENT_PYTHON'"
+    [ -n "${AUTOGRADER_STUDENT_SITE:-}" ] && echo "export AUTOGRADER_STUDENT_SITE='$AUTOGRADER_STUDENT_SITE'"
+    true
+} > "$ROOT/env.sh"
+chmod 600 "$ROOT/env.sh"
 """
 
 RUN_AUTOGRADER = """#!/usr/bin/env bash
-# Gradescope run script: grades /autograder/submission, writes /autograder/results/results.json.
+# Gradescope run script: grades ROOT/submission, writes ROOT/results/results.json.
 set -u
-RESULTS=/autograder/results/results.json
-mkdir -p /autograder/results
-chmod 700 /autograder/results
-rm -rf /autograder/student && mkdir -p /autograder/student
-cp -r /autograder/submission/. /autograder/student/
-chmod -R a+rX /autograder/student
+ROOT=${AUTOGRADER_ROOT:-/autograder}
+. "$ROOT/env.sh"
+RESULTS=$ROOT/results/results.json
+mkdir -p "$ROOT/results"
+chmod 700 "$ROOT/results"
+rm -rf "$ROOT/student" && mkdir -p "$ROOT/student"
+cp -r "$ROOT/submission/." "$ROOT/student/"
+# Readable by the student user (it imports it), writable by nobody but root.
+chown -R root:root "$ROOT/student"
+chmod -R a+rX,go-w "$ROOT/student"
 # A submission is the package folder 'student' (the skeleton's layout) or its files directly.
-IMPL=/autograder/student/student
-[ -d "$IMPL" ] || IMPL=/autograder/student
-export AUTOGRADER_STUDENT_USER=student
+IMPL=$ROOT/student/student
+[ -d "$IMPL" ] || IMPL=$ROOT/student
 export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
-cd /autograder/source
-/autograder/venv/bin/python -m pytest --pyargs autograder.tests_for_students \\
-    --impl "$IMPL" --gradescope "$RESULTS" -q -p no:cacheprovider || true
+export PYTHONPATH="$ROOT/source"
+cd "$ROOT/source"
+# The plugin is a pytest11 entry point only where the project is pip-installed.
+PLUGIN=$("$GRADER_PYTHON" -c 'import importlib.metadata as m
+print("" if any(e.name == "autograder" for e in m.entry_points(group="pytest11")) else "-p autograder.plugin")')
+"$GRADER_PYTHON" -m pytest $PLUGIN autograder/tests_for_students --impl "$IMPL" \\
+    --gradescope "$RESULTS" -q -p no:cacheprovider ${AUTOGRADER_PYTEST_ARGS:-} || true
 # The plugin writes results after every test; if the grader could not even start, say so.
-/autograder/venv/bin/python - "$RESULTS" <<'PY'
+"$GRADER_PYTHON" - "$RESULTS" <<'PY'
 import json, sys
 path = sys.argv[1]
 try:
@@ -68,6 +100,15 @@ except Exception:
                "tests": []}, open(path, "w"))
 PY
 """
+
+
+def requirements() -> str:
+    """The project's runtime dependencies, one per line (for setup.sh's venv)."""
+    text = (ROOT / "pyproject.toml").read_text()
+    block = re.search(r"^dependencies = \[(.*?)^\]", text, re.S | re.M)
+    if block is None:
+        return "\n".join(importlib.metadata.requires("pathtracer-validation") or []) + "\n"
+    return "\n".join(re.findall(r'"([^"]+)"', block.group(1))) + "\n"
 
 
 def _files():
@@ -91,6 +132,7 @@ def build(out_zip) -> Path:
             info = zipfile.ZipInfo(name)
             info.external_attr = 0o755 << 16
             z.writestr(info, text)
+        z.writestr("source/requirements.txt", requirements())
         for file in _files():
             z.write(file, "source/" + str(file.relative_to(ROOT)))
     return out_zip

@@ -5,6 +5,14 @@ Options
 ``--impl PATH_OR_MODULE``   the implementation to grade (default :mod:`autograder.solution`)
 ``--gradescope RESULTS``    write Gradescope's ``results.json`` there, after every test
 ``--grading-pictures DIR``  where z-map pictures of failed checks go (default: next to RESULTS)
+``--solution-runtime``      grade in the runtime that contains the reference solution, without
+                            the refusal check: for instructors' submissions built on the
+                            solution (bug zoo, correct alternatives); never for students
+
+Before the first test, when the student's code runs as its own user
+(``AUTOGRADER_STUDENT_USER``), the grader checks as that user that nothing private is
+readable (:func:`autograder.isolation.require_safe_environment`); if something is, it
+writes a results file that says so and stops without grading.
 
 Markers
 -------
@@ -36,6 +44,9 @@ def pytest_addoption(parser):
                     help="write Gradescope results.json here, atomically after every test")
     group.addoption("--grading-pictures", default=None, metavar="DIR",
                     help="folder for the z-map pictures of failed checks")
+    group.addoption("--solution-runtime", action="store_true", default=False,
+                    help="instructors only: the implementation may build on the reference "
+                         "solution (bug-zoo mutants, correct alternatives)")
 
 
 def pytest_configure(config):
@@ -45,6 +56,21 @@ def pytest_configure(config):
     path = config.getoption("--gradescope")
     if path:
         config.stash[_RESULTS] = Results(path)
+
+
+def pytest_sessionstart(session):
+    """Refuse to grade in an environment where the submission could read private files."""
+    from .isolation import SetupError, require_safe_environment
+    results = session.config.stash.get(_RESULTS, None)
+    extra = [os.path.dirname(results.path)] if results is not None else []
+    try:
+        require_safe_environment(extra=extra)
+    except SetupError as error:
+        message = f"The autograder is not set up safely; please contact the course staff. ({error})"
+        if results is not None:
+            results.output = message
+            results.write()
+        pytest.exit(message, returncode=3)
 
 
 class Grade:
@@ -92,6 +118,12 @@ def implementation(request) -> str:
     from .contract import DEFAULT_IMPLEMENTATION
     impl = request.config.getoption("--impl") or DEFAULT_IMPLEMENTATION
     return os.path.abspath(impl) if os.path.exists(impl) else impl
+
+
+@pytest.fixture(scope="session")
+def trusted_implementation(request) -> bool:
+    """Whether ``--solution-runtime`` was given."""
+    return bool(request.config.getoption("--solution-runtime"))
 
 
 @pytest.fixture(scope="session")

@@ -94,7 +94,7 @@ def _with_options(integrator: Integrator, options: dict) -> Integrator:
 
 def render(scene, integrator=None, spp: int | None = None, seed: int | None = None,
            processes: int | None = None, batch_size: int = DEFAULT_BATCH,
-           progress: bool | None = None, **options) -> RenderResult:
+           progress: bool | None = None, camera=None, **options) -> RenderResult:
     """Render a scene and return per-pixel mean and variance.
 
     Parameters
@@ -113,6 +113,9 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
         Camera paths per batch. The image does not depend on it.
     progress : bool, optional
         Show a progress bar (default: when stderr is a terminal and the render is long).
+    camera : callable, optional
+        ``camera(camera, pixel, u_film) -> Rays``, the primary rays (default
+        :func:`pathtracer.camera.camera_rays`); the autograder passes a student's camera.
     **options
         Integrator options (max_depth, rr_depth, roulette, hemisphere, ...).
     """
@@ -132,7 +135,8 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
     geometry.prepare(scene)   # build the BVH once, before workers fork
 
     start = time.perf_counter()
-    stats = run_units(_Job(scene, integrator, spp, seed), units, pixel_statistics(n_pixels),
+    job = _Job(scene, integrator, spp, seed, camera or camera_rays)
+    stats = run_units(job, units, pixel_statistics(n_pixels),
                       processes, progress)
     mean, variance = mean_and_variance(stats)
     shape = (scene.camera.height, scene.camera.width, 3)
@@ -181,8 +185,9 @@ class _Job:
 
     current = None     # the job (any object with ``run(unit)``), set in each worker by _install_job
 
-    def __init__(self, scene, integrator, spp, seed):
+    def __init__(self, scene, integrator, spp, seed, camera=camera_rays):
         self.scene, self.integrator, self.spp, self.seed = scene, integrator, spp, seed
+        self.camera = camera
 
     def run(self, unit):
         """Radiance statistics (count, mean, M2) of a unit's pixels."""
@@ -191,7 +196,7 @@ class _Job:
         pixel = np.repeat(np.arange(p0, p1), samples)
         sample = np.tile(np.arange(s0, s1), pixels)
         rng = RandomStream(sample_keys(self.seed, pixel.astype(np.int64) * self.spp + sample))
-        rays = camera_rays(self.scene.camera, pixel, rng.next_2d())
+        rays = self.camera(self.scene.camera, pixel, rng.next_2d())
         values = self.estimate(rays, rng)
         return block_statistics(values.reshape(pixels, samples, -1))
 

@@ -8,6 +8,7 @@ Time limits are scaled by ``CI_TIME_SCALE`` because CI machines are shared.
 """
 from __future__ import annotations
 
+import ast
 import glob
 import importlib.metadata
 import json
@@ -16,18 +17,36 @@ import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
 from autograder import grading, results
-from autograder.contract import import_module, load_implementation
-from autograder.isolation import Limits, StudentProcess, start_fork_server
+from autograder.contract import refusal
+from autograder.isolation import Limits, StudentProcess
 
 ROOT = Path(__file__).resolve().parent.parent
 ZOO = ROOT / "tests" / "bugzoo"
 MISBEHAVING = ZOO / "misbehaving"
+HOSTILE = ROOT / "tests" / "hostile"
 CI_TIME_SCALE = float(os.environ.get("AUTOGRADER_CI_TIME_SCALE", "6"))
 MUTANTS = sorted(p for p in glob.glob(str(ZOO / "*.py")) if not Path(p).name.startswith("_"))
+ATTACKS = sorted(p for p in glob.glob(str(HOSTILE / "*.py")) if not Path(p).name.startswith("_"))
+
+
+def constants(path) -> SimpleNamespace:
+    """A submission's module-level constants, read without running its code."""
+    found = {}
+    for node in ast.parse(Path(path).read_text()).body:
+        if isinstance(node, ast.Assign) and len(node.targets) == 1 and \
+                isinstance(node.targets[0], ast.Name) and node.targets[0].id.isupper():
+            try:
+                found[node.targets[0].id] = ast.literal_eval(node.value)
+            except ValueError:
+                if isinstance(node.value, ast.Call) and getattr(node.value.func, "id", "") == "dict":
+                    found[node.targets[0].id] = {k.arg: ast.literal_eval(k.value)
+                                                 for k in node.value.keywords}
+    return SimpleNamespace(**found)
 
 def _limits(check):
     return Limits(check.seconds * CI_TIME_SCALE, grading.MEMORY_MB, grading.OUTPUT_BYTES)
@@ -36,14 +55,14 @@ def _limits(check):
 @pytest.fixture(scope="session")
 def graded():
     """CheckResults of the reference (every check) and of every mutant (its target check)."""
-    start_fork_server()
     jobs = {("reference", c.id): (c, "autograder.solution") for c in grading.CHECKS}
     for path in MUTANTS:
-        module = import_module(path)
+        module = constants(path)
         jobs[(Path(path).stem, module.CHECK)] = (grading.CHECKS_BY_ID[module.CHECK], path)
     workers = max(2, os.cpu_count() or 1)
     with ThreadPoolExecutor(workers) as pool:
-        futures = {key: pool.submit(grading.run_check, check, impl, limits=_limits(check))
+        futures = {key: pool.submit(grading.run_check, check, impl, limits=_limits(check),
+                                    trusted=True)
                    for key, (check, impl) in jobs.items()}
         return {key: f.result() for key, f in futures.items()}
 
@@ -71,7 +90,7 @@ def test_mutant_count():
 
 @pytest.mark.parametrize("path", MUTANTS, ids=[Path(p).stem for p in MUTANTS])
 def test_mutant_loses_points_with_the_expected_hint(graded, path):
-    module = import_module(path)
+    module = constants(path)
     name = Path(path).stem
     result = graded[(name, module.CHECK)]
     assert result.score < result.max_score, result.report()
@@ -101,46 +120,126 @@ QUICK = grading.Check("quick", "path", "quad-light", (("mean", 1),), 10)
     ("memory_hog", "memory", "out of memory"),
 ])
 def test_misbehaving_submission_fails_cleanly(name, kind, words):
-    start_fork_server()
     seconds = 4 if name == "hang" else QUICK.seconds * CI_TIME_SCALE
     result = grading.run_check(QUICK, str(MISBEHAVING / f"{name}.py"),
-                               limits=Limits(seconds, grading.MEMORY_MB, 64 * 1024))
+                               limits=Limits(seconds, grading.MEMORY_MB, 64 * 1024), trusted=True)
     assert result.score == 0 and not result.passed
     assert result.failure_kind == kind, result.failure
     assert words in result.failure, result.failure
 
 
-def test_student_process_sees_no_reference_and_no_private_environment(monkeypatch, tmp_path):
-    monkeypatch.setenv("MITSUBA_REFS_CACHE", str(tmp_path))
-    monkeypatch.setenv("AUTOGRADER_RESULTS", str(tmp_path / "results.json"))
-    start_fork_server()
-    probe = tmp_path / "probe.py"
-    probe.write_text(
-        "import os, sys, gc, numpy as np\n"
-        "from pathtracer.integrators import INTEGRATORS as R\n"
-        "from pathtracer.integrators.path import PathIntegrator\n"
-        "def radiance(self, scene, rays, rng):\n"
-        "    leaked = [k for k in ('MITSUBA_REFS_CACHE', 'AUTOGRADER_RESULTS') if k in os.environ]\n"
-        "    loaded = 'mitsuba_refs.cache' in sys.modules\n"
-        "    big = [o for o in gc.get_objects() if isinstance(o, np.ndarray) and o.shape[:2] == (48, 64)]\n"
-        "    if leaked or loaded or big:\n"
-        "        raise RuntimeError(f'LEAK {leaked} {loaded} {len(big)}')\n"
-        "    return PathIntegrator.radiance(self, scene, rays, rng)\n"
-        "INTEGRATORS = {**R, 'path': type('P', (PathIntegrator,), {'radiance': radiance})}\n")
-    from mitsuba_refs.cache import get_reference
-    get_reference("quad-light", {"width": 64, "height": 48}, "path")   # loaded in the parent
-    with StudentProcess(str(probe), Limits(60 * CI_TIME_SCALE)) as student:
-        mean, _ = student.render("quad-light", "path", {"width": 64, "height": 48}, 2, 1)
-    assert mean.shape == (48, 64, 3)
+def _runtime_processes() -> list:
+    """Processes started from a student runtime that are still alive."""
+    alive = []
+    for entry in os.listdir("/proc"):
+        try:
+            cmdline = Path(f"/proc/{entry}/cmdline").read_bytes()
+        except OSError:
+            continue
+        if entry.isdigit() and b"grading_child" in cmdline and b"autograder-runtime" in cmdline:
+            alive.append(int(entry))
+    return alive
 
 
-def test_contract_loads_reference_and_skeleton(tmp_path):
+@pytest.mark.parametrize("path", ATTACKS, ids=[Path(p).stem for p in ATTACKS])
+def test_hostile_submission_scores_nothing_and_leaves_nothing(path, tmp_path):
+    """Each attack of tests/hostile: zero points, the expected failure, the grader alive,
+    no process left, no file written, no payload run."""
+    expect = constants(path).EXPECT
+    markers = [Path("/tmp/autograder-hostile-pickle-ran"), Path("/tmp/autograder-hostile-daemon-ran")]
+    for marker in markers:
+        marker.unlink(missing_ok=True)
+    result = grading.run_check(QUICK, path, limits=Limits(QUICK.seconds * CI_TIME_SCALE,
+                                                          grading.MEMORY_MB, 64 * 1024))
+    assert result.score == 0 and not result.passed, result.report()
+    if expect["kind"]:
+        assert result.failure_kind == expect["kind"], result.report()
+        assert expect["words"] in result.failure, result.report()
+    assert "LEAK" not in result.report() and "WROTE" not in result.report(), result.report()
+    assert not _runtime_processes()
+    import time
+    time.sleep(3.5 if "daemon" in path else 0)         # the daemon would write after 3 s
+    assert not any(marker.exists() for marker in markers)
+    assert not (HOSTILE / "pathtracer").exists() and Path(path).exists()
+
+
+def test_student_runtime_has_no_solution(tmp_path):
+    """The runtime a submission imports from: integrators and camera are the skeleton's stubs,
+    no path-class integrator, no references, no grader."""
+    from autograder import runtime
+    from autograder.skeleton import STUBS
+    folder = runtime.build(tmp_path / "rt")
+    for relative, (name, _) in STUBS.items():
+        tree = ast.parse((folder / "pathtracer" / relative).read_text())
+        bodies = [node.body for node in ast.walk(tree)
+                  if isinstance(node, ast.FunctionDef) and node.name == name]
+        assert bodies, relative
+        for body in bodies:
+            code = [stmt for stmt in body if not (isinstance(stmt, ast.Expr)
+                                                  and isinstance(stmt.value, ast.Constant))]
+            assert len(code) == 1 and isinstance(code[0], ast.Raise), relative
+    assert not (folder / "pathtracer" / "integrators" / "pathclass.py").exists()
+    names = {p.name for p in folder.rglob("*")}
+    assert not any(n.endswith(".exr") for n in names)
+    assert "mitsuba_refs" not in names and "autograder" not in names
+    assert {p.name for p in (folder / "grading_child").iterdir()} >= {"child.py", "wire.py"}
+
+
+def test_refusal_reads_the_source(tmp_path):
     from autograder.skeleton import generate
-    ref = load_implementation("autograder.solution")
-    assert {"path", "path_bsdf", "path_nee", "direct"} <= set(ref.integrators)
+    assert refusal(str(generate(tmp_path / "skeleton"))) == ""
+    assert refusal(str(generate(tmp_path / "copy", stubs=False))) == ""
+    assert "imports the reference solution" in refusal(str(HOSTILE / "solution_import.py"))
+    bad = tmp_path / "bad.py"
+    for line in ("from pathtracer.integrators.path import PathIntegrator",
+                 "import mitsuba_refs.cache", "from pathtracer.camera import camera_rays",
+                 "from pathtracer import INTEGRATORS", "__import__('autograder.solution')"):
+        bad.write_text(line + "\n")
+        assert refusal(str(bad)), line
+    bad.write_text("from pathtracer.integrators.base import Integrator\n"
+                   "from pathtracer.camera import Rays\n")
+    assert refusal(str(bad)) == ""
+    bad.write_text("def f(:\n")
+    assert "not valid Python" in refusal(str(bad))
+
+
+def test_wire_rejects_what_is_not_plain_data():
+    """Frames carry JSON and raw arrays; anything else is an error, never an object."""
+    import pickle
+    from autograder.sandbox import wire
+    import numpy as np
+    r, w = os.pipe()
+    try:
+        wire.write_frame(w, {"status": "ok"}, {"mean": np.ones((2, 3))})
+        header, arrays = wire.read_frame(r, expect={"mean": ("f8", (2, 3))})
+        assert header == {"status": "ok"} and arrays["mean"].sum() == 6
+        wire.write_frame(w, {"status": "ok"}, {"mean": np.ones((2, 2))})
+        with pytest.raises(wire.WireError, match="expected"):
+            wire.read_frame(r, expect={"mean": ("f8", (2, 3))})
+        os.read(r, 32)                                            # drop the unread payload
+        data = pickle.dumps(("ok", object()))
+        os.write(w, len(data).to_bytes(4, "big") + data)
+        with pytest.raises(wire.WireError, match="not JSON"):
+            wire.read_frame(r)
+        os.write(w, (1 << 30).to_bytes(4, "big"))
+        with pytest.raises(wire.WireError, match="header of"):
+            wire.read_frame(r)
+        text = b'{"arrays": [["x", "O", [1]]]}'
+        os.write(w, len(text).to_bytes(4, "big") + text)
+        with pytest.raises(wire.WireError, match="malformed array"):
+            wire.read_frame(r)
+        with pytest.raises(wire.WireTimeout):
+            wire.read_frame(r, deadline=0)
+    finally:
+        os.close(r)
+        os.close(w)
+
+
+def test_skeleton_starts_in_the_student_runtime(tmp_path):
+    from autograder.skeleton import generate
     package = generate(tmp_path)
-    impl = load_implementation(str(package))
-    assert set(impl.integrators) == set(ref.integrators) and impl.camera_rays is not None
+    with StudentProcess(str(package), Limits(60 * CI_TIME_SCALE)) as student:
+        assert "seccomp" in student.sandbox
     source = (package / "path_nee.py").read_text()
     assert "NotImplementedError" in source and "Path Tracing with Shadow Rays" in source
 
@@ -177,7 +276,8 @@ def test_skeleton_grades_zero_without_crashing(tmp_path):
 
 def test_plugin_writes_points_visibility_and_partial_credit(tmp_path):
     zoo = ZOO / "uniform_hemisphere.py"
-    proc, document = _run_grader(zoo, tmp_path / "results.json", "-k", "path_nee-cornell or camera or direct-glass")
+    proc, document = _run_grader(zoo, tmp_path / "results.json", "-k",
+                                 "path_nee-cornell or camera or direct-glass", "--solution-runtime")
     tests = {t["name"].split("[")[-1].rstrip("]"): t for t in document["tests"]}
     nee = tests["path_nee-cornell-box"]
     assert nee["max_score"] == 10 and nee["score"] == 8 and nee["status"] == "failed", nee
@@ -195,7 +295,7 @@ def test_hang_and_crash_leave_valid_results(tmp_path, name, scale):
     out = tmp_path / "results.json"
     extra = {"AUTOGRADER_TIME_SCALE": scale} if scale else {}
     proc, document = _run_grader(MISBEHAVING / f"{name}.py", out, "-k", "path-cornell or camera",
-                                 env_extra=extra)
+                                 "--solution-runtime", env_extra=extra)
     tests = {t["name"].split("[")[-1].rstrip("]"): t for t in document["tests"]}
     assert tests["path-cornell-box"]["status"] == "failed"
     assert tests["path-cornell-box"]["score"] == 0

@@ -1,0 +1,351 @@
+"""The student process: load a submission and answer the grader's requests.
+
+Started by :class:`autograder.isolation.StudentProcess` as a fresh interpreter
+(``python -S -E -s -B -c BOOT RUNTIME CONFIG``) from the *student runtime*
+(:mod:`autograder.runtime`), already running as the unprivileged student user when the
+grader runs as root. This file is copied there with :mod:`wire` and :mod:`seccomp`; it
+imports nothing of the grader. Before the submission is imported it
+
+1. puts the runtime and the dependency folders (NumPy, ...) on ``sys.path``;
+2. sets the resource limits (address space, CPU time, output size, no core dumps; a process
+   count when it has a user of its own);
+3. installs the seccomp filter (:mod:`seccomp`: no processes, no signals to others, no file
+   writes, no sockets) and an audit hook that turns reading files outside the runtime, the
+   submission and the libraries into a clear ``PermissionError``.
+
+Then it serves requests, one frame each (:mod:`wire`), until the grader closes the pipe:
+
+``render``    the submission's integrator on a built-in scene -> ``mean``, ``variance``;
+              camera rays come from the grader (``camera`` callback frames): the reference
+              camera is not in the student runtime;
+``radiance``  the submission's integrator on rays the grader sends -> ``radiance``;
+``rays``      the submission's ``camera_rays`` -> ``o``, ``d``.
+
+Every error becomes an ``{"status": "error", "kind": ..., "message": ...}`` frame.
+"""
+from __future__ import annotations
+
+import json
+import os
+import resource
+import sys
+import traceback
+
+RUNTIME = None
+CONFIG = None
+
+
+def main(runtime: str, config_json: str) -> None:
+    """Entry point (see the module docstring)."""
+    global RUNTIME, CONFIG
+    RUNTIME, CONFIG = runtime, json.loads(config_json)
+    sys.path[:] = [runtime] + CONFIG["site"] + [p for p in sys.path if p and p.startswith(
+        (sys.base_prefix, sys.prefix))]
+    _limits(CONFIG["limits"])
+    from . import wire
+    import numpy  # noqa: F401  (loaded before the sandbox closes: it reads its libraries)
+    import pathtracer  # noqa: F401
+    from pathtracer import render  # noqa: F401
+    from pathtracer.accel import single_threaded_blas
+    single_threaded_blas()     # reads /proc/self/maps to find BLAS: done before the hook
+    sandbox = []
+    if CONFIG.get("seccomp", True):
+        from . import seccomp
+        reason = seccomp.install()
+        sandbox.append(reason or "seccomp")
+    _install_audit_hook()
+    server = Server(CONFIG, wire)
+    header = {"status": "ready", "sandbox": sandbox}
+    if server.load_error:
+        header = {"status": "error", "kind": "import", "message": server.load_error}
+    wire.write_frame(CONFIG["reply_fd"], header)
+    server.serve()
+
+
+# ----------------------------------------------------------------------------------------
+# Limits and the audit hook
+
+
+def _limits(limits: dict) -> None:
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    cpu = int(limits["cpu_seconds"])
+    resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
+    size = int(limits["output_bytes"])
+    resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
+    memory = int(limits["memory_mb"]) << 20
+    resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+    if limits.get("processes"):
+        count = int(limits["processes"])
+        resource.setrlimit(resource.RLIMIT_NPROC, (count, count))
+
+
+#: Audit events that start processes, signal others or open sockets.
+FORBIDDEN_EVENTS = {
+    "os.system": "start programs", "os.exec": "start programs", "os.posix_spawn": "start programs",
+    "os.spawn": "start programs", "subprocess.Popen": "start programs",
+    "os.fork": "start processes", "os.forkpty": "start processes",
+    "socket.__new__": "open sockets", "socket.connect": "open sockets",
+}
+
+
+def _install_audit_hook() -> None:
+    """Clear messages for what the sandbox forbids (the kernel's filter is the guarantee)."""
+    readable = tuple(os.path.realpath(p) + os.sep for p in
+                     [RUNTIME, CONFIG["submission_root"]] + CONFIG["site"]
+                     + [sys.base_prefix, sys.prefix] if p)
+    pid, group = os.getpid(), os.getpgid(0)
+    devices = ("/dev/null", "/dev/urandom", "/proc/self/", f"/proc/{pid}/",
+               "/sys/devices/system/cpu/")
+
+    def allowed(path) -> bool:
+        if isinstance(path, int):
+            return True
+        path = os.path.realpath(os.fsdecode(path))
+        return (path + os.sep).startswith(readable) or path.startswith(devices)
+
+    def hook(event, args):
+        what = FORBIDDEN_EVENTS.get(event)
+        if what:
+            raise PermissionError(f"the grading sandbox does not let submissions {what} ({event})")
+        if event == "os.kill" and args[0] not in (pid, 0) \
+                or event == "os.killpg" and args[0] not in (group, 0):
+            raise PermissionError("the grading sandbox does not let submissions signal other "
+                                  "processes")
+        if event == "open" and not allowed(args[0]):
+            raise PermissionError(f"the grading sandbox does not let submissions read {args[0]!r}")
+        if event in ("os.listdir", "os.scandir", "glob.glob") and args and args[0] is not None \
+                and not allowed(args[0]):
+            raise PermissionError(f"the grading sandbox does not let submissions list {args[0]!r}")
+
+    sys.addaudithook(hook)
+
+
+# ----------------------------------------------------------------------------------------
+# The submission
+
+
+class ContractError(Exception):
+    """The submission's output or shape breaks the contract (message for the student)."""
+
+
+def _traceback(error: BaseException, limit: int = 3000) -> str:
+    text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
+    return text if len(text) <= limit else "...\n" + text[-limit:]
+
+
+def load_submission(path: str):
+    """Import a ``.py`` file or package folder; returns ``(integrators, camera_rays)``."""
+    import importlib.util
+    import inspect
+    import pkgutil
+    from pathtracer.integrators.base import Integrator
+    path = os.path.realpath(path)
+    if os.path.isdir(path):
+        init = os.path.join(path, "__init__.py")
+        if not os.path.exists(init):
+            raise ContractError(f"{os.path.basename(path)} is a folder without __init__.py "
+                                "(not a Python package)")
+        name, location, search = os.path.basename(path), init, [path]
+    else:
+        name, location, search = os.path.splitext(os.path.basename(path))[0], path, None
+    module_name = f"student_impl_{name}".replace("-", "_")
+    # Absolute imports of sibling modules keep working, as in the student's own checkout.
+    sys.path.insert(1, os.path.dirname(path))
+    spec = importlib.util.spec_from_file_location(module_name, location,
+                                                  submodule_search_locations=search)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[module_name] = module
+    spec.loader.exec_module(module)
+    integrators = getattr(module, "INTEGRATORS", None)
+    if integrators is None:
+        integrators, modules = {}, [module]
+        if search:
+            modules += [importlib.import_module(f"{module_name}.{info.name}")
+                        for info in pkgutil.iter_modules(search)]
+        for mod in modules:
+            for _, obj in inspect.getmembers(mod, inspect.isclass):
+                if issubclass(obj, Integrator) and obj is not Integrator and obj.name != "base":
+                    integrators.setdefault(obj.name, obj)
+    if not isinstance(integrators, dict):
+        raise ContractError("INTEGRATORS must be a dict name -> class")
+    for key, cls in integrators.items():
+        if not (inspect.isclass(cls) and issubclass(cls, Integrator)):
+            raise ContractError(f"INTEGRATORS[{key!r}] is not a subclass of pathtracer.Integrator")
+    return integrators, getattr(module, "camera_rays", None)
+
+
+def own_code(function, root: str) -> bool:
+    """Whether ``function`` was written in a file under ``root`` (the submission)."""
+    code = getattr(function, "__code__", None)
+    return code is not None and os.path.realpath(code.co_filename).startswith(root + os.sep)
+
+
+class Checked:
+    """An integrator's ``radiance`` with the contract's checks."""
+
+    def __init__(self, radiance, name):
+        self.radiance, self.name = radiance, name
+
+    def __call__(self, scene, rays, rng):
+        import numpy as np
+        n = len(rays)
+        out = self.radiance(scene, rays, rng)
+        if not isinstance(out, np.ndarray):
+            raise ContractError(f"{self.name}.radiance returned {type(out).__name__}, expected a "
+                                f"NumPy array of shape ({n}, 3)")
+        if out.shape != (n, 3):
+            raise ContractError(f"{self.name}.radiance returned shape {out.shape} for {n} rays, "
+                                f"expected ({n}, 3): one RGB radiance per ray")
+        if out.dtype.kind != "f":
+            raise ContractError(f"{self.name}.radiance returned dtype {out.dtype}, expected floats")
+        bad = ~np.isfinite(out)
+        if bad.any():
+            row = int(np.argwhere(bad)[0][0])
+            raise ContractError(
+                f"{self.name}.radiance returned {int(bad.any(axis=1).sum())} rays with NaN or Inf "
+                f"(first: ray {row}, value {out[row].tolist()}; a division by a zero pdf or "
+                "cosine?)")
+        negative = out < 0
+        if negative.any():
+            row = int(np.argwhere(negative)[0][0])
+            raise ContractError(f"{self.name}.radiance returned negative radiance for "
+                                f"{int(negative.any(axis=1).sum())} rays (first: ray {row}, "
+                                f"value {out[row].tolist()})")
+        return out
+
+
+class Server:
+    """The child's state: the submission, loaded scenes, the pipes."""
+
+    def __init__(self, config: dict, wire):
+        self.wire = wire
+        self.request_fd, self.reply_fd = config["request_fd"], config["reply_fd"]
+        self.trusted = bool(config.get("trusted"))
+        self.root = os.path.realpath(config["submission_root"])
+        self.scenes = {}
+        self.integrators, self.camera_rays, self.load_error = {}, None, ""
+        try:
+            self.integrators, self.camera_rays = load_submission(config["submission"])
+        except ContractError as error:
+            self.load_error = f"your implementation breaks the contract: {error}"
+        except BaseException as error:  # noqa: BLE001 - whatever the import does is reported
+            self.load_error = "importing your implementation failed:\n" + _traceback(error)
+
+    # -- requests ------------------------------------------------------------------------
+    def serve(self) -> None:
+        while True:
+            try:
+                header, arrays = self.wire.read_frame(self.request_fd)
+            except self.wire.WireError:
+                return
+            if header.get("kind") == "quit":
+                return
+            reply, out = self.handle(header, arrays)
+            try:
+                sys.stdout.flush()
+                sys.stderr.flush()
+            except (OSError, ValueError):
+                pass
+            self.wire.write_frame(self.reply_fd, reply, out)
+
+    def handle(self, header: dict, arrays: dict):
+        """({"status": ...}, arrays) for one request; errors become error frames."""
+        memory = CONFIG["limits"]["memory_mb"]
+        try:
+            kind = header["kind"]
+            if kind == "render":
+                return {"status": "ok"}, self.render(header)
+            if kind == "radiance":
+                return {"status": "ok"}, self.radiance(header, arrays)
+            if kind == "rays":
+                return {"status": "ok"}, self.rays(header, arrays)
+            return _error("protocol", f"unknown request {kind!r}"), {}
+        except MemoryError:
+            return _error("memory", f"your code ran out of memory (limit {memory} MB for the "
+                          "student process): do not keep per-bounce arrays of every path"), {}
+        except NotImplementedError as error:
+            return _error("not-implemented", "not implemented yet: "
+                          + (str(error) or "NotImplementedError") + "\n"
+                          + _traceback(error, 800)), {}
+        except ContractError as error:
+            return _error("output", str(error)), {}
+        except RecursionError as error:
+            return _error("exception", "RecursionError (recursion too deep: use a loop over "
+                          "bounces)\n" + _traceback(error, 1200)), {}
+        except BaseException as error:  # noqa: BLE001 - SystemExit included: reported, not obeyed
+            return _error("exception", "your code raised an exception:\n" + _traceback(error)), {}
+
+    def scene(self, name: str, params: dict):
+        from pathtracer import geometry, load_scene
+        key = (name, tuple(sorted(params.items())))
+        if key not in self.scenes:
+            scene = load_scene(name, **params)
+            geometry.prepare(scene)
+            self.scenes[key] = scene
+        return self.scenes[key]
+
+    def integrator(self, scene, name: str, max_depth):
+        cls = self.integrators.get(name)
+        if cls is None:
+            raise ContractError(f"your implementation has no integrator named {name!r} (it has: "
+                                f"{', '.join(sorted(self.integrators)) or 'none'})")
+        if not self.trusted and not own_code(cls.radiance, self.root):
+            raise ContractError(
+                f"INTEGRATORS[{name!r}].radiance is not written in your submission (it comes from "
+                f"{getattr(cls.radiance, '__module__', '?')}): implement radiance in your own "
+                "class; the grader does not accept the library's classes or stubs")
+        spec = scene.integrator
+        options = dict(spec.params) if spec is not None and spec.name == name else {}
+        if max_depth is not None:
+            options["max_depth"] = int(max_depth)
+        integrator = cls(**options)
+        integrator.radiance = Checked(integrator.radiance, name)
+        return integrator
+
+    def reference_camera(self, camera, pixel, u_film):
+        """Camera rays from the grader (the reference camera lives only there)."""
+        from pathtracer.camera import Rays
+        self.wire.write_frame(self.reply_fd, {"status": "camera"},
+                              {"pixel": pixel, "u_film": u_film})
+        header, arrays = self.wire.read_frame(
+            self.request_fd, expect={"o": ("f8", (len(pixel), 3)), "d": ("f8", (len(pixel), 3)),
+                                     "tmax": ("f8", (len(pixel),))})
+        return Rays(arrays["o"], arrays["d"], arrays["tmax"])
+
+    def render(self, request: dict) -> dict:
+        from pathtracer import render
+        scene = self.scene(request["scene"], request["params"])
+        integrator = self.integrator(scene, request["integrator"], request.get("max_depth"))
+        result = render(scene, integrator, spp=int(request["spp"]), seed=int(request["seed"]),
+                        processes=1, progress=False, camera=self.reference_camera)
+        return {"mean": result.mean, "variance": result.variance}
+
+    def radiance(self, request: dict, arrays: dict) -> dict:
+        import numpy as np
+        from pathtracer.camera import Rays
+        from pathtracer.rng import RandomStream, sample_keys
+        scene = self.scene(request["scene"], request["params"])
+        integrator = self.integrator(scene, request["integrator"], request.get("max_depth"))
+        n = len(arrays["o"])
+        rng = RandomStream(sample_keys(int(request["seed"]), np.arange(n, dtype=np.int64)))
+        rays = Rays(arrays["o"], arrays["d"], arrays["tmax"])
+        return {"radiance": integrator.radiance(scene, rays, rng)}
+
+    def rays(self, request: dict, arrays: dict) -> dict:
+        import numpy as np
+        if self.camera_rays is None:
+            raise ContractError("your implementation has no camera_rays function")
+        scene = self.scene(request["scene"], request["params"])
+        rays = self.camera_rays(scene.camera, arrays["pixel"], arrays["u_film"])
+        n = len(arrays["pixel"])
+        out = {}
+        for field in ("o", "d"):
+            value = getattr(rays, field, None)
+            if not isinstance(value, np.ndarray) or value.shape != (n, 3):
+                raise ContractError(f"camera_rays: rays.{field} must be an array of shape ({n}, 3)")
+            out[field] = value
+        return out
+
+
+def _error(kind: str, message: str) -> dict:
+    return {"status": "error", "kind": kind, "message": message[:20000]}

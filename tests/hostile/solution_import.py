@@ -1,0 +1,7 @@
+"""Hostile: hands in the reference solution itself.
+
+EXPECT: refused before it runs (it imports the reference integrators), zero points.
+"""
+from pathtracer.integrators import INTEGRATORS  # noqa: F401
+
+EXPECT = dict(kind="refused", words="imports the reference solution")
