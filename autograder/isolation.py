@@ -187,7 +187,8 @@ class StudentProcess:
         ids = self.environment.ids()
         request_r, request_w = os.pipe()
         reply_r, reply_w = os.pipe()
-        root = self.impl if os.path.isdir(self.impl) else os.path.dirname(self.impl)
+        # The folder the submission was handed in: its package or file and their siblings.
+        root = os.path.dirname(self.impl)
         config = dict(
             request_fd=request_r, reply_fd=reply_w, site=self.environment.site,
             submission=self.impl, submission_root=root, trusted=self.trusted,

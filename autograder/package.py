@@ -19,7 +19,7 @@ tested end to end in a temporary folder; ``setup.sh`` also takes ``AUTOGRADER_PY
 interpreter that already has the dependencies: no apt, no venv) and
 ``AUTOGRADER_STUDENT_USER`` / ``AUTOGRADER_STUDENT_PYTHON`` / ``AUTOGRADER_STUDENT_SITE``
 (see :class:`autograder.isolation.Environment`), which it records in ``ROOT/env.sh`` for
-``run_autograder``. ``AUTOGRADER_PYTEST_ARGS`` adds pytest arguments (e.g. ``-k camera``).
+``run_autograder``. ``AUTOGRADER_PYTEST_K`` grades only the checks a pytest ``-k`` expression selects.
 """
 from __future__ import annotations
 
@@ -88,7 +88,7 @@ cd "$ROOT/source"
 PLUGIN=$("$GRADER_PYTHON" -c 'import importlib.metadata as m
 print("" if any(e.name == "autograder" for e in m.entry_points(group="pytest11")) else "-p autograder.plugin")')
 "$GRADER_PYTHON" -m pytest $PLUGIN autograder/tests_for_students --impl "$IMPL" \\
-    --gradescope "$RESULTS" -q -p no:cacheprovider ${AUTOGRADER_PYTEST_ARGS:-} || true
+    --gradescope "$RESULTS" -q -p no:cacheprovider ${AUTOGRADER_PYTEST_K:+-k "$AUTOGRADER_PYTEST_K"} || true
 # The plugin writes results after every test; if the grader could not even start, say so.
 "$GRADER_PYTHON" - "$RESULTS" <<'PY'
 import json, sys

@@ -137,11 +137,12 @@ def pictures_dir(request, tmp_path_factory):
     return str(tmp_path_factory.mktemp("pictures"))
 
 
-def pytest_collection_modifyitems(session, config, items):
-    results = config.stash.get(_RESULTS, None)
+def pytest_collection_finish(session):
+    """Enter every selected test (after ``-k`` / ``-m`` deselection) as "not run"."""
+    results = session.config.stash.get(_RESULTS, None)
     if results is None:
         return
-    for item in items:
+    for item in session.items:
         results.add_pending(item.nodeid, test_name(item), points_of(item), visibility_of(item))
     results.write()
 
