@@ -329,3 +329,19 @@ def test_calibration_script_reports_rates_and_p_values(tmp_path, capsys):
     low, high = report["false_failure_ci95"]
     assert 0 <= low <= report["false_failure_rate"] <= high <= 1
     assert "correct submissions lost points" in capsys.readouterr().out
+
+
+def test_sandboxed_render_is_the_direct_render():
+    """The student process renders exactly what pathtracer.render gives: same camera rays
+    (sent by the grader), same random numbers, and the scene file's options (glass-cube sets
+    max_depth 8) applied to the submission's integrator."""
+    import numpy as np
+    from pathtracer import load_scene, render
+    params = {"width": 64, "height": 64}
+    with StudentProcess("autograder.solution", Limits(60 * CI_TIME_SCALE)) as student:
+        mean, variance = student.render("glass-cube", "path_bsdf", params, 2, 5)
+    direct = render(load_scene("glass-cube", **params), "path_bsdf", spp=2, seed=5, processes=1)
+    assert np.array_equal(mean, direct.mean) and np.array_equal(variance, direct.variance)
+    shallow = render(load_scene("glass-cube", **params), "path_bsdf", spp=2, seed=5, processes=1,
+                     max_depth=2)
+    assert not np.array_equal(mean, shallow.mean)

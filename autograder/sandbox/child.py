@@ -180,38 +180,39 @@ def own_code(function, root: str) -> bool:
     return code is not None and os.path.realpath(code.co_filename).startswith(root + os.sep)
 
 
-class Checked:
-    """An integrator's ``radiance`` with the contract's checks."""
+def check_radiance(out, n: int, name: str):
+    """``out`` if it is a valid radiance batch for ``n`` rays, else ContractError."""
+    import numpy as np
+    if not isinstance(out, np.ndarray):
+        raise ContractError(f"{name}.radiance returned {type(out).__name__}, expected a NumPy "
+                            f"array of shape ({n}, 3)")
+    if out.shape != (n, 3):
+        raise ContractError(f"{name}.radiance returned shape {out.shape} for {n} rays, expected "
+                            f"({n}, 3): one RGB radiance per ray")
+    if out.dtype.kind != "f":
+        raise ContractError(f"{name}.radiance returned dtype {out.dtype}, expected floats")
+    bad = ~np.isfinite(out)
+    if bad.any():
+        row = int(np.argwhere(bad)[0][0])
+        raise ContractError(
+            f"{name}.radiance returned {int(bad.any(axis=1).sum())} rays with NaN or Inf (first: "
+            f"ray {row}, value {out[row].tolist()}; a division by a zero pdf or cosine?)")
+    negative = out < 0
+    if negative.any():
+        row = int(np.argwhere(negative)[0][0])
+        raise ContractError(f"{name}.radiance returned negative radiance for "
+                            f"{int(negative.any(axis=1).sum())} rays (first: ray {row}, value "
+                            f"{out[row].tolist()})")
+    return out
 
-    def __init__(self, radiance, name):
-        self.radiance, self.name = radiance, name
 
-    def __call__(self, scene, rays, rng):
-        import numpy as np
-        n = len(rays)
-        out = self.radiance(scene, rays, rng)
-        if not isinstance(out, np.ndarray):
-            raise ContractError(f"{self.name}.radiance returned {type(out).__name__}, expected a "
-                                f"NumPy array of shape ({n}, 3)")
-        if out.shape != (n, 3):
-            raise ContractError(f"{self.name}.radiance returned shape {out.shape} for {n} rays, "
-                                f"expected ({n}, 3): one RGB radiance per ray")
-        if out.dtype.kind != "f":
-            raise ContractError(f"{self.name}.radiance returned dtype {out.dtype}, expected floats")
-        bad = ~np.isfinite(out)
-        if bad.any():
-            row = int(np.argwhere(bad)[0][0])
-            raise ContractError(
-                f"{self.name}.radiance returned {int(bad.any(axis=1).sum())} rays with NaN or Inf "
-                f"(first: ray {row}, value {out[row].tolist()}; a division by a zero pdf or "
-                "cosine?)")
-        negative = out < 0
-        if negative.any():
-            row = int(np.argwhere(negative)[0][0])
-            raise ContractError(f"{self.name}.radiance returned negative radiance for "
-                                f"{int(negative.any(axis=1).sum())} rays (first: ray {row}, "
-                                f"value {out[row].tolist()})")
-        return out
+def checked_class(cls, name: str):
+    """A subclass of ``cls`` whose radiance checks its output. A subclass, not a wrapped
+    bound method: the render driver copies the instance to apply the scene file's options,
+    and the copy must run with them."""
+    def radiance(self, scene, rays, rng):
+        return check_radiance(cls.radiance(self, scene, rays, rng), len(rays), name)
+    return type(cls.__name__, (cls,), {"radiance": radiance})
 
 
 class Server:
@@ -298,9 +299,7 @@ class Server:
         options = dict(spec.params) if spec is not None and spec.name == name else {}
         if max_depth is not None:
             options["max_depth"] = int(max_depth)
-        integrator = cls(**options)
-        integrator.radiance = Checked(integrator.radiance, name)
-        return integrator
+        return checked_class(cls, name)(**options)
 
     def reference_camera(self, camera, pixel, u_film):
         """Camera rays from the grader (the reference camera lives only there)."""
