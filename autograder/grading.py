@@ -68,6 +68,8 @@ class Check:
     camera : bool  grade the student's ``camera_rays`` (with the reference ``direct``)
     glass : bool  a scene with glass (revealed after the due date; glass-specific hints)
     title : str
+    max_depth : int, optional  render (and compare) at this max_depth instead of the scene's
+        unbounded default: an off-by-one in the depth limit is invisible at max_depth = -1
     """
 
     id: str
@@ -78,6 +80,7 @@ class Check:
     camera: bool = False
     glass: bool = False
     title: str = ""
+    max_depth: int | None = None
 
     @property
     def points(self) -> float:
@@ -97,9 +100,28 @@ def _glass(integrator, seconds, title, scene="cornell-caustics"):
                  seconds, glass=True, title=f"{title} with {what}")
 
 
+def _lights(integrator, seconds, title, max_depth=3):
+    # Two lights of different size and power, a glossy sphere, and (for the path tracers) a
+    # finite max_depth: what the one-light, all-diffuse, unbounded Cornell box cannot see.
+    depth = f" at max_depth={max_depth}" if max_depth is not None else ""
+    return Check(f"{integrator}-lights", integrator, "cornell-lights",
+                 (("mean", 4), ("variance", 1)), seconds, max_depth=max_depth,
+                 title=f"{title} with two lights and a glossy sphere{depth}")
+
+
+def check_params(check: Check) -> dict:
+    """Scene parameters of a check: the references' film size, and its max_depth if set."""
+    from mitsuba_refs.compare import default_params
+    params = default_params(check.scene)
+    if check.max_depth is not None:
+        params["max_depth"] = check.max_depth
+    return params
+
+
 #: The graded checks, in order. Time limits are 2-3x the reference solution's time on one
-#: core (15.6, 19.4, 25.2, 9.4, 2.7, 3.9, 4.5, 1.6, 1.1 s; docs/autograder.md) and add up to
-#: 250 s, inside Gradescope's 5 minutes even if every test of a submission hangs.
+#: core (15.6, 19.4, 25.2, 9.4, 2.7, 3.9, 4.5, 1.6 s; docs/autograder.md), 4-5x for the
+#: ~1 s checks on cornell-lights, and add up to 270 s, inside Gradescope's 5 minutes even if
+#: every test of a submission hangs.
 CHECKS = (
     _cornell("path_bsdf", 45, "Path tracing with BSDF sampling (slide 'Path Tracing')"),
     _cornell("path_nee", 50, "Path tracing with shadow rays (slide 'Path Tracing with Shadow Rays')"),
@@ -111,7 +133,15 @@ CHECKS = (
     # so Schlick's approximation (0.5 % on the spheres) would go unnoticed; here it is +7 %.
     _glass("path", 15, "Path tracing with MIS", scene="glass-cube"),
     _glass("direct", 10, "Direct illumination"),
-    Check("camera", "direct", "quad-light", (("mean", 5),), 10, camera=True,
+    # max_depth = 3 (two segments after the camera ray): an off-by-one depth limit adds or
+    # drops a whole bounce; with two lights, forgetting the 1/N light choice halves direct light.
+    _lights("path_bsdf", 5, "Path tracing with BSDF sampling"),
+    _lights("path_nee", 5, "Path tracing with shadow rays"),
+    _lights("path", 5, "Path tracing with MIS"),
+    _lights("direct", 5, "Direct illumination", max_depth=None),
+    # Not left-right symmetric, 4:3, a light whose edges sit mid-pixel: a mirrored image, the
+    # field of view on the wrong axis and rays through pixel centres all change the mean.
+    Check("camera", "direct", "cornell-lights", (("mean", 5),), 10, camera=True,
           title="Perspective camera (camera_rays)"),
 )
 
@@ -153,6 +183,7 @@ class CheckResult:
     comparison: object = None
     bounce: dict = None
     seconds: float = 0.0
+    findings: list = field(default_factory=list)    # measured on every run (camera geometry)
 
     @property
     def score(self) -> float:
@@ -180,6 +211,8 @@ class CheckResult:
             lines.append("  per bounce: " + "; ".join(
                 f"max_depth={d}: {'agrees' if r.agree else 'DISAGREES'} "
                 f"(x{1 + r.rel_bias:.3f})" for d, r in sorted(self.bounce.items())))
+        for finding in self.findings:
+            lines.append(f"  {finding}")
         for hint in self.hints:
             lines.append(f"  likely cause: {hint}")
         for name, path in self.pictures.items():
@@ -227,34 +260,47 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
         return _failed(result, failure, start)
     with student:
         def render(scene, integrator, params, spp, seed, processes=None, max_depth=None, **_):
+            main = seed == TEST_SEED and max_depth is None and spp == SPP
+            if max_depth is None:
+                max_depth = check.max_depth     # the check's depth unless the sweep sets one
             image = student.render(scene, run_as, params, spp, seed + seed_offset,
                                    max_depth=max_depth, camera=camera)
-            if seed == TEST_SEED and max_depth is None and spp == SPP:
+            if main:
                 main_render["image"] = image
             return image
 
         wants_convergence = any(name == "convergence" for name, _ in check.parts)
         try:
-            comparison = compare(check.scene, check.integrator, spp=SPP, alpha=alpha,
-                                 convergence=wants_convergence, bounces=False, render=render,
-                                 **CONVERGENCE)
+            comparison = compare(check.scene, check.integrator, check_params(check), spp=SPP,
+                                 alpha=alpha, convergence=wants_convergence, bounces=False,
+                                 render=render, **CONVERGENCE)
         except StudentFailure as failure:
             return _failed(result, failure, start)
         result.comparison = comparison
         result.parts = score_parts(check, comparison)
+        from . import hints
+        camera_geometry = None
+        if check.camera:
+            # The camera's geometry is measured on every submission (a few rays, no render):
+            # a mirrored or mis-sampled camera is reported even where the image hides it.
+            try:
+                camera_geometry = hints.camera_evidence(check, student)
+                result.findings = hints.camera_findings(
+                    camera_geometry, all(p.passed for p in result.parts))
+            except StudentFailure as failure:
+                result.findings = [f"camera geometry not measured: {str(failure).splitlines()[0]}"]
         if not all(p.passed for p in result.parts):
-            from . import hints
             evidence = hints.Evidence(check=check, comparison=comparison, history=history or {})
             try:
                 if check.camera:
-                    evidence.camera = hints.camera_evidence(check, student)
+                    evidence.camera = camera_geometry
                 else:
                     evidence.sweep = _bounce_sweep(check, render, alpha=alpha)
                     result.bounce = {d: s[0] for d, s in evidence.sweep.items()} or None
                     evidence.probe = student.probe(check.scene, default_params(check.scene),
                                                    check.integrator)
                     if "image" in main_render:
-                        extra = render(check.scene, check.integrator, default_params(check.scene),
+                        extra = render(check.scene, check.integrator, check_params(check),
                                        INDEPENDENCE_SPP, TEST_SEED + 7919)
                         evidence.independence = hints.independence(
                             main_render["image"], SPP, extra, INDEPENDENCE_SPP)
@@ -309,7 +355,8 @@ def _bounce_sweep(check: Check, render, alpha: float) -> dict:
     from mitsuba_refs.stats import compare_means
 
     params = default_params(check.scene)
-    depths = [d for d in BOUNCE_DEPTHS if not (check.integrator == "direct" and d > 2)]
+    depths = [d for d in BOUNCE_DEPTHS if not (check.integrator == "direct" and d > 2)
+              and not (check.max_depth is not None and d > check.max_depth > 0)]
     out = {}
     for depth in depths:
         reference = get_reference(check.scene, {**params, "max_depth": depth}, "path")
@@ -323,11 +370,11 @@ def _bounce_sweep(check: Check, render, alpha: float) -> dict:
 def _pictures(result: CheckResult, comparison, main_render, out_dir: Path) -> dict:
     """The z-map (and variance / convergence) pictures of a failed check."""
     from mitsuba_refs.cache import get_reference
-    from mitsuba_refs.compare import default_params, reference_integrator, write_pictures
+    from mitsuba_refs.compare import reference_integrator, write_pictures
     if "image" not in main_render:
         return {}
     check = result.check
-    reference = get_reference(check.scene, default_params(check.scene),
+    reference = get_reference(check.scene, check_params(check),
                               reference_integrator(check.integrator))
     mean, variance = main_render["image"]
     out_dir.mkdir(parents=True, exist_ok=True)

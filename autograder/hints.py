@@ -95,33 +95,127 @@ def _added_ratio(sweep, depth) -> float:
     return (_lum(test) - base) / added_ref if added_ref > 0 else math.nan
 
 
+#: Brightness tolerance of the off-by-one rule: the student's render at max_depth = d is
+#: "Mitsuba's at d +- 1" when within 3 % of it (consecutive depths differ by >= 10 % in the
+#: graded scenes; 64-spp whole-image noise is < 1 %).
+OFF_BY_ONE_TOLERANCE = 0.03
+#: Tiles whose share of what a bounce adds is this far from the image's are "uneven": a
+#: constant factor (a pdf's 1/N, a BSDF's 1/pi) scales every tile alike, a geometric error
+#: (self-intersection) or a per-light error (light choice) does not.
+UNEVEN = 0.15
+
+
+def _scene_facts(check) -> dict:
+    """What the rules need to know about the check's scene: its number of emitters."""
+    from mitsuba_refs.compare import default_params
+    from pathtracer import load_scene
+    scene = load_scene(check.scene, **default_params(check.scene))
+    return dict(emitters=scene.num_emitters)
+
+
+def _off_by_one(sweep) -> int:
+    """+1 when the render at every max_depth = d matches Mitsuba's at d + 1 (-1: at d - 1),
+    0 otherwise (whole-image brightness, within OFF_BY_ONE_TOLERANCE)."""
+    test = {d: _lum(sweep[d][1]) for d in sweep}
+    ref = {d: _lum(sweep[d][2]) for d in sweep}
+    ref[0] = 0.0
+    scale = max(ref.values())
+
+    def close(a, b):
+        return abs(a - b) <= OFF_BY_ONE_TOLERANCE * max(b, 0.05 * scale)
+    if all(close(test[d], ref[d]) for d in sweep):
+        return 0
+    for shift in (1, -1):
+        pairs = [(d, d + shift) for d in sorted(sweep) if d + shift in ref]
+        if len(pairs) >= 2 and all(close(test[d], ref[e]) for d, e in pairs):
+            return shift
+    return 0
+
+
+def _tile_ratios(sweep, depth, tile=8) -> tuple:
+    """10th and 90th percentile over 8x8 tiles of (test_d - ref_{d-1}) / (ref_d - ref_{d-1})
+    in luminance, over tiles that get a fair share (>= 1/4 of the median) of the added light."""
+    _, test, ref = sweep[depth]
+    base = sweep[depth - 1][2] if depth - 1 in sweep else np.zeros_like(ref)
+    h, w = (ref.shape[0] // tile) * tile, (ref.shape[1] // tile) * tile
+
+    def tiles(img):
+        lum = (np.asarray(img)[:h, :w] @ LUMINANCE)
+        return lum.reshape(h // tile, tile, w // tile, tile).sum(axis=(1, 3)).ravel()
+    added_ref = tiles(ref) - tiles(base)
+    added_test = tiles(test) - tiles(base)
+    positive = added_ref[added_ref > 0]
+    if not len(positive):
+        return math.nan, math.nan
+    keep = added_ref >= 0.25 * np.median(positive)
+    r = added_test[keep] / added_ref[keep]
+    return float(np.percentile(r, 10)), float(np.percentile(r, 90))
+
+
 def _near(value, factor, tolerance=0.2) -> bool:
     return math.isfinite(value) and abs(value / factor - 1) < tolerance
 
 
 def camera_evidence(check, student) -> dict:
-    """Field of view (degrees) of the student's rays through the film's edge midpoints."""
+    """Geometry of the student's camera measured from a few of its rays (no render).
+
+    Returns a dict with
+
+    ``film_ignored``  two film samples of one pixel, (0.05, 0.05) and (0.95, 0.95), give the
+        same ray although the reference's differ by a pixel's width;
+    ``x_fov, y_fov``  angles (degrees) between the rays through the left/right and the
+        top/bottom edge midpoints of the film; when the film sample is ignored, between the
+        rays of the edge pixels' centres (what such a camera can show), ``x_ref, y_ref`` the
+        same for the scene's camera, so the comparison does not mistake the missing half
+        pixel for a wrong field of view (``centres`` says which);
+    ``mirrored, flipped``  left-right / top-bottom order reversed.
+    """
     from mitsuba_refs.compare import default_params
     from pathtracer import load_scene
     from pathtracer.camera import camera_rays
     params = default_params(check.scene)
     camera = load_scene(check.scene, **params).camera
     w, h = camera.width, camera.height
+    centre = (h // 2) * w + w // 2
+    inside = np.array([[0.05, 0.05], [0.95, 0.95]])
+    _, d_in = student.rays(check.scene, params, np.array([centre, centre]), inside)
+    ref_in = camera_rays(camera, np.array([centre, centre]), inside).d
+    film_ignored = bool(_angle(d_in[0], d_in[1]) < 0.01 * _angle(ref_in[0], ref_in[1]))
     # left/right edge midpoints, top/bottom edge midpoints (pixel + film offset)
     pixel = np.array([(h // 2) * w, (h // 2) * w + w - 1, w // 2, (h - 1) * w + w // 2])
     u = np.array([[0.0, 0.5], [1.0 - 1e-9, 0.5], [0.5, 0.0], [0.5, 1.0 - 1e-9]])
     if h % 2:
         u[:2, 1] = 0.5
+    if film_ignored:
+        u = np.full_like(u, 0.5)
     _, d = student.rays(check.scene, params, pixel, u)
     ref = camera_rays(camera, pixel, u)
-
-    def angle(a, b):
-        cos = np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b))
-        return math.degrees(math.acos(float(np.clip(cos, -1, 1))))
-    return dict(x_fov=angle(d[0], d[1]), y_fov=angle(d[2], d[3]),
-                x_ref=angle(ref.d[0], ref.d[1]), y_ref=angle(ref.d[2], ref.d[3]),
+    return dict(x_fov=_angle(d[0], d[1]), y_fov=_angle(d[2], d[3]),
+                x_ref=_angle(ref.d[0], ref.d[1]), y_ref=_angle(ref.d[2], ref.d[3]),
+                centres=film_ignored, film_ignored=film_ignored,
                 mirrored=bool(np.dot(d[0] - d[1], ref.d[0] - ref.d[1]) < 0),
                 flipped=bool(np.dot(d[2] - d[3], ref.d[2] - ref.d[3]) < 0))
+
+
+def _angle(a, b) -> float:
+    cos = np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b))
+    return math.degrees(math.acos(float(np.clip(cos, -1, 1))))
+
+
+def camera_findings(cam, image_passed: bool = True) -> list:
+    """What the camera's geometry shows, for every submission: one line with the measured
+    numbers, then, when the image check passed anyway (a scene that hides the mistake), one
+    line per problem; when it failed, the problems are the check's hints instead."""
+    span = "pixel centres of the film's edges" if cam["centres"] else "film's edges"
+    line = (f"camera geometry (measured from your rays): {cam['x_fov']:.1f} x {cam['y_fov']:.1f} "
+            f"deg between the {span}, the scene's camera {cam['x_ref']:.1f} x "
+            f"{cam['y_ref']:.1f} deg")
+    problems = _camera_hints(cam)
+    if not problems:
+        return [line + "; orientation and film sampling as expected"]
+    if not image_passed:
+        return [line]
+    return [line] + [f"camera problem (the image check did not catch it): {p}" for p in problems]
 
 
 def _camera_hints(cam) -> list:
@@ -131,6 +225,11 @@ def _camera_hints(cam) -> list:
                    "image's left (right = -left)")
     if cam["flipped"]:
         out.append("your image is upside down: row 0 is the top of the image")
+    if cam.get("film_ignored"):
+        out.append("the film sample is ignored: u_film (the sample's position inside its "
+                   "pixel) does not move your rays, so every sample of a pixel goes through "
+                   "its centre and edges are aliased instead of averaged over the pixel; use "
+                   "s = (column + u_film[:, 0]) / width, (row + u_film[:, 1]) / height")
     dx, dy = cam["x_fov"] - cam["x_ref"], cam["y_fov"] - cam["y_ref"]
     if abs(dx) > 0.5 or abs(dy) > 0.5:
         swapped = abs(cam["y_fov"] - cam["x_ref"]) < 0.5 or abs(cam["x_fov"] - cam["y_ref"]) < 0.5
@@ -154,8 +253,10 @@ def _sweep_hints(ev: Evidence) -> list:
         return out
     depth = _first_wrong(sweep)
     ratios = ", ".join(f"max_depth={d}: x{1 + sweep[d][0].rel_bias:.3f}" for d in sorted(sweep))
+    # A check at a finite max_depth that the sweep reaches has no longer paths to blame.
+    covered = ev.check.max_depth is not None and max(sweep) >= ev.check.max_depth
     if depth is None:
-        if not ev.comparison.mean.agree:
+        if not ev.comparison.mean.agree and not covered:
             r = 1 + ev.comparison.mean.rel_bias
             out.append(f"bounces 1-{max(sweep)} agree with Mitsuba ({ratios}) but the full image is "
                        f"x{r:.3f}: the error grows with path length: Russian roulette without "
@@ -163,10 +264,28 @@ def _sweep_hints(ev: Evidence) -> list:
                        "number of bounces although max_depth = -1), or a per-bounce weight "
                        "slightly off (f cos / pdf with the pdf the direction was drawn from)")
         return out
+    shift = _off_by_one(sweep)
+    if shift:
+        pairs = ", ".join(f"yours at {d} is x{_lum(sweep[d][1]) / _lum(sweep[d + shift][2]):.3f} "
+                          f"Mitsuba's at {d + shift}" for d in sorted(sweep)
+                          if d + shift in sweep)
+        more = "more" if shift > 0 else "fewer"
+        out.append(f"max_depth off by one: your render at each max_depth = d looks like Mitsuba's "
+                   f"at d {'+' if shift > 0 else '-'} 1 ({pairs}; {ratios}): your paths have one "
+                   f"segment {more} than max_depth allows. max_depth counts segments: 1 = only "
+                   "emitters seen by the camera, 2 = direct light, 3 = one indirect bounce; a "
+                   "path that has max_depth segments adds the Le of its last vertex and stops "
+                   "(no shadow ray and no further bounce from there)")
+        return out
     added = _added_ratio(sweep, depth)
     top, bottom = _band_ratios(sweep[depth][1], sweep[depth][2])
+    low, high = _tile_ratios(sweep, depth)
+    facts = _scene_facts(ev.check)
+    n_lights = facts["emitters"]
     numbers = (f"(first wrong at max_depth={depth}; what that bounce adds is x{added:.2f} "
-               f"Mitsuba's; top third x{top:.2f}, bottom third x{bottom:.2f}; {ratios})")
+               f"Mitsuba's, x{low:.2f} to x{high:.2f} over most 8x8 tiles; top third x{top:.2f}, "
+               f"bottom third x{bottom:.2f}; {ratios})")
+    even = math.isfinite(low) and high - low <= UNEVEN * max(added, 1e-9) * 2
     if depth == 1:
         if added < 0.5:
             out.append("light sources seen directly are missing: add the emitted radiance Le "
@@ -175,6 +294,20 @@ def _sweep_hints(ev: Evidence) -> list:
             out.append(f"directly visible emitters are wrong: emitted radiance, one-sided emitters "
                        f"or the camera {numbers}")
         return out
+    if depth == 2 and n_lights > 1 and name in SHADOW_RAY_INTEGRATORS:
+        if low < 1 - UNEVEN / 2 and high > 1 + UNEVEN / 2:
+            out.append(f"direct light too bright in some places and too dark in others, in a "
+                       f"scene with {n_lights} lights: the probability of choosing each light "
+                       "must be the one its contribution is divided by (uniform choice: 1/N for "
+                       "every light, in the shadow ray's pdf and in the MIS weights alike; "
+                       f"choosing by power needs pdf = P_k / sum P) {numbers}")
+            return out
+        if even and _near(added, 1 / n_lights, 0.15):
+            out.append(f"direct light x{added:.2f} everywhere in a scene with {n_lights} lights: "
+                       f"the 1/N of choosing one of the N = {n_lights} lights is missing from the "
+                       "light sample's pdf (p = 1/N x the pdf of the point on that light; the "
+                       f"contribution is divided by it) {numbers}")
+            return out
     if depth == 2:
         if _near(added, 2.0, 0.2) and name == "path_nee":
             out.append("direct light about twice too bright with shadow rays: emission counted twice "
@@ -202,10 +335,16 @@ def _sweep_hints(ev: Evidence) -> list:
             causes.sort(key=lambda c: -c[0])
             out.append("direct light too bright with light sampling + MIS; most likely first: "
                        + "; or ".join(c[1] for c in causes) + f" {numbers}")
+        elif added < 0.95 and name in SHADOW_RAY_INTEGRATORS and even:
+            out.append(f"direct light x{added:.2f}, evenly over the image: a constant factor in "
+                       "the shadow ray's contribution Le f cos / p (the light-sampling pdf, e.g. "
+                       "its 1/N light choice or the area, or the BSDF value); not a geometric "
+                       "problem such as self-intersection, which darkens some places more than "
+                       f"others {numbers}")
         elif added < 0.95 and name in SHADOW_RAY_INTEGRATORS:
-            out.append("direct light too dark with shadow rays: shadow rays are blocked too often, "
-                       "a self-intersection (offset the origin along the normal, stop the ray just "
-                       "short of the light), or the light-sampling pdf / BSDF value "
+            out.append("direct light too dark with shadow rays, unevenly: shadow rays are blocked "
+                       "too often, a self-intersection (offset the origin along the normal, stop "
+                       "the ray just short of the light), or the light-sampling pdf / BSDF value "
                        f"{numbers}")
         elif added < 0.95 and name == "path_bsdf":
             out.append("direct light too dark with BSDF sampling: the throughput must be multiplied "
@@ -237,6 +376,23 @@ def _glass_hints(ev: Evidence) -> list:
             "int_ior / ext_ior and its inverse when leaving the glass, normals flipped for back "
             "faces (ray offsets on the side the ray leaves), the 1/eta^2 radiance scaling, and "
             "emission after a specular bounce"]
+
+
+def _variance_policy(hint: str, comparison) -> str:
+    """The variance rule of mitsuba_refs.explain fires only when the variance part failed
+    (with a right mean); say what that part allows before suggesting a cause, so that a
+    correct estimator that is merely different is never told it is wrong."""
+    v = comparison.variance
+    policy = (f"the variance part failed ({v.verdict}); it compares your per-sample variance "
+              "with Mitsuba's run of the same estimator and allows a correct estimator written "
+              "differently (another MIS heuristic, roulette rule or light choice) to be somewhat "
+              "noisier, failing only beyond that bound")
+    if v.ratio > 1:
+        return (f"{policy}: {v.ratio:.2f}x is more than a different but sound choice costs; "
+                "usually the sampling pdf does not follow the integrand (e.g. uniform "
+                "directions where cosine-weighted ones are expected), or a sample is wasted")
+    return (f"{policy}: yours is lower ({v.ratio:.2f}x): a different estimator than the one "
+            "named, or samples that are not independent")
 
 
 def explain(ev: Evidence) -> list:
@@ -273,6 +429,8 @@ def explain(ev: Evidence) -> list:
         # convergence floor only restates); keep the variance hints.
         generic = [h for h in generic if not h.startswith("image ") and "first wrong" not in h
                    and "error stops falling" not in h]
+    generic = [_variance_policy(h, comparison) if h.startswith("mean right but variance") else h
+               for h in generic]
     for hint in generic:
         if hint not in out:
             out.append(hint)

@@ -2,7 +2,8 @@
 
 Test resolution
     ``TEST_WIDTH x TEST_HEIGHT`` = 64 x 64 for square scenes, 64 x 48 for the
-    4:3 scenes (``smallpt``, ``veach-mis``, ``quad-light``, ``point-light``).
+    4:3 scenes (``smallpt``, ``veach-mis``, ``quad-light``, ``point-light``,
+    ``cornell-lights``).
     48 is not a multiple of 32: in ``scalar_rgb`` Mitsuba seeds 32 x 32
     blocks from ``seed * W * H``, so :mod:`mitsuba_refs.render` spaces pass
     seeds far enough apart for the padded block count (see
@@ -34,7 +35,7 @@ TEST_HEIGHT = 64
 TEST_HEIGHT_4_3 = 48
 
 #: Scenes whose test film is 64 x 48 (4:3 aspect) instead of 64 x 64.
-WIDE_SCENES = ("smallpt", "veach-mis", "quad-light", "point-light")
+WIDE_SCENES = ("smallpt", "veach-mis", "quad-light", "point-light", "cornell-lights")
 
 TEST_MAX_SPP = 64
 REF_SPP_FACTOR = 64
@@ -47,7 +48,7 @@ REF_SEED = 1
 #: Built-in scenes shipped in ``pathtracer/scenes``.
 BUILTIN_SCENES = (
     "cornell-box", "cornell-caustics", "glass-cube", "smallpt", "veach-mis", "mesh",
-    "furnace", "quad-light", "point-light", "sky-sphere",
+    "furnace", "quad-light", "point-light", "sky-sphere", "cornell-lights",
 )
 
 #: Our integrator names for which references are built by default.

@@ -48,6 +48,13 @@ def constants(path) -> SimpleNamespace:
                                                  for k in node.value.keywords}
     return SimpleNamespace(**found)
 
+
+#: Correct implementations written differently from the reference (tests/alternatives/): each
+#: must get full marks on every check. Listed here so that a calibration sweep can grade them.
+ALTERNATIVES_DIR = ROOT / "tests" / "alternatives"
+ALTERNATIVES = ("balance_heuristic", "constant_roulette", "other_random_order",
+                "light_choice_by_power")
+
 def _limits(check):
     return Limits(check.seconds * CI_TIME_SCALE, grading.MEMORY_MB, grading.OUTPUT_BYTES)
 
@@ -59,6 +66,9 @@ def graded():
     for path in MUTANTS:
         module = constants(path)
         jobs[(Path(path).stem, module.CHECK)] = (grading.CHECKS_BY_ID[module.CHECK], path)
+    for name in ALTERNATIVES:
+        for c in grading.CHECKS:
+            jobs[(f"alternative:{name}", c.id)] = (c, str(ALTERNATIVES_DIR / f"{name}.py"))
     workers = max(2, os.cpu_count() or 1)
     with ThreadPoolExecutor(workers) as pool:
         futures = {key: pool.submit(grading.run_check, check, impl, limits=_limits(check),
@@ -100,6 +110,21 @@ def test_mutant_loses_points_with_the_expected_hint(graded, path):
     if getattr(module, "PARTIAL", False):
         assert 0 < result.score < result.max_score, result.report()
         assert result.parts[0].name == "mean" and result.parts[0].passed
+
+
+def test_alternatives_are_listed():
+    found = {Path(p).stem for p in glob.glob(str(ALTERNATIVES_DIR / "*.py"))
+             if not Path(p).name.startswith("_")}
+    assert found == set(ALTERNATIVES)
+
+
+@pytest.mark.parametrize("name", ALTERNATIVES)
+def test_correct_alternative_gets_full_marks(graded, name):
+    """A right answer written differently (another MIS heuristic, roulette rule, order of
+    random numbers, light choice) keeps every point of every part of every check."""
+    lost = [graded[(f"alternative:{name}", c.id)] for c in grading.CHECKS]
+    lost = [r for r in lost if not (r.passed and r.score == r.max_score)]
+    assert not lost, "\n\n".join(r.report() for r in lost)
 
 
 # -- isolation ---------------------------------------------------------------------------

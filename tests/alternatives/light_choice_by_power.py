@@ -1,0 +1,84 @@
+"""Lights chosen proportionally to their power, with the matching pdf: ``path_nee``, ``path``
+and ``direct`` pick light k with probability P_k / sum(P) (P = luminance of the radiance x
+area) instead of 1/N, and divide by that probability: in the shadow ray's pdf and, for the
+MIS integrators, in the light pdf of BSDF-sampled directions that hit light k.
+
+Any choice probabilities that are > 0 for every light give an unbiased estimator when the
+same probabilities divide; the variance moves (brighter lights get more shadow rays).
+"""
+import numpy as np
+
+from pathtracer.emitters import EmitterSample, hit_emitter
+from pathtracer.integrators import direct, path, path_nee
+from pathtracer.integrators.base import subset_hit
+
+from _common import camera_rays  # noqa: F401  (the reference camera)
+from _common import registry
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def choice_probabilities(scene) -> np.ndarray:
+    """P_k / sum(P) for area lights; uniform if any light is not an area light."""
+    if any(e.kind != "area" for e in scene.emitters):
+        return np.full(scene.num_emitters, 1.0 / scene.num_emitters)
+    power = np.array([scene.shape_area[e.shape] * float(np.asarray(e.radiance) @ LUMINANCE)
+                      for e in scene.emitters])
+    return power / power.sum()
+
+
+def _sample(sample_emitter):
+    def by_power(scene, hit, u_choice, u, test_visibility=True, emitter=None):
+        if emitter is not None or scene.num_emitters < 2:
+            return sample_emitter(scene, hit, u_choice, u, test_visibility, emitter)
+        prob = choice_probabilities(scene)
+        which = np.minimum(np.searchsorted(np.cumsum(prob), u_choice, side="right"),
+                           len(prob) - 1)
+        count = len(u_choice)
+        out = EmitterSample(np.zeros((count, 3)), np.full(count, np.inf), np.zeros(count),
+                            np.zeros((count, 3)), np.zeros(count, dtype=bool))
+        for k in np.unique(which):
+            rows = np.flatnonzero(which == k)
+            part = sample_emitter(scene, subset_hit(hit, rows), u_choice[rows], u[rows],
+                                  test_visibility, emitter=int(k))
+            # The sample of light k alone, then the probability of having chosen it.
+            part.pdf = np.where(part.delta, part.pdf, part.pdf * prob[k])
+            part.weight = part.weight / prob[k]
+            for name in ("wo", "dist", "pdf", "weight", "delta"):
+                getattr(out, name)[rows] = getattr(part, name)
+        return out
+    return by_power
+
+
+def _pdf(pdf_emitter_direction):
+    def by_power(scene, ref_p, hit, d):
+        pdf = pdf_emitter_direction(scene, ref_p, hit, d)      # includes the uniform 1/N
+        if scene.num_emitters < 2:
+            return pdf
+        k = hit_emitter(scene, hit)
+        prob = choice_probabilities(scene)
+        scale = np.where(k >= 0, prob[np.maximum(k, 0)] * scene.num_emitters, 1.0)
+        return pdf * scale
+    return by_power
+
+
+def _by_power(base, module):
+    class ByPower(base):
+        def radiance(self, scene, rays, rng):
+            saved = {name: getattr(module, name) for name in ("sample_emitter", "pdf_emitter_direction")
+                     if hasattr(module, name)}
+            module.sample_emitter = _sample(saved["sample_emitter"])
+            if "pdf_emitter_direction" in saved:
+                module.pdf_emitter_direction = _pdf(saved["pdf_emitter_direction"])
+            try:
+                return super().radiance(scene, rays, rng)
+            finally:
+                for name, value in saved.items():
+                    setattr(module, name, value)
+    ByPower.__name__ = f"ByPower{base.__name__}"
+    return ByPower
+
+
+INTEGRATORS = registry(_by_power(path_nee.PathNEEIntegrator, path_nee),
+                       _by_power(path.PathIntegrator, path),
+                       _by_power(direct.DirectIntegrator, direct))
