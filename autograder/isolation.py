@@ -211,6 +211,7 @@ class StudentProcess:
             finally:
                 os.close(request_r)
                 os.close(reply_w)
+        os.set_blocking(request_w, False)       # writes wait on the deadline, never forever
         self._pipes = (request_w, reply_r)
         try:
             header, _ = self._receive({})
@@ -262,12 +263,7 @@ class StudentProcess:
                 header, arrays = wire.read_frame(self._pipes[1], self.deadline,
                                                  expect=None, max_payload=_payload_limit(expect))
             except wire.WireTimeout:
-                self._kill()
-                self._check_output()
-                raise StudentFailure(
-                    f"time limit: your code did not finish within the {self.limits.seconds:.0f} "
-                    "s this test allows (an endless loop? paths that never terminate: Russian "
-                    "roulette or max_depth ignored?)", "timeout") from None
+                raise self._timeout() from None
             except wire.WireError as error:
                 raise self._broken(error) from None
             status = header.get("status")
@@ -282,6 +278,8 @@ class StudentProcess:
                 if status == "error" and not arrays:
                     self._check_output()        # printing too much explains the error
                     return header, arrays
+            except wire.WireTimeout:
+                raise self._timeout() from None
             except wire.WireError as error:
                 self._kill()
                 raise StudentFailure(f"the student process sent a malformed reply ({error})",
@@ -289,6 +287,14 @@ class StudentProcess:
             self._kill()
             raise StudentFailure(f"the student process sent an unexpected reply (status "
                                  f"{str(status)[:40]!r})", "protocol")
+
+    def _timeout(self) -> StudentFailure:
+        self._kill()
+        self._check_output()
+        return StudentFailure(
+            f"time limit: your code did not finish within the {self.limits.seconds:.0f} s this "
+            "test allows (an endless loop? paths that never terminate: Russian roulette or "
+            "max_depth ignored?)", "timeout")
 
     def _answer_camera(self, arrays: dict, camera) -> None:
         pixel, u_film = arrays.get("pixel"), arrays.get("u_film")
@@ -303,7 +309,7 @@ class StudentProcess:
         from pathtracer.camera import camera_rays
         rays = camera_rays(scene.camera, pixel, u_film)
         wire.write_frame(self._pipes[0], {"kind": "camera"},
-                         {"o": rays.o, "d": rays.d, "tmax": rays.tmax})
+                         {"o": rays.o, "d": rays.d, "tmax": rays.tmax}, self.deadline)
 
     def request(self, header: dict, arrays: dict | None, expect: dict, camera=None) -> dict:
         """Send one request and return the reply's arrays (errors: StudentFailure)."""
@@ -312,7 +318,9 @@ class StudentProcess:
         if self.process.poll() is not None:
             raise self._death()
         try:
-            wire.write_frame(self._pipes[0], header, arrays)
+            wire.write_frame(self._pipes[0], header, arrays, self.deadline)
+        except wire.WireTimeout:
+            raise self._timeout() from None
         except OSError:
             raise self._death() from None
         reply, data = self._receive(expect, camera)

@@ -46,8 +46,14 @@ class WireTimeout(WireError):
 # Writing
 
 
-def write_frame(fd: int, header: dict, arrays: dict | None = None) -> None:
-    """Write one frame: ``header`` (JSON-able dict) plus ``arrays`` (name -> array)."""
+def write_frame(fd: int, header: dict, arrays: dict | None = None,
+                deadline: float | None = None) -> None:
+    """Write one frame: ``header`` (JSON-able dict) plus ``arrays`` (name -> array).
+
+    With a ``deadline`` (``time.monotonic()`` value) ``fd`` must be non-blocking, and
+    :class:`WireTimeout` is raised if the reader has not taken the frame by then: a reader
+    that stops reading cannot block the writer.
+    """
     arrays = arrays or {}
     listed, payload = [], []
     for name, value in arrays.items():
@@ -58,15 +64,24 @@ def write_frame(fd: int, header: dict, arrays: dict | None = None) -> None:
     text = json.dumps({**header, "arrays": listed}, allow_nan=False).encode()
     if len(text) > MAX_HEADER:
         raise WireError(f"header of {len(text)} bytes exceeds {MAX_HEADER}")
-    _write_all(fd, _LENGTH.pack(len(text)) + text)
+    _write_all(fd, _LENGTH.pack(len(text)) + text, deadline)
     for chunk in payload:
-        _write_all(fd, chunk)
+        _write_all(fd, chunk, deadline)
 
 
-def _write_all(fd: int, data: bytes) -> None:
+def _write_all(fd: int, data: bytes, deadline: float | None) -> None:
     view = memoryview(data)
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
     while view:
-        written = os.write(fd, view)
+        if deadline is not None:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0 or not poller.poll(remaining * 1000):
+                raise WireTimeout("the reader did not take the frame before the deadline")
+        try:
+            written = os.write(fd, view)
+        except BlockingIOError:
+            continue
         view = view[written:]
 
 
