@@ -445,7 +445,7 @@ class StudentProcess:
         """(distinct results of the student's integrator, of the reference one) for ``n``
         copies of the centre pixel's ray with independent random streams."""
         from pathtracer.camera import camera_rays
-        from pathtracer.integrators import make_integrator
+        from pathtracer.render import integrator_for
         from pathtracer.rng import RandomStream, sample_keys
         params = {str(k): str(v) for k, v in (params or {}).items()}
         loaded = _scene(scene, params)
@@ -456,7 +456,7 @@ class StudentProcess:
                                 seed=int(seed)), {"o": rays.o, "d": rays.d, "tmax": rays.tmax},
                            {"radiance": ("f8", (n, 3))})
         student = validate_array(out["radiance"], "radiance", (n, 3))
-        reference = make_integrator(integrator)
+        reference = integrator_for(loaded, integrator)      # with the file's path options
         ref = reference.radiance(loaded, rays, RandomStream(sample_keys(int(seed),
                                                                         np.arange(n))))
         return _distinct(student), _distinct(ref)

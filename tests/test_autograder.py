@@ -373,3 +373,6 @@ def test_sandboxed_render_is_the_direct_render():
     shallow = render(load_scene("glass-cube", **params), "path_bsdf", spp=2, seed=5, processes=1,
                      max_depth=2)
     assert not np.array_equal(mean, shallow.mean)
+    with StudentProcess("autograder.solution", Limits(60 * CI_TIME_SCALE)) as student:
+        mean, _ = student.render("glass-cube", "path_bsdf", params, 2, 5, max_depth=2)
+    assert np.array_equal(mean, shallow.mean)          # an explicit depth beats the file's

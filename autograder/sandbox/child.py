@@ -285,7 +285,9 @@ class Server:
             self.scenes[key] = scene
         return self.scenes[key]
 
-    def integrator(self, scene, name: str, max_depth):
+    def integrator(self, scene, name: str):
+        """The submission's integrator ``name`` (checked), with the scene file's parameters
+        when the file names the same integrator; render() adds the file's path options."""
         cls = self.integrators.get(name)
         if cls is None:
             raise ContractError(f"your implementation has no integrator named {name!r} (it has: "
@@ -297,8 +299,6 @@ class Server:
                 "class; the grader does not accept the library's classes or stubs")
         spec = scene.integrator
         options = dict(spec.params) if spec is not None and spec.name == name else {}
-        if max_depth is not None:
-            options["max_depth"] = int(max_depth)
         return checked_class(cls, name)(**options)
 
     def reference_camera(self, camera, pixel, u_film):
@@ -314,17 +314,20 @@ class Server:
     def render(self, request: dict) -> dict:
         from pathtracer import render
         scene = self.scene(request["scene"], request["params"])
-        integrator = self.integrator(scene, request["integrator"], request.get("max_depth"))
+        integrator = self.integrator(scene, request["integrator"])
+        # An explicit max_depth must override the scene file's, so it goes to render().
+        depth = {} if request.get("max_depth") is None else {"max_depth": int(request["max_depth"])}
         result = render(scene, integrator, spp=int(request["spp"]), seed=int(request["seed"]),
-                        processes=1, progress=False, camera=self.reference_camera)
+                        processes=1, progress=False, camera=self.reference_camera, **depth)
         return {"mean": result.mean, "variance": result.variance}
 
     def radiance(self, request: dict, arrays: dict) -> dict:
         import numpy as np
         from pathtracer.camera import Rays
+        from pathtracer.render import integrator_for
         from pathtracer.rng import RandomStream, sample_keys
         scene = self.scene(request["scene"], request["params"])
-        integrator = self.integrator(scene, request["integrator"], request.get("max_depth"))
+        integrator = integrator_for(scene, self.integrator(scene, request["integrator"]))
         n = len(arrays["o"])
         rng = RandomStream(sample_keys(int(request["seed"]), np.arange(n, dtype=np.int64)))
         rays = Rays(arrays["o"], arrays["d"], arrays["tmax"])
