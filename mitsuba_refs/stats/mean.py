@@ -58,6 +58,18 @@ The two components are combined by Šidák, :math:`p = 1-(1-\min(p_{tiles},p_{im
 valid for any correlation between them (Šidák's inequality for two-sided normal tests), and
 nearly exact here because the two are only weakly correlated.  Reject iff :math:`p\le\alpha`.
 
+Bounded variance (``max_var_ratio``)
+------------------------------------
+Both components divide by the test side's *own* variance.  A wrong, heavy-tailed estimator
+(one enormous sample in a tile) inflates that variance as fast as its bias, so its z stays
+near 1 whatever the bias: a render 1e35x too bright "agreed" with p = 0.55.  With
+``max_var_ratio = K`` a third component tests the whole-image means with the test side's
+image-mean variance taken as :math:`K\sum_p v^b_p/n_a/P^2` (K times the reference's, known
+from millions of samples) instead of its own.  Under :math:`H_0`: equal means and a test-side
+variance at most K times the reference's, it is valid (conservative); an observed image mean
+off by more than :math:`z^*\sqrt{K n_b/n_a+1}\,\mathrm{se}_b` is rejected whatever the test's
+own variance.  The family is then Šidák over three components.
+
 Which tiles are reported as significant: those whose largest-channel |z| exceeds the
 per-tile critical value of the family.  A global bias too small to show in any one tile is
 caught by the image component ("no single tile stands out").
@@ -88,8 +100,10 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 #: Default ``max_var_ratio`` of the bounded-variance image component for two renders of the
 #: same estimator: a correct test side is assumed to have at most this many times the
 #: reference's per-sample variance (summed over the image).  It sits well above the correct
-#: alternatives (balance heuristic ~1.13x, constant-q roulette ~1.2x, uniform hemisphere
-#: ~1.9x) and above the variance policy (``variance.MAX_VARIANCE_RATIO`` = 1.5x).
+#: alternatives (balance heuristic 1.04-1.12x, constant-q roulette 1.34x, uniform hemisphere
+#: 1.9-2.0x, measured on the Cornell box) and above the variance policy
+#: (``variance.MAX_VARIANCE_RATIO`` = 1.5x), leaving a factor >= 2 for the reference's own
+#: variance estimate being low.
 VARIANCE_BOUND = 4.0
 #: Magnitudes above this are rescaled before any arithmetic (their squares and sums over
 #: an image must stay finite in float64, whose largest value is ~1.8e308).
@@ -279,9 +293,10 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
     Returns
     -------
     MeanAgreement
-        See its docstring.  ``var_a`` may hold ``+inf`` (a variance that overflows float64):
-        the components using it then carry no evidence, the bounded one still does.  The test is calibrated for skewed radiance when tiles hold
+        See its docstring.  The test is calibrated for skewed radiance when tiles hold
         >= ~4000 samples of the test side (e.g. 8x8 tiles at 64 spp); see docs/statistics.md.
+        ``var_a`` may hold ``+inf`` (a variance that overflowed float64): the components using
+        it then carry no evidence, the bounded one still does.
 
     Notes
     -----

@@ -37,7 +37,8 @@ from scipy import special
 
 from ._tiles import sidak_per_test
 
-__all__ = ["image_mean_se", "image_critical_z", "bias_power", "detectable_bias", "spp_for_bias"]
+__all__ = ["image_mean_se", "image_critical_z", "bias_power", "detectable_bias", "spp_for_bias",
+           "gross_error_bound"]
 
 
 def image_mean_se(ref_var, n) -> np.ndarray:
@@ -141,3 +142,24 @@ def spp_for_bias(target: float, ref_mean, ref_var, ref_n, *, alpha: float, power
         mid = (lo + hi) // 2
         lo, hi = (lo, mid) if ok(mid * step) else (mid, hi)
     return hi * step
+
+
+def gross_error_bound(ref_mean, ref_var, ref_n, n_test, *, alpha: float, max_var_ratio: float,
+                      components: int = 3) -> float:
+    r"""Relative image-mean deviation that the bounded-variance component always rejects.
+
+    Whatever the test side's own variance, an observed image :math:`(1+r)` times the
+    reference's with :math:`|r|` at least this value is rejected:
+    :math:`|r|\,\bar b_c \ge z^* \sqrt{K\sum_p v_{pc}/n_a + \sum_p v_{pc}/n_b}/P` in some
+    channel (``K = max_var_ratio``, :math:`z^*` as in :func:`image_critical_z`; the rel_floor
+    term, 1e-5, is neglected).  A deterministic guarantee on the observed image, not a power.
+    """
+    mu = np.asarray(ref_mean, dtype=np.float64)
+    mu = (mu if mu.ndim == 3 else mu[..., None]).mean(axis=(0, 1))
+    se = np.sqrt(max_var_ratio * image_mean_se(ref_var, n_test) ** 2
+                 + image_mean_se(ref_var, ref_n) ** 2)
+    crit = image_critical_z(alpha, components=components, channels=mu.size)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(se > 0, np.abs(mu) / se, np.where(mu != 0, np.inf, 0.0))
+    best = float(np.max(ratio))
+    return math.inf if best == 0 else crit / best
