@@ -40,7 +40,7 @@ def part_p_values(result) -> dict:
         return {}
     found = {"mean": comparison.mean.p_value}
     if comparison.variance is not None:
-        found["variance"] = comparison.variance.p_value
+        found["variance"] = comparison.variance.policy_p     # the scored one-sided policy
     if comparison.convergence is not None:
         found["convergence"] = comparison.convergence.p_value
     scored = {name for name, _ in result.check.parts}

@@ -85,7 +85,12 @@ def test_budget_is_within_one_in_a_thousand():
 
 
 def test_time_limits_fit_gradescope():
-    assert sum(c.seconds for c in grading.CHECKS) <= 270
+    """Even a submission whose every test hangs to its limit is graded before Gradescope's
+    default autograder timeout of 10 minutes ("It took longer than 600 seconds to run"),
+    with 60 s left for the grader itself (start-up, references, statistics, results.json).
+    The bound was 270 s (5 minutes) while checks rendered 64 spp; the spp that give every
+    check its power (docs/autograder.md, "Power") need limits of 445 s."""
+    assert sum(c.seconds for c in grading.CHECKS) <= 600 - 60
 
 
 def test_reference_solution_gets_full_marks(graded):

@@ -215,3 +215,143 @@ def test_diagnostics_write_pngs(tmp_path):
     for p in (p1, p2, p3):
         with open(p, "rb") as f:
             assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+
+
+# ------------------------------------------- the mean test when the test's variance explodes
+
+def _heavy_tailed(ma, va, n, factor, pixels, seed):
+    """A wrong estimator whose few enormous samples carry the image: ``pixels`` random pixels
+    each get one extra sample of ``factor`` x the image mean (mean and variance updated as a
+    renderer would compute them from its samples)."""
+    rng = np.random.default_rng(seed)
+    m, v = ma.copy(), va.copy()
+    x = factor * ma.mean()
+    for i, j in zip(rng.integers(0, m.shape[0], pixels), rng.integers(0, m.shape[1], pixels)):
+        m[i, j] += x / n
+        v[i, j] += x * x / n            # one sample of x among n: its share of the sample variance
+    return m, v
+
+
+def test_mean_bounded_variance_catches_an_exploding_bias():
+    """A roulette bug whose image is 1e35x too bright through one enormous sample: with its
+    own variance the Welch z stays ~1 (p = 0.55 in the issue) and the mean would 'agree';
+    the bounded-variance component rejects, and the verdict says by how much."""
+    ma, va, mb, vb = _pair(64, 64, seed=9)
+    m, v = _heavy_tailed(ma, va, 64, 1e35 * 64 * 64 * 64, 1, seed=1)
+    own = compare_means(m, v, 64, mb, vb, 4096, alpha=4.8e-5)
+    assert own.agree                                       # the flaw this component fixes
+    r = compare_means(m, v, 64, mb, vb, 4096, alpha=4.8e-5, max_var_ratio=4.0)
+    assert not r.agree and r.p_value == 0.0
+    assert "at most 4x the reference's variance" in r.verdict and "too bright" in r.verdict
+    assert set(r.scale_p_values) == {"8px", "image", "image, bounded variance"}
+    # a glass render 930x too bright with a variance to match: the same
+    m2, v2 = ma * 930, va * 930 ** 2 * 1e4
+    assert compare_means(m2, v2, 64, mb, vb, 4096, alpha=4.8e-5).agree
+    r2 = compare_means(m2, v2, 64, mb, vb, 4096, alpha=4.8e-5, max_var_ratio=4.0)
+    assert not r2.agree and "x too bright" in r2.verdict and r2.rel_bias == pytest.approx(929, rel=0.01)
+
+
+def test_mean_bounded_variance_is_exact_for_a_noiseless_reference_shift():
+    """The bounded component's z is (A - B) / sqrt(K sb^2 n_b/n_a + sb^2): checked by hand on
+    a uniform image (every pixel mean 1, per-sample variance 4)."""
+    h = w = 16
+    mb = np.ones((h, w, 3))
+    vb = np.full((h, w, 3), 4.0)
+    ma = mb * 1.01
+    r = compare_means(ma, vb * 1e6, 64, mb, vb, 1024, alpha=1e-3, max_var_ratio=2.0)
+    sb2 = 4.0 / 1024 / (h * w)
+    z = 0.01 / math.sqrt(2.0 * 4.0 / 64 / (h * w) + sb2 + (1e-5 * 1.01) ** 2)
+    assert r.scale_p_values["image, bounded variance"] == pytest.approx(
+        p_max_abs(z, np.ones((3, 3))), rel=1e-6)      # differences all alike: R = 1
+    with pytest.raises(ValueError):
+        compare_means(ma, vb, 64, mb, vb, 1024, alpha=1e-3, max_var_ratio=0.0)
+
+
+def test_values_that_overflow_give_a_failed_verdict_not_a_crash():
+    """Images ~1e300 (their squares overflow float64) and a variance that overflowed to inf:
+    every test returns a failed verdict with a reason."""
+    ma, va, mb, vb = _pair(64, 64, seed=10)
+    big = compare_means(ma * 1e300, np.full_like(va, np.inf), 64, mb, vb, 4096, alpha=1e-3,
+                        max_var_ratio=4.0)
+    assert not big.agree and "too bright" in big.verdict and "e+299x" in big.verdict
+    huge = compare_means(ma * 1e300, va * 1e300, 64, mb, vb, 4096, alpha=1e-3)
+    assert not huge.agree and math.isfinite(huge.worst_z)
+    rv = compare_variances(va * 1e300, 64, vb, 4096, alpha=1e-3)
+    assert not rv.agree and not rv.policy_agree and rv.ratio > 1e299
+    spp = np.array([1, 4, 16, 64])
+    table = np.full((4, 4), np.inf)
+    rc = convergence_law(spp, table, alpha=1e-3)
+    assert not rc.passed and "too large to compute" in rc.verdict
+    with np.errstate(over="ignore"):
+        assert image_mse(ma * 1e300, mb, vb, 4096) == np.inf
+    with pytest.raises(ValueError):
+        convergence_law(spp, np.full((4, 4), np.nan), alpha=1e-3)
+
+
+def test_convergence_law_is_scale_free_up_to_float64():
+    """MSEs ~1e70 (images ~1e35) or ~1e250: the same verdict as at scale 1 (no
+    OverflowError from their squares), and Kish's effective size of [1e200, 1e200] is 2."""
+    from mitsuba_refs.stats import effective_rows
+    spp = np.array([1, 4, 16, 64])
+    rng = np.random.default_rng(2)
+    good = (2.0 / spp) * (1 + 0.02 * rng.standard_normal((6, 4)))
+    base = convergence_law(spp, good, alpha=1e-3)
+    for s in (1e70, 1e250):
+        r = convergence_law(spp, good * s, alpha=1e-3)
+        assert r.slope == pytest.approx(base.slope) and r.p_value == pytest.approx(base.p_value)
+    assert effective_rows([1e200, 1e200]) == pytest.approx(2.0)
+    assert effective_rows([1.0, np.inf, 2.0]) == 1.0
+
+
+# ---------------------------------------------------------------- the one-sided variance policy
+
+def test_variance_policy_one_sided_fields():
+    """Same variance: passes the policy (and equality); 1.3x: passes the policy although the
+    equality test rejects; 1.9x: fails both; 0.5x passes the policy (it is one-sided)."""
+    ma, va, mb, vb = _pair(64, 64, n_a=1024, seed=6)
+    same = compare_variances(va, 1024, vb, 4096, alpha=1e-3)
+    assert same.policy_agree and same.agree and same.max_ratio == 1.5
+    assert same.policy_verdict.startswith("variance within 1.5x the reference")
+    r13 = compare_variances(va * 1.3, 1024, vb, 4096, alpha=1e-3)
+    assert r13.policy_agree and not r13.agree
+    r19 = compare_variances(va * 1.9, 1024, vb, 4096, alpha=1e-3)
+    assert not r19.policy_agree and r19.policy_verdict.startswith("variance above 1.5x")
+    low = compare_variances(va * 0.5, 1024, vb, 4096, alpha=1e-3)
+    assert low.policy_agree and not low.agree
+    loc = va.copy()
+    loc[48:, 48:] *= 20                                    # fine overall, one corner 20x
+    corner = compare_variances(loc, 1024, vb, 4096, alpha=1e-3, max_ratio=2.0)
+    assert not corner.policy_agree and "in some tiles" in corner.policy_verdict
+    with pytest.raises(ValueError):
+        compare_variances(va, 64, vb, 4096, alpha=1e-3, max_ratio=0)
+
+
+# --------------------------------------------------------------------------- detectable bias
+
+def test_detectable_bias_closed_form_on_a_uniform_image():
+    """Uniform image (mean 1, per-sample variance v): the bound solves
+    b / sqrt(v (1+b)^2 / (P n_a) + v / (P n_b)) = z* + z_0.95 (approximately: the far tail
+    adds nothing), grows with alpha's strictness, and shrinks with the test's spp down to the
+    reference's own floor."""
+    from scipy import special
+    from mitsuba_refs.stats import detectable_bias, spp_for_bias
+    from mitsuba_refs.stats.power import bias_power, image_critical_z
+    P, v, nb = 64 * 64, 50.0, 4096
+    mean, var = np.ones((64, 64, 3)), np.full((64, 64, 3), v)
+    alpha = 4.8e-5
+    crit = image_critical_z(alpha)
+    assert crit == pytest.approx(-special.ndtri((1 - (1 - (1 - (1 - alpha) ** (1 / 3))) ** (1 / 3)) / 2))
+    b = detectable_bias(mean, var, nb, 256, alpha=alpha)
+    delta = b / math.sqrt(v * (1 + b) ** 2 / (P * 256) + v / (P * nb))
+    assert delta == pytest.approx(crit + 1.6448536, abs=1e-4)
+    assert bias_power(b, mean, var, nb, 256, alpha=alpha) == pytest.approx(0.95, abs=1e-6)
+    assert detectable_bias(mean, var, nb, 256, alpha=alpha, sign=-1) < b       # darker: less noise
+    assert detectable_bias(mean, var, nb, 1024, alpha=alpha) < b
+    assert detectable_bias(mean, var, nb, 256, alpha=alpha / 10) > b
+    floor = detectable_bias(mean, var, nb, 1e15, alpha=alpha)
+    assert floor == pytest.approx((crit + 1.6448536) * math.sqrt(v / (P * nb)), rel=1e-3)
+    n = spp_for_bias(0.015, mean, var, nb, alpha=alpha)
+    assert n % 64 == 0 and detectable_bias(mean, var, nb, n, alpha=alpha) <= 0.015
+    assert detectable_bias(mean, var, nb, n - 64, alpha=alpha) > 0.015
+    assert spp_for_bias(floor / 2, mean, var, nb, alpha=alpha) is None
+    assert math.isinf(detectable_bias(np.zeros_like(mean), var, nb, 256, alpha=alpha))

@@ -1,7 +1,9 @@
 """Calibrated statistics for comparing Monte Carlo renders (pure functions on arrays).
 
 * :func:`compare_means`      -- same expected image? (tiled z tests + image mean, bias with CI)
-* :func:`compare_variances`  -- same per-sample variance? (kurtosis-robust tile t test)
+* :func:`compare_variances`  -- same per-sample variance? (kurtosis-robust tile t test), and
+  the one-sided policy "not more than X times the reference's"
+* :func:`detectable_bias`    -- the smallest global bias the mean test detects (power)
 * :func:`convergence_law`    -- does RMSE fall as N^-1/2? (slope, ratio, bias floor, correlation)
 * :func:`first_diverging_bounce` -- which max_depth breaks first
 * :func:`per_test_alpha`, :class:`ErrorBudget` -- the suite-wide false-failure budget
@@ -12,12 +14,14 @@ from .bounce import depth_name, first_diverging_bounce
 from .budget import SUITE_ALPHA, ErrorBudget, per_test_alpha, suite_false_failure
 from .convergence import (MIN_EFFECTIVE_ROWS, ConvergenceResult, convergence_law, effective_rows,
                           image_mse, rare_errors_dominate, reference_mse_floor)
-from .mean import MeanAgreement, compare_means, tile_z
-from .variance import VarianceAgreement, compare_variances
+from .mean import VARIANCE_BOUND, MeanAgreement, compare_means, tile_z
+from .power import bias_power, detectable_bias, spp_for_bias
+from .variance import MAX_VARIANCE_RATIO, VarianceAgreement, compare_variances
 
 __all__ = [
-    "MeanAgreement", "compare_means", "tile_z",
-    "VarianceAgreement", "compare_variances",
+    "MeanAgreement", "compare_means", "tile_z", "VARIANCE_BOUND",
+    "VarianceAgreement", "compare_variances", "MAX_VARIANCE_RATIO",
+    "bias_power", "detectable_bias", "spp_for_bias",
     "ConvergenceResult", "convergence_law", "effective_rows", "image_mse", "rare_errors_dominate",
     "reference_mse_floor", "MIN_EFFECTIVE_ROWS",
     "depth_name", "first_diverging_bounce",

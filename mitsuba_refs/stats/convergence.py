@@ -71,6 +71,7 @@ import numpy as np
 from scipy import stats as sps
 
 from ._tiles import sidak, sidak_per_test
+from .mean import overflow_scale
 
 __all__ = ["ConvergenceResult", "convergence_law", "effective_rows", "image_mse", "mse_levels",
            "rare_errors_dominate", "reference_mse_floor", "MIN_EFFECTIVE_ROWS"]
@@ -95,7 +96,8 @@ def image_mse(test_mean, ref_mean, ref_var, ref_n) -> float:
     n = np.asarray(ref_n, dtype=np.float64)
     if n.ndim == 2 and v.ndim == 3:
         n = n[..., None]
-    return float(np.mean((t - r) ** 2) - np.mean(np.maximum(v, 0) / n))
+    with np.errstate(over="ignore"):       # beyond float64 (images ~1e155 and up): +inf
+        return float(np.mean((t - r) ** 2) - np.mean(np.maximum(v, 0) / n))
 
 
 def effective_rows(mse) -> float:
@@ -106,8 +108,13 @@ def effective_rows(mse) -> float:
     reference-noise subtraction) count as zero.
     """
     y = np.maximum(np.asarray(mse, dtype=np.float64), 0.0)
-    square_sum = float(np.sum(y * y))
-    return float(np.sum(y)) ** 2 / square_sum if square_sum > 0 else 0.0
+    if np.any(np.isinf(y)):
+        return float(np.sum(np.isinf(y)))    # the infinite values carry everything
+    largest = float(y.max()) if y.size else 0.0
+    if largest <= 0:
+        return 0.0
+    y = y / largest         # the ratio is scale-free; unscaled, (sum y)^2 overflows for y ~1e160
+    return float(np.sum(y)) ** 2 / float(np.sum(y * y))
 
 
 def rare_errors_dominate(image_mses) -> bool:
@@ -239,6 +246,22 @@ class _LevelMeans:
         return math.sqrt(total), total ** 2 / float(np.sum(parts ** 2 / (self.sizes - 1)))
 
 
+def _pow4(x: float) -> float:
+    """4**x, +inf instead of OverflowError (slopes of a wildly wrong image)."""
+    return math.inf if x * math.log(4.0) > 709.0 else 4.0 ** x
+
+
+def _overflowed(n_levels: int, alpha: float, what: str) -> ConvergenceResult:
+    """A failed result for MSEs beyond float64 (the image is astronomically far off)."""
+    verdict = (f"the error is too large to compute: {what} (the image is astronomically far "
+               "from the reference, e.g. a weight that grows without bound)")
+    nan2 = (math.nan, math.nan)
+    return ConvergenceResult(slope=math.nan, slope_ci=nan2, ratio=math.nan, ratio_ci=nan2,
+                             p_value=0.0, floor_detected=False, verdict=verdict, slope_p=0.0,
+                             floor_p=math.nan, passed=False, alpha=float(alpha),
+                             warnings=(verdict,))
+
+
 def _t_test(estimate: float, null: float, se: float, df: float, *, two_sided: bool) -> float:
     """p-value of ``estimate`` against ``null`` with a t distribution (exact when se = 0)."""
     if se <= 0:
@@ -282,6 +305,19 @@ def convergence_law(spp, mse, ref_mse_floor: float | None = None, *, alpha: floa
     N = np.asarray(spp, dtype=np.float64)
     if N.ndim != 1 or np.any(np.diff(N) <= 0) or N[0] <= 0:
         raise ValueError("spp must be positive and increasing")
+    levels, table = mse_levels(mse, N.size)
+    if any(np.any(np.isnan(level)) for level in levels):
+        raise ValueError("mse contains NaN")
+    if any(np.any(np.isinf(level)) for level in levels):
+        return _overflowed(N.size, alpha, "the squared error overflows float64 (pixel values "
+                                          "beyond ~1e154)")
+    # MSEs of a wildly wrong image (~1e70 for values ~1e35) make their variances overflow;
+    # every statistic below is invariant to a common scale except sqrt(B), scaled back.
+    scale = overflow_scale(*levels, guard=1e100)
+    if scale != 1.0:
+        mse = table / scale if table is not None else [level / scale for level in levels]
+        if ref_mse_floor is not None:
+            ref_mse_floor = ref_mse_floor / scale
     data = _LevelMeans(mse, N.size)
     keep = data.ybar > 0
     warnings = []
@@ -304,8 +340,8 @@ def convergence_law(spp, mse, ref_mse_floor: float | None = None, *, alpha: floa
     slope_p = _t_test(slope, expected_slope, se, df, two_sided=True)
     tq = float(sps.t.ppf(0.5 + ci_level / 2, df))
     slope_ci = (slope - tq * se, slope + tq * se)
-    ratio = 4.0 ** (-slope / 2)
-    ratio_ci = (4.0 ** (-slope_ci[1] / 2), 4.0 ** (-slope_ci[0] / 2))
+    ratio = _pow4(-slope / 2)
+    ratio_ci = (_pow4(-slope_ci[1] / 2), _pow4(-slope_ci[0] / 2))
 
     # ---- bias floor: ybar = C/N + B, WLS with weights N^2 ------------------------
     X = np.column_stack([1.0 / N, np.ones(L)])
@@ -324,7 +360,7 @@ def convergence_law(spp, mse, ref_mse_floor: float | None = None, *, alpha: floa
     correlated = slope_rejected and slope > -0.25
     floor_spp = Chat / Bhat if (floor_detected and Bhat > 0 and Chat > 0) else (
         0.0 if floor_detected else math.nan)
-    bias_rms = math.sqrt(Bhat) if floor_detected and Bhat > 0 else math.nan
+    bias_rms = math.sqrt(Bhat) * math.sqrt(scale) if floor_detected and Bhat > 0 else math.nan
     bias_rel = bias_rms / image_mean if (image_mean and math.isfinite(bias_rms)) else math.nan
 
     # ---- verdict ------------------------------------------------------------------------

@@ -58,6 +58,18 @@ The two components are combined by Šidák, :math:`p = 1-(1-\min(p_{tiles},p_{im
 valid for any correlation between them (Šidák's inequality for two-sided normal tests), and
 nearly exact here because the two are only weakly correlated.  Reject iff :math:`p\le\alpha`.
 
+Bounded variance (``max_var_ratio``)
+------------------------------------
+Both components divide by the test side's *own* variance.  A wrong, heavy-tailed estimator
+(one enormous sample in a tile) inflates that variance as fast as its bias, so its z stays
+near 1 whatever the bias: a render 1e35x too bright "agreed" with p = 0.55.  With
+``max_var_ratio = K`` a third component tests the whole-image means with the test side's
+image-mean variance taken as :math:`K\sum_p v^b_p/n_a/P^2` (K times the reference's, known
+from millions of samples) instead of its own.  Under :math:`H_0`: equal means and a test-side
+variance at most K times the reference's, it is valid (conservative); an observed image mean
+off by more than :math:`z^*\sqrt{K n_b/n_a+1}\,\mathrm{se}_b` is rejected whatever the test's
+own variance.  The family is then Šidák over three components.
+
 Which tiles are reported as significant: those whose largest-channel |z| exceeds the
 per-tile critical value of the family.  A global bias too small to show in any one tile is
 caught by the image component ("no single tile stands out").
@@ -82,9 +94,35 @@ from scipy import special
 from ._mvn import correlation_from_differences, p_max_abs
 from ._tiles import as_count, as_image, region_name, sidak, sidak_per_test, tile_counts, tile_sums
 
-__all__ = ["MeanAgreement", "compare_means", "tile_z", "LUMINANCE"]
+__all__ = ["MeanAgreement", "compare_means", "tile_z", "LUMINANCE", "VARIANCE_BOUND", "overflow_scale"]
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+#: Default ``max_var_ratio`` of the bounded-variance image component for two renders of the
+#: same estimator: a correct test side is assumed to have at most this many times the
+#: reference's per-sample variance (summed over the image).  It sits well above the correct
+#: alternatives (balance heuristic 1.04-1.12x, constant-q roulette 1.34x, uniform hemisphere
+#: 1.9-2.0x, measured on the Cornell box) and above the variance policy
+#: (``variance.MAX_VARIANCE_RATIO`` = 1.5x), leaving a factor >= 2 for the reference's own
+#: variance estimate being low.
+VARIANCE_BOUND = 4.0
+#: Magnitudes above this are rescaled before any arithmetic (their squares and sums over
+#: an image must stay finite in float64, whose largest value is ~1.8e308).
+_OVERFLOW_GUARD = 1e100
+
+
+def overflow_scale(*arrays, guard: float = _OVERFLOW_GUARD) -> float:
+    """A power of two near the largest finite magnitude of ``arrays`` when that exceeds
+    ``guard``, else 1.  Dividing means by it (and variances by its square) keeps squares and
+    image sums finite; the tests are invariant to a common scale."""
+    largest = 0.0
+    for a in arrays:
+        a = np.abs(np.asarray(a, dtype=np.float64))
+        finite = a[np.isfinite(a)]
+        if finite.size:
+            largest = max(largest, float(finite.max()))
+    if largest <= guard:
+        return 1.0
+    return float(2.0 ** math.floor(math.log2(largest)))
 
 
 def _two_sided_p(z: np.ndarray) -> np.ndarray:
@@ -121,7 +159,8 @@ class MeanAgreement:
     worst_region : str
         Where the worst evidence sits in words (e.g. "top-left", "center", "whole image").
     scale_p_values : dict
-        Component p-values: "<tile>px" (Šidák over tiles) and "image".
+        Component p-values: "<tile>px" (Šidák over tiles), "image" and, with
+        ``max_var_ratio``, "image, bounded variance".
     image_z : ndarray, shape (C,)
         Per-channel z of the whole-image means.
     rel_bias, rel_bias_ci : float, (float, float)
@@ -222,7 +261,8 @@ def _fmt_pct(x: float) -> str:
 
 
 def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alpha: float,
-                  ci_level: float = 0.95, rel_floor: float = 1e-5) -> MeanAgreement:
+                  ci_level: float = 0.95, rel_floor: float = 1e-5,
+                  max_var_ratio: float | None = None) -> MeanAgreement:
     r"""Test whether two renders (a = test, b = reference) have the same expected image.
 
     Parameters
@@ -242,12 +282,21 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
         Level of the relative-bias confidence interval.
     rel_floor : float
         Relative numerical floor on standard errors (float32 resolution headroom).
+    max_var_ratio : float, optional
+        Adds the bounded-variance image component: the whole-image means are also tested with
+        the test side's variance taken as ``max_var_ratio`` times the reference's instead of
+        its own estimate, so that a test-side variance far above the reference's cannot hide
+        a bias (e.g. :data:`VARIANCE_BOUND` for two renders of the same estimator).  Valid
+        when the test estimator's per-sample variance, summed over the image, is at most
+        that many times the reference's.  None (default): tiles and image only.
 
     Returns
     -------
     MeanAgreement
         See its docstring.  The test is calibrated for skewed radiance when tiles hold
         >= ~4000 samples of the test side (e.g. 8x8 tiles at 64 spp); see docs/statistics.md.
+        ``var_a`` may hold ``+inf`` (a variance that overflowed float64): the components using
+        it then carry no evidence, the bounded one still does.
 
     Notes
     -----
@@ -259,9 +308,18 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
                       ((mean_a, "mean_a"), (var_a, "var_a"), (mean_b, "mean_b"), (var_b, "var_b")))
     if not (ma.shape == va.shape == mb.shape == vb.shape):
         raise ValueError(f"shape mismatch: {ma.shape} {va.shape} {mb.shape} {vb.shape}")
-    for x, nm in ((ma, "mean_a"), (va, "var_a"), (mb, "mean_b"), (vb, "var_b")):
+    for x, nm in ((ma, "mean_a"), (mb, "mean_b"), (vb, "var_b")):
         if not np.all(np.isfinite(x)):
             raise ValueError(f"{nm} contains NaN or inf")
+    if np.any(np.isnan(va)) or np.any(va == -np.inf):
+        raise ValueError("var_a contains NaN or -inf")
+    if max_var_ratio is not None and not max_var_ratio > 0:
+        raise ValueError("max_var_ratio must be > 0")
+    # Finite but huge values (a broken estimator, 1e35 or 1e300) would overflow the squares
+    # and sums below; every statistic is invariant to a common scale, so divide it out.
+    scale = overflow_scale(ma, mb, np.sqrt(np.abs(va)), np.sqrt(np.abs(vb)))
+    if scale != 1.0:
+        ma, mb, va, vb = ma / scale, mb / scale, va / scale / scale, vb / scale / scale
     h, w, C = ma.shape
     tile = int(tile)
     if tile < 1:
@@ -288,6 +346,22 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
     with np.errstate(divide="ignore", invalid="ignore"):
         image_z = np.where(se > 0, (A - B) / se, np.where(A == B, 0.0, np.sign(A - B) * np.inf))
     scale_p["image"] = p_max_abs(float(np.max(np.abs(image_z))), R) if np.any(image_z != 0) else 1.0
+
+    # ---- whole image, the test's variance bounded by max_var_ratio x the reference's ------
+    # The components above divide by the test side's own variance, so a heavy-tailed wrong
+    # estimator (a few enormous samples) inflates its standard error as fast as its bias and
+    # passes.  Here the test side's image-mean variance is what it would be with
+    # max_var_ratio times the reference's per-sample variances (16.7M samples at 4096 spp:
+    # a precise estimate), so the z grows with the bias whatever the test's variance.
+    bounded_z = None
+    if max_var_ratio is not None:
+        sab = np.sqrt(max_var_ratio * (np.maximum(vb, 0) / na).sum(axis=(0, 1))) / npx
+        seb = np.sqrt(sab ** 2 + sb ** 2 + (rel_floor * np.maximum(np.abs(A), np.abs(B))) ** 2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bounded_z = np.where(seb > 0, (A - B) / seb,
+                                 np.where(A == B, 0.0, np.sign(A - B) * np.inf))
+        scale_p["image, bounded variance"] = (p_max_abs(float(np.max(np.abs(bounded_z))), R)
+                                              if np.any(bounded_z != 0) else 1.0)
 
     p_family = sidak(min(scale_p.values()), len(scale_p))
     agree = not (p_family <= alpha)
@@ -346,15 +420,25 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
             parts.append(f"{int(any_sig.sum())} of {any_sig.size} {tile}px tiles, largest |z|={abs(worst_z):.1f} "
                          f"at tile rows {rs}, cols {cs} ({where})")
             region = where if where == "whole image" else region
+        elif bounded_z is not None and scale_p["image, bounded variance"] < scale_p["image"]:
+            parts.append(f"the whole-image means differ by far more than the noise of an estimator with "
+                         f"at most {max_var_ratio:g}x the reference's variance (max |z|={np.max(np.abs(bounded_z)):.1f}; "
+                         f"with the image's own variance {np.max(np.abs(image_z)):.1f})")
+            region = "whole image"
         else:
             parts.append(f"no single tile stands out (largest |z|={abs(worst_z):.1f}); whole-image means differ "
                          f"(max |z|={np.max(np.abs(image_z)):.1f})")
             region = "whole image"
         sig_img = (rel_ci[0] > 0 or rel_ci[1] < 0) and math.isfinite(rel)
-        if sig_img:
+        if math.isfinite(rel) and rel > 1.0:
+            # a factor reads better than thousands of percent (e.g. a render 930x too bright)
+            parts.append(f"image {1 + rel:.3g}x too bright")
+        elif sig_img:
             word = "too dark" if rel < 0 else "too bright"
             parts.append(f"image {100 * abs(rel):.1f}% {word} [{100 * abs(rel_ci[0] if rel > 0 else rel_ci[1]):.1f}%, "
                          f"{100 * abs(rel_ci[1] if rel > 0 else rel_ci[0]):.1f}%]")
+        elif rel == math.inf:
+            parts.append("image bright where the reference is black")
         else:
             parts.append(f"image-level {bias_txt} (not significant)")
         verdict = f"disagree (p={_fmt_p(p_family)}): " + ", ".join(parts)

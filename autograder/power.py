@@ -1,0 +1,169 @@
+"""Power of the graded mean parts: the smallest global bias each check detects.
+
+``python -m autograder.power`` prints, for every check in :data:`autograder.grading.CHECKS`
+(whatever it holds when run), the smallest relative bias ``b`` such that an image ``(1+b)``
+times the truth fails the check's mean part with probability >= 0.95 at the per-part level
+:data:`autograder.grading.ALPHA`:
+
+1. analytically, from the committed reference's per-pixel mean and variance and the test's
+   statistic (:func:`mitsuba_refs.stats.detectable_bias`: the whole-image component of the
+   mean test, the reference's own noise included; an upper bound on the detectable bias);
+2. confirmed by injection: :func:`injected_power` draws a reference and a test render around
+   the reference image at the real per-pixel variances (4096 and ``check.spp`` samples),
+   multiplies the test by ``1+b`` and runs the grader's :func:`compare_means` on them;
+3. the gross-error bound: the observed image-mean deviation that fails the mean part whatever
+   the submission's own variance (:func:`mitsuba_refs.stats.power.gross_error_bound`);
+4. optionally (``--renders K``) on real renders of the reference solution at ``check.spp``,
+   scaled by ``1+b`` and compared with the committed reference (K seeds; slow).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+
+import numpy as np
+
+from mitsuba_refs.stats import VARIANCE_BOUND, compare_means, detectable_bias
+from mitsuba_refs.stats.power import gross_error_bound
+
+from . import grading
+
+#: The bias every integrator check must detect (probability >= POWER at grading.ALPHA).
+TARGET_BIAS = 0.015
+POWER = 0.95
+
+
+def reference_of(check):
+    """The committed reference a check compares with (no rendering)."""
+    from mitsuba_refs.cache import get_reference
+    from mitsuba_refs.compare import default_params, reference_integrator
+    return get_reference(check.scene, default_params(check.scene),
+                         reference_integrator(check.integrator), render=False)
+
+
+def injected_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float, seeds: int,
+                   seed: int = 0, max_var_ratio: float | None = VARIANCE_BOUND) -> float:
+    """Fraction of ``seeds`` simulated renders ``(1+b)`` times the truth that the mean test rejects.
+
+    The committed reference image is taken as the truth ``T``.  Each seed draws a reference
+    ``T + e_b`` and a test ``(1+b)(T + e_a)`` with per-pixel normal errors of variance
+    ``v/ref_n`` and ``v/n_test`` (``v`` the reference's per-sample variances; one standard
+    normal per pixel shared by the channels, as one path carries all three) and runs
+    :func:`compare_means` exactly as the grader does.
+
+    Parameters
+    ----------
+    b : float  relative bias
+    ref_mean, ref_var : array (H, W, 3)  reference mean and per-sample variance
+    ref_n, n_test : int  samples per pixel of the reference and of the test
+    alpha : float  level of the mean test
+    seeds : int  simulated renders
+    seed : int  seed of the generator (results are deterministic)
+    max_var_ratio : float or None  as the grader passes it (same estimator)
+    """
+    rng = np.random.default_rng(seed)
+    truth = np.asarray(ref_mean, dtype=np.float64)
+    v = np.maximum(np.asarray(ref_var, dtype=np.float64), 0.0)
+    sd_ref, sd_test = np.sqrt(v / ref_n), np.sqrt(v / n_test)
+    h, w = truth.shape[:2]
+    rejected = 0
+    for _ in range(seeds):
+        reference = truth + sd_ref * rng.standard_normal((h, w, 1))
+        test = (1.0 + b) * (truth + sd_test * rng.standard_normal((h, w, 1)))
+        result = compare_means(test, v * (1.0 + b) ** 2, n_test, reference, v, ref_n,
+                               alpha=alpha, max_var_ratio=max_var_ratio)
+        rejected += not result.agree
+    return rejected / seeds
+
+
+def rendered_power(check, b: float, renders: int, *, alpha: float, seed: int = 70_000) -> float:
+    """Fraction of ``renders`` real renders of the reference solution at ``check.spp``,
+    multiplied by ``1+b``, whose mean part fails against the committed reference."""
+    from mitsuba_refs.compare import default_params, render_ours
+    reference = reference_of(check)
+    rejected = 0
+    for k in range(renders):
+        mean, var = render_ours(check.scene, check.integrator, default_params(check.scene),
+                                check.spp, seed + k, processes=1)
+        result = compare_means(mean * (1 + b), var * (1 + b) ** 2, check.spp, reference.mean,
+                               reference.var, reference.n, alpha=alpha,
+                               max_var_ratio=VARIANCE_BOUND)
+        rejected += not result.agree
+    return rejected / renders
+
+
+def power_table(checks=None, *, alpha: float | None = None, seeds: int = 200,
+                renders: int = 0) -> list[dict]:
+    """One row per check: spp, analytic detectable bias (both signs), injected power there."""
+    checks = grading.CHECKS if checks is None else checks
+    alpha = grading.ALPHA if alpha is None else alpha
+    rows = []
+    for i, check in enumerate(checks):
+        if not any(name == "mean" for name, _ in check.parts):
+            continue
+        ref = reference_of(check)
+        row = {"check": check.id, "spp": check.spp, "alpha": alpha}
+        for sign, key in ((1, "brighter"), (-1, "darker")):
+            b = detectable_bias(ref.mean, ref.var, ref.n, check.spp, alpha=alpha, power=POWER,
+                                sign=sign)
+            row[f"bias_{key}"] = b
+            row[f"injected_power_{key}"] = injected_power(sign * b, ref.mean, ref.var, ref.n,
+                                                          check.spp, alpha=alpha, seeds=seeds,
+                                                          seed=1000 * i + (sign > 0))
+            if renders:
+                row[f"rendered_power_{key}"] = rendered_power(check, sign * b, renders,
+                                                              alpha=alpha)
+        row["detectable_bias"] = max(row["bias_brighter"], row["bias_darker"])
+        row["reference_floor"] = detectable_bias(ref.mean, ref.var, ref.n, 1e15, alpha=alpha,
+                                                 power=POWER)
+        row["gross_error_bound"] = gross_error_bound(ref.mean, ref.var, ref.n, check.spp,
+                                                     alpha=alpha, max_var_ratio=VARIANCE_BOUND)
+        rows.append(row)
+    return rows
+
+
+def format_table(rows) -> str:
+    """Markdown table of :func:`power_table` rows."""
+    lines = ["| check | spp | detectable bias (+ / -) | injected power there (+ / -) | "
+             "with infinite spp | always rejected, any variance |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        extra = ""
+        if "rendered_power_brighter" in r:
+            extra = (f" (renders: {100 * r['rendered_power_brighter']:.0f} % / "
+                     f"{100 * r['rendered_power_darker']:.0f} %)")
+        lines.append(f"| {r['check']} | {r['spp']} | {100 * r['bias_brighter']:.2f} % / "
+                     f"{100 * r['bias_darker']:.2f} % | {100 * r['injected_power_brighter']:.1f} % / "
+                     f"{100 * r['injected_power_darker']:.1f} %{extra} | "
+                     f"{100 * r['reference_floor']:.2f} % | {100 * r['gross_error_bound']:.1f} % |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m autograder.power", description=__doc__.split("\n")[0])
+    parser.add_argument("--seeds", type=int, default=200, help="injected renders per check and sign")
+    parser.add_argument("--renders", type=int, default=0,
+                        help="also real renders of the reference solution per check and sign (slow)")
+    parser.add_argument("--alpha", type=float, default=None, help="per-part level (default grading.ALPHA)")
+    parser.add_argument("--checks", nargs="*", help="check ids (default: all)")
+    parser.add_argument("--json", help="also write the rows here")
+    args = parser.parse_args(argv)
+    checks = [grading.CHECKS_BY_ID[c] for c in args.checks] if args.checks else None
+    start = time.perf_counter()
+    rows = power_table(checks, alpha=args.alpha, seeds=args.seeds, renders=args.renders)
+    alpha = rows[0]["alpha"] if rows else grading.ALPHA
+    print(f"mean part, per-part alpha {alpha:.3g}, power {POWER}, target {100 * TARGET_BIAS:g} %")
+    print(format_table(rows))
+    over = [r["check"] for r in rows if r["detectable_bias"] > TARGET_BIAS and not r["check"] == "camera"]
+    print(f"({time.perf_counter() - start:.0f} s) "
+          + (f"above the target: {', '.join(over)}" if over else "every check meets the target"))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+    return 1 if any(math.isinf(r["detectable_bias"]) for r in rows) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
