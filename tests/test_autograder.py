@@ -67,8 +67,9 @@ def graded():
         module = constants(path)
         jobs[(Path(path).stem, module.CHECK)] = (grading.CHECKS_BY_ID[module.CHECK], path)
     for name in ALTERNATIVES:
-        for c in grading.CHECKS:
-            jobs[(f"alternative:{name}", c.id)] = (c, str(ALTERNATIVES_DIR / f"{name}.py"))
+        path = ALTERNATIVES_DIR / f"{name}.py"
+        for c in alternative_checks(path):
+            jobs[(f"alternative:{name}", c.id)] = (c, str(path))
     workers = max(2, os.cpu_count() or 1)
     with ThreadPoolExecutor(workers) as pool:
         futures = {key: pool.submit(grading.run_check, check, impl, limits=_limits(check),
@@ -117,17 +118,35 @@ def test_mutant_loses_points_with_the_expected_hint(graded, path):
         assert result.parts[0].name == "mean" and result.parts[0].passed
 
 
-def test_alternatives_are_listed():
+def alternative_checks(path) -> list:
+    """The checks of the integrators an alternative changes (the others run the reference's
+    own classes: test_alternatives_are_listed checks that)."""
+    changed = constants(path).CHANGES
+    return [c for c in grading.CHECKS if c.integrator in changed and not c.camera]
+
+
+def test_alternatives_are_listed(monkeypatch):
+    import importlib.util
+    from pathtracer.integrators import INTEGRATORS as REFERENCE
     found = {Path(p).stem for p in glob.glob(str(ALTERNATIVES_DIR / "*.py"))
              if not Path(p).name.startswith("_")}
     assert found == set(ALTERNATIVES)
+    monkeypatch.syspath_prepend(str(ALTERNATIVES_DIR))
+    for name in ALTERNATIVES:
+        spec = importlib.util.spec_from_file_location(f"alternative_{name}",
+                                                      ALTERNATIVES_DIR / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        differ = {k for k, cls in module.INTEGRATORS.items() if cls is not REFERENCE.get(k)}
+        assert differ == set(module.CHANGES), name
 
 
 @pytest.mark.parametrize("name", ALTERNATIVES)
 def test_correct_alternative_gets_full_marks(graded, name):
     """A right answer written differently (another MIS heuristic, roulette rule, order of
     random numbers, light choice) keeps every point of every part of every check."""
-    lost = [graded[(f"alternative:{name}", c.id)] for c in grading.CHECKS]
+    lost = [graded[(f"alternative:{name}", c.id)]
+            for c in alternative_checks(ALTERNATIVES_DIR / f"{name}.py")]
     lost = [r for r in lost if not (r.passed and r.score == r.max_score)]
     assert not lost, "\n\n".join(r.report() for r in lost)
 

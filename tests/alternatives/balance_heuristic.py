@@ -39,3 +39,6 @@ def _with_balance(base, module):
 
 INTEGRATORS = registry(_with_balance(path.PathIntegrator, path),
                        _with_balance(direct.DirectIntegrator, direct))
+
+#: The integrators that differ from the reference solution (the grader's tests grade their checks).
+CHANGES = ('path', 'direct')
