@@ -18,8 +18,9 @@ from tests.budget import ALPHA
 
 INTEGRATOR_CHECKS = [c for c in grading.CHECKS if not c.camera]
 #: Checks whose 1.5 % needs more samples than the 3-minute submission budget allows
-#: (docs/autograder.md, "Power"): 1792 / 1920 spp, about 60 s more than the budget.
-OVER_BUDGET = {"path_bsdf-cornell-box", "path_bsdf-glass"}
+#: (docs/autograder.md, "Power": 1728-1920 spp), with the bias they are documented to detect.
+OVER_BUDGET = {"path_bsdf-cornell-box": 0.029, "path_bsdf-glass": 0.030,
+               "path_bsdf-lights": 0.027}
 
 
 def test_power_table_covers_every_check():
@@ -48,15 +49,16 @@ def test_injected_power_confirms_the_analytic_bound(check):
         assert round(rate * 100) >= need, (check.id, sign, b, rate)
 
 
-@pytest.mark.parametrize("check", [
-    pytest.param(c, marks=pytest.mark.xfail(strict=True, reason="1.5 % needs ~1800-1900 spp: "
-                                            "over the 3-minute budget (docs/autograder.md)"))
-    if c.id in OVER_BUDGET else c for c in INTEGRATOR_CHECKS], ids=[c.id for c in INTEGRATOR_CHECKS])
+@pytest.mark.parametrize("check", INTEGRATOR_CHECKS, ids=[c.id for c in INTEGRATOR_CHECKS])
 def test_every_integrator_check_detects_a_bias_of_one_and_a_half_percent(check):
+    """1.5 % for every integrator check but the BSDF-only ones, which detect what the docs
+    say they do (and are not silently above it)."""
     ref = power.reference_of(check)
     worst = max(detectable_bias(ref.mean, ref.var, ref.n, check.spp, alpha=grading.ALPHA, sign=s)
                 for s in (1, -1))
-    assert worst <= power.TARGET_BIAS, f"{check.id}: {100 * worst:.2f} % at {check.spp} spp"
+    target = OVER_BUDGET.get(check.id, power.TARGET_BIAS)
+    assert worst <= target, f"{check.id}: {100 * worst:.2f} % at {check.spp} spp"
+    assert check.id in OVER_BUDGET or worst <= power.TARGET_BIAS
 
 
 def test_a_bias_significant_at_1e_minus_4_does_not_pass():
