@@ -58,7 +58,6 @@ def test_every_integrator_check_detects_a_bias_of_one_and_a_half_percent(check):
                 for s in (1, -1))
     target = OVER_BUDGET.get(check.id, power.TARGET_BIAS)
     assert worst <= target, f"{check.id}: {100 * worst:.2f} % at {check.spp} spp"
-    assert check.id in OVER_BUDGET or worst <= power.TARGET_BIAS
 
 
 def test_a_bias_significant_at_1e_minus_4_does_not_pass():

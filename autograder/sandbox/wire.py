@@ -69,15 +69,21 @@ def write_frame(fd: int, header: dict, arrays: dict | None = None,
         _write_all(fd, chunk, deadline)
 
 
+def _wait(poller, deadline: float | None, what: str) -> None:
+    """Return when ``poller`` reports its fd ready; WireTimeout once ``deadline`` passes."""
+    if deadline is None:
+        return
+    remaining = deadline - time.monotonic()
+    if remaining <= 0 or not poller.poll(remaining * 1000):
+        raise WireTimeout(what)
+
+
 def _write_all(fd: int, data: bytes, deadline: float | None) -> None:
     view = memoryview(data)
     poller = select.poll()
     poller.register(fd, select.POLLOUT)
     while view:
-        if deadline is not None:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0 or not poller.poll(remaining * 1000):
-                raise WireTimeout("the reader did not take the frame before the deadline")
+        _wait(poller, deadline, "the reader did not take the frame before the deadline")
         try:
             written = os.write(fd, view)
         except BlockingIOError:
@@ -180,10 +186,7 @@ def _read_exact(fd: int, size: int, deadline: float | None) -> bytes:
     poller = select.poll()
     poller.register(fd, select.POLLIN)
     while missing:
-        if deadline is not None:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0 or not poller.poll(remaining * 1000):
-                raise WireTimeout("no reply before the deadline")
+        _wait(poller, deadline, "no reply before the deadline")
         chunk = os.read(fd, min(missing, 1 << 20))
         if not chunk:
             raise WireError("end of file")
