@@ -61,16 +61,20 @@ submission's estimator is *good enough*: another correct estimator (balance inst
 heuristic, ~1.13x; constant-q roulette; another order of random numbers, 1.0x) must pass,
 and a clearly worse one (uniform hemisphere sampling, ~1.9x) must fail.  With
 :math:`X` = ``max_ratio`` the hypotheses are :math:`H_0: \rho \le X` against
-:math:`\rho > X`, tested one-sided with the same two components:
+:math:`\rho > X` for the *image's* variance ratio, tested one-sided with the global
+component: :math:`e^X_T = (A_T - X B_T)/W_T` with
+:math:`W_T = (n^a_T A_T + n^b_T X B_T)/(n^a_T + n^b_T)` (the pooled estimate of
+:math:`X\sigma^2_T` on the boundary :math:`\rho = X`, which makes :math:`E[e^X_T] = O(n^{-2})`
+there by the argument above), one-sided one-sample t test over tiles.  At :math:`\rho < X` it
+is conservative, so estimators well below :math:`X` pass with overwhelming probability.
+Fields ``policy_*`` of the result.
 
-* global: :math:`e^X_T = (A_T - X B_T)/W_T` with :math:`W_T = (n^a_T A_T + n^b_T X B_T)/(n^a_T + n^b_T)`
-  (the pooled estimate of :math:`X\sigma^2_T` on the boundary :math:`\rho = X`, which makes
-  :math:`E[e^X_T] = O(n^{-2})` there by the argument above), one-sided one-sample t test;
-* tiles: :math:`d_p = \sum_c (v^a_{pc} - X v^b_{pc})`, one-sided self-normalised t per tile,
-  Šidák over tiles (no tile more than X times the reference's).
-
-Šidák over the two.  At :math:`\rho < X` both are conservative, so estimators well below
-:math:`X` pass with overwhelming probability.  Fields ``policy_*`` of the result.
+Why the whole image and not every tile: a correct estimator may move variance between
+regions. The balance heuristic is noisier than the power heuristic where one strategy is
+much better than the other: on the glass scene its image variance is 1.21x the reference's,
+but 28 of its 64 tiles are significantly above 1.5x (measured 2026-11-30). What the policy
+grades, a sampling density that does not follow the integrand (uniform hemisphere sampling:
+1.98x [1.86, 2.10]), raises the variance everywhere.
 """
 from __future__ import annotations
 
@@ -250,7 +254,7 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
     mt = int(informative.sum())
     tile_p = sidak(float(p_tiles[informative].min()) if mt else 1.0, mt)
 
-    policy_p = _policy_p(va, vb, A, B, nha, nhb, cnt, ok, tile, max_ratio)
+    policy_p = _policy_p(A, B, nha, nhb, ok, max_ratio)
 
     p_family = sidak(min(p_glob, tile_p), 2)
     agree = not (p_family <= alpha)
@@ -284,8 +288,7 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
     if policy_agree:
         policy_verdict = f"variance within {max_ratio:g}x the reference (p={_fmt_p(policy_p)}): {rtxt}"
     else:
-        policy_verdict = (f"variance above {max_ratio:g}x the reference (p={_fmt_p(policy_p)}): {rtxt}"
-                          + ("" if ratio > max_ratio else "; in some tiles"))
+        policy_verdict = f"variance above {max_ratio:g}x the reference (p={_fmt_p(policy_p)}): {rtxt}"
     for arr in (tlr, tt):
         arr.flags.writeable = False
     return VarianceAgreement(
@@ -297,11 +300,10 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
         policy_verdict=policy_verdict)
 
 
-def _policy_p(va, vb, A, B, nha, nhb, cnt, ok, tile, max_ratio) -> float:
-    """p-value of H0 "variance <= max_ratio x the reference's" (one-sided; module notes).
-
-    ``va, vb`` per-pixel channel-summed variances; ``A, B`` their tile averages; ``nha, nhb``
-    tile harmonic-mean counts; ``ok`` tiles with non-zero pooled variance.
+def _policy_p(A, B, nha, nhb, ok, max_ratio) -> float:
+    """p-value of H0 "the image's variance <= max_ratio x the reference's" (one-sided; module
+    notes). ``A, B`` tile-average channel-summed variances; ``nha, nhb`` tile harmonic-mean
+    counts; ``ok`` tiles with non-zero pooled variance.
     """
     X = float(max_ratio)
     W = (nha * A + nhb * X * B) / (nha + nhb)          # pooled estimate of X sigma^2 at rho = X
@@ -313,15 +315,4 @@ def _policy_p(va, vb, A, B, nha, nhb, cnt, ok, tile, max_ratio) -> float:
         p_glob = float(sps.t.sf(e.mean() / (sd / math.sqrt(m)), m - 1))
     else:
         p_glob = 0.0 if e.mean() > 0 else 1.0
-    d = va - X * vb
-    S1 = tile_sums(d, tile)
-    S2 = tile_sums(d * d, tile)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        U = np.where(S2 > 0, S1 / np.sqrt(S2), 0.0)
-        tt = U * np.sqrt((cnt - 1) / np.maximum(cnt - U * U, 1e-300))
-    informative = (S2 > 0) & (cnt >= 2)
-    tt = np.where(informative, tt, 0.0)
-    p_tiles = sps.t.sf(tt, np.maximum(cnt - 1, 1))
-    mt = int(informative.sum())
-    tile_p = sidak(float(p_tiles[informative].min()) if mt else 1.0, mt)
-    return float(sidak(min(p_glob, tile_p), 2))
+    return p_glob
