@@ -383,10 +383,10 @@ def _variance_policy(hint: str, comparison) -> str:
     (with a right mean); say what that part allows before suggesting a cause, so that a
     correct estimator that is merely different is never told it is wrong."""
     v = comparison.variance
-    policy = (f"the variance part failed ({v.verdict}); it compares your per-sample variance "
-              "with Mitsuba's run of the same estimator and allows a correct estimator written "
-              "differently (another MIS heuristic, roulette rule or light choice) to be somewhat "
-              "noisier, failing only beyond that bound")
+    policy = (f"the variance part failed ({v.policy_verdict}); it compares your image's "
+              "per-sample variance with Mitsuba's run of the same estimator and allows a correct "
+              f"estimator written differently (another MIS heuristic, roulette rule or light "
+              f"choice) to be up to {v.max_ratio:g}x noisier, failing only beyond that bound")
     if v.ratio > 1:
         return (f"{policy}: {v.ratio:.2f}x is more than a different but sound choice costs; "
                 "usually the sampling pdf does not follow the integrand (e.g. uniform "
@@ -429,8 +429,12 @@ def explain(ev: Evidence) -> list:
         # convergence floor only restates); keep the variance hints.
         generic = [h for h in generic if not h.startswith("image ") and "first wrong" not in h
                    and "error stops falling" not in h]
+    # A variance hint only where the variance part failed its policy (not the equality test).
+    variance = comparison.variance
+    policy_failed = variance is not None and not variance.policy_agree
     generic = [_variance_policy(h, comparison) if h.startswith("mean right but variance") else h
-               for h in generic]
+               for h in generic
+               if policy_failed or not h.startswith("mean right but variance")]
     for hint in generic:
         if hint not in out:
             out.append(hint)
