@@ -50,6 +50,10 @@ OUTPUT_BYTES = 1 << 20
 TIME_SCALE = float(os.environ.get("AUTOGRADER_TIME_SCALE", "1"))
 #: Depths of the per-bounce sweep (explanations only).
 BOUNCE_DEPTHS = refs_config.PER_BOUNCE_DEPTHS
+#: Samples per pixel of the per-bounce sweep: explanations only, never scored, so the 64 spp the
+#: hint rules were tuned at, not the check's scoring spp (a failing submission must still finish
+#: inside its time limit with its explanations).
+BOUNCE_SPP = SPP
 #: Samples per pixel of the second, independent render of the sample-independence evidence.
 INDEPENDENCE_SPP = 16
 #: Convergence test of a graded check: ladder, renders at its top level, most growth while
@@ -69,7 +73,7 @@ class Check:
     scene : str  built-in scene (the committed references' film size)
     parts : tuple of (part, points)
     seconds : float  wall-clock limit of the student's process for the whole check
-    spp : int  samples per pixel of the mean/variance render and of the per-bounce sweep
+    spp : int  samples per pixel of the scored mean/variance render
     camera : bool  grade the student's ``camera_rays`` (with the reference ``direct``)
     glass : bool  a scene with glass (revealed after the due date; glass-specific hints)
     title : str
@@ -378,9 +382,9 @@ def _bounce_sweep(check: Check, render, alpha: float) -> dict:
     out = {}
     for depth in depths:
         reference = get_reference(check.scene, {**params, "max_depth": depth}, "path")
-        mean, variance = render(check.scene, check.integrator, params, check.spp, TEST_SEED + depth,
-                                max_depth=depth)
-        out[depth] = (compare_means(mean, variance, check.spp, reference.mean, reference.var,
+        mean, variance = render(check.scene, check.integrator, params, BOUNCE_SPP,
+                                TEST_SEED + depth, max_depth=depth)
+        out[depth] = (compare_means(mean, variance, BOUNCE_SPP, reference.mean, reference.var,
                                     reference.n, alpha=alpha), mean, reference.mean)
     return out
 
