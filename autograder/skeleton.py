@@ -41,7 +41,10 @@ STUBS = {
 INIT = '''"""Your implementation: fill in every function that raises NotImplementedError.
 
 Grade it locally with
-    pytest --pyargs autograder.tests_for_students --impl path/to/student
+    pytest autograder/tests_for_students --impl path/to/student
+(from the project's source folder). Import only pathtracer's building blocks (geometry,
+shading, emitters, sampling, the base class), NumPy and SciPy: a submission that imports
+the reference integrators, the reference camera or the grader is refused.
 """
 from pathtracer.integrators.base import Integrator
 
