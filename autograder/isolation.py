@@ -208,6 +208,10 @@ class StudentProcess:
                     argv, stdin=subprocess.DEVNULL, stdout=capture, stderr=capture,
                     pass_fds=(request_r, reply_w), cwd=self._scratch, env=env,
                     start_new_session=True, **user)
+            except OSError as error:
+                for fd in (request_w, reply_r):
+                    os.close(fd)
+                raise SetupError(f"cannot start the student process ({argv[0]}): {error}") from None
             finally:
                 os.close(request_r)
                 os.close(reply_w)
@@ -227,9 +231,9 @@ class StudentProcess:
         if self.process is not None:
             if self.process.poll() is None:
                 try:
-                    wire.write_frame(self._pipes[0], {"kind": "quit"})
+                    wire.write_frame(self._pipes[0], {"kind": "quit"}, deadline=time.monotonic() + 0.5)
                     self.process.wait(0.5)
-                except (OSError, subprocess.TimeoutExpired):
+                except (OSError, wire.WireError, subprocess.TimeoutExpired):
                     pass
             self._kill()
         for fd in self._pipes:
