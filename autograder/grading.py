@@ -104,9 +104,11 @@ def _cornell(integrator, seconds, title, spp=SPP):
 
 
 def _glass(integrator, seconds, title, scene="cornell-caustics", spp=SPP):
+    # Mean only: along specular chains the variance is the roulette rule's, which the lecture
+    # leaves free (the slide's constant q = 0.5 has 2.7x Mitsuba's variance on glass-cube).
     what = {"cornell-caustics": "a mirror and a glass sphere",
             "glass-cube": "a glass cube (total internal reflection)"}[scene]
-    return Check(f"{integrator}-glass", integrator, scene, (("mean", 4), ("variance", 1)),
+    return Check(f"{integrator}-glass", integrator, scene, (("mean", 5),),
                  seconds, spp, glass=True, title=f"{title} with {what}")
 
 

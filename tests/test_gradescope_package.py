@@ -125,7 +125,8 @@ def test_correct_submission_gets_full_marks(autograder_root, tmp_path):
     root, env = autograder_root
     generate(tmp_path, stubs=False)                 # the solution, written as a student would
     document = grade(root, env, tmp_path, "direct")
-    assert scores(document) == {"direct-cornell-box": 10, "direct-glass": 5}, document
+    assert scores(document) == {"direct-cornell-box": 10, "direct-glass": 5,
+                                "direct-lights": 5}, document
 
 
 def test_wrong_submission_loses_points(autograder_root, tmp_path):
