@@ -1,8 +1,12 @@
 """Course autograder: grade a student's integrators against Mitsuba 3 references.
 
 * :mod:`autograder.contract`  -- what a student implements and how ``--impl`` finds it
-* :mod:`autograder.isolation` -- the student's code in a child process with time, memory and
-  output limits
+* :mod:`autograder.isolation` -- the student's code in a sandboxed child process (own user,
+  seccomp, limits), plain-data replies
+* :mod:`autograder.runtime`   -- the student runtime: the tracer without the reference solution
+* :mod:`autograder.sandbox`   -- the child's side: request loop, wire format, seccomp filter
+* :mod:`autograder.power`     -- ``python -m autograder.power``: the smallest bias each check detects
+* :mod:`autograder.calibrate` -- ``python -m autograder.calibrate``: the false-failure sweep
 * :mod:`autograder.grading`   -- the checks (scene x integrator), their parts, points and
   statistical budget
 * :mod:`autograder.hints`     -- from the evidence to a likely cause, in a student's words
