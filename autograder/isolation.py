@@ -161,8 +161,6 @@ class StudentProcess:
         self.limits = limits or Limits()
         self.process = None
         self.deadline = None
-        self.calls = 0
-        self.last_render = None
         self.sandbox = []
         self._private = tempfile.mkdtemp(prefix="autograder-")          # 0700: grader only
         self._scratch = tempfile.mkdtemp(prefix="autograder-cwd-")      # the child's cwd
@@ -410,7 +408,6 @@ class StudentProcess:
         """
         name = integrator if isinstance(integrator, str) else integrator.name
         params = {str(k): str(v) for k, v in (params or {}).items()}
-        self.calls += 1
         if name.startswith("reference:"):
             mean, variance = self._render_with_student_camera(scene, name.split(":", 1)[1],
                                                               params, spp, seed, max_depth)
@@ -424,7 +421,6 @@ class StudentProcess:
                                camera={"scene": loaded})
             mean = validate_image(out["mean"], "mean", shape)
             variance = validate_image(out["variance"], "variance", shape)
-        self.last_render = (seed, max_depth, mean, variance)
         return mean, variance
 
     def _render_with_student_camera(self, scene, name, params, spp, seed, max_depth):
