@@ -180,14 +180,13 @@ def _render_checked(args) -> int:
 
     from . import render, resources
     from .io import output_paths, write_exr, write_png
-    from .render import DEFAULT_BATCH
+    from .render import DEFAULT_BATCH, integrator_for
     from .scene import SceneError, load_scene
 
     options = dict(max_depth=args.max_depth, rr_depth=args.rr_depth, roulette=args.roulette,
                    rr_q=args.rr_q, hemisphere=args.hemisphere, branches=args.branches,
                    branch_depth=args.branch_depth)
     try:
-        exr, png = output_paths(args.output)
         scene = load_scene(args.scene, **dict(args.defines))
         resources.check_spp(scene.spp if args.spp is None else args.spp)
         processes = args.processes or os.cpu_count() or 1
@@ -200,6 +199,8 @@ def _render_checked(args) -> int:
             integrator = PathClassIntegrator(args.paths, glossy=args.glossy,
                                              **{k: v for k, v in options.items()
                                                 if v is not None and k not in ("branches", "branch_depth")})
+        integrator_for(scene, integrator, **options)   # refuse bad options before any output
+        exr, png = output_paths(args.output)    # creates missing folders: after the checks
         result = render(scene, integrator=integrator, spp=args.spp, seed=args.seed,
                         processes=args.processes, progress=False if args.no_progress else None,
                         **{k: v for k, v in options.items() if v is not None})
