@@ -175,7 +175,20 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
     print(f"pathtracer: warning: {message}", file=sys.stderr)
 
 
+def _integrator_choice(args, options: dict):
+    """The ``integrator`` argument of :func:`render`: a name, None, or the --paths integrator."""
+    if not args.paths:
+        return args.integrator
+    from .integrators.pathclass import PathClassIntegrator
+    if args.integrator not in (None, "path"):
+        raise ValueError("--paths works with the path integrator only")
+    return PathClassIntegrator(args.paths, glossy=args.glossy,
+                               **{k: v for k, v in options.items()
+                                  if v is not None and k not in ("branches", "branch_depth")})
+
+
 def _render_checked(args) -> int:
+    """Check everything (scene, options, memory, output), render, write; exit code."""
     from concurrent.futures.process import BrokenProcessPool
 
     from . import render, resources
@@ -191,14 +204,7 @@ def _render_checked(args) -> int:
         resources.check_spp(scene.spp if args.spp is None else args.spp)
         processes = args.processes or os.cpu_count() or 1
         resources.check_memory(scene.camera.width, scene.camera.height, processes, DEFAULT_BATCH)
-        integrator = args.integrator
-        if args.paths:
-            from .integrators.pathclass import PathClassIntegrator
-            if integrator not in (None, "path"):
-                raise ValueError("--paths works with the path integrator only")
-            integrator = PathClassIntegrator(args.paths, glossy=args.glossy,
-                                             **{k: v for k, v in options.items()
-                                                if v is not None and k not in ("branches", "branch_depth")})
+        integrator = _integrator_choice(args, options)
         integrator_for(scene, integrator, **options)   # refuse bad options before any output
         exr, png = output_paths(args.output)    # creates missing folders: after the checks
         result = render(scene, integrator=integrator, spp=args.spp, seed=args.seed,
@@ -219,8 +225,7 @@ def _render_checked(args) -> int:
         write_exr(exr, result)
         write_png(png, result.mean, args.exposure)
     except OSError as error:
-        print(f"pathtracer: error: cannot write the output: {error.strerror or error} "
-              f"({error.filename or exr})", file=sys.stderr)
+        print(f"pathtracer: error: cannot write {exr}: {error.strerror or error}", file=sys.stderr)
         return EXIT_FAILED
     height, width = result.mean.shape[:2]
     paths_per_second = width * height * result.spp / max(result.seconds, 1e-9)

@@ -264,7 +264,7 @@ def _assert_no_survivor(pgid: int, seconds: float = 5.0) -> None:
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
-@pytest.mark.parametrize("how", ["SIGTERM", "SIGKILL", "Ctrl-C"])
+@pytest.mark.parametrize("how", ["SIGTERM", "SIGKILL", "Ctrl-C", "a worker killed"])
 def test_killing_the_render_leaves_no_worker_and_no_output(tmp_path, how):
     previous = tmp_path / "out.exr"
     previous.write_text("an older render")          # must survive an interrupted one intact
@@ -272,12 +272,15 @@ def test_killing_the_render_leaves_no_worker_and_no_output(tmp_path, how):
     started = time.monotonic()
     if how == "Ctrl-C":      # a terminal sends SIGINT to the whole foreground group
         os.killpg(process.pid, signal.SIGINT)
+    elif how == "a worker killed":     # as the out-of-memory killer would
+        os.kill(max(set(_group_members(process.pid)) - {process.pid}), signal.SIGKILL)
     else:
         process.send_signal(getattr(signal, how))
     _, stderr = process.communicate(timeout=30)
     _assert_no_survivor(process.pid)
     assert time.monotonic() - started < 10
-    expected = {"SIGTERM": (143, "terminated"), "SIGKILL": (-9, None), "Ctrl-C": (130, "interrupted")}
+    expected = {"SIGTERM": (143, "terminated"), "SIGKILL": (-9, None), "Ctrl-C": (130, "interrupted"),
+                "a worker killed": (1, "a worker process died")}
     code, word = expected[how]
     assert process.returncode == code, stderr
     if word:
