@@ -101,13 +101,6 @@ def check_memory(width: int, height: int, processes: int, batch_size: int,
             "(-D width=... -D height=...) or use fewer --processes")
 
 
-def check_seed(seed: int) -> None:
-    """Raise ValueError unless ``0 <= seed <= SEED_MAX`` (what Mitsuba's sampler accepts)."""
-    if not 0 <= seed <= SEED_MAX:
-        raise ValueError(f"seed must lie in [0, {SEED_MAX}] (an unsigned 32-bit integer, "
-                         f"as Mitsuba's sampler seed), got {seed}")
-
-
 def check_spp(spp: int) -> None:
     """Raise ValueError unless ``1 <= spp <= SPP_MAX`` (what the EXR header can record)."""
     if not 1 <= spp <= SPP_MAX:
