@@ -13,6 +13,7 @@ import numpy as np
 from . import meshes, transform
 from .types import (AreaEmitter, Camera, ConstantEmitter, IntegratorSpec,
                     PointEmitter, Scene)
+from ..resources import SEED_MAX
 from .xml import Plugin
 
 # Mitsuba's table of named indices of refraction (Hecht, Optics; ~589 nm).
@@ -75,6 +76,19 @@ class Props:
         v = self._get(name, COLOR_TAGS, "an <rgb> (or <float>) colour")
         return np.full(3, float(default)) if v is None else np.broadcast_to(
             np.asarray(v, dtype=float), (3,)).copy()
+
+    def reflectance(self, name: str, default: float) -> np.ndarray:
+        """A colour that scales reflected or transmitted light: each channel in [0, 1].
+
+        Mitsuba refuses an ``<rgb>`` outside [0, 1] here; a ``<float>`` it does not check,
+        but above 1 a surface creates energy, so both are refused.
+        """
+        value = self.color(name, default)
+        if not np.all((value >= 0.0) & (value <= 1.0)):
+            raise self.plugin.error(f"\"{name}\" must lie in [0, 1] (as Mitsuba requires of a "
+                                    f"reflectance), got {', '.join(f'{v:g}' for v in value)}",
+                                    self.line(name))
+        return value
 
     def float(self, name: str, default):
         v = self._get(name, FLOAT_TAGS, "a <float>")
@@ -186,14 +200,14 @@ def build_bsdf(plugin: Plugin):
         return bsdfs.TwoSided(build_bsdf(nested[0]))
     _children(plugin, {})
     if kind == "diffuse":
-        result = bsdfs.Diffuse(props.color("reflectance", 0.5))
+        result = bsdfs.Diffuse(props.reflectance("reflectance", 0.5))
     elif kind == "conductor":
         _no_material(props)
-        result = bsdfs.Conductor(props.color("specular_reflectance", 1.0))
+        result = bsdfs.Conductor(props.reflectance("specular_reflectance", 1.0))
     elif kind == "dielectric":
         result = bsdfs.Dielectric(_ior(props, "int_ior", "bk7"), _ior(props, "ext_ior", "air"),
-                                  props.color("specular_reflectance", 1.0),
-                                  props.color("specular_transmittance", 1.0))
+                                  props.reflectance("specular_reflectance", 1.0),
+                                  props.reflectance("specular_transmittance", 1.0))
     elif kind == "roughconductor":
         _no_material(props)
         distribution = props.string("distribution", "beckmann").strip().lower()
@@ -211,7 +225,7 @@ def build_bsdf(plugin: Plugin):
         if props.has("alpha_u") != props.has("alpha_v"):
             raise plugin.error("give both alpha_u and alpha_v")
         result = bsdfs.RoughConductor(distribution, alpha_u, alpha_v,
-                                      props.color("specular_reflectance", 1.0))
+                                      props.reflectance("specular_reflectance", 1.0))
     else:
         raise _unsupported(plugin, "BSDF")
     props.finish()
@@ -301,6 +315,9 @@ def _load_mesh(plugin: Plugin, props: Props, base_dir: str) -> meshes.MeshData:
         return meshes.read_obj(path) if plugin.type == "obj" else meshes.read_ply(path)
     except meshes.MeshFormatError as e:
         raise plugin.error(str(e), props.line("filename")) from None
+    except OSError as e:
+        raise plugin.error(f"cannot read mesh file \"{filename}\": {e.strerror or e}",
+                           props.line("filename")) from None
 
 
 def _mesh_triangles(plugin, props, base_dir, m):
@@ -473,6 +490,9 @@ def _sampler(plugin: Plugin) -> tuple[int, int]:
     spp, seed = props.int("sample_count", 4), props.int("seed", 0)
     if spp <= 0:
         raise plugin.error("sample_count must be positive", props.line("sample_count"))
+    if not 0 <= seed <= SEED_MAX:
+        raise plugin.error(f"seed must lie in [0, {SEED_MAX}] (an unsigned 32-bit integer, as "
+                           f"in Mitsuba), got {seed}", props.line("seed"))
     props.finish()
     return spp, seed
 
@@ -544,6 +564,9 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
         if prop.tag not in ("integer", "boolean", "float", "string"):
             raise plugin.error(f"integrator parameter \"{name}\" must be an integer, boolean, "
                                "float or string", prop.line)
+        if name == "max_depth" and prop.value < -1:
+            raise plugin.error(f"max_depth must be -1 (unlimited) or >= 0, as in Mitsuba, got "
+                               f"{prop.value}", prop.line)
         params[name] = prop.value
     return IntegratorSpec(plugin.type, params)
 

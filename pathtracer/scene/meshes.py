@@ -6,6 +6,7 @@ flat normals, in the same order as Mitsuba (transform first, then recompute).
 """
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 
@@ -47,7 +48,7 @@ def read_obj(path: str) -> MeshData:
     Raises
     ------
     MeshFormatError
-        On a malformed line, an invalid or negative index, or normals given
+        On a malformed line, a NaN or infinite coordinate, an invalid or negative index, or normals given
         for only some face corners (Mitsuba leaves the others undefined).
     """
     positions, normals = [], []
@@ -61,14 +62,15 @@ def read_obj(path: str) -> MeshData:
                 continue
             head = tokens[0]
             try:
-                if head == "v":
-                    positions.append([float(t) for t in tokens[1:4]])
-                    if len(positions[-1]) != 3:
+                if head in ("v", "vn"):
+                    values = [float(t) for t in tokens[1:4]]
+                    if len(values) != 3:
                         raise ValueError
-                elif head == "vn":
-                    normals.append([float(t) for t in tokens[1:4]])
-                    if len(normals[-1]) != 3:
-                        raise ValueError
+                    if not all(math.isfinite(v) for v in values):
+                        raise MeshFormatError(f"{os.path.basename(path)}:{lineno}: "
+                                              f"{'vertex' if head == 'v' else 'normal'} "
+                                              f"\"{line.strip()}\" is not finite")
+                    (positions if head == "v" else normals).append(values)
                 elif head == "f":
                     corners = []
                     key = [0, 0, 0]
@@ -176,7 +178,7 @@ def read_ply(path: str) -> MeshData:
 
     Vertex properties ``x, y, z`` are required, ``nx, ny, nz`` are used when
     all present. Faces come from ``vertex_indices`` or ``vertex_index`` and
-    must be triangles, as Mitsuba requires.
+    must be triangles, as Mitsuba requires. NaN or infinite coordinates are refused.
     """
     name = os.path.basename(path)
     with open(path, "rb") as f:
@@ -228,6 +230,11 @@ def _ply_mesh(data: dict, elements, name: str) -> MeshData:
     normals = None
     if {"nx", "ny", "nz"} <= set(props["vertex"]):
         normals = np.stack([v["nx"], v["ny"], v["nz"]], axis=1).astype(float)
+    for what, values in (("vertex", positions), ("normal", normals)):
+        bad = np.flatnonzero(~np.isfinite(values).all(axis=1)) if values is not None else []
+        if len(bad):
+            raise MeshFormatError(f"{name}: {len(bad)} {what} value(s) are not finite "
+                                  f"(the first is vertex {bad[0]}: {values[bad[0]].tolist()})")
     face_field = next((k for k in ("vertex_indices", "vertex_index")
                        if k in props.get("face", [])), None)
     if face_field is None:

@@ -40,6 +40,10 @@ PROPERTY_ATTRS = {
     "string": {"value"}, "rgb": {"value"},
     "point": {"value", "x", "y", "z"}, "vector": {"value", "x", "y", "z"},
 }
+#: Largest finite float32: Mitsuba's numbers are float32.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+#: ``<scene version="...">``: three whole numbers, as Mitsuba 3 requires.
+VERSION_RE = re.compile(r"\d+\.\d+\.\d+")
 PARAM_RE = re.compile(r"(?<!\\)\$([A-Za-z_][A-Za-z0-9_]*)")
 SPLIT_RE = re.compile(r"[,\s]+")
 
@@ -121,8 +125,11 @@ def read_elements(path: str, display: str) -> Element:
     SceneError
         On an XML syntax error, with the line reported by expat.
     """
-    with open(path, "rb") as f:
-        data = f.read()
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise SceneError(f"cannot read the scene file: {e.strerror or e}", display) from None
     parser = expat.ParserCreate()
     stack: list[Element] = []
     roots: list[Element] = []
@@ -159,13 +166,22 @@ def parse_floats(text: str, count: tuple[int, ...], what: str) -> np.ndarray:
 
 
 def parse_float(text: str, what: str) -> float:
-    """One floating-point number; ValueError naming ``what`` otherwise."""
+    """One finite floating-point number within float32's range; ValueError naming ``what`` otherwise.
+
+    ``nan`` and ``inf`` (which Python and Mitsuba parse) would make the image
+    meaningless, and Mitsuba stores numbers as float32, so a larger magnitude is
+    infinite there.
+    """
     try:
         if "_" in text:  # Python accepts 1_000, Mitsuba does not
             raise ValueError
-        return float(text)
+        value = float(text)
     except ValueError:
         raise ValueError(f"could not parse {what} value \"{text}\" as a number") from None
+    if not abs(value) <= FLOAT32_MAX:
+        raise ValueError(f"{what} value \"{text}\" is not a finite number (nan, inf and "
+                         f"magnitudes above float32's {FLOAT32_MAX:.4g} are refused)")
+    return value
 
 
 class _Reader:
@@ -202,6 +218,12 @@ class _Reader:
         unknown = set(attrs) - {"version"}
         if unknown:
             raise SceneError(f"unknown attribute(s) {sorted(unknown)}", self.file, root.line, "<scene>")
+        if "version" not in attrs:
+            raise SceneError("missing attribute version (Mitsuba 3 requires it), e.g. "
+                             "<scene version=\"3.0.0\">", self.file, root.line, "<scene>")
+        if not VERSION_RE.fullmatch(attrs["version"]):
+            raise SceneError(f"invalid version \"{attrs['version']}\": Mitsuba 3 needs three "
+                             "numbers, e.g. version=\"3.0.0\"", self.file, root.line, "<scene>")
         # Defaults first (params given to load_scene win), so that a
         # parameter can be used anywhere in the file.
         for el in root.children:
