@@ -287,7 +287,7 @@ class _Reader:
             raise SceneError("<path> needs exactly the attribute value", el.file, el.line, "<path>")
         folder = os.path.normpath(os.path.join(el.folder, attrs["value"]))
         if not os.path.isdir(folder):
-            raise SceneError(f"<path>: folder \"{attrs['value']}\" not found (looked for {folder})",
+            raise SceneError(f"folder \"{attrs['value']}\" not found (looked for {folder})",
                              el.file, el.line, "<path>")
         state.lookup.insert(0, folder)
         if top:
@@ -304,12 +304,12 @@ class _Reader:
         name = attrs["filename"]
         target = _find(name, state.lookup)
         if target is None:
-            raise SceneError(f"<include>: file \"{name}\" not found (looked in "
+            raise SceneError(f"file \"{name}\" not found (looked in "
                              f"{', '.join(state.lookup)})", el.file, el.line, "<include>")
         real = os.path.realpath(target)
         if real in state.chain or len(state.chain) > MAX_INCLUDE_DEPTH:
             cycle = " -> ".join(os.path.basename(p) for p in state.chain + (real,))
-            raise SceneError(f"<include>: include cycle {cycle}", el.file, el.line, "<include>")
+            raise SceneError(f"include cycle {cycle}", el.file, el.line, "<include>")
         display = os.path.relpath(real, self.top_dir)
         if display.startswith(".."):
             display = real
