@@ -396,7 +396,7 @@ def _load_mesh(plugin: Plugin, props: Props, folders: list[str]) -> meshes.MeshD
 def _mesh_triangles(plugin, props, folders, m):
     """World-space triangles and shading normals of an obj/ply/serialized shape."""
     data = _load_mesh(plugin, props, folders)
-    face_normals = props.bool("face_normals", False) or data.face_normals
+    face_normals = props.bool("face_normals", False)
     props.ignore("flip_tex_coords")  # no textures: uv orientation is irrelevant
     pos = transform.apply_points(m, data.positions)
     p = pos[data.faces]

@@ -34,8 +34,6 @@ class MeshData:
     positions: np.ndarray
     normals: np.ndarray | None
     faces: np.ndarray
-    #: The file asks for flat shading (a ``serialized`` mesh's face-normal flag).
-    face_normals: bool = False
 
 
 def read_obj(path: str) -> MeshData:
@@ -292,7 +290,9 @@ def read_serialized(path: str, shape_index: int = 0) -> MeshData:
     NUL-terminated name; uint64 vertex and triangle counts; positions,
     then (by flag) normals, texture coordinates and colours, in float32 or
     float64; then the triangles' vertex indices, uint32 (uint64 when there
-    are more than 2^32 - 1 vertices). All little endian.
+    are more than 2^32 - 1 vertices). All little endian. The face-normal
+    flag is ignored, as Mitsuba 3.9.1 ignores it (only the shape's
+    ``face_normals`` property makes a mesh flat).
 
     Raises
     ------
@@ -335,8 +335,7 @@ def read_serialized(path: str, shape_index: int = 0) -> MeshData:
     if faces.max() >= n_vertices:
         raise MeshFormatError(f"{name}: shape {shape_index}: face refers to a vertex that does "
                               "not exist")
-    return MeshData(positions.reshape(-1, 3).astype(float), normals, faces,
-                    face_normals=bool(flags & FACE_NORMALS))
+    return MeshData(positions.reshape(-1, 3).astype(float), normals, faces)
 
 
 def unit_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
