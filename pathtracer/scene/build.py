@@ -53,6 +53,8 @@ VARIANT_ONLY = {
                           "*_polarized variants",
     "pplastic": "a polarized plastic: only meaningful in Mitsuba's *_polarized variants",
     "stokes": "renders Stokes vectors: only meaningful in Mitsuba's *_polarized variants",
+    "specfilm": "a film of spectral sensitivity bands: only meaningful in Mitsuba's spectral "
+                "variants",
     "prb": "a differentiable (path replay backpropagation) integrator: it renders what path "
            "renders, but only for gradients in Mitsuba's *_ad variants; use path",
     "prb_basic": "a differentiable integrator for Mitsuba's *_ad variants; use path",
