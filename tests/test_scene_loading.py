@@ -472,3 +472,16 @@ def test_builtin_scenes_match_mitsuba(mi):
         assert (ours.camera.width, ours.camera.height) == tuple(sensor.film().size()), name
         assert ours.spp == sensor.sampler().sample_count(), name
         assert len(ours.emitters) == len(theirs.emitters()), name
+
+
+def test_storage_only_film_options_and_literal_sample_count(tmp_path):
+    """Options that change how Mitsuba stores the image, not its values, are accepted."""
+    sensor = ('<sensor type="perspective"><float name="fov" value="40"/>'
+              '<sampler type="independent"><integer name="sample_count" value="24"/></sampler>'
+              '<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/>'
+              '<string name="pixel_format" value="rgba"/><string name="component_format" value="float16"/>'
+              '<string name="file_format" value="openexr"/><boolean name="sample_border" value="true"/>'
+              '<boolean name="compensate" value="true"/><boolean name="banner" value="false"/>'
+              '<rfilter type="box"/></film></sensor>')
+    s = load_scene(write_scene(tmp_path, "", sensor=sensor))
+    assert (s.camera.width, s.camera.height, s.spp) == (8, 6, 24)
