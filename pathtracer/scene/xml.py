@@ -190,7 +190,8 @@ MAX_INCLUDE_DEPTH = 15
 
 @dataclass
 class _FileState:
-    """Where the reader is: the file being read and the include chain above it.
+    """Where the reader is: the include chain down to the file being read
+    (real paths) and where that file's ``<include>``s are looked up.
 
     ``lookup`` lists the folders an ``<include>`` in this file is searched
     in, first match wins: this file's ``<path>`` folders (last first), this
@@ -198,8 +199,6 @@ class _FileState:
     resolver, which each file extends for its own scope).
     """
 
-    path: str
-    display: str
     lookup: list[str]
     chain: tuple[str, ...]
 
@@ -315,7 +314,7 @@ class _Reader:
             display = real
         root = read_elements(target, display)
         self.check_root(root)
-        inner = _FileState(target, display, [root.folder] + state.lookup, state.chain + (real,))
+        inner = _FileState([root.folder] + state.lookup, state.chain + (real,))
         self.fill_scene(plugin, root, inner, top=False)
 
     def fill(self, plugin: Plugin, el: Element) -> None:
@@ -557,5 +556,5 @@ def parse_file(path: str, params: dict[str, Any] | None = None,
     name = display_name or os.path.basename(path)
     root = read_elements(path, name)
     top_dir = os.path.dirname(os.path.abspath(path))
-    state = _FileState(path, name, [top_dir, os.getcwd()], (os.path.realpath(path),))
+    state = _FileState([top_dir, os.getcwd()], (os.path.realpath(path),))
     return _Reader(name, params or {}, top_dir).scene(root, state)
