@@ -175,3 +175,15 @@ def test_unattached_area_emitter_is_ignored_with_a_warning(tree):
     with pytest.warns(UserWarning, match='area emitter "lamp" is not attached'):
         scene = load_scene(path)
     assert scene.emitters == []
+
+
+def test_include_inside_a_plugin_adds_to_that_plugin(tree):
+    """Mitsuba splices the included <scene>'s children into the enclosing element."""
+    write(tree / "scene" / "material.xml", scene_text(
+        '<bsdf type="diffuse"><rgb name="reflectance" value="0.125"/></bsdf>'))
+    path = write(tree / "scene" / "main.xml", scene_text(
+        '<default name="res" value="8"/>' + SENSOR +
+        '<shape type="ply"><string name="filename" value="m.ply"/>'
+        '<include filename="material.xml"/></shape>'))
+    scene = load_scene(path)
+    np.testing.assert_array_equal(scene.bsdfs[scene.shape_bsdf[0]].reflectance, [0.125] * 3)

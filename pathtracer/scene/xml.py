@@ -278,7 +278,7 @@ class _Reader:
             elif el.tag == "include":
                 self.include(plugin, el, state)
             else:
-                self.child(plugin, el)
+                self.child(plugin, el, state)
 
     def add_path(self, el: Element, state: _FileState, top: bool) -> None:
         attrs = self.substitute(el, "<path>")
@@ -317,14 +317,18 @@ class _Reader:
         inner = _FileState([root.folder] + state.lookup, state.chain + (real,))
         self.fill_scene(plugin, root, inner, top=False)
 
-    def fill(self, plugin: Plugin, el: Element) -> None:
+    def fill(self, plugin: Plugin, el: Element, state: _FileState) -> None:
         for child in el.children:
-            self.child(plugin, child)
+            self.child(plugin, child, state)
 
-    def child(self, plugin: Plugin, child: Element) -> None:
-        """One nested element of ``plugin``: a plugin, reference or property."""
+    def child(self, plugin: Plugin, child: Element, state: _FileState) -> None:
+        """One nested element of ``plugin``: a plugin, reference, property or
+        ``<include>`` (whose file's elements then become ``plugin``'s, as in Mitsuba)."""
         tag = child.tag
-        if tag in ("default", "path", "include"):
+        if tag == "include":
+            self.include(plugin, child, state)
+            return
+        if tag in ("default", "path"):
             raise SceneError(f"<{tag}> must be a direct child of <scene>",
                              child.file, child.line, plugin.label)
         attrs = self.substitute(child, plugin.label)
@@ -332,7 +336,7 @@ class _Reader:
             what = f'<{tag} type="{attrs["type"]}">' if "type" in attrs else f"<{tag}>"
             raise SceneError(REFUSED_TAGS[tag], child.file, child.line, what)
         if tag in PLUGIN_TAGS:
-            plugin.children.append(self.plugin(child, attrs))
+            plugin.children.append(self.plugin(child, attrs, state))
         elif tag == "ref":
             if "id" not in attrs or set(attrs) - {"id", "name"}:
                 raise SceneError("<ref> needs an id (and optionally a name)",
@@ -347,7 +351,7 @@ class _Reader:
         else:
             raise SceneError(f"unknown element <{tag}>", child.file, child.line, plugin.label)
 
-    def plugin(self, el: Element, attrs: dict[str, str]) -> Plugin:
+    def plugin(self, el: Element, attrs: dict[str, str], state: _FileState) -> Plugin:
         if "type" not in attrs:
             raise SceneError("missing attribute type", el.file, el.line, f"<{el.tag}>")
         unknown = set(attrs) - {"type", "id", "name"}
@@ -360,7 +364,7 @@ class _Reader:
                 raise p.error(f"duplicate id \"{p.id}\" (first defined in {first.file} "
                               f"on line {first.line})")
             self.ids[p.id] = p
-        self.fill(p, el)
+        self.fill(p, el, state)
         return p
 
     def add_prop(self, plugin: Plugin, tag: str, attrs: dict, el: Element, value: Any) -> None:
