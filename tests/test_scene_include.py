@@ -187,3 +187,21 @@ def test_include_inside_a_plugin_adds_to_that_plugin(tree):
         '<include filename="material.xml"/></shape>'))
     scene = load_scene(path)
     np.testing.assert_array_equal(scene.bsdfs[scene.shape_bsdf[0]].reflectance, [0.125] * 3)
+
+
+def test_include_prefers_the_including_files_folder_to_its_paths(tree):
+    """Unlike meshes, an include is tried next to the including file before any <path>;
+    an include two levels down still finds a file next to its grandparent."""
+    write(tree / "scene" / "mat.xml", scene_text(
+        '<bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.25"/></bsdf>'))
+    write(tree / "pathA" / "mat.xml", scene_text(
+        '<bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.75"/></bsdf>'))
+    write(tree / "scene" / "lvl1" / "lvl2" / "b.xml", scene_text('<include filename="c.xml"/>'))
+    write(tree / "scene" / "lvl1" / "a.xml", scene_text('<include filename="lvl2/b.xml"/>'))
+    write(tree / "scene" / "lvl1" / "c.xml", scene_text(shape("m.ply")))
+    path = write(tree / "scene" / "main.xml", scene_text(
+        '<default name="res" value="8"/>' + SENSOR + '<path value="../pathA"/>'
+        '<include filename="mat.xml"/><include filename="lvl1/a.xml"/>'))
+    scene = load_scene(path)
+    assert scene.bsdfs[0].reflectance[0] == 0.25
+    assert mesh_x(scene) == [2]  # c.xml's mesh: the top file's <path> first

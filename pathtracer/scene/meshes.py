@@ -310,7 +310,8 @@ def read_serialized(path: str, shape_index: int = 0) -> MeshData:
     try:
         stream = zlib.decompressobj().decompress(data[start + 4:end])
     except zlib.error as e:
-        raise MeshFormatError(f"{name}: shape {shape_index}: corrupt compressed data ({e})") from None
+        raise MeshFormatError(f"{name}: shape {shape_index}: corrupt compressed data "
+                              f"({e})") from None
     (flags,) = struct.unpack_from("<I", stream, 0)
     offset = 4
     if version == 4:

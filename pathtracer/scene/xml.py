@@ -193,10 +193,10 @@ class _FileState:
     """Where the reader is: the include chain down to the file being read
     (real paths) and where that file's ``<include>``s are looked up.
 
-    ``lookup`` lists the folders an ``<include>`` in this file is searched
-    in, first match wins: this file's ``<path>`` folders (last first), this
-    file's folder, then the including file's list (as Mitsuba's file
-    resolver, which each file extends for its own scope).
+    ``lookup`` is this file's part of Mitsuba's file resolver, first match
+    wins: this file's ``<path>`` folders (last first), this file's folder,
+    then the including file's list. An ``<include>`` tries the including
+    file's folder before all of them.
     """
 
     lookup: list[str]
@@ -301,10 +301,12 @@ class _Reader:
             raise SceneError("<include> needs exactly the attribute filename",
                              el.file, el.line, "<include>")
         name = attrs["filename"]
-        target = _find(name, state.lookup)
+        # Mitsuba tries the including file's folder before its file resolver.
+        lookup = [el.folder] + state.lookup
+        target = _find(name, lookup)
         if target is None:
             raise SceneError(f"file \"{name}\" not found (looked in "
-                             f"{', '.join(state.lookup)})", el.file, el.line, "<include>")
+                             f"{', '.join(dict.fromkeys(lookup))})", el.file, el.line, "<include>")
         real = os.path.realpath(target)
         if real in state.chain or len(state.chain) > MAX_INCLUDE_DEPTH:
             cycle = " -> ".join(os.path.basename(p) for p in state.chain + (real,))
