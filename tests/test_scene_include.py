@@ -189,9 +189,7 @@ def test_include_inside_a_plugin_adds_to_that_plugin(tree):
     np.testing.assert_array_equal(scene.bsdfs[scene.shape_bsdf[0]].reflectance, [0.125] * 3)
 
 
-def test_include_prefers_the_including_files_folder_to_its_paths(tree):
-    """Unlike meshes, an include is tried next to the including file before any <path>;
-    an include two levels down still finds a file next to its grandparent."""
+def include_order_scene(tree) -> str:
     write(tree / "scene" / "mat.xml", scene_text(
         '<bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.25"/></bsdf>'))
     write(tree / "pathA" / "mat.xml", scene_text(
@@ -199,9 +197,23 @@ def test_include_prefers_the_including_files_folder_to_its_paths(tree):
     write(tree / "scene" / "lvl1" / "lvl2" / "b.xml", scene_text('<include filename="c.xml"/>'))
     write(tree / "scene" / "lvl1" / "a.xml", scene_text('<include filename="lvl2/b.xml"/>'))
     write(tree / "scene" / "lvl1" / "c.xml", scene_text(shape("m.ply")))
-    path = write(tree / "scene" / "main.xml", scene_text(
+    return write(tree / "scene" / "main.xml", scene_text(
         '<default name="res" value="8"/>' + SENSOR + '<path value="../pathA"/>'
         '<include filename="mat.xml"/><include filename="lvl1/a.xml"/>'))
-    scene = load_scene(path)
+
+
+def test_include_prefers_the_including_files_folder_to_its_paths(tree):
+    """Unlike meshes, an include is tried next to the including file before any <path>;
+    an include two levels down still finds a file next to its grandparent."""
+    scene = load_scene(include_order_scene(tree))
     assert scene.bsdfs[0].reflectance[0] == 0.25
     assert mesh_x(scene) == [2]  # c.xml's mesh: the top file's <path> first
+
+
+@pytest.mark.mitsuba
+def test_include_order_matches_mitsuba(tree):
+    mi = import_mitsuba_or_skip()
+    mi.set_variant("scalar_rgb")
+    theirs = mi.load_file(include_order_scene(tree))
+    np.testing.assert_array_equal(np.asarray(mi.traverse(theirs)["grey.reflectance.value"]), [0.25] * 3)
+    assert float(np.asarray(theirs.shapes()[0].vertex_positions_buffer())[0]) == 2
