@@ -28,7 +28,7 @@ CASES = {
         f'<shape type="cube"><bsdf type="plastic"/>{MARK}</shape>',
         '<bsdf type="plastic">', "unsupported BSDF (supported: diffuse"),
     "unknown shape": (
-        f'<shape type="serialized">{MARK}</shape>', '<shape type="serialized">', "unsupported shape"),
+        f'<shape type="heightfield">{MARK}</shape>', '<shape type="heightfield">', "unsupported shape"),
     "unknown emitter": (
         f'<emitter type="envmap"/>{MARK}', '<emitter type="envmap">', "unsupported emitter"),
     "unknown integrator": (
@@ -45,9 +45,31 @@ CASES = {
     "texture": (
         f'<bsdf type="diffuse"><texture type="bitmap" name="reflectance"/>{MARK}</bsdf>',
         '<texture type="bitmap">', "use an <rgb>"),
-    "spectrum": (
-        f'<bsdf type="diffuse"><spectrum name="reflectance" value="0.5"/>{MARK}</bsdf>',
-        "<spectrum>", "use <rgb>"),
+    "spectrum plugin": (
+        f'<bsdf type="diffuse">\n<spectrum name="reflectance" type="blackbody"/>{MARK}</bsdf>',
+        '<bsdf type="diffuse">', "spectrum plugins"),
+    "spectrum wavelengths not increasing": (
+        f'<bsdf type="diffuse">\n<spectrum name="reflectance" value="500:0.1, 400:0.2"/>{MARK}</bsdf>',
+        '<bsdf type="diffuse">', "must increase"),
+    "polarizer": (
+        f'<shape type="cube"><bsdf type="polarizer"/>{MARK}</shape>',
+        '<bsdf type="polarizer">', "polarized variants"),
+    "projective integrator": (
+        f'<integrator type="prb_projective"/>{MARK}', '<integrator type="prb_projective">',
+        "differentiable"),
+    "curve shape": (
+        f'<shape type="bsplinecurve">{MARK}</shape>', '<shape type="bsplinecurve">',
+        "not implemented in this tracer"),
+    "direct samples both ways": (
+        f'<integrator type="direct">\n<integer name="shading_samples" value="2"/>{MARK}'
+        '<integer name="bsdf_samples" value="2"/></integrator>', '<integrator type="direct">',
+        "either shading_samples"),
+    "area emitter on two shapes": (
+        '<emitter type="area" id="glow"/>\n<shape type="cube"><ref id="glow"/></shape>\n'
+        f'<shape type="sphere"><ref id="glow"/>{MARK}</shape>', '<shape type="sphere">',
+        "already attached"),
+    "missing search path": (
+        f'<path value="no/such/folder"/>{MARK}', "<path>", "not found"),
     "malformed rgb": (
         f'<bsdf type="diffuse">\n<rgb name="reflectance" value="1,2,x"/>{MARK}</bsdf>',
         '<bsdf type="diffuse">', '"x"'),
@@ -65,9 +87,9 @@ CASES = {
         f'<shape type="cube"><transform name="to_world">\n'
         f'<lookat origin="1,1,1" target="1,1,1"/>{MARK}</transform></shape>',
         '<shape type="cube">', "target equals origin"),
-    "non-unit rotation axis": (
-        f'<shape type="cube"><transform name="to_world">\n<rotate value="1,1,0" angle="45"/>{MARK}'
-        '</transform></shape>', '<shape type="cube">', "unit length"),
+    "non-unit rotation axis on a disk": (
+        f'<shape type="disk">\n<transform name="to_world">{MARK}<rotate value="1,1,0" angle="45"/>'
+        '</transform></shape>', '<shape type="disk">', "non-unit axis"),
     "unknown parameter": (
         f'<shape type="cube"><float name="radius" value="$size"/>{MARK}</shape>',
         '<shape type="cube">', "undefined parameter $size"),
@@ -92,8 +114,6 @@ CASES = {
     "two constant emitters": (
         f'<emitter type="constant"/>\n<emitter type="constant"/>{MARK}',
         '<emitter type="constant">', "at most one constant"),
-    "top-level area emitter": (
-        f'<emitter type="area"/>{MARK}', '<emitter type="area">', "nested inside a <shape>"),
     "ellipsoid sphere": (
         f'<shape type="sphere">{MARK}<transform name="to_world"><scale x="2"/></transform></shape>',
         '<shape type="sphere">', "uniformly"),
@@ -163,7 +183,7 @@ SENSOR_CASES = {
         '<film type="hdrfilm">', 'add <rfilter type="box"/>'),
     "crop": (
         SENSOR.replace('<rfilter type="box"/>', f'<rfilter type="box"/>\n<integer name="crop_width" value="8"/>{MARK}'),
-        '<film type="hdrfilm">', 'unsupported property "crop_width"'),
+        '<film type="hdrfilm">', 'crop_width is not supported'),
     "sampler": (
         SENSOR.replace("</sensor>", f'\n<sampler type="stratified"/>{MARK}</sensor>'),
         '<sampler type="stratified">', "i.i.d."),

@@ -7,10 +7,11 @@ being silently ignored, because it would make the two renderers disagree.
 from __future__ import annotations
 
 import os
+import warnings
 
 import numpy as np
 
-from . import meshes, transform
+from . import meshes, spectra, transform
 from .types import (AreaEmitter, Camera, ConstantEmitter, IntegratorSpec,
                     PointEmitter, Scene)
 from ..resources import SEED_MAX
@@ -27,7 +28,7 @@ IOR_BY_NAME = {
     "pet": 1.5750, "diamond": 2.419,
 }
 SUPPORTED = {
-    "shape": ("rectangle", "cube", "disk", "sphere", "obj", "ply"),
+    "shape": ("rectangle", "cube", "disk", "sphere", "obj", "ply", "serialized"),
     "bsdf": ("diffuse", "twosided", "conductor", "dielectric", "roughconductor"),
     "emitter": ("area", "point", "constant"),
     "sensor": ("perspective",),
@@ -42,7 +43,41 @@ INTEGRATOR_PARAMS = {
 INTEGRATOR_PARAM_TAGS = {"max_depth": "integer", "rr_depth": "integer",
                          "hide_emitters": "boolean", "emitter_samples": "integer",
                          "bsdf_samples": "integer", "shading_samples": "integer"}
-COLOR_TAGS = ("rgb", "float", "integer")
+COLOR_TAGS = ("rgb", "float", "integer", "spectrum")
+# Plugins that exist in Mitsuba 3 but only make sense in other variants or
+# renderers, with the reason shown to the user (merged into the errors of
+# every plugin kind).
+VARIANT_ONLY = {
+    "polarizer": "a polarization filter: only meaningful in Mitsuba's *_polarized variants",
+    "retarder": "a polarization retarder: only meaningful in Mitsuba's *_polarized variants",
+    "measured_polarized": "measured polarized BSDF data: only meaningful in Mitsuba's "
+                          "*_polarized variants",
+    "pplastic": "a polarized plastic: only meaningful in Mitsuba's *_polarized variants",
+    "stokes": "renders Stokes vectors: only meaningful in Mitsuba's *_polarized variants",
+    "specfilm": "a film of spectral sensitivity bands: only meaningful in Mitsuba's spectral "
+                "variants",
+    "prb": "a differentiable (path replay backpropagation) integrator: it renders what path "
+           "renders, but only for gradients in Mitsuba's *_ad variants; use path",
+    "prb_basic": "a differentiable integrator for Mitsuba's *_ad variants; use path",
+    "prbvolpath": "a differentiable volumetric integrator for Mitsuba's *_ad variants",
+    "direct_projective": "a projective-sampling differentiable integrator for Mitsuba's "
+                         "*_ad variants; use direct",
+    "prb_projective": "a projective-sampling differentiable integrator for Mitsuba's *_ad "
+                      "variants; use path",
+}
+# Shapes that are valid in RGB variants but not implemented here (like Nori's
+# stubs, the message says so rather than pretending the type is unknown).
+NOT_IMPLEMENTED_SHAPES = {
+    "bsplinecurve": "B-spline curves (ray-curve intersection)",
+    "linearcurve": "linear curves (ray-cylinder-segment intersection)",
+    "sdfgrid": "signed-distance-field grids",
+    "ellipsoids": "ellipsoid point clouds",
+    "ellipsoidsmesh": "ellipsoid point clouds",
+    "cylinder": "analytic cylinders",
+    "instance": "instancing",
+    "shapegroup": "instancing",
+    "merge": "shape merging",
+}
 FLOAT_TAGS = ("float", "integer")
 
 
@@ -72,8 +107,20 @@ class Props:
     def line(self, name: str) -> int:
         return self.plugin.props[name].line
 
-    def color(self, name: str, default: float) -> np.ndarray:
-        v = self._get(name, COLOR_TAGS, "an <rgb> (or <float>) colour")
+    def color(self, name: str, default: float, kind: str | None = None) -> np.ndarray:
+        """An RGB colour from ``<rgb>``, ``<float>`` or ``<spectrum>``.
+
+        ``kind`` says how a ``<spectrum>`` becomes RGB (see
+        :func:`pathtracer.scene.spectra.to_rgb`): by default ``'emission'``
+        inside an ``<emitter>`` and ``'reflectance'`` elsewhere, as Mitsuba's
+        emitters and BSDFs read their colours; pass ``'unbounded'`` for
+        values that may exceed 1 but are not emitted (indices of refraction).
+        """
+        v = self._get(name, COLOR_TAGS, "an <rgb> (or <float>, <spectrum>) colour")
+        if isinstance(v, spectra.Spectrum):
+            if kind is None:
+                kind = "emission" if self.plugin.kind == "emitter" else "reflectance"
+            return spectra.to_rgb(v, kind)
         return np.full(3, float(default)) if v is None else np.broadcast_to(
             np.asarray(v, dtype=float), (3,)).copy()
 
@@ -113,6 +160,13 @@ class Props:
         v = self._get(name, ("transform",), "a <transform>")
         return np.eye(4) if v is None else v
 
+    def normal_matrix(self, name: str = "to_world"):
+        """The matrix Mitsuba transforms this transform's normals with when it
+        is not the true inverse transpose (a ``<rotate>`` about a non-unit
+        axis), else None."""
+        p = self.plugin.props.get(name)
+        return None if p is None else p.normal_matrix
+
     def raw(self, name: str):
         """The value whatever its type (for pass-through parameters)."""
         self.used.add(name)
@@ -146,6 +200,13 @@ def _children(plugin: Plugin, allowed: dict[str, int]) -> dict[str, list[Plugin]
 
 
 def _unsupported(plugin: Plugin, what: str) -> Exception:
+    if plugin.type in VARIANT_ONLY:
+        return plugin.error(f"{what} \"{plugin.type}\" is not supported: it is "
+                            f"{VARIANT_ONLY[plugin.type]}")
+    if plugin.kind == "shape" and plugin.type in NOT_IMPLEMENTED_SHAPES:
+        return plugin.error(f"shape \"{plugin.type}\" is not implemented in this tracer "
+                            f"({NOT_IMPLEMENTED_SHAPES[plugin.type]}); it is valid in Mitsuba's "
+                            "RGB variants, so the scene cannot be compared")
     return plugin.error(f"unsupported {what} (supported: {', '.join(SUPPORTED[plugin.kind])})")
 
 
@@ -269,12 +330,22 @@ def _flip(p: np.ndarray, n: np.ndarray):
     return p[:, ::-1].copy(), -n[:, ::-1]
 
 
-def _planar_mesh(corners_local, normal_local, m, flip):
+def _normals(props: "Props", m: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Object-space normals to world space as Mitsuba does: by the inverse
+    transpose of ``to_world``, or by the matrix it tracks instead after a
+    ``<rotate>`` about a non-unit axis."""
+    normal_m = props.normal_matrix("to_world")
+    if normal_m is None:
+        return transform.apply_normals(m, n)
+    return transform.apply_normal_matrix(normal_m, n)
+
+
+def _planar_mesh(corners_local, normal_local, m, flip, props):
     """Triangles of a flat shape whose normal is the transformed local normal
     (Mitsuba's rectangle: normal by the inverse transpose, even when ``m``
-    mirrors; the winding follows it)."""
+    mirrors; the winding follows the true geometric normal)."""
     p = transform.apply_points(m, corners_local.reshape(-1, 3)).reshape(-1, 3, 3)
-    n = transform.apply_normals(m, normal_local[None])[0]
+    n = _normals(props, m, normal_local[None])[0]
     geo = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     if np.dot(geo[0], n) < 0:
         p = p[:, ::-1].copy()
@@ -303,16 +374,37 @@ def _cube_local():
     return np.array(tris), np.array(normals)
 
 
-def _load_mesh(plugin: Plugin, props: Props, base_dir: str) -> meshes.MeshData:
-    filename = props.string("filename", None)
+def search_folders(root: Plugin, base_dir: str) -> list[str]:
+    """Where relative file names (meshes, spectra, textures) are looked up,
+    first match wins, as Mitsuba's file resolver: the top-level file's
+    ``<path>`` folders (the last one first), the scene file's folder, then
+    the current working directory."""
+    return list(root.search_paths) + [base_dir, os.getcwd()]
+
+
+def find_file(plugin: Plugin, props: Props, name: str, folders: list[str]) -> str:
+    """The file ``props`` names in its string property ``name``, looked up in ``folders``."""
+    filename = props.string(name, None)
     if filename is None:
-        raise plugin.error("missing <string name=\"filename\">")
-    path = filename if os.path.isabs(filename) else os.path.join(base_dir, filename)
-    if not os.path.isfile(path):
-        raise plugin.error(f"mesh file not found: \"{filename}\" (looked for {path})",
-                           props.line("filename"))
+        raise plugin.error(f"missing <string name=\"{name}\">")
+    candidates = [filename] if os.path.isabs(filename) else [
+        os.path.join(folder, filename) for folder in folders]
+    for path in candidates:
+        if os.path.isfile(path):
+            return path
+    raise plugin.error(f"file not found: \"{filename}\" (looked for {', '.join(candidates)})",
+                       props.line(name))
+
+
+def _load_mesh(plugin: Plugin, props: Props, folders: list[str]) -> meshes.MeshData:
+    path = find_file(plugin, props, "filename", folders)
     try:
-        return meshes.read_obj(path) if plugin.type == "obj" else meshes.read_ply(path)
+        if plugin.type == "obj":
+            return meshes.read_obj(path)
+        if plugin.type == "ply":
+            return meshes.read_ply(path)
+        index = props.int("shape_index", 0)
+        return meshes.read_serialized(path, index)
     except meshes.MeshFormatError as e:
         raise plugin.error(str(e), props.line("filename")) from None
     except OSError as e:
@@ -320,9 +412,9 @@ def _load_mesh(plugin: Plugin, props: Props, base_dir: str) -> meshes.MeshData:
                            props.line("filename")) from None
 
 
-def _mesh_triangles(plugin, props, base_dir, m):
-    """World-space triangles and shading normals of an obj/ply shape."""
-    data = _load_mesh(plugin, props, base_dir)
+def _mesh_triangles(plugin, props, folders, m):
+    """World-space triangles and shading normals of an obj/ply/serialized shape."""
+    data = _load_mesh(plugin, props, folders)
     face_normals = props.bool("face_normals", False)
     props.ignore("flip_tex_coords")  # no textures: uv orientation is irrelevant
     pos = transform.apply_points(m, data.positions)
@@ -331,23 +423,26 @@ def _mesh_triangles(plugin, props, base_dir, m):
         geo = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
         n = np.repeat(meshes._unit(geo)[:, None], 3, axis=1)
     elif data.normals is not None:
-        n = transform.apply_normals(m, data.normals)[data.faces]
+        n = _normals(props, m, data.normals)[data.faces]
     else:
         # Mitsuba recomputes after applying to_world, so angles are world angles.
         n = meshes.smooth_vertex_normals(pos, data.faces)[data.faces]
     return p, n
 
 
-def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, base_dir: str):
-    """Add one shape's primitives to ``geo``; returns its nested bsdf and emitter plugins."""
+def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str]):
+    """Add one shape's primitives to ``geo``; returns its nested bsdf and emitter plugins.
+
+    ``folders`` are where mesh files are looked up (:func:`search_folders`).
+    """
     props = Props(plugin)
     kids = _children(plugin, {"bsdf": 1, "emitter": 1})
     m = props.transform("to_world")
     flip = props.bool("flip_normals", False)
     kind = plugin.type
-    if kind in ("rectangle", "cube", "obj", "ply"):
+    if kind in ("rectangle", "cube", "obj", "ply", "serialized"):
         if kind == "rectangle":
-            p, n = _planar_mesh(_RECT_LOCAL, np.array([0.0, 0.0, 1.0]), m, flip)
+            p, n = _planar_mesh(_RECT_LOCAL, np.array([0.0, 0.0, 1.0]), m, flip, props)
         else:
             if kind == "cube":
                 local_p, local_n = _cube_local()
@@ -356,9 +451,9 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, base_dir: str):
                     geo_n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
                     n = np.repeat(meshes._unit(geo_n)[:, None], 3, axis=1)
                 else:
-                    n = transform.apply_normals(m, local_n.reshape(-1, 3)).reshape(-1, 3, 3)
+                    n = _normals(props, m, local_n.reshape(-1, 3)).reshape(-1, 3, 3)
             else:
-                p, n = _mesh_triangles(plugin, props, base_dir, m)
+                p, n = _mesh_triangles(plugin, props, folders, m)
             if flip:
                 p, n = _flip(p, n)
         geo.add_mesh(shape_id, p, n)
@@ -380,6 +475,10 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, base_dir: str):
         geo.cdf.append(None)
     elif kind == "disk":
         transform.check_affine(m)
+        if props.normal_matrix("to_world") is not None:
+            raise plugin.error("a disk rotated about a non-unit axis is not supported (Mitsuba "
+                               "then transforms its normal inconsistently with its surface)",
+                               props.line("to_world"))
         geo.disks.append((m, flip, shape_id))
         geo.kind.append("disk")
         geo.prim.append((len(geo.disks) - 1, len(geo.disks)))
@@ -420,8 +519,6 @@ def build_emitter(plugin: Plugin):
         result = PointEmitter(position=position, intensity=props.color("intensity", 1.0))
     elif plugin.type == "constant":
         result = ConstantEmitter(radiance=props.color("radiance", 1.0))
-    elif plugin.type == "area":
-        raise plugin.error("an area emitter must be nested inside a <shape>")
     else:
         raise _unsupported(plugin, "emitter")
     props.finish()
@@ -455,6 +552,8 @@ def x_fov_from(fov: float, axis: str, aspect: float) -> float:
 
 
 def _film(plugin: Plugin) -> tuple[int, int]:
+    if plugin.type in VARIANT_ONLY:
+        raise _unsupported(plugin, "film")
     if plugin.type != "hdrfilm":
         raise plugin.error("unsupported film (supported: hdrfilm)")
     props = Props(plugin)
@@ -474,14 +573,23 @@ def _film(plugin: Plugin) -> tuple[int, int]:
     width, height = props.int("width", 768), props.int("height", 576)
     if width <= 0 or height <= 0:
         raise plugin.error("film width and height must be positive")
+    for name in ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height"):
+        if props.has(name):
+            raise plugin.error(f"{name} is not supported: the tracer renders the whole film "
+                               "(remove the crop, or render at the cropped size)",
+                               props.line(name))
     # Formats change storage, not values; with a 0.5 box filter the sample
-    # border is empty; compensate only changes summation accuracy.
-    props.ignore("pixel_format", "component_format", "sample_border", "compensate")
+    # border is empty; compensate only changes summation accuracy; a banner
+    # is drawn on LDR output only.
+    props.ignore("pixel_format", "component_format", "file_format", "sample_border",
+                 "compensate", "banner")
     props.finish()
     return width, height
 
 
 def _sampler(plugin: Plugin) -> tuple[int, int]:
+    if plugin.type in VARIANT_ONLY:
+        raise _unsupported(plugin, "sampler")
     if plugin.type != "independent":
         raise plugin.error("unsupported sampler: only \"independent\" gives the i.i.d. samples "
                            "the statistical comparison assumes")
@@ -551,6 +659,8 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
         return IntegratorSpec("path", {})
     if plugin.type not in SUPPORTED["integrator"]:
         raise _unsupported(plugin, "integrator")
+    if plugin.type == "direct":
+        _check_direct_samples(plugin)
     _children(plugin, {})
     allowed = INTEGRATOR_PARAMS.get(plugin.type)
     params = {}
@@ -569,6 +679,24 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
                                f"{prop.value}", prop.line)
         params[name] = prop.value
     return IntegratorSpec(plugin.type, params)
+
+
+def _check_direct_samples(plugin: Plugin) -> None:
+    """Mitsuba's rules for ``direct``'s sample counts, located in the file."""
+    props = plugin.props
+    if "shading_samples" in props and ("emitter_samples" in props or "bsdf_samples" in props):
+        raise plugin.error("give either shading_samples or emitter_samples/bsdf_samples, "
+                           "not both (as in Mitsuba)", props["shading_samples"].line)
+    counts = {}
+    for name in ("shading_samples", "emitter_samples", "bsdf_samples"):
+        prop = props.get(name)
+        if prop is not None and prop.tag == "integer":
+            if prop.value < 0:
+                raise plugin.error(f"{name} must be >= 0", prop.line)
+            counts[name] = prop.value
+    both = counts.get("shading_samples", 1)
+    if counts.get("emitter_samples", both) + counts.get("bsdf_samples", both) == 0:
+        raise plugin.error("direct needs at least one emitter or BSDF sample")
 
 
 # -- the scene -----------------------------------------------------------------
@@ -590,6 +718,29 @@ def _bbox(geo: _Geometry, tri_p: np.ndarray) -> np.ndarray:
     return np.array([np.min(lo, axis=0), np.max(hi, axis=0)])
 
 
+def _attach(emitter: Plugin, shape: Plugin, attached: dict) -> None:
+    """Record that ``shape`` carries ``emitter`` (nested or by ``<ref>``); an
+    emitter on two shapes is refused, as Mitsuba refuses it."""
+    first = attached.setdefault(id(emitter), shape)
+    if first is not shape:
+        raise shape.error(f"area emitter{_id_text(emitter)} is already attached to the shape "
+                          f"at {first.file}:{first.line}; Mitsuba allows an emitter on one "
+                          "shape only (give each shape its own <emitter>)")
+
+
+def _id_text(plugin: Plugin) -> str:
+    return f' "{plugin.id}"' if plugin.id else ""
+
+
+def _unattached_area(plugin: Plugin, attached: dict) -> None:
+    """A top-level area emitter: fine when a shape references it; otherwise
+    Mitsuba drops it silently, and we say so."""
+    if id(plugin) not in attached:
+        warnings.warn(f"{plugin.file}:{plugin.line}: area emitter{_id_text(plugin)} is not "
+                      "attached to any shape and emits nothing (as in Mitsuba); reference it "
+                      "with <ref id=\"...\"/> inside a <shape>", stacklevel=4)
+
+
 def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
     """Turn the parsed ``<scene>`` into a :class:`Scene`.
 
@@ -600,7 +751,9 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
     source : str
         Path or built-in name, stored in ``Scene.source``.
     base_dir : str
-        Directory against which relative mesh file names are resolved.
+        The scene file's folder: relative mesh file names are looked up in
+        the file's ``<path>`` folders, then here, then in the working
+        directory (:func:`search_folders`).
     """
     kids = _children(root, {"shape": 10**9, "bsdf": 10**9, "emitter": 10**9,
                             "sensor": 1, "integrator": 1})
@@ -608,6 +761,8 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
     bsdf_objects, bsdf_index = [], {}
     emitters, environment = [], None
     shape_bsdf, shape_emitter = [], []
+    folders = search_folders(root, base_dir)
+    attached: dict[int, Plugin] = {}  # area emitter plugin -> the shape it lights
 
     def bsdf_id(plugin: Plugin | None) -> int:
         key = id(plugin)
@@ -626,14 +781,18 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
     for shape_id, plugin in enumerate(kids["shape"]):
         if plugin.type not in SUPPORTED["shape"]:
             raise _unsupported(plugin, "shape")
-        bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, base_dir)
+        bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, folders)
         shape_bsdf.append(bsdf_id(bsdf_plugin))
         if emitter_plugin is not None:
+            _attach(emitter_plugin, plugin, attached)
             emitters.append(build_area(emitter_plugin, shape_id))
             shape_emitter.append(len(emitters) - 1)
         else:
             shape_emitter.append(-1)
     for plugin in kids["emitter"]:
+        if plugin.type == "area":
+            _unattached_area(plugin, attached)
+            continue
         emitter = build_emitter(plugin)
         if isinstance(emitter, ConstantEmitter):
             if environment is not None:

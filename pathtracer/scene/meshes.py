@@ -1,4 +1,4 @@
-"""OBJ and PLY triangle-mesh readers and Mitsuba's vertex-normal rule.
+"""OBJ, PLY and Mitsuba ``serialized`` triangle-mesh readers and Mitsuba's vertex-normal rule.
 
 The readers return object-space data; :mod:`pathtracer.scene.build` applies
 ``to_world`` and decides between file normals, recomputed smooth normals and
@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import math
 import os
+import struct
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -247,6 +249,101 @@ def _ply_mesh(data: dict, elements, name: str) -> MeshData:
     if idx.size and (idx.min() < 0 or idx.max() >= len(positions)):
         raise MeshFormatError(f"{name}: face refers to a vertex that does not exist")
     return MeshData(positions, normals, idx.reshape(-1, 3))
+
+
+#: Magic number and versions of Mitsuba's serialized format.
+SERIALIZED_MAGIC = 0x041C
+SERIALIZED_VERSIONS = (3, 4)
+# Flags in the header of each compressed shape.
+HAS_NORMALS, HAS_TEXCOORDS, HAS_COLORS = 0x0001, 0x0002, 0x0008
+FACE_NORMALS, SINGLE_PRECISION, DOUBLE_PRECISION = 0x0010, 0x1000, 0x2000
+
+
+def _serialized_offsets(data: bytes, name: str) -> tuple[list[int], int]:
+    """Start of each shape and the format version, from the table at the end of the file.
+
+    The file ends with one offset per shape (uint64 in version 4, uint32 in
+    version 3) followed by the uint32 shape count; every shape starts with
+    the uint16 magic number and uint16 version.
+    """
+    if len(data) < 8:
+        raise MeshFormatError(f"{name}: too short for a serialized mesh")
+    magic, version = struct.unpack_from("<HH", data, 0)
+    if magic != SERIALIZED_MAGIC or version not in SERIALIZED_VERSIONS:
+        raise MeshFormatError(f"{name}: not a Mitsuba serialized mesh (magic 0x{magic:04x}, "
+                              f"version {version})")
+    (count,) = struct.unpack_from("<I", data, len(data) - 4)
+    width = 8 if version == 4 else 4
+    table = len(data) - 4 - width * count
+    if count == 0 or table < 4:
+        raise MeshFormatError(f"{name}: corrupt shape table ({count} shapes)")
+    offsets = list(struct.unpack_from(f"<{count}{'Q' if width == 8 else 'I'}", data, table))
+    if any(not 0 <= o < table for o in offsets):
+        raise MeshFormatError(f"{name}: corrupt shape table (offset beyond the data)")
+    return offsets + [table], version
+
+
+def _take(buffer: bytes, offset: int, dtype: str, count: int, name: str):
+    size = np.dtype(dtype).itemsize * count
+    if offset + size > len(buffer):
+        raise MeshFormatError(f"{name}: shape data ends early")
+    return np.frombuffer(buffer, dtype=dtype, count=count, offset=offset), offset + size
+
+
+def read_serialized(path: str, shape_index: int = 0) -> MeshData:
+    """Read shape ``shape_index`` of a Mitsuba ``.serialized`` file.
+
+    Each shape is a zlib stream holding: uint32 flags; in version 4 a
+    NUL-terminated name; uint64 vertex and triangle counts; positions,
+    then (by flag) normals, texture coordinates and colours, in float32 or
+    float64; then the triangles' vertex indices, uint32 (uint64 when there
+    are more than 2^32 - 1 vertices). All little endian. The face-normal
+    flag is ignored, as Mitsuba 3.9.1 ignores it (only the shape's
+    ``face_normals`` property makes a mesh flat).
+
+    Raises
+    ------
+    MeshFormatError
+        On a malformed file or a ``shape_index`` out of range.
+    """
+    name = os.path.basename(path)
+    with open(path, "rb") as f:
+        data = f.read()
+    bounds, version = _serialized_offsets(data, name)
+    if not 0 <= shape_index < len(bounds) - 1:
+        raise MeshFormatError(f"{name}: shape_index {shape_index} is out of range (the file "
+                              f"holds shapes 0..{len(bounds) - 2})")
+    start, end = bounds[shape_index], bounds[shape_index + 1]
+    try:
+        stream = zlib.decompressobj().decompress(data[start + 4:end])
+    except zlib.error as e:
+        raise MeshFormatError(f"{name}: shape {shape_index}: corrupt compressed data "
+                              f"({e})") from None
+    (flags,) = struct.unpack_from("<I", stream, 0)
+    offset = 4
+    if version == 4:
+        offset = stream.index(b"\0", offset) + 1  # skip the shape's name
+    n_vertices, n_triangles = struct.unpack_from("<QQ", stream, offset)
+    offset += 16
+    real = "<f8" if flags & DOUBLE_PRECISION else "<f4"
+    positions, offset = _take(stream, offset, real, 3 * n_vertices, name)
+    normals = None
+    if flags & HAS_NORMALS:
+        normals, offset = _take(stream, offset, real, 3 * n_vertices, name)
+        normals = normals.reshape(-1, 3).astype(float)
+    if flags & HAS_TEXCOORDS:
+        _, offset = _take(stream, offset, real, 2 * n_vertices, name)
+    if flags & HAS_COLORS:
+        _, offset = _take(stream, offset, real, 3 * n_vertices, name)
+    index = "<u8" if n_vertices > 0xFFFFFFFF else "<u4"
+    faces, offset = _take(stream, offset, index, 3 * n_triangles, name)
+    faces = faces.astype(np.int64).reshape(-1, 3)
+    if n_triangles == 0:
+        raise MeshFormatError(f"{name}: shape {shape_index} has no triangles")
+    if faces.max() >= n_vertices:
+        raise MeshFormatError(f"{name}: shape {shape_index}: face refers to a vertex that does "
+                              "not exist")
+    return MeshData(positions.reshape(-1, 3).astype(float), normals, faces)
 
 
 def unit_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
