@@ -7,7 +7,6 @@ import pytest
 from pathtracer import load_scene, make_integrator, render
 from pathtracer.scene import SceneError
 
-from .live_mitsuba import import_mitsuba_or_skip
 
 SMALL = dict(width=16, height=12)
 
@@ -86,10 +85,8 @@ MITSUBA_SCENE = """<scene version="3.0.0">
 
 @pytest.mark.mitsuba
 @pytest.mark.parametrize("n, m", [(3, 2), (0, 2), (2, 0)])
-def test_matches_mitsuba(tmp_path, n, m):
+def test_matches_mitsuba(tmp_path, n, m, mi):
     """Area light + point light over a glossy plane: image means agree with Mitsuba's."""
-    mi = import_mitsuba_or_skip()
-    mi.set_variant("scalar_rgb")
     path = tmp_path / "direct.xml"
     path.write_text(MITSUBA_SCENE.format(n=n, m=m))
     theirs = np.asarray(mi.render(mi.load_file(str(path)), seed=5), dtype=float).mean(axis=(0, 1))

@@ -12,7 +12,6 @@ import pytest
 
 from pathtracer.scene import load_scene
 
-from .live_mitsuba import import_mitsuba_or_skip
 
 SENSOR = ('<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>'
           '<integer name="height" value="8"/><rfilter type="box"/></film></sensor>')
@@ -77,9 +76,7 @@ def vertex_normal_map(corners, normals) -> set:
 
 
 @pytest.mark.mitsuba
-def test_matches_mitsuba(tmp_path):
-    mi = import_mitsuba_or_skip()
-    mi.set_variant("scalar_rgb")
+def test_matches_mitsuba(tmp_path, mi):
     shapes = (shape("ply", ROTATE, PLY_FILE) + shape("cube", ROTATE) +
               shape("rectangle", '<scale value="0.5"/>' + ROTATE))
     path = write_scene(tmp_path, shapes)

@@ -313,12 +313,9 @@ def test_unreadable_scene_is_a_scene_error(tmp_path, monkeypatch):
 
 
 @pytest.mark.mitsuba
-def test_mitsuba_refuses_and_accepts_the_same_values(tmp_path):
+def test_mitsuba_refuses_and_accepts_the_same_values(tmp_path, mi):
     """The refusals above follow Mitsuba 3.9.1: it refuses each of these files too, and
     loads the edge values."""
-    from tests.live_mitsuba import import_mitsuba_or_skip
-    mi = import_mitsuba_or_skip()
-    mi.set_variant("scalar_rgb")
     integrator = '<integrator type="path"/>'
     refused = {
         "no version": f"<scene>{integrator}{SENSOR}</scene>",

@@ -18,7 +18,6 @@ import pytest
 
 from pathtracer.scene import SceneError, load_scene
 
-from .live_mitsuba import import_mitsuba_or_skip
 
 FILM = ('<film type="hdrfilm"><integer name="width" value="$res"/><integer name="height" '
         'value="$res"/><rfilter type="box"/></film>')
@@ -89,9 +88,7 @@ def test_included_files_folder_is_not_searched_for_meshes(tree):
 
 
 @pytest.mark.mitsuba
-def test_mesh_lookup_order_matches_mitsuba(tree):
-    mi = import_mitsuba_or_skip()
-    mi.set_variant("scalar_rgb")
+def test_mesh_lookup_order_matches_mitsuba(tree, mi):
     (tree / "scene" / "frag" / "m_frag.ply").rename(tree / "scene" / "m_frag.ply")
     path = lookup_scene(tree)
     theirs = sorted(float(np.asarray(sh.vertex_positions_buffer())[0])
@@ -211,9 +208,7 @@ def test_include_prefers_the_including_files_folder_to_its_paths(tree):
 
 
 @pytest.mark.mitsuba
-def test_include_order_matches_mitsuba(tree):
-    mi = import_mitsuba_or_skip()
-    mi.set_variant("scalar_rgb")
+def test_include_order_matches_mitsuba(tree, mi):
     theirs = mi.load_file(include_order_scene(tree))
     np.testing.assert_array_equal(np.asarray(mi.traverse(theirs)["grey.reflectance.value"]), [0.25] * 3)
     assert float(np.asarray(theirs.shapes()[0].vertex_positions_buffer())[0]) == 2

@@ -10,7 +10,6 @@ import pytest
 from pathtracer.scene import SceneError, load_scene
 from pathtracer.scene.meshes import MeshFormatError, read_serialized
 
-from .live_mitsuba import import_mitsuba_or_skip
 
 SENSOR = ('<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>'
           '<integer name="height" value="8"/><rfilter type="box"/></film></sensor>')
@@ -102,10 +101,8 @@ TRANSFORM = ('<transform name="to_world"><scale x="2" y="1" z="0.5"/>'
 @pytest.mark.parametrize("index, extra", [(0, ""), (0, TRANSFORM),
                                           (0, '<boolean name="face_normals" value="true"/>'),
                                           (1, TRANSFORM)])
-def test_matches_mitsuba(mesh_file, tmp_path, index, extra):
+def test_matches_mitsuba(mesh_file, tmp_path, index, extra, mi):
     """Mitsuba reads the same file: same world-space triangles and shading normals."""
-    mi = import_mitsuba_or_skip()
-    mi.set_variant("scalar_rgb")
     path = scene_with(tmp_path, mesh_file, extra, index)
     ours = load_scene(path)
     shape = mi.load_file(path).shapes()[0]

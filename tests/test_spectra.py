@@ -9,7 +9,6 @@ import pytest
 from pathtracer.scene import SceneError, load_scene
 from pathtracer.scene import cie, spectra
 
-from .live_mitsuba import import_mitsuba_or_skip
 
 CASES = ["0.5", "2.0", "400:0.1, 500:0.5, 600:0.9", "400:0.78 500:0.78 600:0.78 700:0.78",
          "400:0, 500:8, 600:15.6, 700:18.4", "360:0.2, 830:0.2", "450:0.3, 451:0.9, 452:0.3"]
@@ -139,9 +138,7 @@ def test_spectrum_file(tmp_path):
 
 @pytest.mark.mitsuba
 @pytest.mark.parametrize("text", CASES)
-def test_matches_mitsuba(text):
-    mi = import_mitsuba_or_skip()
-    mi.set_variant("scalar_rgb")
+def test_matches_mitsuba(text, mi):
     bsdf = mi.load_string(f'<bsdf version="3.0.0" type="diffuse">'
                           f'<spectrum name="reflectance" value="{text}"/></bsdf>')
     shape = mi.load_string(f'<shape version="3.0.0" type="sphere"><emitter type="area">'
@@ -163,11 +160,9 @@ def test_matches_mitsuba(text):
 
 
 @pytest.mark.mitsuba
-def test_spectral_cornell_box_colours_match_mitsuba(tmp_path):
+def test_spectral_cornell_box_colours_match_mitsuba(tmp_path, mi):
     """Mitsuba's classic spectral Cornell box (its measured reflectance and light
     spectra), as Mitsuba's RGB variants see it."""
-    mi = import_mitsuba_or_skip()
-    mi.set_variant("scalar_rgb")
     body = "".join(f'<bsdf type="diffuse" id="{name}"><spectrum name="reflectance" value="{value}"/>'
                    f'</bsdf>' for name, value in CBOX_SPECTRA.items() if name != "light_emission")
     body += ('<shape type="rectangle"><ref id="white"/><emitter type="area"><spectrum name="radiance" '
