@@ -30,7 +30,7 @@ CASES = {
     "unknown shape": (
         f'<shape type="serialized">{MARK}</shape>', '<shape type="serialized">', "unsupported shape"),
     "unknown emitter": (
-        f'<emitter type="envmap"/>{MARK}', '<emitter type="envmap">', "unsupported emitter"),
+        f'<emitter type="projector"/>{MARK}', '<emitter type="projector">', "unsupported emitter"),
     "unknown integrator": (
         f'<integrator type="volpath"/>{MARK}', '<integrator type="volpath">', "unsupported integrator"),
     "integrator parameter": (
