@@ -89,9 +89,9 @@ CASES = {
     "unknown ior name": (
         f'<bsdf type="dielectric">\n<string name="int_ior" value="unobtainium"/>{MARK}</bsdf>',
         '<bsdf type="dielectric">', "unknown IOR name"),
-    "two constant emitters": (
+    "two environment emitters": (
         f'<emitter type="constant"/>\n<emitter type="constant"/>{MARK}',
-        '<emitter type="constant">', "at most one constant"),
+        '<emitter type="constant">', "at most one environment emitter"),
     "top-level area emitter": (
         f'<emitter type="area"/>{MARK}', '<emitter type="area">', "nested inside a <shape>"),
     "ellipsoid sphere": (
