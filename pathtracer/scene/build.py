@@ -462,6 +462,9 @@ def _build_envmap(plugin, props, base_dir):
     if filename is None:
         raise plugin.error("missing <string name=\"filename\"> (the latitude-longitude image)")
     path = filename if os.path.isabs(filename) else os.path.join(base_dir, filename)
+    if not os.path.isfile(path):
+        raise plugin.error(f"image file not found: \"{filename}\" (looked for {path})",
+                           props.line("filename"))
     try:
         image = read_bitmap(path)
     except BitmapError as error:
