@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from ..sampling import INV_FOUR_PI, square_to_uniform_sphere
+
 
 @dataclass
 class Camera:
@@ -116,13 +118,12 @@ class ConstantEmitter:
 
     def sample(self, u: np.ndarray):
         """Uniform directions on the sphere: ``(wo, pdf, radiance)``."""
-        from ..sampling import square_to_uniform_sphere
         wo = square_to_uniform_sphere(u)
-        return wo, np.full(len(u), 0.25 / np.pi), self.eval(wo)
+        return wo, np.full(len(u), INV_FOUR_PI), self.eval(wo)
 
     def pdf(self, d_world: np.ndarray) -> np.ndarray:
         """Solid-angle density (n,) of :meth:`sample`: 1 / 4 pi."""
-        return np.full(len(d_world), 0.25 / np.pi)
+        return np.full(len(d_world), INV_FOUR_PI)
 
 
 @dataclass
