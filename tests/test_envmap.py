@@ -69,6 +69,23 @@ def test_exr_is_read_as_stored():
     np.testing.assert_array_equal(read_bitmap(SKY), sky().astype(np.float64))
 
 
+def test_radiance_hdr_flat_and_run_length_scanlines(tmp_path):
+    """RGBE: value = mantissa * 2^(exponent - 136); exponent 0 is black."""
+    header = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 8\n"
+    flat = bytes([128, 64, 32, 129] * 7 + [200, 0, 0, 0])                  # 128 * 2^-7 = 1, ...
+    runs = bytes([2, 2, 0, 8]) + bytes([128 + 8, 100, 128 + 8, 50]) + bytes([8] + list(range(8))) \
+        + bytes([128 + 8, 140])
+    (tmp_path / "a.hdr").write_bytes(header + flat + runs)
+    image = read_bitmap(tmp_path / "a.hdr")
+    assert image.shape == (2, 8, 3)
+    np.testing.assert_allclose(image[0, :7], np.tile([1.0, 0.5, 0.25], (7, 1)))
+    np.testing.assert_array_equal(image[0, 7], [0.0, 0.0, 0.0])
+    np.testing.assert_allclose(image[1], np.column_stack((np.full(8, 100.0), np.full(8, 50.0), np.arange(8.0))) * 16)
+    (tmp_path / "cut.hdr").write_bytes(header + flat + runs[:9])
+    with pytest.raises(BitmapError, match="truncated or corrupt"):
+        read_bitmap(tmp_path / "cut.hdr")
+
+
 def test_unreadable_images_raise_bitmap_error(tmp_path):
     (tmp_path / "bad.png").write_bytes(b"not an image")
     for name in ("missing.exr", "bad.png"):
@@ -222,6 +239,15 @@ ROTATED = ('<float name="scale" value="1.7"/><transform name="to_world">'
                          ids=["plain", "rotated-scaled", "mis-compensation"])
 def test_envmap_exr_matches_mitsuba(mi, tmp_path, extra):
     compare_with_mitsuba(mi, tmp_path, str(SKY), extra, seed=20)
+
+
+@pytest.mark.mitsuba
+def test_radiance_hdr_reads_as_mitsuba_reads_it(mi, tmp_path):
+    """A file Mitsuba writes (run-length encoded) decodes to exactly Mitsuba's values."""
+    image = (np.random.default_rng(5).random((6, 40, 3)) ** 4 * [1.0, 10.0, 1000.0]).astype(np.float32)
+    image[0, 0] = 0.0
+    mi.Bitmap(image).write(str(tmp_path / "sky.hdr"))
+    np.testing.assert_array_equal(read_bitmap(tmp_path / "sky.hdr"), np.array(mi.Bitmap(str(tmp_path / "sky.hdr"))))
 
 
 @pytest.mark.mitsuba
