@@ -51,7 +51,8 @@ class Integrator:
     hemisphere : {'cosine', 'uniform'}
         Sampling of the diffuse lobe: same mean, different variance.
     hide_emitters : bool
-        Camera rays pass through directly visible area emitters.
+        Camera rays pass through directly visible area emitters and see
+        no environment where they escape (Mitsuba's meaning).
     """
 
     name = "base"
