@@ -30,7 +30,7 @@ CASES = {
     "unknown shape": (
         f'<shape type="heightfield">{MARK}</shape>', '<shape type="heightfield">', "unsupported shape"),
     "unknown emitter": (
-        f'<emitter type="envmap"/>{MARK}', '<emitter type="envmap">', "unsupported emitter"),
+        f'<emitter type="projector"/>{MARK}', '<emitter type="projector">', "unsupported emitter"),
     "unknown integrator": (
         f'<integrator type="volpath"/>{MARK}', '<integrator type="volpath">', "unsupported integrator"),
     "integrator parameter": (
@@ -111,9 +111,9 @@ CASES = {
     "unknown ior name": (
         f'<bsdf type="dielectric">\n<string name="int_ior" value="unobtainium"/>{MARK}</bsdf>',
         '<bsdf type="dielectric">', "unknown IOR name"),
-    "two constant emitters": (
+    "two environment emitters": (
         f'<emitter type="constant"/>\n<emitter type="constant"/>{MARK}',
-        '<emitter type="constant">', "at most one constant"),
+        '<emitter type="constant">', "at most one environment emitter"),
     "ellipsoid sphere": (
         f'<shape type="sphere">{MARK}<transform name="to_world"><scale x="2"/></transform></shape>',
         '<shape type="sphere">', "uniformly"),

@@ -23,7 +23,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs import Dielectric
-from ..emitters import emitted_radiance
 from ..rng import RandomStream
 from ..shading import bsdf_index, dielectric_lobes, sample_bsdf
 from .base import Integrator, spawn, subset_hit, trace
@@ -71,7 +70,7 @@ class SmallptIntegrator(Integrator):
         depth = 0
         while len(row):
             wi = -d
-            np.add.at(L, row, beta * emitted_radiance(scene, hit, wi))     # obj.e
+            np.add.at(L, row, beta * self.emission(scene, hit, wi, depth))     # obj.e
 
             live = np.flatnonzero(hit.valid & (depth + 1 < self.depth_limit))
             row, beta, wi, hit, rng = row[live], beta[live], wi[live], subset_hit(hit, live), rng.subset(live)

@@ -12,8 +12,8 @@ import warnings
 import numpy as np
 
 from . import meshes, spectra, transform
-from .types import (AreaEmitter, Camera, ConstantEmitter, IntegratorSpec,
-                    PointEmitter, Scene)
+from .types import (AreaEmitter, Camera, ConstantEmitter, DirectionalEmitter,
+                    IntegratorSpec, PointEmitter, Scene, SpotEmitter)
 from ..resources import SEED_MAX
 from .xml import Plugin
 
@@ -30,7 +30,7 @@ IOR_BY_NAME = {
 SUPPORTED = {
     "shape": ("rectangle", "cube", "disk", "sphere", "obj", "ply", "serialized"),
     "bsdf": ("diffuse", "twosided", "conductor", "dielectric", "roughconductor"),
-    "emitter": ("area", "point", "constant"),
+    "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
     "sensor": ("perspective",),
     "integrator": ("path", "direct", "recursive", "path_bsdf", "path_nee", "smallpt"),
 }
@@ -506,23 +506,101 @@ def build_area(plugin: Plugin, shape_id: int) -> AreaEmitter:
     return AreaEmitter(shape=shape_id, radiance=radiance)
 
 
-def build_emitter(plugin: Plugin):
-    """A top-level ``point`` or ``constant`` emitter."""
+def build_emitter(plugin: Plugin, folders: list[str] = (".",)):
+    """A top-level ``point``, ``spot``, ``directional``, ``constant`` or ``envmap`` emitter."""
     props = Props(plugin)
-    _children(plugin, {})
-    if plugin.type == "point":
-        if props.has("position") and props.has("to_world"):
-            raise plugin.error("give either position or to_world, not both")
-        position = props.point("position", None)
-        if position is None:
-            position = props.transform("to_world")[:3, 3].copy()
-        result = PointEmitter(position=position, intensity=props.color("intensity", 1.0))
-    elif plugin.type == "constant":
-        result = ConstantEmitter(radiance=props.color("radiance", 1.0))
-    else:
+    builders = {"point": _build_point, "spot": _build_spot, "directional": _build_directional,
+                "constant": _build_constant, "envmap": _build_envmap}
+    if plugin.type not in builders:
         raise _unsupported(plugin, "emitter")
+    if plugin.type != "spot":
+        _children(plugin, {})
+    result = builders[plugin.type](plugin, props, folders)
     props.finish()
     return result
+
+
+def _build_point(plugin, props, folders):
+    if props.has("position") and props.has("to_world"):
+        raise plugin.error("give either position or to_world, not both")
+    position = props.point("position", None)
+    if position is None:
+        position = props.transform("to_world")[:3, 3].copy()
+    return PointEmitter(position=position, intensity=props.color("intensity", 1.0))
+
+
+def _build_constant(plugin, props, folders):
+    return ConstantEmitter(radiance=props.color("radiance", 1.0))
+
+
+def _build_spot(plugin, props, folders):
+    kids = _children(plugin, {"texture": 1})
+    if kids["texture"]:
+        raise kids["texture"][0].error("a spot light's projected \"texture\" is not supported "
+                                       "(only a uniform intensity)")
+    m = props.transform("to_world")
+    cutoff = props.float("cutoff_angle", 20.0)
+    beam = props.float("beam_width", cutoff * 0.75)
+    if not 0 < cutoff <= 180:
+        raise plugin.error(f"cutoff_angle must lie in (0, 180] degrees, got {cutoff:g}",
+                           props.line("cutoff_angle"))
+    if not 0 <= beam <= cutoff:
+        raise plugin.error(f"beam_width must lie in [0, cutoff_angle = {cutoff:g}] degrees, got {beam:g}",
+                           props.line("beam_width") if props.has("beam_width") else None)
+    return SpotEmitter(position=m[:3, 3].copy(), to_local=np.linalg.inv(m[:3, :3]),
+                       intensity=props.color("intensity", 1.0),
+                       cutoff_angle=np.radians(cutoff), beam_width=np.radians(beam))
+
+
+def _build_directional(plugin, props, folders):
+    if props.has("direction") and props.has("to_world"):
+        raise plugin.error("give either direction or to_world, not both")
+    direction = props.point("direction", None)
+    if direction is None:
+        m = _rotation_only(plugin, props)
+        direction = m[:3, 2].copy()
+    if not np.linalg.norm(direction) > 0:
+        raise plugin.error("direction must not be zero", props.line("direction"))
+    return DirectionalEmitter(direction=direction / np.linalg.norm(direction),
+                              irradiance=props.color("irradiance", 1.0))
+
+
+def _build_envmap(plugin, props, folders):
+    from pathtracer.bitmap import BitmapError, read_bitmap
+    from pathtracer.envmap import EnvironmentMap
+
+    if props.has("bitmap"):
+        raise plugin.error("\"bitmap\" (a Bitmap object) exists only in Python dictionaries; "
+                           "give a filename", props.line("bitmap"))
+    if not props.has("filename"):
+        raise plugin.error("missing <string name=\"filename\"> (the latitude-longitude image)")
+    filename = props.string("filename", None)
+    path = find_file(plugin, props, "filename", folders)
+    try:
+        image = read_bitmap(path)
+    except BitmapError as error:
+        raise plugin.error(str(error), props.line("filename")) from None
+    if image.shape[2] == 1:
+        image = np.repeat(image, 3, axis=2)
+    if image.shape[1] < 2 or image.shape[0] < 3:
+        raise plugin.error(f"\"{filename}\": an environment map needs at least 2x3 pixels, "
+                           f"got {image.shape[1]}x{image.shape[0]}", props.line("filename"))
+    if not np.all(np.isfinite(image)) or np.any(image < 0):
+        raise plugin.error(f"\"{filename}\": radiance must be finite and non-negative",
+                           props.line("filename"))
+    return EnvironmentMap(image, scale=props.float("scale", 1.0),
+                          to_world=_rotation_only(plugin, props),
+                          mis_compensation=props.bool("mis_compensation", False))
+
+
+def _rotation_only(plugin, props) -> np.ndarray:
+    """``to_world`` of a light at infinity, refused when it scales (Mitsuba would not renormalise)."""
+    m = props.transform("to_world")
+    if transform.has_scale(m):
+        raise plugin.error("to_world must not scale or shear a light at infinity (Mitsuba "
+                           "would use unnormalised directions); use rotate or lookat",
+                           props.line("to_world"))
+    return m
 
 
 def x_fov_from(fov: float, axis: str, aspect: float) -> float:
@@ -793,10 +871,11 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
         if plugin.type == "area":
             _unattached_area(plugin, attached)
             continue
-        emitter = build_emitter(plugin)
-        if isinstance(emitter, ConstantEmitter):
+        emitter = build_emitter(plugin, folders)
+        if emitter.kind in ("constant", "envmap"):
             if environment is not None:
-                raise plugin.error("at most one constant emitter is supported")
+                raise plugin.error("at most one environment emitter (constant or envmap) "
+                                   "is allowed, as in Mitsuba")
             environment = emitter
         emitters.append(emitter)
     if not kids["sensor"]:
