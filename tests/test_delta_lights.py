@@ -15,7 +15,6 @@ from pathtracer import load_scene
 from pathtracer.emitters import pdf_emitter_direction, sample_emitter
 from pathtracer.geometry import Hit, intersect
 from pathtracer.scene import SceneError
-from tests.live_mitsuba import import_mitsuba_or_skip
 
 SCENE = """<scene version="3.0.0">
   <sensor type="perspective"><float name="fov" value="40"/>
@@ -125,9 +124,7 @@ def test_bad_delta_lights_give_one_line_errors(tmp_path, light, message):
 
 @pytest.mark.mitsuba
 @pytest.mark.parametrize("name", sorted(LIGHTS))
-def test_next_event_matches_mitsuba(tmp_path, name):
-    mi = import_mitsuba_or_skip()
-    mi.set_variant("scalar_rgb")
+def test_next_event_matches_mitsuba(tmp_path, name, mi):
     import drjit as dr
 
     path, scene = load(tmp_path, LIGHTS[name])

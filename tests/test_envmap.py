@@ -21,7 +21,6 @@ from pathtracer.sampling import Distribution2D
 from pathtracer.scene import SceneError, builtin_scene_path, transform
 from pathtracer.scenes.make_envmap import sky
 from tests.chi2 import chi2_plane, chi2_sphere
-from tests.live_mitsuba import import_mitsuba_or_skip
 
 SKY = Path(builtin_scene_path("envmap")).parent / "envmap-sky.exr"
 AXIS = np.array([0.3, 1.0, 0.2]) / np.linalg.norm([0.3, 1.0, 0.2])
@@ -180,13 +179,6 @@ def test_envmap_sample_weight_is_radiance_over_pdf():
 # --------------------------------------------------------------------------
 # Against Mitsuba 3
 # --------------------------------------------------------------------------
-
-@pytest.fixture(scope="module")
-def mi():
-    mitsuba = import_mitsuba_or_skip()
-    mitsuba.set_variant("scalar_rgb")
-    return mitsuba
-
 
 @pytest.mark.mitsuba
 def test_distribution2d_equals_mitsubas_hierarchical2d(mi):
