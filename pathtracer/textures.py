@@ -58,8 +58,12 @@ class Texture:
         return uv @ self.uv_linear.T + self.uv_offset
 
     def eval(self, uv: np.ndarray) -> np.ndarray:
-        """RGB values (n, 3) at surface coordinates ``uv`` (n, 2)."""
-        return self.eval_uv(self.transform_uv(np.asarray(uv, np.float64).reshape(-1, 2)))
+        """RGB values (n, 3) at surface coordinates ``uv`` (n, 2); 0 where ``uv`` is not finite."""
+        uv, undefined = _finite_uv(uv)
+        value = self.eval_uv(self.transform_uv(uv))
+        if undefined is not None:
+            value[undefined] = 0.0
+        return value
 
     def eval_uv(self, uv: np.ndarray) -> np.ndarray:
         """RGB values at coordinates already mapped by ``to_uv``."""
@@ -68,6 +72,17 @@ class Texture:
     def max_value(self) -> np.ndarray:
         """(3,) upper bound of every channel over the surface (for roulette heuristics)."""
         raise NotImplementedError
+
+
+def _finite_uv(uv):
+    """(n, 2) float64 coordinates with non-finite rows set to 0, and the mask of those
+    rows (None if there are none). Mesh corners without texture coordinates have NaN
+    uv; Mitsuba's lookup is undefined there, ours gives black."""
+    uv = np.asarray(uv, np.float64).reshape(-1, 2)
+    undefined = ~np.isfinite(uv).all(axis=1)
+    if not undefined.any():
+        return uv, None
+    return np.where(undefined[:, None], 0.0, uv), undefined
 
 
 class ConstantTexture(Texture):
@@ -109,14 +124,16 @@ class Checkerboard(Texture):
         self.color1 = _as_texture(color1)
 
     def eval(self, uv: np.ndarray) -> np.ndarray:
-        """RGB values (n, 3) at surface coordinates ``uv`` (n, 2)."""
-        uv = np.asarray(uv, np.float64).reshape(-1, 2)
+        """RGB values (n, 3) at surface coordinates ``uv`` (n, 2); 0 where ``uv`` is not finite."""
+        uv, undefined = _finite_uv(uv)
         t = self.transform_uv(uv)
         upper = (t - np.floor(t)) > 0.5
         first = upper[:, 0] == upper[:, 1]
         out = np.empty((len(uv), 3))
         out[first] = self.color0.eval(uv[first])
         out[~first] = self.color1.eval(uv[~first])
+        if undefined is not None:
+            out[undefined] = 0.0
         return out
 
     def max_value(self) -> np.ndarray:

@@ -42,9 +42,9 @@ CASES = {
     "unknown shape property": (
         f'<shape type="cube">\n<float name="radius" value="2"/>{MARK}</shape>',
         '<shape type="cube">', 'unsupported property "radius"'),
-    "texture": (
+    "texture without filename": (
         f'<bsdf type="diffuse"><texture type="bitmap" name="reflectance"/>{MARK}</bsdf>',
-        '<texture type="bitmap">', "use an <rgb>"),
+        '<texture type="bitmap">', 'missing <string name="filename">'),
     "spectrum plugin": (
         f'<bsdf type="diffuse">\n<spectrum name="reflectance" type="blackbody"/>{MARK}</bsdf>',
         '<bsdf type="diffuse">', "spectrum plugins"),
@@ -70,6 +70,23 @@ CASES = {
         "already attached"),
     "missing search path": (
         f'<path value="no/such/folder"/>{MARK}', "<path>", "not found"),
+    "missing image": (
+        f'<bsdf type="diffuse"><texture type="bitmap" name="reflectance">\n'
+        f'<string name="filename" value="nothere.png"/>{MARK}</texture></bsdf>',
+        '<texture type="bitmap">', 'file not found: "nothere.png"'),
+    "unknown wrap mode": (
+        f'<bsdf type="diffuse"><texture type="bitmap" name="reflectance">\n'
+        f'<string name="wrap_mode" value="wrap"/>{MARK}</texture></bsdf>',
+        '<texture type="bitmap">', 'unknown wrap_mode "wrap" (supported: repeat, mirror, clamp)'),
+    "unknown texture": (
+        f'<bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"/>{MARK}</bsdf>',
+        '<texture type="mesh_attribute">', "unsupported texture (supported: bitmap, checkerboard)"),
+    "texture for a scalar parameter": (
+        f'<bsdf type="roughconductor">\n<texture type="checkerboard" name="alpha"/>{MARK}</bsdf>',
+        '<texture type="checkerboard">', 'a texture for "alpha" is not supported'),
+    "texture without a name": (
+        f'<bsdf type="diffuse">\n<texture type="checkerboard"/>{MARK}</bsdf>',
+        '<texture type="checkerboard">', "needs a name"),
     "malformed rgb": (
         f'<bsdf type="diffuse">\n<rgb name="reflectance" value="1,2,x"/>{MARK}</bsdf>',
         '<bsdf type="diffuse">', '"x"'),

@@ -107,6 +107,8 @@ class Props:
             self.textures[name] = child
 
     def _get(self, name: str, tags: tuple, what: str):
+        if name in self.textures:
+            self._no_texture(name)
         prop = self.plugin.props.get(name)
         self.used.add(name)
         if prop is None:
@@ -198,6 +200,8 @@ class Props:
 
     def raw(self, name: str):
         """The value whatever its type (for pass-through parameters)."""
+        if name in self.textures:
+            self._no_texture(name)
         self.used.add(name)
         p = self.plugin.props.get(name)
         return None if p is None else p.value
@@ -206,11 +210,15 @@ class Props:
         """Accept properties that do not change the rendered values."""
         self.used.update(names)
 
+    def _no_texture(self, name: str):
+        raise self.textures[name].error(
+            f"a texture for \"{name}\" is not supported (this tracer takes textures for: "
+            f"{', '.join(TEXTURED_PARAMS)})")
+
     def finish(self) -> None:
-        for name, child in self.textures.items():
+        for name in self.textures:
             if name not in self.used:
-                raise child.error(f"a texture for \"{name}\" is not supported (this tracer "
-                                  f"takes textures for: {', '.join(TEXTURED_PARAMS)})")
+                self._no_texture(name)
         for name, prop in self.plugin.props.items():
             if name not in self.used:
                 known = sorted(self.used)
@@ -246,6 +254,8 @@ def _unsupported(plugin: Plugin, what: str) -> Exception:
 # -- BSDFs -------------------------------------------------------------------
 
 def _ior(props: Props, name: str, default: str) -> float:
+    if name in props.textures:
+        props._no_texture(name)
     p = props.plugin.props.get(name)
     props.used.add(name)
     if p is None:
@@ -288,7 +298,7 @@ def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | Non
     folders : list of str
         Where texture files are looked up (:func:`search_folders`).
     textures : dict, optional
-        Textures already built, by ``id`` of their plugin (shared ``<ref>``\ s
+        Textures already built, by ``id`` of their plugin (textures shared by ``<ref>``
         read the image once).
     """
     from pathtracer import bsdfs  # imported lazily: written concurrently

@@ -52,6 +52,9 @@ def read_obj(path: str) -> MeshData:
     ``(v0, v[i-1], v[i])``. Only ``v``, ``vt``, ``vn`` and ``f`` lines matter
 (``vt``: the first two numbers, u and v).
 
+    Face corners without a ``vt`` index get NaN texture coordinates when
+    others have one (Mitsuba 3.9.1 reports NaN uv there).
+
     Raises
     ------
     MeshFormatError
@@ -134,10 +137,9 @@ def read_obj(path: str) -> MeshData:
         nrm = np.array(normals, dtype=float)[key_arr[:, 2] - 1]
     uv = None
     if texcoords and np.any(key_arr[:, 1] != 0):
-        if np.any(key_arr[:, 1] == 0):
-            raise MeshFormatError(f"{os.path.basename(path)}: some face corners have texture "
-                                  "coordinates and some have none (Mitsuba leaves those undefined)")
-        uv = np.array(texcoords, dtype=float)[key_arr[:, 1] - 1]
+        # Corners without a vt get NaN, as in Mitsuba (textures there are black).
+        table = np.vstack((np.full((1, 2), np.nan), np.array(texcoords, dtype=float)))
+        uv = table[key_arr[:, 1]]
     return MeshData(pos, nrm, np.array(triangles, dtype=np.int64), uv)
 
 
