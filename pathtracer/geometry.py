@@ -50,9 +50,10 @@ class Hit:
         Triangle index into ``tri_*``, or sphere / disk index into
         ``sphere_*`` / ``disk_*``; -1 on a miss.
     uv : (n, 2) float64
-        Triangles: barycentrics (b1, b2) of p1 and p2. Spheres: Mitsuba's
-        ``(phi / 2pi, theta / pi)`` in the local frame (z up). Disks: local
-        (x, y) on the unit disk.
+        Primitive coordinates. Triangles: barycentrics (b1, b2) of p1 and p2.
+        Spheres: ``(phi / 2pi, theta / pi)`` around the world z axis. Disks:
+        local (x, y) on the unit disk. Textures use :func:`texture_uv`
+        (Mitsuba's surface uv), computed from these.
     """
 
     valid: np.ndarray

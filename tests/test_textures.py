@@ -13,7 +13,7 @@ from PIL import Image
 
 from pathtracer import load_scene
 from pathtracer.bitmap import read_bitmap, srgb_to_linear
-from pathtracer.bsdfs import Conductor, Dielectric, Diffuse, TwoSided
+from pathtracer.bsdfs import Conductor, Dielectric, Diffuse, RoughConductor, TwoSided
 from pathtracer.geometry import intersect, texture_uv
 from pathtracer.scene import transform
 from pathtracer.textures import BitmapTexture, Checkerboard, ConstantTexture, wrap_index
@@ -148,17 +148,21 @@ def test_bound_bsdf_equals_the_constant_bsdf_of_each_hit():
     colour = tex.eval(uv)
     for textured, constant in ((TwoSided(Diffuse(tex)), lambda c: TwoSided(Diffuse(c))),
                                (Conductor(tex), Conductor),
+                               (RoughConductor("ggx", 0.3, 0.3, tex),
+                                lambda c: RoughConductor("ggx", 0.3, 0.3, c)),
                                (Dielectric(1.5, 1.0, tex, tex), lambda c: Dielectric(1.5, 1.0, c, c))):
         assert textured.textured
         bound = textured.at(uv)
         got = bound.sample(wi, u1, u2)
+        value = bound.eval(wi, got.wo)
         for k in range(0, n, 7):
-            want = constant(colour[k]).sample(wi[k:k + 1], u1[k:k + 1], u2[k:k + 1])
+            one = constant(colour[k])
+            want = one.sample(wi[k:k + 1], u1[k:k + 1], u2[k:k + 1])
             np.testing.assert_allclose(got.weight[k], want.weight[0], rtol=1e-14)
             np.testing.assert_allclose(got.wo[k], want.wo[0], rtol=1e-14)
-        if textured.has_smooth:
-            np.testing.assert_allclose(bound.eval(wi, got.wo), colour * got.wo[:, 2:3] / np.pi,
-                                       rtol=1e-12)
+            np.testing.assert_allclose(value[k], one.eval(wi[k:k + 1], got.wo[k:k + 1])[0],
+                                       rtol=1e-14)
+        assert np.any(got.weight != got.weight[0])  # the colour does vary over the hits
 
 
 # -- scenes ---------------------------------------------------------------------------
