@@ -2,8 +2,11 @@
 
 8- and 16-bit images (PNG, JPEG) hold sRGB-encoded values, as Mitsuba 3
 assumes for them; unless ``raw`` is set they are decoded to linear values
-with the sRGB transfer curve. EXR files hold linear floats and are returned
-as stored. Row 0 of the array is the top row of the image.
+with the sRGB transfer curve. Mitsuba 3.9.1 then holds 16-bit images as
+half floats (measured: its bitmap texture returns exactly the float16
+rounding of the decoded values), so they are rounded to float16 here too.
+EXR files hold linear floats and are returned as stored. Row 0 of the array
+is the top row of the image.
 """
 from __future__ import annotations
 
@@ -48,13 +51,14 @@ def read_bitmap(path, *, raw: bool = False) -> np.ndarray:
     if ext in EXR_EXTENSIONS:
         return _read_exr(path)
     if ext in LDR_EXTENSIONS:
-        encoded = _read_ldr(path)
-        return encoded if raw else srgb_to_linear(encoded)
+        encoded, bits = _read_ldr(path)
+        value = encoded if raw else srgb_to_linear(encoded)
+        return value.astype(np.float16).astype(np.float64) if bits == 16 else value
     raise ValueError(f"unsupported image format \"{ext}\" (supported: PNG, JPEG, EXR)")
 
 
-def _read_ldr(path: str) -> np.ndarray:
-    """An 8- or 16-bit image scaled to [0, 1], as (H, W, C)."""
+def _read_ldr(path: str) -> tuple[np.ndarray, int]:
+    """An 8- or 16-bit image scaled to [0, 1], as (H, W, C), and its bits per channel."""
     from PIL import Image, UnidentifiedImageError
 
     try:
@@ -63,14 +67,14 @@ def _read_ldr(path: str) -> np.ndarray:
             if image.mode == "P":  # palette images: expand to the colours they show
                 image = image.convert("RGBA" if "transparency" in image.info else "RGB")
             if image.mode in ("I;16", "I;16B", "I;16L", "I"):
-                data = np.asarray(image, dtype=np.float64) / 65535.0
+                data, bits = np.asarray(image, dtype=np.float64) / 65535.0, 16
             elif image.mode in ("L", "LA", "RGB", "RGBA"):
-                data = np.asarray(image, dtype=np.float64) / 255.0
+                data, bits = np.asarray(image, dtype=np.float64) / 255.0, 8
             else:
-                data = np.asarray(image.convert("RGB"), dtype=np.float64) / 255.0
+                data, bits = np.asarray(image.convert("RGB"), dtype=np.float64) / 255.0, 8
     except (OSError, UnidentifiedImageError) as e:
         raise ValueError(f"could not read image: {e}") from None
-    return data[:, :, None] if data.ndim == 2 else data
+    return (data[:, :, None] if data.ndim == 2 else data), bits
 
 
 def _read_exr(path: str) -> np.ndarray:

@@ -321,17 +321,21 @@ def test_to_uv_matches_mitsuba(tmp_path, to_uv):
 
 
 @pytest.mark.mitsuba
-def test_exr_jpeg_grey_and_alpha_images_match_mitsuba(tmp_path):
+def test_exr_jpeg_grey_alpha_and_16_bit_images_match_mitsuba(tmp_path):
     mi = _mitsuba()
     uv = _lookup_points(100, seed=9)
     rng = np.random.default_rng(10)
     jpeg = tmp_path / "tex.jpg"
     Image.fromarray(rng.integers(0, 256, (6, 5, 3), dtype=np.uint8)).save(jpeg, quality=90)
+    grey16 = tmp_path / "grey16.png"
+    Image.fromarray(rng.integers(0, 65536, (4, 5), dtype=np.uint16)).save(grey16)
     paths = [_exr(tmp_path, rng.uniform(0, 3, (4, 6, 3))), str(jpeg),
              _image(tmp_path, shape=(5, 4, 1), name="grey.png"),
-             _image(tmp_path, shape=(3, 4, 4), name="rgba.png")]
+             _image(tmp_path, shape=(3, 4, 4), name="rgba.png"), str(grey16)]
     for path in paths:
-        xml = _texture_xml("bitmap", f'<string name="filename" value="{path}"/>')
-        np.testing.assert_allclose(BitmapTexture(read_bitmap(path)).eval(uv),
-                                   _mitsuba_lookups(mi, xml, uv), rtol=1e-5, atol=2e-6,
-                                   err_msg=path)
+        for raw in (False, True):
+            xml = _texture_xml("bitmap", f'<string name="filename" value="{path}"/>'
+                               f'<boolean name="raw" value="{str(raw).lower()}"/>')
+            np.testing.assert_allclose(BitmapTexture(read_bitmap(path, raw=raw)).eval(uv),
+                                       _mitsuba_lookups(mi, xml, uv), rtol=1e-5, atol=2e-6,
+                                       err_msg=f"{path} raw={raw}")
