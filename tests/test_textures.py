@@ -1,6 +1,6 @@
 """Textures: image reading, bitmap/checkerboard lookups, uv at hits, textured BSDFs.
 
-Tests marked ``mitsuba`` compare with Mitsuba 3.9.1 in ``scalar_rgb``: the
+Tests taking ``mi`` compare with Mitsuba 3.9.1 in ``scalar_rgb``: the
 same image files and XML, looked up at the same (float32) coordinates, and
 ``SurfaceInteraction3f.uv`` of the same rays against our
 :func:`pathtracer.geometry.texture_uv`.
@@ -17,17 +17,10 @@ from pathtracer.bsdfs import Conductor, Dielectric, Diffuse, RoughConductor, Two
 from pathtracer.geometry import intersect, texture_uv
 from pathtracer.scene import transform
 from pathtracer.textures import BitmapTexture, Checkerboard, ConstantTexture, wrap_index
-from tests.live_mitsuba import import_mitsuba_or_skip
 
 FILM = ('<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>'
         '<rfilter type="box"/></film>')
 SENSOR = f'<sensor type="perspective"><float name="fov" value="40"/>{FILM}</sensor>'
-
-
-def _mitsuba():
-    mi = import_mitsuba_or_skip()
-    mi.set_variant("scalar_rgb")
-    return mi
 
 
 def _f32(x) -> np.ndarray:
@@ -228,8 +221,7 @@ def _rays(count: int, seed: int):
 
 @pytest.mark.mitsuba
 @pytest.mark.parametrize("shape", sorted(SHAPES))
-def test_uv_at_hits_matches_mitsuba(tmp_path, shape):
-    mi = _mitsuba()
+def test_uv_at_hits_matches_mitsuba(mi, tmp_path, shape):
     (tmp_path / "quad.obj").write_text(OBJ_VT)
     (tmp_path / "plain.obj").write_text("\n".join(l for l in OBJ_VT.splitlines()
                                                    if not l.startswith(("vt", "f")))
@@ -288,8 +280,7 @@ def _texture_xml(kind: str, body: str) -> str:
 
 @pytest.mark.mitsuba
 @pytest.mark.parametrize("filter_type, wrap_mode, raw", FILTER_WRAP_RAW)
-def test_bitmap_lookups_match_mitsuba(tmp_path, filter_type, wrap_mode, raw):
-    mi = _mitsuba()
+def test_bitmap_lookups_match_mitsuba(mi, tmp_path, filter_type, wrap_mode, raw):
     path = _image(tmp_path)
     uv = _lookup_points()
     xml = _texture_xml("bitmap", f'<string name="filename" value="{path}"/>'
@@ -302,9 +293,8 @@ def test_bitmap_lookups_match_mitsuba(tmp_path, filter_type, wrap_mode, raw):
 
 @pytest.mark.mitsuba
 @pytest.mark.parametrize("to_uv", sorted(TO_UV))
-def test_to_uv_matches_mitsuba(tmp_path, to_uv):
+def test_to_uv_matches_mitsuba(mi, tmp_path, to_uv):
     """Both plugins, loaded from the same XML by both renderers."""
-    mi = _mitsuba()
     image = _image(tmp_path)
     uv = _lookup_points(150, seed=8)
     for body in (f'<string name="filename" value="{image}"/>',
@@ -321,8 +311,7 @@ def test_to_uv_matches_mitsuba(tmp_path, to_uv):
 
 
 @pytest.mark.mitsuba
-def test_exr_jpeg_grey_alpha_and_16_bit_images_match_mitsuba(tmp_path):
-    mi = _mitsuba()
+def test_exr_jpeg_grey_alpha_and_16_bit_images_match_mitsuba(mi, tmp_path):
     uv = _lookup_points(100, seed=9)
     rng = np.random.default_rng(10)
     jpeg = tmp_path / "tex.jpg"

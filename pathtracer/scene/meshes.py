@@ -50,7 +50,7 @@ def read_obj(path: str) -> MeshData:
     leaves out is *inherited from the previous corner of the same face*
     (``f 1/1 2 3`` gives keys 1/1, 2/1, 3/1). Polygons are fan-triangulated
     ``(v0, v[i-1], v[i])``. Only ``v``, ``vt``, ``vn`` and ``f`` lines matter
-(``vt``: the first two numbers, u and v).
+    (``vt``: the first two numbers, u and v).
 
     Face corners without a ``vt`` index get NaN texture coordinates when
     others have one (Mitsuba 3.9.1 reports NaN uv there).
