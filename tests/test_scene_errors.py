@@ -84,6 +84,10 @@ CASES = {
     "texture for a scalar parameter": (
         f'<bsdf type="roughconductor">\n<texture type="checkerboard" name="alpha"/>{MARK}</bsdf>',
         '<texture type="checkerboard">', 'a texture for "alpha" is not supported'),
+    "checkerboard colour above 1": (
+        f'<bsdf type="diffuse"><texture type="checkerboard" name="reflectance">\n'
+        f'<rgb name="color0" value="1.5, 0.2, 0.2"/>{MARK}</texture></bsdf>',
+        '<texture type="checkerboard">', '"color0" must lie in [0, 1]'),
     "texture without a name": (
         f'<bsdf type="diffuse">\n<texture type="checkerboard"/>{MARK}</bsdf>',
         '<texture type="checkerboard">', "needs a name"),
@@ -342,6 +346,9 @@ def test_mitsuba_refuses_and_accepts_the_same_values(tmp_path):
         "bad version": f'<scene version="3.0">{integrator}{SENSOR}</scene>',
         "reflectance": f'<scene version="3.0.0">{integrator}{SENSOR}<bsdf type="diffuse">'
                        '<rgb name="reflectance" value="1.0001"/></bsdf></scene>',
+        "checkerboard colour": f'<scene version="3.0.0">{integrator}{SENSOR}<bsdf type="diffuse">'
+                               '<texture type="checkerboard" name="reflectance"><rgb name="color0" '
+                               'value="1.5, 0.2, 0.2"/></texture></bsdf></scene>',
         "seed": f'<scene version="3.0.0">{integrator}' + SENSOR.replace(
             "</sensor>", '<sampler type="independent"><integer name="seed" value="-1"/></sampler></sensor>')
         + "</scene>",
