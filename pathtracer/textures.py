@@ -160,7 +160,8 @@ class BitmapTexture(Texture):
     ----------
     data : (H, W, C) array_like
         Texel values, row 0 at ``v' = 0``; C = 1 or 2 (grey, grey + alpha)
-        or 3 or 4 (RGB, RGBA). Alpha is dropped and grey repeated to RGB.
+        or 3 or 4 (RGB, RGBA). Alpha is dropped and grey repeated to RGB;
+        values are kept in float32.
         Values are used as given: decode sRGB before (see
         :func:`pathtracer.bitmap.read_bitmap`).
     filter_type : {'bilinear', 'nearest'}
@@ -183,7 +184,9 @@ class BitmapTexture(Texture):
             raise ValueError(f"bitmap data must be (H, W, 1-4 channels), got shape {data.shape}")
         rgb = data[:, :, :1].repeat(3, axis=2) if data.shape[2] <= 2 else data[:, :, :3]
         self.height, self.width = rgb.shape[:2]
-        self.texels = np.ascontiguousarray(rgb.reshape(-1, 3))  # row-major: y * W + x
+        # Stored in float32, as Mitsuba stores them (and half the memory of float64);
+        # lookups compute in float64. Row-major: texel (x, y) is row y * W + x.
+        self.texels = np.ascontiguousarray(rgb.reshape(-1, 3), dtype=np.float32)
         self.filter_type = filter_type
         self.wrap_mode = wrap_mode
 
@@ -197,7 +200,8 @@ class BitmapTexture(Texture):
         x = uv[:, 0] * self.width
         y = uv[:, 1] * self.height
         if self.filter_type == "nearest":
-            return self._fetch(np.floor(x).astype(np.int64), np.floor(y).astype(np.int64))
+            texels = self._fetch(np.floor(x).astype(np.int64), np.floor(y).astype(np.int64))
+            return texels.astype(np.float64)
         x, y = x - 0.5, y - 0.5
         x0, y0 = np.floor(x), np.floor(y)
         fx, fy = (x - x0)[:, None], (y - y0)[:, None]
@@ -208,4 +212,4 @@ class BitmapTexture(Texture):
 
     def max_value(self) -> np.ndarray:
         """Channel-wise maximum texel (bilinear weights are convex, so it bounds every lookup)."""
-        return self.texels.max(axis=0)
+        return self.texels.max(axis=0).astype(np.float64)

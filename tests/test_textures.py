@@ -69,10 +69,10 @@ def test_grey_and_alpha_channels(tmp_path):
     assert grey.shape == (4, 3, 1)
     rgba = read_bitmap(_image(tmp_path, shape=(4, 3, 4), name="a.png"), raw=True)
     assert rgba.shape == (4, 3, 4)
-    # Grey is repeated to RGB, alpha is dropped.
+    # Grey is repeated to RGB, alpha is dropped; texels are held in float32.
     uv = np.array([[0.5 / 3, 0.5 / 4]])
-    np.testing.assert_array_equal(BitmapTexture(grey).eval(uv), np.repeat(grey[0, 0], 3)[None])
-    np.testing.assert_array_equal(BitmapTexture(rgba).eval(uv), rgba[0, 0, :3][None])
+    np.testing.assert_array_equal(BitmapTexture(grey).eval(uv), _f32(np.repeat(grey[0, 0], 3))[None])
+    np.testing.assert_array_equal(BitmapTexture(rgba).eval(uv), _f32(rgba[0, 0, :3])[None])
 
 
 def test_unknown_image_format(tmp_path):
@@ -92,7 +92,7 @@ def test_wrap_modes():
 
 
 def test_bilinear_hits_texels_at_their_centres_and_nearest_is_piecewise_constant():
-    data = np.random.default_rng(3).random((4, 6, 3))
+    data = _f32(np.random.default_rng(3).random((4, 6, 3)))
     y, x = np.mgrid[0:4, 0:6]
     centres = np.stack(((x.ravel() + 0.5) / 6, (y.ravel() + 0.5) / 4), axis=1)
     texels = data.reshape(-1, 3)
