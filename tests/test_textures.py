@@ -17,6 +17,7 @@ from pathtracer.bsdfs import Conductor, Dielectric, Diffuse, RoughConductor, Two
 from pathtracer.geometry import intersect, texture_uv
 from pathtracer.scene import transform
 from pathtracer.textures import BitmapTexture, Checkerboard, ConstantTexture, wrap_index
+from tests.test_serialized import shape_record, write_serialized
 
 FILM = ('<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>'
         '<rfilter type="box"/></film>')
@@ -197,6 +198,8 @@ SHAPES = {
     "ply u v": ('<shape type="ply"><string name="filename" value="uv.ply"/></shape>', ()),
     "ply s t flipped": ('<shape type="ply"><string name="filename" value="st.ply"/>'
                         '<boolean name="flip_tex_coords" value="true"/></shape>', ()),
+    "serialized": ('<shape type="serialized"><string name="filename" value="uv.serialized"/>'
+                   '</shape>', ()),
 }
 OBJ_VT = ("v -1 -1 0.1\nv 1 -1 -0.2\nv 1 1 0\nv -1 1 0.3\nv 0 0 0.8\n"
           "vt 0.1 0.2\nvt 0.9 0.3\nvt 0.8 0.7\nvt 0.2 0.95\nvt 0.5 0.5 0\n"
@@ -228,6 +231,9 @@ def test_uv_at_hits_matches_mitsuba(mi, tmp_path, shape):
                                         + "\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\n")
     (tmp_path / "uv.ply").write_text(_ply("u", "v"))
     (tmp_path / "st.ply").write_text(_ply("s", "t"))
+    write_serialized(tmp_path / "uv.serialized", [shape_record(
+        [[-1, -1, 0.1], [1, -1, -0.2], [1, 1, 0], [-1, 1, 0.3]], [[0, 1, 2], [0, 2, 3]],
+        uvs=[[0.1, 0.2], [0.9, 0.3], [0.8, 0.7], [0.2, 0.95]])])
     xml, periodic = SHAPES[shape]
     path = _scene_file(tmp_path, xml)
     o, d = _rays(400, seed=len(shape))

@@ -535,8 +535,9 @@ def _mesh_triangles(plugin, props, folders, m):
     """World-space triangles and shading normals of an obj/ply/serialized shape."""
     data = _load_mesh(plugin, props, folders)
     face_normals = props.bool("face_normals", False)
-    # Mitsuba flips v (v -> 1 - v) by default for OBJ files only.
-    flip_v = props.bool("flip_tex_coords", plugin.type == "obj")
+    # Mitsuba flips v (v -> 1 - v) by default for OBJ files only; its serialized
+    # shape has no flip_tex_coords parameter (never flips).
+    flip_v = plugin.type != "serialized" and props.bool("flip_tex_coords", plugin.type == "obj")
     pos = transform.apply_points(m, data.positions)
     p = pos[data.faces]
     if data.texcoords is None:

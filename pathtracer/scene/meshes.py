@@ -331,8 +331,8 @@ def read_serialized(path: str, shape_index: int = 0) -> MeshData:
 
     Each shape is a zlib stream holding: uint32 flags; in version 4 a
     NUL-terminated name; uint64 vertex and triangle counts; positions,
-    then (by flag) normals, texture coordinates and colours, in float32 or
-    float64; then the triangles' vertex indices, uint32 (uint64 when there
+    then (by flag) normals, texture coordinates and colours (read past), in
+    float32 or float64; then the triangles' vertex indices, uint32 (uint64 when there
     are more than 2^32 - 1 vertices). All little endian. The face-normal
     flag is ignored, as Mitsuba 3.9.1 ignores it (only the shape's
     ``face_normals`` property makes a mesh flat).
@@ -367,8 +367,10 @@ def read_serialized(path: str, shape_index: int = 0) -> MeshData:
     if flags & HAS_NORMALS:
         normals, offset = _take(stream, offset, real, 3 * n_vertices, name)
         normals = normals.reshape(-1, 3).astype(float)
+    texcoords = None
     if flags & HAS_TEXCOORDS:
-        _, offset = _take(stream, offset, real, 2 * n_vertices, name)
+        texcoords, offset = _take(stream, offset, real, 2 * n_vertices, name)
+        texcoords = texcoords.reshape(-1, 2).astype(float)
     if flags & HAS_COLORS:
         _, offset = _take(stream, offset, real, 3 * n_vertices, name)
     index = "<u8" if n_vertices > 0xFFFFFFFF else "<u4"
@@ -379,7 +381,7 @@ def read_serialized(path: str, shape_index: int = 0) -> MeshData:
     if faces.max() >= n_vertices:
         raise MeshFormatError(f"{name}: shape {shape_index}: face refers to a vertex that does "
                               "not exist")
-    return MeshData(positions.reshape(-1, 3).astype(float), normals, faces)
+    return MeshData(positions.reshape(-1, 3).astype(float), normals, faces, texcoords)
 
 
 def unit_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
