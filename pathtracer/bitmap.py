@@ -9,7 +9,9 @@
 * Radiance HDR (RGBE, ``.hdr``/``.rgbe``): linear, decoded here (Pillow
   cannot read it), ``mantissa * 2^(exponent - 136)`` as Mitsuba does.
 
-Alpha is dropped; a one-channel (grey) image stays one channel.
+Alpha is dropped; a one-channel (grey) image stays one channel. Mitsuba 3.9.1 holds 16-bit
+images as half floats (measured: its bitmap texture returns exactly the float16 rounding of
+the decoded values), so they are rounded to float16 here too.
 """
 from __future__ import annotations
 
@@ -140,7 +142,8 @@ def _read_pillow(path: Path, raw: bool) -> np.ndarray:
     except (UnidentifiedImageError, OSError) as error:
         raise BitmapError(f"{path.name}: not a readable image ({error})") from None
     value = pixels / full_scale
-    return value if raw else srgb_to_linear(value)
+    value = value if raw else srgb_to_linear(value)
+    return value.astype(np.float16).astype(np.float64) if full_scale > 255 else value
 
 
 def _pillow_pixels(image) -> tuple[np.ndarray, float]:

@@ -42,9 +42,9 @@ CASES = {
     "unknown shape property": (
         f'<shape type="cube">\n<float name="radius" value="2"/>{MARK}</shape>',
         '<shape type="cube">', 'unsupported property "radius"'),
-    "texture": (
+    "texture without filename": (
         f'<bsdf type="diffuse"><texture type="bitmap" name="reflectance"/>{MARK}</bsdf>',
-        '<texture type="bitmap">', "use an <rgb>"),
+        '<texture type="bitmap">', 'missing <string name="filename">'),
     "spectrum plugin": (
         f'<bsdf type="diffuse">\n<spectrum name="reflectance" type="blackbody"/>{MARK}</bsdf>',
         '<bsdf type="diffuse">', "spectrum plugins"),
@@ -70,6 +70,27 @@ CASES = {
         "already attached"),
     "missing search path": (
         f'<path value="no/such/folder"/>{MARK}', "<path>", "not found"),
+    "missing image": (
+        f'<bsdf type="diffuse"><texture type="bitmap" name="reflectance">\n'
+        f'<string name="filename" value="nothere.png"/>{MARK}</texture></bsdf>',
+        '<texture type="bitmap">', 'file not found: "nothere.png"'),
+    "unknown wrap mode": (
+        f'<bsdf type="diffuse"><texture type="bitmap" name="reflectance">\n'
+        f'<string name="wrap_mode" value="wrap"/>{MARK}</texture></bsdf>',
+        '<texture type="bitmap">', 'unknown wrap_mode "wrap" (supported: repeat, mirror, clamp)'),
+    "unknown texture": (
+        f'<bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"/>{MARK}</bsdf>',
+        '<texture type="mesh_attribute">', "unsupported texture (supported: bitmap, checkerboard)"),
+    "texture for a scalar parameter": (
+        f'<bsdf type="roughconductor">\n<texture type="checkerboard" name="alpha"/>{MARK}</bsdf>',
+        '<texture type="checkerboard">', 'a texture for "alpha" is not supported'),
+    "checkerboard colour above 1": (
+        f'<bsdf type="diffuse"><texture type="checkerboard" name="reflectance">\n'
+        f'<rgb name="color0" value="1.5, 0.2, 0.2"/>{MARK}</texture></bsdf>',
+        '<texture type="checkerboard">', '"color0" must lie in [0, 1]'),
+    "texture without a name": (
+        f'<bsdf type="diffuse">\n<texture type="checkerboard"/>{MARK}</bsdf>',
+        '<texture type="checkerboard">', "needs a name"),
     "malformed rgb": (
         f'<bsdf type="diffuse">\n<rgb name="reflectance" value="1,2,x"/>{MARK}</bsdf>',
         '<bsdf type="diffuse">', '"x"'),
@@ -322,6 +343,9 @@ def test_mitsuba_refuses_and_accepts_the_same_values(tmp_path, mi):
         "bad version": f'<scene version="3.0">{integrator}{SENSOR}</scene>',
         "reflectance": f'<scene version="3.0.0">{integrator}{SENSOR}<bsdf type="diffuse">'
                        '<rgb name="reflectance" value="1.0001"/></bsdf></scene>',
+        "checkerboard colour": f'<scene version="3.0.0">{integrator}{SENSOR}<bsdf type="diffuse">'
+                               '<texture type="checkerboard" name="reflectance"><rgb name="color0" '
+                               'value="1.5, 0.2, 0.2"/></texture></bsdf></scene>',
         "seed": f'<scene version="3.0.0">{integrator}' + SENSOR.replace(
             "</sensor>", '<sampler type="independent"><integer name="seed" value="-1"/></sampler></sensor>')
         + "</scene>",

@@ -25,15 +25,22 @@ import numpy as np
 from ..bsdfs import Dielectric
 from ..rng import RandomStream
 from ..shading import bsdf_index, dielectric_lobes, sample_bsdf
+from ..textures import Texture
 from .base import Integrator, spawn, subset_hit, trace
 
 
 def surface_colour(bsdf) -> np.ndarray:
-    """smallpt's ``obj.c``: the colour whose maximum drives the roulette."""
+    """smallpt's ``obj.c``: the colour whose maximum drives the roulette.
+
+    For a texture, its largest value: smallpt has one colour per object.
+    """
     bsdf = getattr(bsdf, "nested", bsdf)
     for name in ("reflectance", "specular_reflectance"):
         if hasattr(bsdf, name):
-            return np.asarray(getattr(bsdf, name), dtype=float)
+            value = getattr(bsdf, name)
+            if isinstance(value, Texture):
+                return value.max_value()
+            return np.asarray(value, dtype=float)
     return np.ones(3)
 
 

@@ -33,7 +33,11 @@ SUPPORTED = {
     "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
     "sensor": ("perspective",),
     "integrator": ("path", "direct", "recursive", "path_bsdf", "path_nee", "smallpt"),
+    "texture": ("bitmap", "checkerboard"),
 }
+# BSDF parameters that take a <texture> (and the checkerboard's colours).
+TEXTURED_PARAMS = ("reflectance", "specular_reflectance", "specular_transmittance",
+                   "color0", "color1")
 # Integrator parameters we validate; the project's own integrators take any.
 INTEGRATOR_PARAMS = {
     "path": {"max_depth", "rr_depth", "hide_emitters"},
@@ -90,8 +94,21 @@ class Props:
     def __init__(self, plugin: Plugin):
         self.plugin = plugin
         self.used: set[str] = set()
+        # Nested <texture> children by parameter name (read by reflectance_or_texture).
+        self.textures: dict[str, Plugin] = {}
+        for name, child in plugin.named_children():
+            if child.kind != "texture":
+                continue
+            if not name:
+                raise child.error(f"a <texture> inside {plugin.label} needs a name "
+                                  "(the parameter it gives, e.g. name=\"reflectance\")")
+            if name in plugin.props or name in self.textures:
+                raise child.error(f"parameter \"{name}\" given twice")
+            self.textures[name] = child
 
     def _get(self, name: str, tags: tuple, what: str):
+        if name in self.textures:
+            self._no_texture(name)
         prop = self.plugin.props.get(name)
         self.used.add(name)
         if prop is None:
@@ -137,6 +154,20 @@ class Props:
                                     self.line(name))
         return value
 
+    def reflectance_or_texture(self, name: str, default: float, folders: list[str],
+                               cache: dict):
+        """A :meth:`reflectance` that may also be a nested ``<texture>``.
+
+        Returns a (3,) array for an ``<rgb>``/``<float>`` value (or the
+        default), else the built :class:`~pathtracer.textures.Texture`
+        (whose values are not range-checked: Mitsuba only warns about them).
+        """
+        child = self.textures.get(name)
+        self.used.add(name)
+        if child is None:
+            return self.reflectance(name, default)
+        return build_texture(child, folders, cache)
+
     def float(self, name: str, default):
         v = self._get(name, FLOAT_TAGS, "a <float>")
         return default if v is None else float(v)
@@ -169,6 +200,8 @@ class Props:
 
     def raw(self, name: str):
         """The value whatever its type (for pass-through parameters)."""
+        if name in self.textures:
+            self._no_texture(name)
         self.used.add(name)
         p = self.plugin.props.get(name)
         return None if p is None else p.value
@@ -177,7 +210,15 @@ class Props:
         """Accept properties that do not change the rendered values."""
         self.used.update(names)
 
+    def _no_texture(self, name: str):
+        raise self.textures[name].error(
+            f"a texture for \"{name}\" is not supported (this tracer takes textures for: "
+            f"{', '.join(TEXTURED_PARAMS)})")
+
     def finish(self) -> None:
+        for name in self.textures:
+            if name not in self.used:
+                self._no_texture(name)
         for name, prop in self.plugin.props.items():
             if name not in self.used:
                 known = sorted(self.used)
@@ -213,6 +254,8 @@ def _unsupported(plugin: Plugin, what: str) -> Exception:
 # -- BSDFs -------------------------------------------------------------------
 
 def _ior(props: Props, name: str, default: str) -> float:
+    if name in props.textures:
+        props._no_texture(name)
     p = props.plugin.props.get(name)
     props.used.add(name)
     if p is None:
@@ -246,10 +289,21 @@ def _no_material(props: Props) -> None:
                                  "specular_reflectance)", props.line("material"))
 
 
-def build_bsdf(plugin: Plugin):
-    """Construct the :mod:`pathtracer.bsdfs` object for a ``<bsdf>`` element."""
+def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | None = None):
+    """Construct the :mod:`pathtracer.bsdfs` object for a ``<bsdf>`` element.
+
+    Parameters
+    ----------
+    plugin : Plugin
+    folders : list of str
+        Where texture files are looked up (:func:`search_folders`).
+    textures : dict, optional
+        Textures already built, by ``id`` of their plugin (textures shared by ``<ref>``
+        read the image once).
+    """
     from pathtracer import bsdfs  # imported lazily: written concurrently
 
+    textures = {} if textures is None else textures
     props = Props(plugin)
     kind = plugin.type
     if kind == "twosided":
@@ -258,17 +312,21 @@ def build_bsdf(plugin: Plugin):
             raise plugin.error("twosided needs exactly one nested <bsdf> "
                                "(different front/back materials are not supported)")
         props.finish()
-        return bsdfs.TwoSided(build_bsdf(nested[0]))
-    _children(plugin, {})
+        return bsdfs.TwoSided(build_bsdf(nested[0], folders, textures))
+    _children(plugin, {"texture": 10**9})
+
+    def colour(name, default):
+        return props.reflectance_or_texture(name, default, folders, textures)
+
     if kind == "diffuse":
-        result = bsdfs.Diffuse(props.reflectance("reflectance", 0.5))
+        result = bsdfs.Diffuse(colour("reflectance", 0.5))
     elif kind == "conductor":
         _no_material(props)
-        result = bsdfs.Conductor(props.reflectance("specular_reflectance", 1.0))
+        result = bsdfs.Conductor(colour("specular_reflectance", 1.0))
     elif kind == "dielectric":
         result = bsdfs.Dielectric(_ior(props, "int_ior", "bk7"), _ior(props, "ext_ior", "air"),
-                                  props.reflectance("specular_reflectance", 1.0),
-                                  props.reflectance("specular_transmittance", 1.0))
+                                  colour("specular_reflectance", 1.0),
+                                  colour("specular_transmittance", 1.0))
     elif kind == "roughconductor":
         _no_material(props)
         distribution = props.string("distribution", "beckmann").strip().lower()
@@ -286,9 +344,53 @@ def build_bsdf(plugin: Plugin):
         if props.has("alpha_u") != props.has("alpha_v"):
             raise plugin.error("give both alpha_u and alpha_v")
         result = bsdfs.RoughConductor(distribution, alpha_u, alpha_v,
-                                      props.reflectance("specular_reflectance", 1.0))
+                                      colour("specular_reflectance", 1.0))
     else:
         raise _unsupported(plugin, "BSDF")
+    props.finish()
+    return result
+
+
+# -- textures ----------------------------------------------------------------
+
+def build_texture(plugin: Plugin, folders: list[str], cache: dict):
+    """The :mod:`pathtracer.textures` object of a ``<texture>`` (built once per plugin)."""
+    key = id(plugin)
+    if key not in cache:
+        cache[key] = _build_texture(plugin, folders, cache)
+    return cache[key]
+
+
+def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
+    from pathtracer import textures
+    from pathtracer.bitmap import read_bitmap
+
+    props = Props(plugin)
+    _children(plugin, {"texture": 2})
+    to_uv = props.transform("to_uv")
+    if plugin.type == "checkerboard":
+        result = textures.Checkerboard(props.reflectance_or_texture("color0", 0.4, folders, cache),
+                                       props.reflectance_or_texture("color1", 0.2, folders, cache),
+                                       to_uv)
+    elif plugin.type == "bitmap":
+        filter_type = props.string("filter_type", "bilinear").strip().lower()
+        wrap_mode = props.string("wrap_mode", "repeat").strip().lower()
+        for name, value, allowed in (("filter_type", filter_type, textures.FILTER_TYPES),
+                                     ("wrap_mode", wrap_mode, textures.WRAP_MODES)):
+            if value not in allowed:
+                raise plugin.error(f"unknown {name} \"{value}\" (supported: "
+                                   f"{', '.join(allowed)})", props.line(name))
+        raw = props.bool("raw", False)
+        # accel only picks hardware texture units on GPUs; the values are the same.
+        props.ignore("accel")
+        path = find_file(plugin, props, "filename", folders)
+        try:
+            data = read_bitmap(path, raw=raw)
+        except ValueError as e:
+            raise plugin.error(f"{os.path.basename(path)}: {e}", props.line("filename")) from None
+        result = textures.BitmapTexture(data, filter_type, wrap_mode, to_uv)
+    else:
+        raise _unsupported(plugin, "texture")
     props.finish()
     return result
 
@@ -299,18 +401,20 @@ class _Geometry:
     """Accumulates primitives of all shapes before they become arrays."""
 
     def __init__(self):
-        self.tri_p, self.tri_n, self.tri_shape = [], [], []
+        self.tri_p, self.tri_n, self.tri_uv, self.tri_shape = [], [], [], []
         self.ntri = 0
         self.spheres, self.disks = [], []
         self.kind, self.prim, self.area, self.cdf, self.name = [], [], [], [], []
 
-    def add_mesh(self, shape_id: int, p: np.ndarray, n: np.ndarray) -> None:
+    def add_mesh(self, shape_id: int, p: np.ndarray, n: np.ndarray, uv: np.ndarray) -> None:
+        """Add a mesh shape: (k, 3, 3) vertices, normals and (k, 3, 2) texture coordinates."""
         areas = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
         total = areas.sum()
         cdf = np.cumsum(areas) / total if total > 0 else np.arange(1, len(p) + 1) / len(p)
         cdf[-1] = 1.0
         self.tri_p.append(p)
         self.tri_n.append(n)
+        self.tri_uv.append(uv)
         self.tri_shape.append(np.full(len(p), shape_id, dtype=np.int32))
         self.kind.append("mesh")
         self.prim.append((self.ntri, self.ntri + len(p)))
@@ -324,10 +428,11 @@ def _shape_label(plugin: Plugin) -> str:
     return f"{plugin.type}{ident} ({plugin.file}:{plugin.line})"
 
 
-def _flip(p: np.ndarray, n: np.ndarray):
+def _flip(p: np.ndarray, n: np.ndarray, uv: np.ndarray):
     """Reverse the winding (flips the geometric normal) and negate the
-    shading normals: Mitsuba's ``flip_normals`` on meshes."""
-    return p[:, ::-1].copy(), -n[:, ::-1]
+    shading normals: Mitsuba's ``flip_normals`` on meshes. The texture
+    coordinates follow their vertices."""
+    return p[:, ::-1].copy(), -n[:, ::-1], uv[:, ::-1].copy()
 
 
 def _normals(props: "Props", m: np.ndarray, n: np.ndarray) -> np.ndarray:
@@ -343,24 +448,35 @@ def _normals(props: "Props", m: np.ndarray, n: np.ndarray) -> np.ndarray:
 def _planar_mesh(corners_local, normal_local, m, flip, props):
     """Triangles of a flat shape whose normal is the transformed local normal
     (Mitsuba's rectangle: normal by the inverse transpose, even when ``m``
-    mirrors; the winding follows the true geometric normal)."""
+    mirrors; the winding follows the true geometric normal). Texture
+    coordinates: Mitsuba's rectangle maps local (x, y) in [-1, 1]^2 to
+    ((x + 1) / 2, (y + 1) / 2)."""
     p = transform.apply_points(m, corners_local.reshape(-1, 3)).reshape(-1, 3, 3)
+    uv = 0.5 * (corners_local[:, :, :2] + 1.0)
     n = _normals(props, m, normal_local[None])[0]
     geo = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     if np.dot(geo[0], n) < 0:
-        p = p[:, ::-1].copy()
+        p, uv = p[:, ::-1].copy(), uv[:, ::-1].copy()
     nn = np.broadcast_to(n, p.shape).copy()
-    return _flip(p, nn) if flip else (p, nn)
+    return _flip(p, nn, uv) if flip else (p, nn, uv)
 
 
 _RECT_LOCAL = np.array([[[-1, -1, 0], [1, -1, 0], [1, 1, 0]],
                         [[-1, -1, 0], [1, 1, 0], [-1, 1, 0]]], dtype=float)
 
 
+# Texture coordinates of Mitsuba's cube, per face (axis, sign): u and v as
+# 0.5 + 0.5 * (sign_u * x[axis_u]), 0.5 + 0.5 * (sign_v * x[axis_v]) of the local
+# corner x (measured with Mitsuba 3.9.1: SurfaceInteraction3f.uv of cube hits).
+_CUBE_UV = {(0, 1.0): ((1, 1.0), (2, -1.0)), (0, -1.0): ((1, 1.0), (2, 1.0)),
+            (1, 1.0): ((0, -1.0), (2, -1.0)), (1, -1.0): ((2, 1.0), (0, 1.0)),
+            (2, 1.0): ((1, 1.0), (0, 1.0)), (2, -1.0): ((1, -1.0), (0, 1.0))}
+
+
 def _cube_local():
-    """12 triangles of [-1, 1]^3, counter-clockwise seen from outside, and
-    the outward face normal of each corner."""
-    tris, normals = [], []
+    """12 triangles of [-1, 1]^3, counter-clockwise seen from outside, the
+    outward face normal of each corner and Mitsuba's texture coordinates."""
+    tris, normals, uvs = [], [], []
     for axis in range(3):
         for sign in (1.0, -1.0):
             n = np.zeros(3)
@@ -371,7 +487,10 @@ def _cube_local():
             quad = [n - u - v, n + u - v, n + u + v, n - u + v]
             tris += [[quad[0], quad[1], quad[2]], [quad[0], quad[2], quad[3]]]
             normals += [[n, n, n]] * 2
-    return np.array(tris), np.array(normals)
+            (au, su), (av, sv) = _CUBE_UV[(axis, sign)]
+            uv = [[0.5 + 0.5 * su * c[au], 0.5 + 0.5 * sv * c[av]] for c in quad]
+            uvs += [[uv[0], uv[1], uv[2]], [uv[0], uv[2], uv[3]]]
+    return np.array(tris), np.array(normals), np.array(uvs)
 
 
 def search_folders(root: Plugin, base_dir: str) -> list[str]:
@@ -416,9 +535,18 @@ def _mesh_triangles(plugin, props, folders, m):
     """World-space triangles and shading normals of an obj/ply/serialized shape."""
     data = _load_mesh(plugin, props, folders)
     face_normals = props.bool("face_normals", False)
-    props.ignore("flip_tex_coords")  # no textures: uv orientation is irrelevant
+    # Mitsuba flips v (v -> 1 - v) by default for OBJ files only; its serialized
+    # shape has no flip_tex_coords parameter (never flips).
+    flip_v = plugin.type != "serialized" and props.bool("flip_tex_coords", plugin.type == "obj")
     pos = transform.apply_points(m, data.positions)
     p = pos[data.faces]
+    if data.texcoords is None:
+        # Without stored coordinates Mitsuba's uv is the barycentrics (b1, b2).
+        uv = np.broadcast_to(_BARYCENTRIC_UV, (len(p), 3, 2)).copy()
+    else:
+        uv = data.texcoords[data.faces]
+        if flip_v:
+            uv[:, :, 1] = 1.0 - uv[:, :, 1]
     if face_normals:
         geo = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
         n = np.repeat(meshes._unit(geo)[:, None], 3, axis=1)
@@ -427,7 +555,10 @@ def _mesh_triangles(plugin, props, folders, m):
     else:
         # Mitsuba recomputes after applying to_world, so angles are world angles.
         n = meshes.smooth_vertex_normals(pos, data.faces)[data.faces]
-    return p, n
+    return p, n, uv
+
+
+_BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
 
 
 def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str]):
@@ -442,10 +573,10 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
     kind = plugin.type
     if kind in ("rectangle", "cube", "obj", "ply", "serialized"):
         if kind == "rectangle":
-            p, n = _planar_mesh(_RECT_LOCAL, np.array([0.0, 0.0, 1.0]), m, flip, props)
+            p, n, uv = _planar_mesh(_RECT_LOCAL, np.array([0.0, 0.0, 1.0]), m, flip, props)
         else:
             if kind == "cube":
-                local_p, local_n = _cube_local()
+                local_p, local_n, uv = _cube_local()
                 p = transform.apply_points(m, local_p.reshape(-1, 3)).reshape(-1, 3, 3)
                 if props.bool("face_normals", False):
                     geo_n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
@@ -453,10 +584,10 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
                 else:
                     n = _normals(props, m, local_n.reshape(-1, 3)).reshape(-1, 3, 3)
             else:
-                p, n = _mesh_triangles(plugin, props, folders, m)
+                p, n, uv = _mesh_triangles(plugin, props, folders, m)
             if flip:
-                p, n = _flip(p, n)
-        geo.add_mesh(shape_id, p, n)
+                p, n, uv = _flip(p, n, uv)
+        geo.add_mesh(shape_id, p, n, uv)
     elif kind == "sphere":
         center = props.point("center", np.zeros(3))
         radius = props.float("radius", 1.0)
@@ -468,7 +599,10 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
                                "uniformly (non-uniform scale or shear would make an ellipsoid)")
         if np.linalg.det(lin) < 0:
             flip = not flip  # Mitsuba: a mirroring transform turns the sphere inside out
-        geo.spheres.append((full[:3, 3].copy(), float(np.sqrt(s2)), flip, shape_id))
+        # Object frame for texture coordinates: the inverse of the rotation (a
+        # mirror included) left after dividing out the radius.
+        to_local = (lin / np.sqrt(s2)).T
+        geo.spheres.append((full[:3, 3].copy(), float(np.sqrt(s2)), flip, shape_id, to_local))
         geo.kind.append("sphere")
         geo.prim.append((len(geo.spheres) - 1, len(geo.spheres)))
         geo.area.append(4.0 * np.pi * s2)
@@ -784,7 +918,7 @@ def _bbox(geo: _Geometry, tri_p: np.ndarray) -> np.ndarray:
     if len(tri_p):
         lo.append(tri_p.reshape(-1, 3).min(0))
         hi.append(tri_p.reshape(-1, 3).max(0))
-    for c, r, _, _ in geo.spheres:
+    for c, r, *_ in geo.spheres:
         lo.append(c - r)
         hi.append(c + r)
     for m, _, _ in geo.disks:
@@ -834,9 +968,9 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
         directory (:func:`search_folders`).
     """
     kids = _children(root, {"shape": 10**9, "bsdf": 10**9, "emitter": 10**9,
-                            "sensor": 1, "integrator": 1})
+                            "sensor": 1, "integrator": 1, "texture": 10**9})
     geo = _Geometry()
-    bsdf_objects, bsdf_index = [], {}
+    bsdf_objects, bsdf_index, textures = [], {}, {}
     emitters, environment = [], None
     shape_bsdf, shape_emitter = [], []
     folders = search_folders(root, base_dir)
@@ -849,11 +983,13 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
                 from pathtracer import bsdfs
                 bsdf_objects.append(bsdfs.Diffuse(np.full(3, 0.5)))
             else:
-                bsdf_objects.append(build_bsdf(plugin))
+                bsdf_objects.append(build_bsdf(plugin, folders, textures))
             bsdf_index[key] = len(bsdf_objects) - 1
         return bsdf_index[key]
 
-    # Top-level BSDFs are built even when unused so that their errors surface.
+    # Top-level BSDFs and textures are built even when unused so that their errors surface.
+    for plugin in kids["texture"]:
+        build_texture(plugin, folders, textures)
     for plugin in kids["bsdf"]:
         bsdf_id(plugin)
     for shape_id, plugin in enumerate(kids["shape"]):
@@ -885,15 +1021,17 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
 
     tri_p = np.concatenate(geo.tri_p) if geo.tri_p else np.zeros((0, 3, 3))
     tri_n = np.concatenate(geo.tri_n) if geo.tri_n else np.zeros((0, 3, 3))
+    tri_uv = np.concatenate(geo.tri_uv) if geo.tri_uv else np.zeros((0, 3, 2))
     tri_shape = np.concatenate(geo.tri_shape) if geo.tri_shape else np.zeros(0, np.int32)
     sph = geo.spheres
     dsk = geo.disks
     return Scene(
-        tri_p=tri_p, tri_n=tri_n, tri_shape=tri_shape,
+        tri_p=tri_p, tri_n=tri_n, tri_shape=tri_shape, tri_uv=tri_uv,
         sphere_center=np.array([s[0] for s in sph]).reshape(-1, 3),
         sphere_radius=np.array([s[1] for s in sph], dtype=float),
         sphere_flip=np.array([s[2] for s in sph], dtype=bool),
         sphere_shape=np.array([s[3] for s in sph], dtype=np.int32),
+        sphere_to_local=np.array([s[4] for s in sph]).reshape(-1, 3, 3),
         disk_to_world=np.array([d[0] for d in dsk]).reshape(-1, 4, 4),
         disk_to_local=np.array([np.linalg.inv(d[0]) for d in dsk]).reshape(-1, 4, 4),
         disk_flip=np.array([d[1] for d in dsk], dtype=bool),

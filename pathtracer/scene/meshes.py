@@ -30,11 +30,15 @@ class MeshData:
         Per-vertex normals stored in the file, if any.
     faces : (F, 3) int64
         Vertex indices of each triangle, in file order.
+    texcoords : (V, 2) float64 or None
+        Per-vertex texture coordinates stored in the file, if any, as stored
+        (the loader applies ``flip_tex_coords``).
     """
 
     positions: np.ndarray
     normals: np.ndarray | None
     faces: np.ndarray
+    texcoords: np.ndarray | None = None
 
 
 def read_obj(path: str) -> MeshData:
@@ -45,15 +49,20 @@ def read_obj(path: str) -> MeshData:
     vertices, which matters for recomputed normals), and an index a corner
     leaves out is *inherited from the previous corner of the same face*
     (``f 1/1 2 3`` gives keys 1/1, 2/1, 3/1). Polygons are fan-triangulated
-    ``(v0, v[i-1], v[i])``. Only ``v``, ``vn`` and ``f`` lines matter.
+    ``(v0, v[i-1], v[i])``. Only ``v``, ``vt``, ``vn`` and ``f`` lines matter
+    (``vt``: the first two numbers, u and v).
+
+    Face corners without a ``vt`` index get NaN texture coordinates when
+    others have one (Mitsuba 3.9.1 reports NaN uv there).
 
     Raises
     ------
     MeshFormatError
-        On a malformed line, a NaN or infinite coordinate, an invalid or negative index, or normals given
-        for only some face corners (Mitsuba leaves the others undefined).
+        On a malformed line, a NaN or infinite coordinate, an invalid or
+        negative index, or normals given for only some face corners (Mitsuba
+        leaves the others undefined).
     """
-    positions, normals = [], []
+    positions, normals, texcoords = [], [], []
     vertex_of_key: dict[tuple, int] = {}
     keys: list[tuple] = []
     triangles: list[tuple] = []
@@ -73,6 +82,14 @@ def read_obj(path: str) -> MeshData:
                                               f"{'vertex' if head == 'v' else 'normal'} "
                                               f"\"{line.strip()}\" is not finite")
                     (positions if head == "v" else normals).append(values)
+                elif head == "vt":
+                    values = [float(t) for t in tokens[1:3]]
+                    if len(values) != 2:
+                        raise ValueError
+                    if not all(math.isfinite(v) for v in values):
+                        raise MeshFormatError(f"{os.path.basename(path)}:{lineno}: texture "
+                                              f"coordinate \"{line.strip()}\" is not finite")
+                    texcoords.append(values)
                 elif head == "f":
                     corners = []
                     key = [0, 0, 0]
@@ -90,6 +107,9 @@ def read_obj(path: str) -> MeshData:
                         if not 1 <= key[0] <= len(positions):
                             raise MeshFormatError(
                                 f"{os.path.basename(path)}:{lineno}: reference to invalid vertex {key[0]}")
+                        if key[1] > len(texcoords):
+                            raise MeshFormatError(
+                                f"{os.path.basename(path)}:{lineno}: reference to invalid texture coordinate {key[1]}")
                         if key[2] > len(normals):
                             raise MeshFormatError(
                                 f"{os.path.basename(path)}:{lineno}: reference to invalid normal {key[2]}")
@@ -115,7 +135,12 @@ def read_obj(path: str) -> MeshData:
             raise MeshFormatError(f"{os.path.basename(path)}: the file has vn normals but some "
                                   "face corners use none (Mitsuba leaves those undefined)")
         nrm = np.array(normals, dtype=float)[key_arr[:, 2] - 1]
-    return MeshData(pos, nrm, np.array(triangles, dtype=np.int64))
+    uv = None
+    if texcoords and np.any(key_arr[:, 1] != 0):
+        # Corners without a vt get NaN, as in Mitsuba (textures there are black).
+        table = np.vstack((np.full((1, 2), np.nan), np.array(texcoords, dtype=float)))
+        uv = table[key_arr[:, 1]]
+    return MeshData(pos, nrm, np.array(triangles, dtype=np.int64), uv)
 
 
 _PLY_TYPES = {
@@ -179,8 +204,10 @@ def read_ply(path: str) -> MeshData:
     """Read an ASCII or binary (little/big endian) PLY triangle mesh.
 
     Vertex properties ``x, y, z`` are required, ``nx, ny, nz`` are used when
-    all present. Faces come from ``vertex_indices`` or ``vertex_index`` and
-    must be triangles, as Mitsuba requires. NaN or infinite coordinates are refused.
+    all present, and so are texture coordinates named ``u, v``, ``s, t`` or
+    ``texture_u, texture_v`` (Mitsuba's names). Faces come from
+    ``vertex_indices`` or ``vertex_index`` and must be triangles, as Mitsuba
+    requires. NaN or infinite coordinates are refused.
     """
     name = os.path.basename(path)
     with open(path, "rb") as f:
@@ -220,6 +247,10 @@ def read_ply(path: str) -> MeshData:
     return _ply_mesh(data, elements, name)
 
 
+#: Vertex properties Mitsuba's PLY reader takes as texture coordinates, in its order.
+PLY_TEXCOORD_NAMES = (("u", "v"), ("s", "t"), ("texture_u", "texture_v"))
+
+
 def _ply_mesh(data: dict, elements, name: str) -> MeshData:
     props = {el_name: [p for p, _, _ in el_props] for el_name, _, el_props in elements}
     if "vertex" not in data or not {"x", "y", "z"} <= set(props["vertex"]):
@@ -237,6 +268,11 @@ def _ply_mesh(data: dict, elements, name: str) -> MeshData:
         if len(bad):
             raise MeshFormatError(f"{name}: {len(bad)} {what} value(s) are not finite "
                                   f"(the first is vertex {bad[0]}: {values[bad[0]].tolist()})")
+    texcoords = None
+    for u_name, v_name in PLY_TEXCOORD_NAMES:
+        if {u_name, v_name} <= set(props["vertex"]):
+            texcoords = np.stack([v[u_name], v[v_name]], axis=1).astype(float)
+            break
     face_field = next((k for k in ("vertex_indices", "vertex_index")
                        if k in props.get("face", [])), None)
     if face_field is None:
@@ -248,7 +284,7 @@ def _ply_mesh(data: dict, elements, name: str) -> MeshData:
     idx = faces[face_field].astype(np.int64)
     if idx.size and (idx.min() < 0 or idx.max() >= len(positions)):
         raise MeshFormatError(f"{name}: face refers to a vertex that does not exist")
-    return MeshData(positions, normals, idx.reshape(-1, 3))
+    return MeshData(positions, normals, idx.reshape(-1, 3), texcoords)
 
 
 #: Magic number and versions of Mitsuba's serialized format.
@@ -295,8 +331,8 @@ def read_serialized(path: str, shape_index: int = 0) -> MeshData:
 
     Each shape is a zlib stream holding: uint32 flags; in version 4 a
     NUL-terminated name; uint64 vertex and triangle counts; positions,
-    then (by flag) normals, texture coordinates and colours, in float32 or
-    float64; then the triangles' vertex indices, uint32 (uint64 when there
+    then (by flag) normals, texture coordinates and colours (read past), in
+    float32 or float64; then the triangles' vertex indices, uint32 (uint64 when there
     are more than 2^32 - 1 vertices). All little endian. The face-normal
     flag is ignored, as Mitsuba 3.9.1 ignores it (only the shape's
     ``face_normals`` property makes a mesh flat).
@@ -331,8 +367,10 @@ def read_serialized(path: str, shape_index: int = 0) -> MeshData:
     if flags & HAS_NORMALS:
         normals, offset = _take(stream, offset, real, 3 * n_vertices, name)
         normals = normals.reshape(-1, 3).astype(float)
+    texcoords = None
     if flags & HAS_TEXCOORDS:
-        _, offset = _take(stream, offset, real, 2 * n_vertices, name)
+        texcoords, offset = _take(stream, offset, real, 2 * n_vertices, name)
+        texcoords = texcoords.reshape(-1, 2).astype(float)
     if flags & HAS_COLORS:
         _, offset = _take(stream, offset, real, 3 * n_vertices, name)
     index = "<u8" if n_vertices > 0xFFFFFFFF else "<u4"
@@ -343,7 +381,7 @@ def read_serialized(path: str, shape_index: int = 0) -> MeshData:
     if faces.max() >= n_vertices:
         raise MeshFormatError(f"{name}: shape {shape_index}: face refers to a vertex that does "
                               "not exist")
-    return MeshData(positions.reshape(-1, 3).astype(float), normals, faces)
+    return MeshData(positions.reshape(-1, 3).astype(float), normals, faces, texcoords)
 
 
 def unit_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:

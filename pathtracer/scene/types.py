@@ -146,11 +146,19 @@ class Scene:
         Unit shading normals at the three vertices, world space.
     tri_shape : (T,) int32
         Shape id of each triangle.
+    tri_uv : (T, 3, 2) float64 or None
+        Texture coordinates at the three vertices (Mitsuba's per shape: the
+        file's for meshes, else (0, 0), (1, 0), (0, 1) so that the
+        interpolated uv is the barycentrics). None: not known (a scene built
+        by hand), textures then see the barycentrics.
     sphere_center : (S, 3) float64
     sphere_radius : (S,) float64
     sphere_flip : (S,) bool
         ``flip_normals``: the normal points inwards.
     sphere_shape : (S,) int32
+    sphere_to_local : (S, 3, 3) float64 or None
+        Rotation from world axes to each sphere's object frame (for its
+        texture coordinates); None: the world axes.
     disk_to_world : (D, 4, 4) float64
     disk_to_local : (D, 4, 4) float64
     disk_flip : (D,) bool
@@ -217,6 +225,8 @@ class Scene:
     seed: int = 0
     integrator: IntegratorSpec = field(default_factory=IntegratorSpec)
     source: str = "<memory>"
+    tri_uv: np.ndarray | None = None
+    sphere_to_local: np.ndarray | None = None
     bbox: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))
     # Built lazily by pathtracer.geometry (BVH over tri_p).
     _accel: Any = None

@@ -26,10 +26,9 @@ from .errors import SceneError
 
 # Elements that instantiate a plugin (they carry a ``type`` attribute).
 PLUGIN_TAGS = {"shape", "bsdf", "emitter", "sensor", "film", "sampler",
-               "rfilter", "integrator"}
+               "rfilter", "integrator", "texture"}
 # Valid Mitsuba elements this tracer refuses, with the reason shown to the user.
 REFUSED_TAGS = {
-    "texture": "textures are not supported by this tracer; use an <rgb> value instead",
     "medium": "participating media are not supported",
     "phase": "participating media are not supported",
     "volume": "participating media are not supported",
@@ -98,6 +97,9 @@ class Plugin:
     children : list of Plugin
         Nested plugins in document order; ``<ref>`` are already resolved, so
         one referenced Plugin can appear as the child of several others.
+    ref_names : dict of int to str
+        For children that came from ``<ref id=".." name="..">``: child
+        position -> the ``name`` the reference gave (a texture's parameter).
     file, line : where the element starts.
     """
 
@@ -112,6 +114,11 @@ class Plugin:
     #: On the ``<scene>`` node only: the folders of the top-level file's
     #: ``<path>`` elements, the last one first (where Mitsuba looks first).
     search_paths: list[str] = field(default_factory=list)
+    ref_names: dict[int, str] = field(default_factory=dict)
+
+    def named_children(self) -> list[tuple[str | None, "Plugin"]]:
+        """(name, child) pairs: the reference's ``name`` for referenced children, else the child's own."""
+        return [(self.ref_names.get(i, child.name), child) for i, child in enumerate(self.children)]
 
     @property
     def label(self) -> str:
@@ -488,6 +495,8 @@ class _Reader:
                     raise plugin.error(f"<ref id=\"{child.id}\">: no element with this id "
                                        f"(ids defined: {known})", child.line)
                 plugin.children[i] = target
+                if child.name is not None:
+                    plugin.ref_names[i] = child.name
             elif id(child) not in active:
                 self.resolve(child, active)
 
