@@ -14,7 +14,7 @@ import sys
 import warnings
 
 from . import config
-from .compare import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
+from .config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 
 
 def _positive_ints(text: str) -> tuple[int, ...]:
@@ -66,11 +66,11 @@ def run_compare(args) -> int:
     """Handler of ``compare``; input errors propagate to :func:`mitsuba_refs.cli.main`
     (one line, exit status 2)."""
     from .cli import parse_defines
-    from .compare import compare
 
     params = parse_defines(args.defines)
     check_options(args)
     preload(args.scene, params)
+    from .compare import compare
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
     result = compare(args.scene, args.integrator, params, spp=args.spp, alpha=args.alpha,
                      convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
@@ -103,9 +103,9 @@ def preload(scene, params) -> None:
     Warnings of the loader (e.g. a parameter the file does not use) are printed as one
     line each once the input is known to be good.
     """
-    from .compare import default_params, loaded_scene
     from .preflight import check_image_size, check_scene, scene_path
     scene_path(scene)
+    from .compare import default_params, loaded_scene  # imports the statistics (scipy)
     params = {**default_params(scene), **params}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
