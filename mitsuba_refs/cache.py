@@ -40,17 +40,13 @@ from pathlib import Path
 import numpy as np
 
 from . import config
-from .errors import (CacheNotWritable, RefsInputError, is_mitsuba_error,
-                     mitsuba_error_line)
+from .errors import (CacheNotWritable, ReferenceUnavailable, RefsInputError,
+                     is_mitsuba_error, mitsuba_error_line)
 from .exr import pixel_checksum, read_reference_exr, write_reference_exr
 from .render import (MEAN_ONLY, Reference, integrator_dict, resolve_scene,
                      split_params)
 
 FORMAT_VERSION = 1
-
-
-class ReferenceUnavailable(RuntimeError):
-    """No valid cached reference and Mitsuba cannot render one."""
 
 
 def cache_dir():

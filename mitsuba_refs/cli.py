@@ -64,7 +64,8 @@ def _add_build(subparsers):
     p = subparsers.add_parser(
         "build", help="render missing/stale references",
         description="Render the Mitsuba references that are missing, stale "
-                    "or corrupt (all of them with --force).")
+                    "or corrupt (all of them with --force). Exit code: 0 done, "
+                    "2 bad input (one line on stderr), 130 interrupted.")
     p.add_argument("scenes", nargs="*", metavar="SCENES",
                    help="built-in scene names or XML files (default: all built-in)")
     from .render import INTEGRATOR_MAP

@@ -37,7 +37,8 @@ def add_compare(subparsers):
                     "the cached reference), and decide with calibrated tests whether they agree in "
                     "mean and variance and whether the error obeys the N^-1/2 law. On disagreement, "
                     "the first diverging bounce and the likely cause are printed and diagnostic "
-                    "pictures are written. Exit code: 0 agree, 1 disagree, 2 bad input.")
+                    "pictures are written. Exit code: 0 agree, 1 disagree, 2 bad input (one line "
+                    "on stderr), 130 interrupted.")
     p.add_argument("scene", help="built-in scene name or Mitsuba 3 XML file")
     p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
                    help="scene parameter for both renderers (repeatable); built-in scenes default "

@@ -13,8 +13,13 @@ class RefsInputError(ValueError):
     user has to change. The message is one line and names the file."""
 
 
-class CacheNotWritable(RefsInputError):
-    """A reference has to be (re)rendered but its cache folder cannot be written."""
+class ReferenceUnavailable(RuntimeError):
+    """No valid cached reference and Mitsuba cannot render one."""
+
+
+class CacheNotWritable(RefsInputError, ReferenceUnavailable):
+    """A reference has to be (re)rendered but its cache folder cannot be written
+    (so it is unavailable too: callers that catch :class:`ReferenceUnavailable` see it)."""
 
 
 #: Mitsuba prefixes its messages with the C++ source location, e.g. ``[parser.cpp:1718]``.
