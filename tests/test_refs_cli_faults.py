@@ -133,6 +133,8 @@ IN_PROCESS_CASES = {
                                      ["unknownplugin.xml:58:", "nosuchbsdf"], True),
     "build-huge-radiance": (["build", "huge.xml", *TINY_BUILD], 2,
                             ["huge.xml", "overflows", "scale the emitters"], True),
+    "build-unknown-variant": (["build", "quad-light", "--variant", "nosuch_rgb"], 2,
+                              ["'nosuch_rgb'", "not available"], True),
 }
 #: concurrent builders of one reference (needs Mitsuba)
 BUILDERS = 3
