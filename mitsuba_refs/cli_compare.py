@@ -84,7 +84,7 @@ def run_compare(args) -> int:
 def check_options(args) -> None:
     """Refuse out-of-range options in one line saying what to change."""
     from .errors import RefsInputError
-    from .preflight import check_ladder, check_spp
+    from .preflight import check_ladder, check_output_folder, check_spp
     check_spp(args.spp)
     if not 0 < args.alpha < 1:
         raise RefsInputError(f"--alpha must be between 0 and 1 (e.g. 1e-3), got {args.alpha}")
@@ -94,6 +94,7 @@ def check_options(args) -> None:
         raise RefsInputError(f"--replicas must be >= 1, got {args.replicas}")
     if args.processes is not None and args.processes < 1:
         raise RefsInputError(f"--processes must be >= 1, got {args.processes}")
+    check_output_folder(args.out)
 
 
 def preload(scene, params) -> None:

@@ -7,6 +7,7 @@ refused at once, in one line that says what to change
 """
 
 import math
+import os
 from pathlib import Path
 
 from . import config
@@ -89,3 +90,19 @@ def check_image_size(width, height, scene):
             f"{scene}: the image is {width}x{height} pixels, {tiles} tile(s) of {TILE}x{TILE}; "
             f"the tests need at least {MIN_TILES} tiles: render at least 32x16 pixels "
             f"(e.g. -D width=32 -D height=32, if the file declares them)")
+
+
+def check_output_folder(folder, option="--out"):
+    """Refuse an output folder that could not be created or written, before any work:
+    an existing file, a path under a file, or a folder without write permission."""
+    path = Path(folder)
+    if path.exists() and not path.is_dir():
+        raise RefsInputError(f"{option} {folder}: is a file, not a folder")
+    existing = path
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise RefsInputError(f"{option} {folder}: {existing} is a file, so the folder "
+                             f"cannot be created")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise RefsInputError(f"{option} {folder}: {existing} is not writable")

@@ -279,6 +279,8 @@ def test_concurrent_builders_leave_one_valid_reference_and_no_temporary_files(ru
     (["compare", "quad-light", "-D", "=3"], "-D expects name=value"),
     (["compare", "quad-light", "--bounces", "sometimes"], "argument --bounces"),
     (["compare", "pathtracer"], "is a folder"),
+    (["compare", "quad-light", "--out", "README.md"], "--out README.md: is a file"),
+    (["compare", "quad-light", "--out", "README.md/pictures"], "README.md is a file"),
     (["build", "quad-light", "--seed", "-1"], "--seed must be >= 0"),
     (["build", "quad-light", "-D", "oops"], "-D expects name=value"),
     (["compare"], "required: scene"),
@@ -473,3 +475,20 @@ def test_ctrl_c_gives_one_line_and_exit_130(tmp_path):
     assert proc.returncode in (130, -signal.SIGINT), stderr
     assert "Traceback" not in stderr and stderr.strip() == "mitsuba-refs: interrupted"
     assert leftovers(out) == []
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["compare", "ok.xml", *SMALL, "--no-convergence"], "Mitsuba 3 is not installed"),
+    (["build", "ok.xml", *SMALL], "which is not installed: pip install mitsuba"),
+])
+def test_without_mitsuba_a_missing_reference_is_one_line(args, needle, scenes, tmp_path, capfd,
+                                                         monkeypatch):
+    """A reference nobody committed, on a machine without Mitsuba (simulated here)."""
+    monkeypatch.setattr(cache, "mitsuba_available", lambda: False)
+    monkeypatch.setenv("MITSUBA_REFS_CACHE", str(tmp_path / "cache"))
+    monkeypatch.chdir(scenes)
+    out = ["--out", str(tmp_path / "out")] if args[0] == "compare" else []
+    assert exit_status(args + out) == 2
+    err = capfd.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and needle in err, err
+    assert leftovers(tmp_path / "cache") == [] and leftovers(tmp_path / "out") == []
