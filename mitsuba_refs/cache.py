@@ -25,6 +25,11 @@ channels, shape equal to the recorded film size, all values finite,
 variances >= 0, and the pixel checksum equal to the recorded one (else
 *corrupt*). Invalid references are rebuilt when Mitsuba is available and
 never returned.
+
+Writes are atomic and locked (:func:`store`, :func:`cache_lock`): concurrent
+builders and readers of one reference see a whole pair of files or none.
+Before a render the folder is checked to be writable (:func:`check_writable`),
+and a render with non-finite values is refused (:func:`check_finite`).
 """
 
 import contextlib
@@ -394,6 +399,13 @@ def get_reference(scene, params, integrator, spp=config.REF_SPP,
     ReferenceUnavailable
         No valid cached reference and Mitsuba is unavailable (or
         ``render=False``); the message says what was wrong with the cache.
+    CacheNotWritable
+        A render is needed but the cache folder cannot be written; raised
+        before rendering (it is a ``ReferenceUnavailable`` too).
+    RefsInputError
+        The scene file or ``params`` are wrong, Mitsuba refuses the file
+        (its message in one line), or the render is not finite
+        (:func:`check_finite`); nothing is stored.
     """
     params = {str(k): str(v) for k, v in (params or {}).items()}
     status, detail = "forced", "--force"
