@@ -7,7 +7,8 @@ nothing was left in the reference cache or the ``--out`` folder. The cases in
 subprocesses started together by one module fixture; those in :data:`IN_PROCESS_CASES` call
 :func:`mitsuba_refs.cli.main` (what the entry point runs) in this process, to share the
 interpreter's start-up and imports. Cases marked ``mitsuba`` need a live Mitsuba 3 (it has
-to load or render the file); the others pass without it.
+to load or render the file; tests/conftest.py skips them without it); the others pass
+without it.
 """
 import importlib.util
 import json
@@ -31,7 +32,6 @@ from mitsuba_refs.cli import main
 from mitsuba_refs.errors import RefsInputError, mitsuba_error_line
 from mitsuba_refs.render import Reference
 
-from tests.live_mitsuba import import_mitsuba_or_skip
 
 REPO = Path(__file__).resolve().parent.parent
 QUAD_LIGHT = REPO / "pathtracer" / "scenes" / "quad-light.xml"
@@ -66,6 +66,10 @@ def write_scenes(folder: Path) -> None:
         "gauss.xml": text.replace('<rfilter type="box"/>', '<rfilter type="gaussian"/>'),
         "film.xml": f'<scene version="3.0.0">\n{film}\n</scene>\n',
         "incfilm.xml": text[:film_start] + '<include filename="film.xml"/>' + text[film_end:],
+        "film_gauss.xml": f'<scene version="3.0.0">\n{film}\n</scene>\n'.replace(
+            '<rfilter type="box"/>', '<rfilter type="gaussian"/>'),
+        "incgauss.xml": text[:film_start] + '<include filename="film_gauss.xml"/>'
+                        + text[film_end:],
     }
     for name, content in variants.items():
         (folder / name).write_text(content)
@@ -112,8 +116,8 @@ IN_PROCESS_CASES = {
                                    ["--integrator", "pathh", "path_nee"], False),
     "compare-image-too-small": (["compare", "quad-light", "-D", "width=4", "-D", "height=4"], 2,
                                 ["4x4", "at least 32x16"], False),
-    "compare-film-in-include": (["compare", "incfilm.xml"], 2,
-                                ["incfilm.xml:", "<include> is not supported"], False),
+    "compare-gaussian-film-in-include": (["compare", "incgauss.xml"], 2,
+                                         ["film_gauss.xml:", "gaussian", "box"], False),
     "compare-bad-D-value": (["compare", "quad-light", "-D", "width=abc"], 2,
                             ["quad-light.xml:", "abc"], False),
     "compare-text-file": (["compare", "notes.txt"], 2, ["notes.txt", ".xml"], False),
@@ -215,9 +219,7 @@ def test_bad_input_gives_one_line_exit_2_and_leaves_nothing(name, runs):
 @pytest.mark.parametrize("name", _params(IN_PROCESS_CASES))
 def test_bad_input_in_process_one_line_exit_2_and_leaves_nothing(name, scenes, capfd,
                                                                  monkeypatch):
-    args, status, needles, live = IN_PROCESS_CASES[name]
-    if live:
-        import_mitsuba_or_skip()
+    args, status, needles, _ = IN_PROCESS_CASES[name]
     args, cache_folder, out = case_folders(scenes, name, args)
     monkeypatch.chdir(scenes)
     for key, value in cli_env(cache_folder).items():
@@ -238,18 +240,27 @@ def exit_status(args) -> int:
 
 
 def test_a_film_in_an_include_is_not_reported_as_missing(scenes):
-    """The old message came from the reference side's XML check, which did not follow
-    <include>; the tracer now speaks first (case compare-film-in-include), and the
-    reference side's check follows includes."""
+    """The reference side's own film check used to miss a <film> in an <include>d file
+    and say "no <film>"; it now follows includes (and compare lets the tracer speak
+    first: case compare-gaussian-film-in-include names the included file and line)."""
     from mitsuba_refs.render import check_box_filter
     check_box_filter(scenes / "incfilm.xml")  # finds the included box film: no exception
     with pytest.raises(ValueError, match="gaussian"):
-        check_box_filter(scenes / "gauss.xml")
+        check_box_filter(scenes / "incgauss.xml")
+
+
+@pytest.mark.mitsuba
+def test_build_accepts_a_film_in_an_include(scenes, tmp_path, capfd, monkeypatch):
+    monkeypatch.setenv("MITSUBA_REFS_CACHE", str(tmp_path))
+    assert exit_status(["build", str(scenes / "incfilm.xml"), *TINY_BUILD]) == 0, \
+        capfd.readouterr().err
+    status, detail, _ = validate(scenes / "incfilm.xml", {"width": "8", "height": "8"}, "path",
+                                 4, 1, tmp_path)
+    assert status == "ok", detail
 
 
 @pytest.mark.mitsuba
 def test_concurrent_builders_leave_one_valid_reference_and_no_temporary_files(runs, scenes):
-    import_mitsuba_or_skip()
     for k in range(BUILDERS):
         done = runs[f"builder-{k}"][0]
         assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
