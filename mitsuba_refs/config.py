@@ -62,6 +62,12 @@ REF_INTEGRATORS = ("path", "path_bsdf", "path_nee", "direct")
 
 PER_BOUNCE_DEPTHS = (1, 2, 3)
 
+#: spp ladder of ``compare``'s convergence test (4x steps: RMSE should halve) and the
+#: independent replicas at its top level; lower levels get more
+#: (:func:`mitsuba_refs.compare.level_replicas`).
+CONVERGENCE_LADDER = (1, 4, 16, 64)
+CONVERGENCE_REPLICAS = 2
+
 #: Environment variables.
 ENV_VARIANT = "MITSUBA_REFS_VARIANT"
 ENV_CACHE = "MITSUBA_REFS_CACHE"
