@@ -39,6 +39,7 @@ import os
 import re
 import sys
 import tempfile
+import threading
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -226,23 +227,30 @@ def validate(scene, params, integrator, spp, seed, directory=None):
                                     n=int(metadata["spp"]), metadata=metadata)
 
 
+#: Serialises :func:`_output_silenced`: two threads saving and restoring the process-wide
+#: descriptors in interleaved order (the autograder validates from several threads) would
+#: leave stdout on the null device for good.
+_SILENCE_LOCK = threading.Lock()
+
+
 @contextlib.contextmanager
 def _output_silenced():
     """Send file descriptors 1 and 2 to the null device: OpenEXR's C++ library prints
     its own lines about a corrupt file, which :func:`validate` reports as one ``detail``."""
-    sys.stdout.flush()
-    sys.stderr.flush()
-    saved = [os.dup(1), os.dup(2)]
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 1)
-            os.dup2(null.fileno(), 2)
-        yield
-    finally:
-        os.dup2(saved[0], 1)
-        os.dup2(saved[1], 2)
-        os.close(saved[0])
-        os.close(saved[1])
+    with _SILENCE_LOCK:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        saved = [os.dup(1), os.dup(2)]
+        try:
+            with open(os.devnull, "wb") as null:
+                os.dup2(null.fileno(), 1)
+                os.dup2(null.fileno(), 2)
+            yield
+        finally:
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            os.close(saved[0])
+            os.close(saved[1])
 
 
 #: Lock file of a cache folder; :func:`store` holds it exclusively while it
