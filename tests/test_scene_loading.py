@@ -330,13 +330,6 @@ def test_sensor_fields(tmp_path):
 
 # -- comparison with Mitsuba ----------------------------------------------------
 
-@pytest.fixture(scope="module")
-def mi():
-    mitsuba = pytest.importorskip("mitsuba", reason="mitsuba not installed: no cross-check")
-    mitsuba.set_variant("scalar_rgb")
-    return mitsuba
-
-
 def mitsuba_triangles(shape):
     pos = np.array(shape.vertex_positions_buffer(), dtype=float).reshape(-1, 3)
     nrm = np.array(shape.vertex_normals_buffer(), dtype=float).reshape(-1, 3)
