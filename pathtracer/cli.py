@@ -12,6 +12,7 @@ EPILOG = """\
 examples:
   pathtracer render cornell-box --spp 64 -o out/cbox.exr
   pathtracer render scene.xml -D width=128 -D height=128 --integrator path_nee -o nee.exr
+  pathtracer render users_scene.xml --resolution 64x48 --spp 16 -o small.exr
   pathtracer render cornell-caustics --integrator recursive --branches 4 --max-depth 4 -o rec.exr
   pathtracer scenes
 
@@ -42,6 +43,14 @@ def _positive(text: str) -> int:
     return value
 
 
+def _resolution(text: str) -> tuple[int, int]:
+    from .scene import parse_resolution
+    try:
+        return parse_resolution(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="pathtracer", description=__doc__,
                      formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG)
@@ -59,7 +68,10 @@ def build_parser() -> argparse.ArgumentParser:
                         metavar="NAME=VALUE", help="set a scene parameter (<default> override); repeatable")
     render.add_argument("--integrator", choices=sorted(INTEGRATORS),
                         help="integrator (default: the file's <integrator>, else path)")
-    render.add_argument("--spp", type=_positive, help="samples per pixel (default: the file's sampler)")
+    render.add_argument("--resolution", type=_resolution, metavar="WxH",
+                        help="film size replacing the file's, literal or $param (e.g. 64x48)")
+    render.add_argument("--spp", type=_positive,
+                        help="samples per pixel replacing the file's sampler count")
     render.add_argument("--seed", type=int, help="random seed (default: the file's sampler seed)")
     render.add_argument("--max-depth", type=int,
                         help="longest path in segments: 1 = visible emitters, 2 = direct light, -1 = unlimited")
@@ -104,7 +116,8 @@ def _render(args) -> int:
                    rr_q=args.rr_q, hemisphere=args.hemisphere, branches=args.branches,
                    branch_depth=args.branch_depth)
     try:
-        scene = load_scene(args.scene, **dict(args.defines))
+        scene = load_scene(args.scene, resolution=args.resolution, spp=args.spp,
+                           **dict(args.defines))
         integrator = args.integrator
         if args.paths:
             from .integrators.pathclass import PathClassIntegrator
