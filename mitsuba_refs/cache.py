@@ -38,8 +38,8 @@ import numpy as np
 
 from . import config
 from .exr import pixel_checksum, read_reference_exr, write_reference_exr
-from .render import (MEAN_ONLY, Reference, integrator_dict, resolve_scene,
-                     split_params)
+from .render import (MEAN_ONLY, Reference, integrator_dict, reference_settings,
+                     resolve_scene)
 
 FORMAT_VERSION = 1
 
@@ -103,47 +103,61 @@ def canonical_integrator(integrator):
     return "path" if integrator in MEAN_ONLY else integrator
 
 
-def _identity(scene, params, integrator, spp, seed):
+def _identity(scene, params, integrator, spp, seed, options=None, resolution=None):
+    """What the reference renders. The Mitsuba integrator dictionary carries the
+    effective ``max_depth``/``rr_depth``/``hide_emitters`` read by the tracer's
+    loader (literal, ``$param`` or ``options``), so a literal value in the file
+    changes the key; an overridden film size adds ``resolution``."""
     path = resolve_scene(scene)
     params = {str(k): str(v) for k, v in (params or {}).items()}
-    _, integ_kw = split_params(path, params)
-    return {
+    _, transport, settings = reference_settings(path, params, options, resolution)
+    ident = {
         "format": FORMAT_VERSION,
         "scene_hash": scene_hash(path),
         "params": dict(sorted(params.items())),
         "integrator": canonical_integrator(integrator),
-        "mitsuba_integrator": integrator_dict(integrator, integ_kw),
+        "mitsuba_integrator": integrator_dict(integrator, transport),
         "spp": int(spp),
         "seed": int(seed),
     }
+    if resolution is not None:
+        ident["resolution"] = list(settings.resolution)
+    return ident
 
 
-def reference_key(scene, params, integrator, spp, seed):
+def reference_key(scene, params, integrator, spp, seed, options=None, resolution=None):
     """The lookup key (hex SHA-256); computed without Mitsuba."""
-    ident = _identity(scene, params, integrator, spp, seed)
+    ident = _identity(scene, params, integrator, spp, seed, options, resolution)
     blob = json.dumps(ident, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(blob.encode()).hexdigest()
 
 
-def reference_stem(scene, params, integrator, spp, seed):
-    """File stem of a reference (readable; uniqueness via the params)."""
+def reference_stem(scene, params, integrator, spp, seed, options=None, resolution=None):
+    """File stem of a reference (readable; uniqueness via the params, the
+    integrator overrides (``set-``) and an overridden film size)."""
     name = resolve_scene(scene).stem
     parts = [name, canonical_integrator(integrator)]
     if params:
         parts.append("_".join(f"{k}-{v}" for k, v in sorted(params.items())))
+    if options:
+        parts.append("set-" + "_".join(f"{k}-{v}" for k, v in sorted(options.items())))
+    if resolution is not None:
+        parts.append(f"{int(resolution[0])}x{int(resolution[1])}")
     parts.append(f"{int(spp)}spp-s{int(seed)}")
     stem = "__".join(parts)
     return re.sub(r"[^A-Za-z0-9_.=-]", "-", stem)
 
 
-def reference_paths(scene, params, integrator, spp, seed, directory=None):
+def reference_paths(scene, params, integrator, spp, seed, directory=None, options=None,
+                    resolution=None):
     """``(exr_path, json_path)`` of a reference."""
     d = Path(directory) if directory is not None else cache_dir()
-    stem = reference_stem(scene, params, integrator, spp, seed)
+    stem = reference_stem(scene, params, integrator, spp, seed, options, resolution)
     return d / f"{stem}.exr", d / f"{stem}.json"
 
 
-def validate(scene, params, integrator, spp, seed, directory=None):
+def validate(scene, params, integrator, spp, seed, directory=None, options=None,
+             resolution=None):
     """Check a cached reference.
 
     Returns
@@ -154,14 +168,14 @@ def validate(scene, params, integrator, spp, seed, directory=None):
         or ``"corrupt"`` (``reference`` is None).
     """
     exr_path, json_path = reference_paths(scene, params, integrator, spp,
-                                          seed, directory)
+                                          seed, directory, options, resolution)
     if not exr_path.exists() and not json_path.exists():
         return "missing", f"no {exr_path.name}", None
     try:
         metadata = json.loads(json_path.read_text())
     except (OSError, ValueError) as exc:
         return "corrupt", f"sidecar {json_path.name} unreadable: {exc}", None
-    key = reference_key(scene, params, integrator, spp, seed)
+    key = reference_key(scene, params, integrator, spp, seed, options, resolution)
     if metadata.get("key") != key:
         return "stale", "key mismatch (scene, included files, params, " \
                         "integrator, spp or seed changed)", None
@@ -187,13 +201,14 @@ def validate(scene, params, integrator, spp, seed, directory=None):
                                     n=int(metadata["spp"]), metadata=metadata)
 
 
-def store(reference, scene, params, integrator, spp, seed, directory=None):
+def store(reference, scene, params, integrator, spp, seed, directory=None, options=None,
+          resolution=None):
     """Write ``reference`` (EXR + JSON sidecar) atomically; return the paths."""
     exr_path, json_path = reference_paths(scene, params, integrator, spp,
-                                          seed, directory)
+                                          seed, directory, options, resolution)
     exr_path.parent.mkdir(parents=True, exist_ok=True)
     meta = dict(reference.metadata)
-    key = reference_key(scene, params, integrator, spp, seed)
+    key = reference_key(scene, params, integrator, spp, seed, options, resolution)
     meta["key"] = key
     meta["scene_hash"] = scene_hash(scene)
     meta["requested_spp"] = int(spp)
@@ -230,7 +245,7 @@ def mitsuba_available():
 
 def get_reference(scene, params, integrator, spp=config.REF_SPP,
                   seed=config.REF_SEED, *, directory=None, variant=None,
-                  render=True, force=False, log=None):
+                  render=True, force=False, log=None, options=None, resolution=None):
     """Return a valid cached reference, or render and cache one.
 
     Parameters
@@ -245,6 +260,11 @@ def get_reference(scene, params, integrator, spp=config.REF_SPP,
         Render when no valid reference is cached (needs Mitsuba).
     force : bool
         Render even if a valid one is cached.
+    options : dict, optional
+        Overrides of ``max_depth``, ``rr_depth``, ``hide_emitters`` (the tracer's
+        render options of the same names).
+    resolution : (int, int), optional
+        Film size replacing the file's.
 
     Raises
     ------
@@ -253,29 +273,34 @@ def get_reference(scene, params, integrator, spp=config.REF_SPP,
         ``render=False``); the message says what was wrong with the cache.
     """
     params = {str(k): str(v) for k, v in (params or {}).items()}
+    options = {str(k): v for k, v in (options or {}).items() if v is not None} or None
+    resolution = tuple(int(v) for v in resolution) if resolution is not None else None
+    where = dict(options=options, resolution=resolution)
+    # Bad parameters are the user's error whatever the cache holds: report them first.
+    reference_key(scene, params, integrator, spp, seed, **where)
     status, detail = "forced", "--force"
     if not force:
         status, detail, ref = validate(scene, params, integrator, spp, seed,
-                                       directory)
+                                       directory, **where)
         if status == "ok":
             return ref
     if not render or not mitsuba_available():
         why = "rendering disabled" if not render else "Mitsuba 3 is not installed"
         exr_path, _ = reference_paths(scene, params, integrator, spp, seed,
-                                      directory)
+                                      directory, **where)
         raise ReferenceUnavailable(
             f"reference {exr_path} is {status} ({detail}) and {why}; "
             f"install mitsuba==3.9.1 and run `mitsuba-refs build`")
     if log:
-        log(f"{reference_stem(scene, params, integrator, spp, seed)}: "
+        log(f"{reference_stem(scene, params, integrator, spp, seed, **where)}: "
             f"{status} ({detail}), rendering")
     from .render import render_reference
     ref = render_reference(scene, params, integrator, spp, seed,
-                           variant=variant, log=log)
+                           variant=variant, log=log, **where)
     exr_path, json_path = store(ref, scene, params, integrator, spp, seed,
-                                directory)
+                                directory, **where)
     status, detail, loaded = validate(scene, params, integrator, spp, seed,
-                                      directory)
+                                      directory, **where)
     if status != "ok":
         raise RuntimeError(f"freshly written {exr_path} fails validation: {detail}")
     return loaded

@@ -18,7 +18,7 @@ from . import config
 
 
 def default_jobs(scenes=None, integrators=None, extra_params=None,
-                 per_bounce=True):
+                 per_bounce=True, resolution=None):
     """The references ``build`` makes by default: every scene x integrator at
     the test resolution, plus ``path`` with ``max_depth`` 1, 2, 3.
 
@@ -28,15 +28,24 @@ def default_jobs(scenes=None, integrators=None, extra_params=None,
     integrators = list(integrators or config.REF_INTEGRATORS)
     jobs = []
     for scene in scenes:
-        width, height = config.test_resolution(scene)
-        base = {"width": str(width), "height": str(height)}
+        base = {}
+        if resolution is None and scene in config.BUILTIN_SCENES:
+            width, height = config.test_resolution(scene)
+            base = {"width": str(width), "height": str(height)}
         base.update(extra_params or {})
         for integ in integrators:
             jobs.append((scene, dict(base), integ))
-        if per_bounce and "path" in integrators and "max_depth" not in base:
+        if per_bounce and "path" in integrators and "max_depth" not in base \
+                and _declares_max_depth(scene):
             for depth in config.PER_BOUNCE_DEPTHS:
                 jobs.append((scene, dict(base, max_depth=str(depth)), "path"))
     return jobs
+
+
+def _declares_max_depth(scene):
+    """Per-bounce references set ``max_depth`` as a parameter: only where the file declares it."""
+    from .render import resolve_scene, xml_defaults
+    return "max_depth" in xml_defaults(resolve_scene(scene))
 
 
 def _parse_defines(defines):
@@ -47,6 +56,14 @@ def _parse_defines(defines):
         name, value = item.split("=", 1)
         params[name.strip()] = value.strip()
     return params
+
+
+def _resolution(text):
+    from pathtracer.scene import parse_resolution
+    try:
+        return parse_resolution(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def _add_build(subparsers):
@@ -67,6 +84,9 @@ def _add_build(subparsers):
     p.add_argument("--variant", default=None,
                    help="Mitsuba variant (default: llvm_ad_rgb if it works, "
                         "else scalar_rgb; env MITSUBA_REFS_VARIANT)")
+    p.add_argument("--resolution", type=_resolution, default=None, metavar="WxH",
+                   help="film size replacing the file's (default: the built-in scenes' test size, "
+                        "a file's own)")
     p.add_argument("--force", action="store_true", help="re-render valid references too")
     p.add_argument("--no-per-bounce", action="store_true",
                    help="skip the max_depth = 1, 2, 3 path references")
@@ -82,7 +102,8 @@ def cmd_build(args):
 
     extra = _parse_defines(args.defines)
     jobs = default_jobs(args.scenes or None, args.integrators, extra,
-                        per_bounce=not args.no_per_bounce)
+                        per_bounce=not args.no_per_bounce, resolution=args.resolution)
+    where = {"resolution": args.resolution}
     directory = args.cache_dir or cache_dir()
     variant, reason = choose_variant(args.variant)
     print(f"variant: {variant} ({reason})")
@@ -91,9 +112,9 @@ def cmd_build(args):
     built = kept = 0
     t_all = time.time()
     for scene, params, integ in jobs:
-        stem = reference_stem(scene, params, integ, args.spp, args.seed)
+        stem = reference_stem(scene, params, integ, args.spp, args.seed, **where)
         status, detail, ref = validate(scene, params, integ, args.spp,
-                                       args.seed, directory)
+                                       args.seed, directory, **where)
         if status == "ok" and ref.metadata.get("mitsuba_version") != mi.__version__:
             status, detail = "stale", (f"made by Mitsuba "
                                        f"{ref.metadata.get('mitsuba_version')}")
@@ -103,7 +124,7 @@ def cmd_build(args):
             continue
         t0 = time.time()
         get_reference(scene, params, integ, args.spp, args.seed,
-                      directory=directory, variant=variant, force=True)
+                      directory=directory, variant=variant, force=True, **where)
         built += 1
         print(f"  built    {stem}  [{status}: {detail}]  {time.time() - t0:.1f} s",
               flush=True)

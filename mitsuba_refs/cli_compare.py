@@ -19,6 +19,15 @@ def _positive_ints(text: str) -> tuple[int, ...]:
     return values
 
 
+def _resolution(text: str) -> tuple[int, int]:
+    import argparse
+    from pathtracer.scene import parse_resolution
+    try:
+        return parse_resolution(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def add_compare(subparsers):
     from pathtracer import INTEGRATORS
 
@@ -36,7 +45,15 @@ def add_compare(subparsers):
     p.add_argument("--integrator", default="path", choices=sorted(INTEGRATORS),
                    help="pathtracer integrator to test (default: path)")
     p.add_argument("--spp", type=int, default=config.TEST_MAX_SPP,
-                   help=f"samples per pixel of the mean/variance render (default {config.TEST_MAX_SPP})")
+                   help="samples per pixel of the mean/variance render, whatever the file's sampler "
+                        f"says (default {config.TEST_MAX_SPP}; the reference has {config.REF_SPP})")
+    p.add_argument("--resolution", type=_resolution, default=None, metavar="WxH",
+                   help="film size for both renderers, replacing the file's (literal or $param), "
+                        "e.g. 64x48")
+    p.add_argument("--max-depth", type=int, default=None,
+                   help="longest path for both renderers, replacing the file's <integrator> value")
+    p.add_argument("--rr-depth", type=int, default=None,
+                   help="roulette start for both renderers, replacing the file's <integrator> value")
     p.add_argument("--alpha", type=float, default=1e-3,
                    help="significance level of each test (default 1e-3)")
     p.add_argument("--ladder", type=_positive_ints, default=CONVERGENCE_LADDER,
@@ -70,11 +87,13 @@ def run_compare(args) -> int:
               file=sys.stderr)
         return 2
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
+    options = {k: v for k, v in (("max_depth", args.max_depth), ("rr_depth", args.rr_depth))
+               if v is not None} or None
     try:
         result = compare(args.scene, args.integrator, params, spp=args.spp, alpha=args.alpha,
                          convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
                          processes=args.processes, ladder=args.ladder, replicas=args.replicas,
-                         log=lambda message: print(message, file=sys.stderr))
+                         options=options, resolution=args.resolution, log=lambda message: print(message, file=sys.stderr))
     except (SceneError, ReferenceUnavailable, ValueError, FileNotFoundError) as error:
         print(f"mitsuba-refs compare: error: {error}", file=sys.stderr)
         return 2
