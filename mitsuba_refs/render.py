@@ -6,8 +6,9 @@ the same file (:func:`reference_settings`: literal values, ``$params``,
 ``<default>``s and overrides alike), and renders it with the Mitsuba estimator
 matching one of ours. Per-pixel mean and per-sample variance come from single
 samples (:mod:`mitsuba_refs.batch`: ``k`` copies of the camera side by side,
-one sample per pixel each, no Python per sample); the former ``rgb_moments``
-wrapper (:mod:`mitsuba_refs.moments`) remains as ``method="moments"``.
+one sample per pixel each, no Python per sample) in ``scalar_rgb``; in JIT
+variants the ``rgb_moments`` wrapper (:mod:`mitsuba_refs.moments`), which
+runs there once per wavefront (:func:`default_method`).
 
 Integrator mapping (ours -> Mitsuba):
 
@@ -263,9 +264,16 @@ def check_framing(path, mi_scene, settings):
                          f"the tracer's {settings.camera.x_fov:.4f}")
 
 
+def default_method(variant):
+    """``batch`` in scalar variants, where the wrapper would call Python per sample;
+    ``moments`` in JIT variants, where it runs once per wavefront and measured as fast
+    or faster (docs/references.md)."""
+    return "batch" if variant.startswith("scalar") else "moments"
+
+
 def render_reference(scene_path_or_name, params, integrator, spp, seed,
                      variant=None, pass_spp=None, log=None, *, options=None,
-                     resolution=None, method="batch"):
+                     resolution=None, method=None):
     """Render a reference with Mitsuba.
 
     Parameters
@@ -292,10 +300,11 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         tracer's render options); the file's ``<integrator>`` gives the rest.
     resolution : (int, int), optional
         Film size replacing the file's.
-    method : {"batch", "moments"}
-        ``batch``: single samples from a batch of camera copies (fast, no Python
-        per sample); ``moments``: the ``rgb_moments`` wrapper (one Python call
-        per sample in ``scalar_rgb``). Same statistics.
+    method : {"batch", "moments"}, optional
+        ``batch``: single samples from a batch of camera copies (no Python per
+        sample); ``moments``: the ``rgb_moments`` wrapper (one Python call per
+        sample in ``scalar_rgb``, per wavefront in JIT variants). Same
+        statistics. Default: :func:`default_method`.
 
     Returns
     -------
@@ -317,6 +326,7 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     width, height = settings.resolution
     nested = integrator_dict(integrator, transport)
     stream = stream_id(integrator, params)
+    method = method or default_method(chosen)
     t0 = time.time()
     if method == "batch":
         from .batch import render_moments
