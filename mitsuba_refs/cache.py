@@ -5,13 +5,16 @@ Layout (one pair per reference, in :func:`cache_dir`)::
     <scene>__<integrator>[__<k>-<v>_...]__<spp>spp-s<seed>.exr   mean + variance
     <same stem>.json                                              metadata sidecar
 
-The lookup needs only the standard library, NumPy and OpenEXR: the
-*key* is computed from
+The lookup needs only the standard library, NumPy, OpenEXR and the
+tracer's XML reader (no Mitsuba): the *key* is computed from
 
 - the content (SHA-256) of the scene file and of every file it includes
   (``<string name="filename">`` such as meshes, ``<include>``),
-- the parameters (XML defaults and integrator options, as strings),
-- the Mitsuba integrator dictionary our integrator maps to,
+- the parameters (``-D`` values, as strings),
+- the Mitsuba integrator dictionary our integrator maps to, with the
+  ``max_depth``/``rr_depth``/``hide_emitters`` the tracer's loader reads
+  from the file (literal or ``$param``) or the overrides set,
+- an overridden film size (only when given),
 - the requested spp and seed, and a format version.
 
 The Mitsuba version and variant are recorded (``full_hash`` also covers

@@ -96,7 +96,16 @@ def _add_build(subparsers):
 
 
 def cmd_build(args):
-    """Handler of ``build``."""
+    """Handler of ``build``: exit code 2 with one line on a bad scene or parameter."""
+    from pathtracer import SceneError
+    try:
+        return _build(args)
+    except (SceneError, FileNotFoundError) as error:
+        print(f"mitsuba-refs build: error: {error}", file=sys.stderr)
+        return 2
+
+
+def _build(args):
     from .cache import (cache_dir, get_reference, reference_stem, validate)
     from .variant import choose_variant
 
