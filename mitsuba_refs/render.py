@@ -193,14 +193,18 @@ def _as_bool(value):
     return bool(value)
 
 
-def stream_id(integrator, params):
-    """A 20-bit number identifying (estimator, parameters), mixed into the
+def stream_id(integrator, params, options=None, resolution=None):
+    """A 20-bit number identifying (estimator, parameters, overrides), mixed into the
     seeds so that references of different integrators or parameters made
     with the same ``seed`` are independent (equal seeds would make e.g.
     ``path`` and ``lecture_path_nee`` nearly identical, sample by sample,
     and a two-sample test between them meaningless)."""
-    text = json.dumps([INTEGRATOR_MAP.get(integrator, integrator),
-                       {str(k): str(v) for k, v in sorted((params or {}).items())}])
+    parts = [INTEGRATOR_MAP.get(integrator, integrator),
+             {str(k): str(v) for k, v in sorted((params or {}).items())}]
+    if options or resolution is not None:   # (absent: the committed references' streams)
+        parts += [{str(k): str(v) for k, v in sorted((options or {}).items())},
+                  list(resolution) if resolution is not None else None]
+    text = json.dumps(parts)
     return int(hashlib.sha256(text.encode()).hexdigest()[:5], 16)
 
 
@@ -325,7 +329,7 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     check_framing(path, scene, settings)
     width, height = settings.resolution
     nested = integrator_dict(integrator, transport)
-    stream = stream_id(integrator, params)
+    stream = stream_id(integrator, params, options, resolution)
     method = method or default_method(chosen)
     t0 = time.time()
     if method == "batch":
