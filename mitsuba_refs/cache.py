@@ -5,13 +5,16 @@ Layout (one pair per reference, in :func:`cache_dir`)::
     <scene>__<integrator>[__<k>-<v>_...]__<spp>spp-s<seed>.exr   mean + variance
     <same stem>.json                                              metadata sidecar
 
-The lookup needs only the standard library, NumPy and OpenEXR: the
-*key* is computed from
+The lookup needs only the standard library, NumPy, OpenEXR and the
+tracer's XML reader (no Mitsuba): the *key* is computed from
 
 - the content (SHA-256) of the scene file and of every file it includes
   (``<string name="filename">`` such as meshes, ``<include>``),
-- the parameters (XML defaults and integrator options, as strings),
-- the Mitsuba integrator dictionary our integrator maps to,
+- the parameters (``-D`` values, as strings),
+- the Mitsuba integrator dictionary our integrator maps to, with the
+  ``max_depth``/``rr_depth``/``hide_emitters`` the tracer's loader reads
+  from the file (literal or ``$param``) or the overrides set,
+- an overridden film size (only when given),
 - the requested spp and seed, and a format version.
 
 The Mitsuba version and variant are recorded (``full_hash`` also covers
@@ -49,8 +52,8 @@ from . import config
 from .errors import (CacheNotWritable, ReferenceUnavailable, RefsInputError,
                      is_mitsuba_error, mitsuba_error_line)
 from .exr import pixel_checksum, read_reference_exr, write_reference_exr
-from .render import (MEAN_ONLY, Reference, integrator_dict, resolve_scene,
-                     split_params)
+from .render import (MEAN_ONLY, Reference, integrator_dict, reference_settings,
+                     resolve_scene)
 
 FORMAT_VERSION = 1
 
@@ -127,51 +130,65 @@ def canonical_integrator(integrator):
     return "path" if integrator in MEAN_ONLY else integrator
 
 
-def _identity(scene, params, integrator, spp, seed):
+def _identity(scene, params, integrator, spp, seed, options=None, resolution=None):
+    """What the reference renders. The Mitsuba integrator dictionary carries the
+    effective ``max_depth``/``rr_depth``/``hide_emitters`` read by the tracer's
+    loader (literal, ``$param`` or ``options``), so a literal value in the file
+    changes the key; an overridden film size adds ``resolution``."""
     path = resolve_scene(scene)
     params = {str(k): str(v) for k, v in (params or {}).items()}
     content = scene_hash(path)
     try:
-        _, integ_kw = split_params(path, params)
+        _, transport, settings = reference_settings(path, params, options, resolution)
     except KeyError as error:
         raise RefsInputError(error.args[0]) from None
-    return {
+    ident = {
         "format": FORMAT_VERSION,
         "scene_hash": content,
         "params": dict(sorted(params.items())),
         "integrator": canonical_integrator(integrator),
-        "mitsuba_integrator": integrator_dict(integrator, integ_kw),
+        "mitsuba_integrator": integrator_dict(integrator, transport),
         "spp": int(spp),
         "seed": int(seed),
     }
+    if resolution is not None:
+        ident["resolution"] = list(settings.resolution)
+    return ident
 
 
-def reference_key(scene, params, integrator, spp, seed):
+def reference_key(scene, params, integrator, spp, seed, options=None, resolution=None):
     """The lookup key (hex SHA-256); computed without Mitsuba."""
-    ident = _identity(scene, params, integrator, spp, seed)
+    ident = _identity(scene, params, integrator, spp, seed, options, resolution)
     blob = json.dumps(ident, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(blob.encode()).hexdigest()
 
 
-def reference_stem(scene, params, integrator, spp, seed):
-    """File stem of a reference (readable; uniqueness via the params)."""
+def reference_stem(scene, params, integrator, spp, seed, options=None, resolution=None):
+    """File stem of a reference (readable; uniqueness via the params, the
+    integrator overrides (``set-``) and an overridden film size)."""
     name = resolve_scene(scene).stem
     parts = [name, canonical_integrator(integrator)]
     if params:
         parts.append("_".join(f"{k}-{v}" for k, v in sorted(params.items())))
+    if options:
+        parts.append("set-" + "_".join(f"{k}-{v}" for k, v in sorted(options.items())))
+    if resolution is not None:
+        parts.append(f"{int(resolution[0])}x{int(resolution[1])}")
     parts.append(f"{int(spp)}spp-s{int(seed)}")
     stem = "__".join(parts)
     return re.sub(r"[^A-Za-z0-9_.=-]", "-", stem)
 
 
-def reference_paths(scene, params, integrator, spp, seed, directory=None):
+def reference_paths(scene, params, integrator, spp, seed, directory=None, options=None,
+                    resolution=None):
     """``(exr_path, json_path)`` of a reference."""
     d = Path(directory) if directory is not None else cache_dir()
-    stem = reference_stem(scene, params, integrator, spp, seed)
+    stem = reference_stem(scene, params, integrator, spp, seed, options, resolution)
     return d / f"{stem}.exr", d / f"{stem}.json"
 
 
-def validate(scene, params, integrator, spp, seed, directory=None):
+def validate(scene, params, integrator, spp, seed, directory=None, options=None,
+             resolution=None):
     """Check a cached reference.
 
     The sidecar and the EXR are read under the cache's shared lock
@@ -192,8 +209,8 @@ def validate(scene, params, integrator, spp, seed, directory=None):
         ``params`` names a parameter the file does not declare.
     """
     exr_path, json_path = reference_paths(scene, params, integrator, spp,
-                                          seed, directory)
-    key = reference_key(scene, params, integrator, spp, seed)
+                                          seed, directory, options, resolution)
+    key = reference_key(scene, params, integrator, spp, seed, options, resolution)
     with cache_lock(exr_path.parent, exclusive=False):
         if not exr_path.exists() and not json_path.exists():
             return "missing", f"no {exr_path.name}", None
@@ -321,7 +338,8 @@ def _temporary_path(directory, final_name):
     return Path(name)
 
 
-def store(reference, scene, params, integrator, spp, seed, directory=None):
+def store(reference, scene, params, integrator, spp, seed, directory=None, options=None,
+          resolution=None):
     """Write ``reference`` (EXR + JSON sidecar) atomically; return the paths.
 
     Both files are written under unique temporary names in the cache folder
@@ -336,9 +354,9 @@ def store(reference, scene, params, integrator, spp, seed, directory=None):
         The folder cannot be created or written (one line, names the folder).
     """
     exr_path, json_path = reference_paths(scene, params, integrator, spp,
-                                          seed, directory)
+                                          seed, directory, options, resolution)
     meta = dict(reference.metadata)
-    key = reference_key(scene, params, integrator, spp, seed)
+    key = reference_key(scene, params, integrator, spp, seed, options, resolution)
     meta["key"] = key
     meta["scene_hash"] = scene_hash(scene)
     meta["requested_spp"] = int(spp)
@@ -386,7 +404,7 @@ def mitsuba_available():
 
 def get_reference(scene, params, integrator, spp=config.REF_SPP,
                   seed=config.REF_SEED, *, directory=None, variant=None,
-                  render=True, force=False, log=None):
+                  render=True, force=False, log=None, options=None, resolution=None):
     """Return a valid cached reference, or render and cache one.
 
     Parameters
@@ -401,6 +419,11 @@ def get_reference(scene, params, integrator, spp=config.REF_SPP,
         Render when no valid reference is cached (needs Mitsuba).
     force : bool
         Render even if a valid one is cached.
+    options : dict, optional
+        Overrides of ``max_depth``, ``rr_depth``, ``hide_emitters`` (the tracer's
+        render options of the same names).
+    resolution : (int, int), optional
+        Film size replacing the file's.
 
     Raises
     ------
@@ -416,13 +439,18 @@ def get_reference(scene, params, integrator, spp=config.REF_SPP,
         (:func:`check_finite`); nothing is stored.
     """
     params = {str(k): str(v) for k, v in (params or {}).items()}
+    options = {str(k): v for k, v in (options or {}).items() if v is not None} or None
+    resolution = tuple(int(v) for v in resolution) if resolution is not None else None
+    where = dict(options=options, resolution=resolution)
+    # Bad parameters are the user's error whatever the cache holds: report them first.
+    reference_key(scene, params, integrator, spp, seed, **where)
     status, detail = "forced", "--force"
     if not force:
         status, detail, ref = validate(scene, params, integrator, spp, seed,
-                                       directory)
+                                       directory, **where)
         if status == "ok":
             return ref
-    exr_path, _ = reference_paths(scene, params, integrator, spp, seed, directory)
+    exr_path, _ = reference_paths(scene, params, integrator, spp, seed, directory, **where)
     if render:
         check_writable(exr_path.parent)
     if not render or not mitsuba_available():
@@ -431,20 +459,20 @@ def get_reference(scene, params, integrator, spp=config.REF_SPP,
             f"reference {exr_path} is {status} ({detail}) and {why}; "
             f"install mitsuba==3.9.1 and run `mitsuba-refs build`")
     if log:
-        log(f"{reference_stem(scene, params, integrator, spp, seed)}: "
+        log(f"{reference_stem(scene, params, integrator, spp, seed, **where)}: "
             f"{status} ({detail}), rendering")
     from .render import render_reference
     try:
         ref = render_reference(scene, params, integrator, spp, seed,
-                               variant=variant, log=log)
+                               variant=variant, log=log, **where)
     except RuntimeError as error:
         if is_mitsuba_error(error):
             raise RefsInputError(mitsuba_error_line(error, resolve_scene(scene))) from None
         raise
     check_finite(ref, scene)
-    store(ref, scene, params, integrator, spp, seed, directory)
+    store(ref, scene, params, integrator, spp, seed, directory, **where)
     status, detail, loaded = validate(scene, params, integrator, spp, seed,
-                                      directory)
+                                      directory, **where)
     if status != "ok":
         raise RuntimeError(f"freshly written {exr_path} fails validation: {detail}")
     return loaded
@@ -460,11 +488,13 @@ def check_finite(reference, scene):
     Raises
     ------
     RefsInputError
-        Says which values are not finite and, when only the variance is, why:
-        Mitsuba accumulates each sample's squared radiance in its float32 film,
-        which overflows for radiance above ~1.8e19.
+        Says which values are not finite (or beyond float32, in which the EXR stores
+        them) and, when only the variance is, why: squared radiance above ~1.8e19
+        overflows float32 (Mitsuba's films, the EXR).
     """
-    mean_ok, var_ok = np.isfinite(reference.mean), np.isfinite(reference.var)
+    # Stored as float32: what float32 cannot hold is as good as infinite.
+    largest = np.finfo(np.float32).max
+    mean_ok, var_ok = np.abs(reference.mean) <= largest, np.abs(reference.var) <= largest
     if mean_ok.all() and var_ok.all():
         return
     where = resolve_scene(scene)

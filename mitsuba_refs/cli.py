@@ -28,7 +28,7 @@ EXIT_CODES = {0: "success / agrees", 1: "compare: disagrees with Mitsuba",
 
 
 def default_jobs(scenes=None, integrators=None, extra_params=None,
-                 per_bounce=True):
+                 per_bounce=True, resolution=None):
     """The references ``build`` makes by default: every scene x integrator at
     the test resolution, plus ``path`` with ``max_depth`` 1, 2, 3.
 
@@ -38,15 +38,27 @@ def default_jobs(scenes=None, integrators=None, extra_params=None,
     integrators = list(integrators or config.REF_INTEGRATORS)
     jobs = []
     for scene in scenes:
-        width, height = config.test_resolution(scene)
-        base = {"width": str(width), "height": str(height)}
+        base = {}
+        if resolution is None and scene in config.BUILTIN_SCENES:
+            width, height = config.test_resolution(scene)
+            base = {"width": str(width), "height": str(height)}
         base.update(extra_params or {})
         for integ in integrators:
             jobs.append((scene, dict(base), integ))
-        if per_bounce and "path" in integrators and "max_depth" not in base:
+        if per_bounce and "path" in integrators and "max_depth" not in base \
+                and _declares_max_depth(scene):
             for depth in config.PER_BOUNCE_DEPTHS:
                 jobs.append((scene, dict(base, max_depth=str(depth)), "path"))
     return jobs
+
+
+def _declares_max_depth(scene):
+    """Per-bounce references set ``max_depth`` as a parameter: only where the file declares it."""
+    from .preflight import parse_xml, scene_path
+    from .render import xml_defaults
+    path = scene_path(scene)
+    parse_xml(path)  # a malformed file: one line naming file, line and column
+    return "max_depth" in xml_defaults(path)
 
 
 def parse_defines(defines):
@@ -58,6 +70,14 @@ def parse_defines(defines):
             raise RefsInputError(f"-D expects name=value, got {item!r}")
         params[name.strip()] = value.strip()
     return params
+
+
+def _resolution(text):
+    from pathtracer.scene import parse_resolution
+    try:
+        return parse_resolution(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def _add_build(subparsers):
@@ -82,6 +102,9 @@ def _add_build(subparsers):
     p.add_argument("--variant", default=None,
                    help="Mitsuba variant (default: llvm_ad_rgb if it works, "
                         "else scalar_rgb; env MITSUBA_REFS_VARIANT)")
+    p.add_argument("--resolution", type=_resolution, default=None, metavar="WxH",
+                   help="film size replacing the file's (default: the built-in scenes' test size, "
+                        "a file's own)")
     p.add_argument("--force", action="store_true", help="re-render valid references too")
     p.add_argument("--no-per-bounce", action="store_true",
                    help="skip the max_depth = 1, 2, 3 path references")
@@ -101,7 +124,8 @@ def cmd_build(args):
         raise RefsInputError(f"--seed must be >= 0, got {args.seed}")
     extra = parse_defines(args.defines)
     jobs = default_jobs(args.scenes or None, args.integrators, extra,
-                        per_bounce=not args.no_per_bounce)
+                        per_bounce=not args.no_per_bounce, resolution=args.resolution)
+    where = {"resolution": args.resolution}
     for scene, params in {(s, tuple(sorted(p.items()))) for s, p, _ in jobs}:
         check_scene(scene, dict(params))
     directory = args.cache_dir or cache_dir()
@@ -115,9 +139,9 @@ def cmd_build(args):
     built = kept = 0
     t_all = time.time()
     for scene, params, integ in jobs:
-        stem = reference_stem(scene, params, integ, args.spp, args.seed)
+        stem = reference_stem(scene, params, integ, args.spp, args.seed, **where)
         status, detail, ref = validate(scene, params, integ, args.spp,
-                                       args.seed, directory)
+                                       args.seed, directory, **where)
         if status == "ok" and ref.metadata.get("mitsuba_version") != mi.__version__:
             status, detail = "stale", (f"made by Mitsuba "
                                        f"{ref.metadata.get('mitsuba_version')}")
@@ -127,7 +151,7 @@ def cmd_build(args):
             continue
         t0 = time.time()
         get_reference(scene, params, integ, args.spp, args.seed,
-                      directory=directory, variant=variant, force=True)
+                      directory=directory, variant=variant, force=True, **where)
         built += 1
         print(f"  built    {stem}  [{status}: {detail}]  {time.time() - t0:.1f} s",
               flush=True)

@@ -28,6 +28,15 @@ def _positive_ints(text: str) -> tuple[int, ...]:
     return values
 
 
+def _resolution(text: str) -> tuple[int, int]:
+    import argparse
+    from pathtracer.scene import parse_resolution
+    try:
+        return parse_resolution(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def add_compare(subparsers):
     from pathtracer import INTEGRATORS
 
@@ -46,7 +55,15 @@ def add_compare(subparsers):
     p.add_argument("--integrator", default="path", choices=sorted(INTEGRATORS),
                    help="pathtracer integrator to test (default: path)")
     p.add_argument("--spp", type=int, default=config.TEST_MAX_SPP,
-                   help=f"samples per pixel of the mean/variance render (default {config.TEST_MAX_SPP})")
+                   help="samples per pixel of the mean/variance render, whatever the file's sampler "
+                        f"says (default {config.TEST_MAX_SPP}; the reference has {config.REF_SPP})")
+    p.add_argument("--resolution", type=_resolution, default=None, metavar="WxH",
+                   help="film size for both renderers, replacing the file's (literal or $param), "
+                        "e.g. 64x48")
+    p.add_argument("--max-depth", type=int, default=None,
+                   help="longest path for both renderers, replacing the file's <integrator> value")
+    p.add_argument("--rr-depth", type=int, default=None,
+                   help="roulette start for both renderers, replacing the file's <integrator> value")
     p.add_argument("--alpha", type=float, default=1e-3,
                    help="significance level of each test (default 1e-3)")
     p.add_argument("--ladder", type=_positive_ints, default=CONVERGENCE_LADDER,
@@ -70,12 +87,15 @@ def run_compare(args) -> int:
 
     params = parse_defines(args.defines)
     check_options(args)
-    preload(args.scene, params)
+    preload(args.scene, params, args.resolution)
     from .compare import compare
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
+    options = {k: v for k, v in (("max_depth", args.max_depth), ("rr_depth", args.rr_depth))
+               if v is not None} or None
     result = compare(args.scene, args.integrator, params, spp=args.spp, alpha=args.alpha,
                      convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
                      processes=args.processes, ladder=args.ladder, replicas=args.replicas,
+                     options=options, resolution=args.resolution,
                      log=lambda message: print(message, file=sys.stderr))
     print(result.report())
     return 0 if result.agree else 1
@@ -97,7 +117,7 @@ def check_options(args) -> None:
     check_output_folder(args.out)
 
 
-def preload(scene, params) -> None:
+def preload(scene, params, resolution=None) -> None:
     """Load ``scene`` in our tracer first (its messages name file and line), then check
     what Mitsuba will be given, all before any reference is looked up or rendered.
 
@@ -111,7 +131,7 @@ def preload(scene, params) -> None:
     params = {**default_params(scene), **params}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        loaded = loaded_scene(scene, params)
+        loaded = loaded_scene(scene, params, resolution)
     check_scene(scene, params)
     check_image_size(loaded.camera.width, loaded.camera.height, scene)
     for warning in caught:

@@ -90,6 +90,7 @@ class Comparison:
     pictures: dict = field(default_factory=dict)
     seconds: float = 0.0
     hints: list = field(default_factory=list)
+    rendered: str = ""
 
     @property
     def agree(self) -> bool:
@@ -105,6 +106,8 @@ class Comparison:
         status = "AGREES with Mitsuba" if self.agree else "DISAGREES with Mitsuba"
         lines = [f"{self.integrator} on {self.scene} ({self.spp} spp): {status}",
                  f"  mean:        {self.mean.verdict}"]
+        if self.rendered:
+            lines.insert(1, f"  rendered:    {self.rendered}")
         if self.variance is not None:
             lines.append(f"  variance:    {self.variance.verdict}")
         elif self.integrator in SAME_ESTIMATOR:
@@ -123,16 +126,32 @@ class Comparison:
         return "\n".join(lines)
 
 
-def render_ours(scene, integrator, params, spp, seed, processes=None, **options):
-    """Our render of ``scene`` with ``params``: (mean, variance)."""
+def render_ours(scene, integrator, params, spp, seed, processes=None, resolution=None,
+                **options):
+    """Our render of ``scene`` with ``params`` (film size ``resolution`` if given):
+    (mean, variance)."""
     from pathtracer import render
-    result = render(loaded_scene(scene, params), integrator, spp=spp, seed=seed,
+    result = render(loaded_scene(scene, params, resolution), integrator, spp=spp, seed=seed,
                     processes=processes, progress=False, **options)
     return result.mean, result.variance
 
 
-def loaded_scene(scene, params):
-    """``pathtracer.load_scene(scene, **params)``, reused while the files are unchanged.
+def reference_options(options) -> dict | None:
+    """The light-transport options among our render ``options`` (max_depth, rr_depth,
+    hide_emitters): the reference is rendered with them too."""
+    from pathtracer.render import SCENE_OPTIONS
+    chosen = {k: v for k, v in (options or {}).items() if k in SCENE_OPTIONS and v is not None}
+    return chosen or None
+
+
+def declares(scene, name: str) -> bool:
+    """True when the scene file declares ``<default name=...>``."""
+    from .render import resolve_scene, xml_defaults
+    return name in xml_defaults(resolve_scene(scene))
+
+
+def loaded_scene(scene, params, resolution=None):
+    """``pathtracer.load_scene(scene, resolution=..., **params)``, reused while the files are unchanged.
 
     The convergence test renders a scene up to hundreds of times; loading it (and building
     a mesh's BVH) once saves most of the time on the 82k-triangle scene.
@@ -141,21 +160,24 @@ def loaded_scene(scene, params):
     try:
         content = scene_hash(scene)
     except (OSError, ValueError, ET.ParseError):
-        return load_scene(scene, **params)     # let the loader report what is wrong
-    return _load_scene_cached(str(scene), content, tuple(sorted((str(k), str(v)) for k, v in params.items())))
+        return load_scene(scene, resolution=resolution, **params)  # the loader reports what is wrong
+    return _load_scene_cached(str(scene), content,
+                              tuple(sorted((str(k), str(v)) for k, v in params.items())),
+                              None if resolution is None else tuple(resolution))
 
 
 @functools.lru_cache(maxsize=4)
-def _load_scene_cached(scene, content, params):
+def _load_scene_cached(scene, content, params, resolution):
     from pathtracer import load_scene
-    return load_scene(scene, **dict(params))
+    return load_scene(scene, resolution=resolution, **dict(params))
 
 
 def compare(scene: str, integrator="path", params: dict | None = None, *,
             spp: int = config.TEST_MAX_SPP, alpha: float = 1e-3, convergence: bool = True,
             bounces: bool | None = None, out_dir=None, processes=None, render=render_ours,
             ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS,
-            max_growth=CONVERGENCE_MAX_GROWTH, options=None, log=None) -> Comparison:
+            max_growth=CONVERGENCE_MAX_GROWTH, options=None, resolution=None,
+            log=None) -> Comparison:
     """Compare one integrator with Mitsuba on ``scene``.
 
     Parameters
@@ -186,15 +208,21 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
         top level (equal work per level: :func:`level_replicas`) and the most its renders
         may grow while rare paths dominate (:func:`convergence_test`).
     options : dict, optional
-        Integrator options passed to every render of ours (e.g. branches).
+        Integrator options passed to every render of ours (e.g. branches); those that
+        set the light transport (max_depth, rr_depth, hide_emitters) go to the reference too.
+    resolution : (int, int), optional
+        Film size replacing the file's on both sides.
     """
     start = time.perf_counter()
     name = integrator if isinstance(integrator, str) else integrator.name
     params = {**default_params(scene), **(params or {})}
     ref_name = reference_integrator(name)
-    reference = get_reference(scene, params, ref_name, log=log)
+    reference = get_reference(scene, params, ref_name, log=log, options=reference_options(options),
+                              resolution=resolution)
     if options:
         render = _with_options(render, options)
+    if resolution is not None:
+        render = _with_options(render, {"resolution": tuple(resolution)})
 
     mean, variance = render(scene, integrator, params, spp, TEST_SEED, processes=processes)
     # Same estimator on both sides: a test-side variance far above the reference's is
@@ -203,6 +231,7 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     result = Comparison(scene, name, params, spp,
                         compare_means(mean, variance, spp, reference.mean, reference.var,
                                       reference.n, alpha=alpha, max_var_ratio=bound))
+    result.rendered = rendered_settings(reference.metadata)
     both_noiseless = not np.any(variance) and not np.any(reference.var)
     if name in SAME_ESTIMATOR and not both_noiseless:
         result.variance = compare_variances(variance, spp, reference.var, reference.n, alpha=alpha)
@@ -213,7 +242,7 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
         result.ladder = tuple(ladder)
     if bounces or (bounces is None and not result.mean.agree):
         result.bounce_results = localise_bounce(scene, integrator, name, params, spp, alpha,
-                                                processes, render, log)
+                                                processes, render, log, options, resolution)
         result.bounce = first_diverging_bounce(result.bounce_results)
     from .explain import hints
     result.hints = hints(result)
@@ -223,10 +252,23 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     return result
 
 
+def rendered_settings(metadata: dict) -> str:
+    """What both sides rendered, from the reference's metadata: film size and light transport
+    (Mitsuba's defaults, which are also ours, where the file and the overrides set nothing)."""
+    nested = metadata.get("mitsuba_integrator", {})
+    transport = {"max_depth": -1, "rr_depth": 5, "hide_emitters": False}
+    transport.update({k: v for k, v in nested.items() if k in transport})
+    if nested.get("type") == "direct":
+        transport = {k: v for k, v in transport.items() if k == "hide_emitters"}
+    text = ", ".join(f"{k}={str(v).lower() if isinstance(v, bool) else v}"
+                     for k, v in transport.items())
+    return f"{metadata.get('width')}x{metadata.get('height')} on both sides; {text}"
+
+
 def check_convergence(scene: str, integrator="path", params: dict | None = None, *,
                       alpha: float = 1e-3, ladder=CONVERGENCE_LADDER,
                       replicas=CONVERGENCE_REPLICAS, processes=None, render=render_ours,
-                      options=None, log=None):
+                      options=None, resolution=None, log=None):
     """The convergence-law test alone (see :func:`compare`).
 
     Returns
@@ -235,9 +277,12 @@ def check_convergence(scene: str, integrator="path", params: dict | None = None,
     """
     name = integrator if isinstance(integrator, str) else integrator.name
     params = {**default_params(scene), **(params or {})}
-    reference = get_reference(scene, params, reference_integrator(name), log=log)
+    reference = get_reference(scene, params, reference_integrator(name), log=log,
+                              options=reference_options(options), resolution=resolution)
     if options:
         render = _with_options(render, options)
+    if resolution is not None:
+        render = _with_options(render, {"resolution": tuple(resolution)})
     return convergence_test(scene, integrator, params, reference, alpha, processes, render,
                             ladder, replicas)
 
@@ -298,13 +343,25 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
     return law, mse
 
 
-def localise_bounce(scene, integrator, name, params, spp, alpha, processes, render, log=None):
-    """Mean agreement with Mitsuba's ``path`` at max_depth = 1, 2, 3: {depth: MeanAgreement}."""
+def localise_bounce(scene, integrator, name, params, spp, alpha, processes, render, log=None,
+                    options=None, resolution=None):
+    """Mean agreement with Mitsuba's ``path`` at max_depth = 1, 2, 3: {depth: MeanAgreement}.
+
+    The depth reaches the reference as the ``max_depth`` parameter when the file declares
+    one (the committed per-bounce references), else as an integrator override.
+    """
     depths = [d for d in BOUNCE_DEPTHS if not (name == "direct" and d > 2)]
+    as_param = declares(scene, "max_depth")
     results = {}
     for depth in depths:
-        depth_params = {**params, "max_depth": depth}
-        reference = get_reference(scene, depth_params, "path", log=log)
+        overrides = dict(reference_options(options) or {})
+        if as_param:
+            overrides.pop("max_depth", None)
+            depth_params = {**params, "max_depth": depth}
+        else:
+            depth_params, overrides["max_depth"] = params, depth
+        reference = get_reference(scene, depth_params, "path", log=log, options=overrides or None,
+                                  resolution=resolution)
         mean, variance = render(scene, integrator, params, spp, TEST_SEED + depth,
                                 processes=processes, max_depth=depth)
         results[depth] = compare_means(mean, variance, spp, reference.mean, reference.var,

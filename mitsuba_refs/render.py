@@ -1,10 +1,14 @@
 """Render a Mitsuba reference: per-pixel mean and per-sample variance.
 
 ``render_reference`` loads one of the scene XML files both renderers share,
-renders it with the Mitsuba estimator matching one of ours, wrapped in the
-``rgb_moments`` integrator (:mod:`mitsuba_refs.moments`), in passes of at
-most :data:`~mitsuba_refs.config.PASS_SPP` samples with independent seeds,
-and combines the passes' moments.
+sets the film size and the integrator options the tracer's loader reads from
+the same file (:func:`reference_settings`: literal values, ``$params``,
+``<default>``s and overrides alike), and renders it with the Mitsuba estimator
+matching one of ours. Per-pixel mean and per-sample variance come from single
+samples (:mod:`mitsuba_refs.batch`: ``k`` copies of the camera side by side,
+one sample per pixel each, no Python per sample) in ``scalar_rgb``; in JIT
+variants the ``rgb_moments`` wrapper (:mod:`mitsuba_refs.moments`), which
+runs there once per wavefront (:func:`default_method`).
 
 Integrator mapping (ours -> Mitsuba):
 
@@ -140,23 +144,42 @@ def check_box_filter(path):
                              f"references need <rfilter type=\"box\"/>")
 
 
-def split_params(path, params):
-    """Split ``params`` into XML defaults (for ``mi.load_file``) and
-    integrator properties. Unknown names raise ``KeyError``."""
-    declared = xml_defaults(path)
-    scene_kw, integ_kw = {}, {}
-    for key, value in (params or {}).items():
-        if key in INTEGRATOR_PARAMS:
-            integ_kw[key] = value
-        if key in declared:
-            scene_kw[key] = str(value)
-        elif key not in INTEGRATOR_PARAMS:
-            raise KeyError(f"{path.name} declares no <default name={key!r}> "
-                           f"(it declares {sorted(declared)})")
-    for key in ("max_depth", "rr_depth"):
-        if key not in integ_kw and key in declared:
-            integ_kw[key] = declared[key]
-    return scene_kw, integ_kw
+def reference_settings(path, params, options=None, resolution=None):
+    """What the reference of a file renders, read by the tracer's own loader.
+
+    Parameters
+    ----------
+    path : Path
+        Scene file.
+    params : dict
+        ``-D`` values; each must be declared by the file (``<default>`` or
+        ``$name``), else :class:`pathtracer.SceneError` (as for the tracer).
+    options : dict, optional
+        Integrator option overrides (``max_depth``, ``rr_depth``,
+        ``hide_emitters``), as given to the tracer's ``render``.
+    resolution : (int, int), optional
+        Film size replacing the file's.
+
+    Returns
+    -------
+    (scene_kw, transport, settings)
+        ``scene_kw``: the parameters for Mitsuba's parser (strings);
+        ``transport``: the effective ``max_depth``/``rr_depth``/``hide_emitters``
+        (:func:`pathtracer.render.transport_options`), whatever set them;
+        ``settings``: :class:`pathtracer.scene.settings.SceneSettings`.
+    """
+    from pathtracer.render import transport_options
+    from pathtracer.scene import scene_settings
+    scene_kw = {str(k): str(v) for k, v in (params or {}).items()}
+    settings = scene_settings(path, resolution=resolution, **scene_kw)
+    transport = transport_options(settings.integrator, **(options or {}))
+    return scene_kw, transport, settings
+
+
+def split_params(path, params, options=None):
+    """``(scene_kw, integrator options)`` of :func:`reference_settings`."""
+    scene_kw, transport, _ = reference_settings(path, params, options)
+    return scene_kw, transport
 
 
 def integrator_dict(integrator, integ_kw):
@@ -186,14 +209,18 @@ def _as_bool(value):
     return bool(value)
 
 
-def stream_id(integrator, params):
-    """A 20-bit number identifying (estimator, parameters), mixed into the
+def stream_id(integrator, params, options=None, resolution=None):
+    """A 20-bit number identifying (estimator, parameters, overrides), mixed into the
     seeds so that references of different integrators or parameters made
     with the same ``seed`` are independent (equal seeds would make e.g.
     ``path`` and ``lecture_path_nee`` nearly identical, sample by sample,
     and a two-sample test between them meaningless)."""
-    text = json.dumps([INTEGRATOR_MAP.get(integrator, integrator),
-                       {str(k): str(v) for k, v in sorted((params or {}).items())}])
+    parts = [INTEGRATOR_MAP.get(integrator, integrator),
+             {str(k): str(v) for k, v in sorted((params or {}).items())}]
+    if options or resolution is not None:   # (absent: the committed references' streams)
+        parts += [{str(k): str(v) for k, v in sorted((options or {}).items())},
+                  list(resolution) if resolution is not None else None]
+    text = json.dumps(parts)
     return int(hashlib.sha256(text.encode()).hexdigest()[:5], 16)
 
 
@@ -216,8 +243,57 @@ def pass_seeds(seed, n_passes, width, height, stream=0):
     return [((base + k) * spacing) % 2**32 for k in range(n_passes)]
 
 
+def load_mitsuba_scene(path, scene_kw, resolution=None):
+    """Load ``path`` with Mitsuba's parser, the film size replaced by ``resolution``.
+
+    The film's ``width``/``height`` are edited in the parsed description before
+    the objects are made, so Mitsuba's sensor converts ``fov``/``fov_axis`` at the
+    new aspect itself (not a copy of the tracer's conversion).
+    """
+    import mitsuba as mi
+    config = mi.parser.ParserConfig(mi.variant())
+    state = mi.parser.parse_file(config, str(path), **scene_kw)
+    if resolution is not None:
+        films = [node for node in state.nodes if node.type == mi.ObjectType.Film]
+        if len(films) != 1:
+            raise ValueError(f"{path}: --resolution needs exactly one <film>, found {len(films)}")
+        films[0].props["width"], films[0].props["height"] = (int(v) for v in resolution)
+    mi.parser.transform_all(config, state)
+    resolver = mi.file_resolver()
+    saved = [resolver[i] for i in range(len(resolver))]
+    resolver.prepend(str(Path(path).resolve().parent))   # relative mesh/texture names
+    try:
+        return mi.parser.instantiate(config, state)
+    finally:
+        resolver.clear()
+        for folder in saved:
+            resolver.append(folder)
+
+
+def check_framing(path, mi_scene, settings):
+    """Raise ``ValueError`` unless Mitsuba's sensor has the tracer's film size and fov."""
+    import mitsuba as mi
+    sensor = mi_scene.sensors()[0]
+    size = tuple(int(v) for v in sensor.film().crop_size())
+    if size != settings.resolution:
+        raise ValueError(f"{path}: Mitsuba's film is {size[0]}x{size[1]}, the tracer's "
+                         f"{settings.resolution[0]}x{settings.resolution[1]}")
+    x_fov = float(np.ravel(np.array(mi.traverse(sensor)["x_fov"]))[0])
+    if abs(x_fov - settings.camera.x_fov) > 1e-3:
+        raise ValueError(f"{path}: Mitsuba's horizontal field of view is {x_fov:.4f} degrees, "
+                         f"the tracer's {settings.camera.x_fov:.4f}")
+
+
+def default_method(variant):
+    """``batch`` in scalar variants, where the wrapper would call Python per sample;
+    ``moments`` in JIT variants, where it runs once per wavefront and measured as fast
+    or faster (docs/references.md)."""
+    return "batch" if variant.startswith("scalar") else "moments"
+
+
 def render_reference(scene_path_or_name, params, integrator, spp, seed,
-                     variant=None, pass_spp=None, log=None):
+                     variant=None, pass_spp=None, log=None, *, options=None,
+                     resolution=None, method=None):
     """Render a reference with Mitsuba.
 
     Parameters
@@ -225,48 +301,101 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     scene_path_or_name : str or Path
         Scene XML file or built-in scene name.
     params : dict
-        Values for the scene's ``<default>`` names (``width``, ``max_depth``
-        ...) and integrator options (``max_depth``, ``rr_depth``,
-        ``hide_emitters``).
+        Values for names the scene declares (``<default>`` or ``$name``);
+        anything else is an error, as for the tracer.
     integrator : str
         One of :data:`INTEGRATOR_MAP` (our names).
     spp, seed : int
-        Total samples per pixel; base seed (see :func:`pass_seeds`).
+        Total samples per pixel (the file's sample count is not used); base
+        seed (see :func:`pass_seeds`).
     variant : str, optional
         Mitsuba variant; default chosen by :func:`mitsuba_refs.variant.choose_variant`.
     pass_spp : int, optional
-        Samples per pass (default :data:`~mitsuba_refs.config.PASS_SPP`).
+        ``method="moments"``: samples per pass (default
+        :data:`~mitsuba_refs.config.PASS_SPP`).
     log : callable, optional
         Called with progress strings.
+    options : dict, optional
+        Overrides of ``max_depth``, ``rr_depth``, ``hide_emitters`` (as the
+        tracer's render options); the file's ``<integrator>`` gives the rest.
+    resolution : (int, int), optional
+        Film size replacing the file's.
+    method : {"batch", "moments"}, optional
+        ``batch``: single samples from a batch of camera copies (no Python per
+        sample); ``moments``: the ``rgb_moments`` wrapper (one Python call per
+        sample in ``scalar_rgb``, per wavefront in JIT variants). Same
+        statistics. Default: :func:`default_method`.
 
     Returns
     -------
     Reference
     """
     from .variant import set_variant
-    from . import moments
 
     path = resolve_scene(scene_path_or_name)
     check_box_filter(path)
-    scene_kw, integ_kw = split_params(path, params)
+    scene_kw, transport, settings = reference_settings(path, params, options, resolution)
     chosen, reason = set_variant(variant)
     import mitsuba as mi
 
-    scene_kw = dict(scene_kw, spp=str(min(spp, pass_spp or config.PASS_SPP)))
-    scene = mi.load_file(str(path), **scene_kw)
+    scene = load_mitsuba_scene(path, scene_kw, resolution)
     film = scene.sensors()[0].film()
     if "BoxFilter" not in str(film.rfilter()).split("[")[0]:
         raise ValueError(f"{path}: Mitsuba loaded a {film.rfilter()} filter")
-    width, height = (int(v) for v in film.crop_size())
-    nested = integrator_dict(integrator, integ_kw)
-    integ = mi.load_dict(moments.moment_dict(nested))
+    check_framing(path, scene, settings)
+    width, height = settings.resolution
+    nested = integrator_dict(integrator, transport)
+    stream = stream_id(integrator, params, options, resolution)
+    method = method or default_method(chosen)
+    t0 = time.time()
+    if method == "batch":
+        from .batch import render_moments
+        m1, var, n, calls, per_call, seeds = render_moments(
+            scene, mi.load_dict(nested), spp, seed, stream, log=log)
+    elif method == "moments":
+        m1, var, n, per_call, seeds = _render_with_wrapper(
+            scene, nested, spp, seed, stream, pass_spp, log)
+    else:
+        raise ValueError(f"unknown method {method!r} (batch or moments)")
+    elapsed = time.time() - t0
+    metadata = {
+        "scene": path.stem,
+        "scene_file": str(path),
+        "params": {k: str(v) for k, v in sorted((params or {}).items())},
+        "integrator": integrator,
+        "mitsuba_integrator": nested,
+        "light_transport": dict(transport),
+        "variance_is_of_our_estimator": integrator not in MEAN_ONLY,
+        "spp": int(n),
+        "seed": int(seed),
+        "pass_seeds": seeds,
+        "pass_spp": per_call,
+        "method": method,
+        "width": width,
+        "height": height,
+        "variant": chosen,
+        "variant_reason": reason,
+        "mitsuba_version": mi.__version__,
+        "render_seconds": round(elapsed, 3),
+    }
+    if options:
+        metadata["options"] = {k: str(v) for k, v in sorted(options.items())}
+    if resolution is not None:
+        metadata["resolution"] = [width, height]
+    return Reference(mean=m1, var=var, n=int(n), metadata=metadata)
 
+
+def _render_with_wrapper(scene, nested, spp, seed, stream, pass_spp, log):
+    """The ``rgb_moments`` method: passes of at most ``pass_spp`` samples, moments combined."""
+    import mitsuba as mi
+    from . import moments
+    film = scene.sensors()[0].film()
+    width, height = (int(v) for v in film.crop_size())
+    integ = mi.load_dict(moments.moment_dict(nested))
     pass_spp = int(pass_spp or config.PASS_SPP)
     n_passes = max(1, math.ceil(spp / pass_spp))
-    seeds = pass_seeds(seed, n_passes, width, height,
-                       stream_id(integrator, params))
-    passes, t0 = [], time.time()
-    remaining = spp
+    seeds = pass_seeds(seed, n_passes, width, height, stream)
+    passes, remaining = [], spp
     for k, s in enumerate(seeds):
         n_k = min(pass_spp, remaining)
         remaining -= n_k
@@ -276,24 +405,4 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         if log:
             log(f"  pass {k + 1}/{n_passes}: {n_k} spp, seed {s}")
     m1, m2, n = moments.combine(passes)
-    var = moments.sample_variance(m1, m2, n)
-    elapsed = time.time() - t0
-    metadata = {
-        "scene": path.stem,
-        "scene_file": str(path),
-        "params": {k: str(v) for k, v in sorted((params or {}).items())},
-        "integrator": integrator,
-        "mitsuba_integrator": nested,
-        "variance_is_of_our_estimator": integrator not in MEAN_ONLY,
-        "spp": int(n),
-        "seed": int(seed),
-        "pass_seeds": seeds,
-        "pass_spp": pass_spp,
-        "width": width,
-        "height": height,
-        "variant": chosen,
-        "variant_reason": reason,
-        "mitsuba_version": mi.__version__,
-        "render_seconds": round(elapsed, 3),
-    }
-    return Reference(mean=m1, var=var, n=int(n), metadata=metadata)
+    return m1, moments.sample_variance(m1, m2, n), n, pass_spp, seeds

@@ -18,6 +18,7 @@ EPILOG = """\
 examples:
   pathtracer render cornell-box --spp 64 -o out/cbox.exr
   pathtracer render scene.xml -D width=128 -D height=128 --integrator path_nee -o nee.exr
+  pathtracer render users_scene.xml --resolution 64x48 --spp 16 -o small.exr
   pathtracer render cornell-caustics --integrator recursive --branches 4 --max-depth 4 -o rec.exr
   pathtracer scenes
 
@@ -89,6 +90,14 @@ def _finite(text: str) -> float:
     return value
 
 
+def _resolution(text: str) -> tuple[int, int]:
+    from .scene import parse_resolution
+    try:
+        return parse_resolution(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="pathtracer", description=__doc__,
                      formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG)
@@ -106,7 +115,10 @@ def build_parser() -> argparse.ArgumentParser:
                         metavar="NAME=VALUE", help="set a scene parameter (<default> override); repeatable")
     render.add_argument("--integrator", choices=sorted(INTEGRATORS),
                         help="integrator (default: the file's <integrator>, else path)")
-    render.add_argument("--spp", type=_spp, help="samples per pixel (default: the file's sampler)")
+    render.add_argument("--resolution", type=_resolution, metavar="WxH",
+                        help="film size replacing the file's, literal or $param (e.g. 64x48)")
+    render.add_argument("--spp", type=_spp,
+                        help="samples per pixel replacing the file's sampler count")
     render.add_argument("--seed", type=_seed, help="random seed (default: the file's sampler seed)")
     render.add_argument("--max-depth", type=_depth,
                         help="longest path in segments: 1 = visible emitters, 2 = direct light, -1 = unlimited")
@@ -200,8 +212,9 @@ def _render_checked(args) -> int:
                    rr_q=args.rr_q, hemisphere=args.hemisphere, branches=args.branches,
                    branch_depth=args.branch_depth)
     try:
-        scene = load_scene(args.scene, **dict(args.defines))
-        resources.check_spp(scene.spp if args.spp is None else args.spp)
+        scene = load_scene(args.scene, resolution=args.resolution, sample_count=args.spp,
+                           **dict(args.defines))
+        resources.check_spp(scene.spp)
         processes = args.processes or os.cpu_count() or 1
         resources.check_memory(scene.camera.width, scene.camera.height, processes, DEFAULT_BATCH)
         integrator = _integrator_choice(args, options)

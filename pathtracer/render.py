@@ -64,6 +64,26 @@ class RenderResult:
 SCENE_OPTIONS = ("max_depth", "rr_depth", "hide_emitters")
 
 
+def transport_options(spec, **options) -> dict:
+    """The light-transport options (:data:`SCENE_OPTIONS`) a render of a file uses.
+
+    The file's ``<integrator>`` values (literal or ``$param``), replaced by those of
+    ``options`` that are not None; options neither sets keep the integrators' defaults,
+    which are Mitsuba's (max_depth -1, rr_depth 5, hide_emitters false). The reference
+    side gives Mitsuba exactly these values.
+
+    Parameters
+    ----------
+    spec : IntegratorSpec
+        ``scene.integrator`` (or :func:`pathtracer.scene.scene_settings`'s).
+    **options
+        Render options; only :data:`SCENE_OPTIONS` are read.
+    """
+    out = {k: spec.params[k] for k in SCENE_OPTIONS if k in spec.params}
+    out.update({k: v for k, v in options.items() if k in SCENE_OPTIONS and v is not None})
+    return out
+
+
 def integrator_for(scene: Scene, integrator=None, **options) -> Integrator:
     """The integrator to use: an instance, a name, or the scene file's ``<integrator>``.
 
@@ -72,7 +92,8 @@ def integrator_for(scene: Scene, integrator=None, **options) -> Integrator:
     """
     spec = scene.integrator
     same = integrator is None or (isinstance(integrator, str) and integrator == spec.name)
-    params = {k: v for k, v in spec.params.items() if same or k in SCENE_OPTIONS}
+    params = dict(spec.params) if same else {}
+    params.update(transport_options(spec))
     params.update({k: v for k, v in options.items() if v is not None})
     if isinstance(integrator, Integrator):
         return _with_options(integrator, params)

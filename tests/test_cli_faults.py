@@ -184,20 +184,29 @@ def test_atomic_path_leaves_the_old_file_or_the_new_one_never_a_partial_one(tmp_
 
 def test_huge_radiance_and_an_unused_define_give_warning_lines_and_a_finite_exr(tmp_path):
     """1e30 radiance: the variance (~1e58) overflows float32; it is clamped and said so.
-    ``-D widht=...`` (a typo) is one clean warning line, not a Python UserWarning."""
+    ``-D`` of a ``<default>`` nothing uses is one clean warning line, not a Python
+    UserWarning; a ``-D`` the file does not declare at all (a typo) is an error."""
+    from pathtracer.scene import builtin_scene_path
+    scene = tmp_path / "quad.xml"
+    text = Path(builtin_scene_path("quad-light")).read_text()
+    scene.write_text(text.replace("<default ", '<default name="unused_knob" value="1"/>\n    <default ', 1))
     out = tmp_path / "quad.exr"
-    done = cli("quad-light", "-D", "radiance=1e30", "-D", "widht=4", *SMALL, "-o", str(out),
+    done = cli(str(scene), "-D", "radiance=1e30", "-D", "unused_knob=4", *SMALL, "-o", str(out),
                cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     lines = done.stderr.strip().splitlines()
     assert "Traceback" not in done.stderr and "UserWarning" not in done.stderr
     assert len(lines) == 2 and all(line.startswith("pathtracer: warning: ") for line in lines)
-    assert "parameters not used by the scene: widht" in lines[0]
+    assert "parameters not used by the scene: unused_knob" in lines[0]
     assert "variance values exceed the EXR's float32 range" in lines[1]
     result = read_exr(out)
     assert np.all(np.isfinite(result.mean)) and np.all(np.isfinite(result.variance))
     assert result.mean.max() > 1e28 and result.variance.max() == np.finfo(np.float32).max
-    assert files_in(tmp_path) == {"quad.exr", "quad.png"}
+    assert files_in(tmp_path) == {"quad.xml", "quad.exr", "quad.png"}
+    typo = cli(str(scene), "-D", "widht=4", *SMALL, "-o", str(tmp_path / "typo.exr"), cwd=tmp_path)
+    assert typo.returncode == 2 and "Traceback" not in typo.stderr
+    assert typo.stderr.count("\n") == 1 and "widht not declared by the file" in typo.stderr
+    assert files_in(tmp_path) == {"quad.xml", "quad.exr", "quad.png"}
 
 
 def test_write_exr_records_clamped_values_and_seeds_beyond_int32(tmp_path):

@@ -60,7 +60,6 @@ def write_scenes(folder: Path) -> None:
         "envmap.xml": text.replace(
             "</scene>", '<emitter type="envmap"><string name="filename" value="sky.exr"/>'
                         "</emitter>\n</scene>"),
-        "literalspp.xml": text.replace('value="$spp"', 'value="16"'),
         "huge.xml": text.replace('<default name="radiance" value="10"/>',
                                  '<default name="radiance" value="1e30"/>'),
         "gauss.xml": text.replace('<rfilter type="box"/>', '<rfilter type="gaussian"/>'),
@@ -111,7 +110,7 @@ IN_PROCESS_CASES = {
     "compare-missing-mesh": (["compare", "missingmesh.xml"], 2,
                              ["missingmesh.xml:", "missing.ply"], False),
     "compare-undeclared-D": (["compare", "quad-light", "-D", "nosuch=1"], 2,
-                             ["-D", "nosuch", "quad-light.xml"], False),
+                             ["nosuch not declared", "quad-light.xml"], False),
     "compare-unknown-integrator": (["compare", "quad-light", "--integrator", "pathh"], 2,
                                    ["--integrator", "pathh", "path_nee"], False),
     "compare-image-too-small": (["compare", "quad-light", "-D", "width=4", "-D", "height=4"], 2,
@@ -124,15 +123,13 @@ IN_PROCESS_CASES = {
     "build-unknown-integrator": (["build", "quad-light", "--integrators", "path", "nee"], 2,
                                  ["--integrators", "'nee'"], False),
     "build-undeclared-D": (["build", "quad-light", "-D", "albedoo=0.5"], 2,
-                           ["albedoo", "declares no"], False),
+                           ["albedoo not declared", "quad-light.xml"], False),
     "build-missing-mesh": (["build", "missingmesh.xml"], 2, ["missingmesh.xml", "missing.ply"],
                            False),
     "build-no-such-scene": (["build", "nosuch.xml.xml"], 2, ["nosuch.xml.xml"], False),
     "build-gaussian-filter": (["build", "gauss.xml"], 2, ["gauss.xml", "gaussian", "box"], False),
     "build-spp-1": (["build", "quad-light", "--spp", "1"], 2, ["--spp must be >= 2"], False),
     # Mitsuba's own refusals, translated
-    "compare-literal-sample-count": (["compare", "literalspp.xml", *SMALL, "--no-convergence"], 2,
-                                     ["literalspp.xml", "$spp", "sample_count"], True),
     "build-mitsuba-unknown-plugin": (["build", "unknownplugin.xml", *TINY_BUILD], 2,
                                      ["unknownplugin.xml:58:", "nosuchbsdf"], True),
     "build-huge-radiance": (["build", "huge.xml", *TINY_BUILD], 2,

@@ -8,7 +8,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from pathtracer.scene import load_scene, transform
+from pathtracer.scene import SceneError, load_scene, transform
 from pathtracer.scene.build import x_fov_from
 from pathtracer.scene.meshes import read_obj, read_ply, smooth_vertex_normals
 
@@ -128,7 +128,7 @@ def test_default_and_params(tmp_path):
     s = load_scene(path, depth=3)
     assert s.spp == 8 and s.integrator.params == {"max_depth": 3}
     assert s.integrator.name == "path"
-    with pytest.warns(UserWarning, match="not used by the scene: typo"):
+    with pytest.raises(SceneError, match=r"parameter\(s\) typo not declared by the file"):
         load_scene(path, depth=3, typo=1)
     s = load_scene(path, depth="7", spp=2, refl=0.125)
     assert s.spp == 2 and s.integrator.params["max_depth"] == 7

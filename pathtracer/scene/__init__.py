@@ -1,4 +1,4 @@
-"""Mitsuba 3 XML scene loading: ``load_scene(path_or_name, **params) -> Scene``."""
+"""Mitsuba 3 XML scene loading: ``load_scene(path_or_name, resolution=, sample_count=, **params) -> Scene``."""
 from __future__ import annotations
 
 import difflib
@@ -10,7 +10,7 @@ from .types import (AreaEmitter, Camera, ConstantEmitter, IntegratorSpec,
                     PointEmitter, Scene)
 from .xml import parse_file
 
-__all__ = ["load_scene", "SceneError", "Scene", "Camera", "AreaEmitter",
+__all__ = ["load_scene", "scene_settings", "parse_resolution", "SceneError", "Scene", "Camera", "AreaEmitter",
            "PointEmitter", "ConstantEmitter", "IntegratorSpec", "builtin_scene_path"]
 
 BUILTIN_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scenes")
@@ -21,7 +21,8 @@ def builtin_scene_path(name: str) -> str:
     return os.path.join(BUILTIN_DIR, name + ".xml")
 
 
-def load_scene(path: str | os.PathLike, **params) -> Scene:
+def load_scene(path: str | os.PathLike, resolution: tuple[int, int] | None = None,
+               sample_count: int | None = None, **params) -> Scene:
     """Load a Mitsuba 3 XML scene.
 
     Parameters
@@ -29,9 +30,17 @@ def load_scene(path: str | os.PathLike, **params) -> Scene:
     path : str or path-like
         An XML file, or the name of a built-in scene (no ``/`` and no
         ``.xml``), e.g. ``"cornell-box"``, looked up in ``pathtracer/scenes``.
+    resolution : (int, int), optional
+        Film (width, height) replacing the file's, literal or ``$param``; the
+        ``fov_axis`` keeps its meaning at the new aspect, as in Mitsuba.
+    sample_count : int, optional
+        Samples per pixel replacing the file's sampler ``sample_count``, literal
+        or ``$param``. (``spp=`` is not this keyword: it stays free for the
+        ``$spp`` parameter many files use for their sample count.)
     **params
         Values (str, int, float) for ``$name`` placeholders in the file; they
-        override the file's ``<default>`` values.
+        override the file's ``<default>`` values. A name the file neither
+        declares nor uses is an error.
 
     Returns
     -------
@@ -43,6 +52,15 @@ def load_scene(path: str | os.PathLike, **params) -> Scene:
         If the file is malformed or uses something this tracer does not
         render like Mitsuba; the message names the file, line and element.
     """
+    file = scene_file(path)
+    resolution, sample_count = check_overrides(resolution, sample_count)
+    root = parse_file(file, params)
+    return build_scene(root, os.fspath(path), os.path.dirname(os.path.abspath(file)),
+                       resolution=resolution, spp=sample_count)
+
+
+def scene_file(path: str | os.PathLike) -> str:
+    """The XML file of ``path``: a file path, or a built-in scene name."""
     text = os.fspath(path)
     if "/" not in text and os.sep not in text and not text.endswith(".xml"):
         file = builtin_scene_path(text)
@@ -53,11 +71,43 @@ def load_scene(path: str | os.PathLike, **params) -> Scene:
             hint = f"did you mean \"{close[0]}\"? " if close else ""
             raise SceneError(f"no built-in scene \"{text}\" ({hint}built-in: {', '.join(names) or 'none'}; "
                              "give a path to load a file)")
-    else:
-        file = text
-        if os.path.isdir(file):
-            raise SceneError(f"{file} is a directory, not a scene file")
-        if not os.path.isfile(file):
-            raise SceneError(f"scene file not found: {file}")
-    root = parse_file(file, params)
-    return build_scene(root, text, os.path.dirname(os.path.abspath(file)))
+        return file
+    if os.path.isdir(text):
+        raise SceneError(f"{text} is a directory, not a scene file")
+    if not os.path.isfile(text):
+        raise SceneError(f"scene file not found: {text}")
+    return text
+
+
+def check_overrides(resolution, sample_count):
+    """Validated ``(resolution, sample_count)`` overrides: ((int, int) or None, int or None)."""
+    if resolution is not None:
+        try:
+            width, height = (int(v) for v in resolution)
+        except (TypeError, ValueError):
+            raise SceneError(f"resolution must be (width, height), got {resolution!r}") from None
+        if width < 1 or height < 1:
+            raise SceneError(f"resolution must be positive, got {width}x{height}")
+        resolution = (width, height)
+    if sample_count is not None:
+        if int(sample_count) < 1:
+            raise SceneError(f"sample_count must be >= 1, got {sample_count}")
+        sample_count = int(sample_count)
+    return resolution, sample_count
+
+
+def parse_resolution(text: str) -> tuple[int, int]:
+    """``"64x48"`` -> ``(64, 48)``; ValueError otherwise (for the command lines)."""
+    width, sep, height = text.lower().partition("x")
+    try:
+        if not sep:
+            raise ValueError
+        size = int(width), int(height)
+    except ValueError:
+        raise ValueError(f"resolution must look like WIDTHxHEIGHT (e.g. 64x48), got {text!r}") from None
+    if min(size) < 1:
+        raise ValueError(f"resolution must be positive, got {text!r}")
+    return size
+
+
+from .settings import scene_settings  # noqa: E402  (uses scene_file above)

@@ -817,8 +817,14 @@ def _sampler(plugin: Plugin) -> tuple[int, int]:
     return spp, seed
 
 
-def build_sensor(plugin: Plugin) -> tuple[Camera, int, int]:
-    """The perspective camera, with the film resolution and sampler settings."""
+def build_sensor(plugin: Plugin, resolution: tuple[int, int] | None = None,
+                 spp: int | None = None) -> tuple[Camera, int, int]:
+    """The perspective camera, with the film resolution and sampler settings.
+
+    ``resolution`` (width, height) and ``spp`` replace the file's film size and
+    sample count whatever it says; the field of view is then converted with the new
+    aspect, as Mitsuba does for a film of that size (``fov_axis`` keeps its meaning).
+    """
     if plugin.type != "perspective":
         raise _unsupported(plugin, "sensor")
     props = Props(plugin)
@@ -827,7 +833,10 @@ def build_sensor(plugin: Plugin) -> tuple[Camera, int, int]:
         raise plugin.error("no <film>: Mitsuba's default film uses a gaussian filter; add "
                            "<film type=\"hdrfilm\"> with <rfilter type=\"box\"/>")
     width, height = _film(kids["film"][0])
-    spp, seed = _sampler(kids["sampler"][0]) if kids["sampler"] else (4, 0)
+    spp_file, seed = _sampler(kids["sampler"][0]) if kids["sampler"] else (4, 0)
+    if resolution is not None:
+        width, height = (int(v) for v in resolution)
+    spp = spp_file if spp is None else int(spp)
     aspect = width / height
     if props.has("fov") and props.has("focal_length"):
         raise plugin.error("give either fov or focal_length, not both")
@@ -953,7 +962,8 @@ def _unattached_area(plugin: Plugin, attached: dict) -> None:
                       "with <ref id=\"...\"/> inside a <shape>", stacklevel=4)
 
 
-def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
+def build_scene(root: Plugin, source: str, base_dir: str,
+                resolution: tuple[int, int] | None = None, spp: int | None = None) -> Scene:
     """Turn the parsed ``<scene>`` into a :class:`Scene`.
 
     Parameters
@@ -966,6 +976,8 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
         The scene file's folder: relative mesh file names are looked up in
         the file's ``<path>`` folders, then here, then in the working
         directory (:func:`search_folders`).
+    resolution, spp : optional
+        Film (width, height) and sample count replacing the file's (:func:`build_sensor`).
     """
     kids = _children(root, {"shape": 10**9, "bsdf": 10**9, "emitter": 10**9,
                             "sensor": 1, "integrator": 1, "texture": 10**9})
@@ -1016,7 +1028,7 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
         emitters.append(emitter)
     if not kids["sensor"]:
         raise root.error("no <sensor>: add <sensor type=\"perspective\"> with a film")
-    camera, spp, seed = build_sensor(kids["sensor"][0])
+    camera, spp, seed = build_sensor(kids["sensor"][0], resolution, spp)
     integrator = build_integrator(kids["integrator"][0] if kids["integrator"] else None)
 
     tri_p = np.concatenate(geo.tri_p) if geo.tri_p else np.zeros((0, 3, 3))

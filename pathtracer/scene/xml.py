@@ -235,6 +235,7 @@ class _Reader:
         self.params = {k: _param_text(v) for k, v in params.items()}
         self.given = set(params)
         self.used: set[str] = set()
+        self.declared: set[str] = set()
         self.ids: dict[str, Plugin] = {}
         self.search_paths: list[str] = []
         self.defaults_later: dict[str, int] = {}
@@ -265,10 +266,18 @@ class _Reader:
         self.fill_scene(plugin, root, state, top=True)
         plugin.search_paths = list(self.search_paths)
         self.resolve(plugin, set())
+        undeclared = sorted(self.given - self.used - self.declared)
+        if undeclared:
+            # Mitsuba would only log this; an error keeps a value that reaches neither
+            # renderer (or only one of them) from passing unnoticed.
+            raise SceneError(f"parameter(s) {', '.join(undeclared)} not declared by the file (no "
+                             "<default> and no $name use them; declared: "
+                             f"{', '.join(sorted(self.declared | self.used)) or 'none'}); a literal "
+                             "film size, sample count or path length is overridden with "
+                             "--resolution, --spp or --max-depth", self.file, root.line, "<scene>")
         unused = sorted(self.given - self.used)
         if unused:
-            # Mitsuba only logs this too: callers may pass one set of
-            # parameters to several scenes.
+            # Declared but never used: harmless on both sides (Mitsuba accepts it too).
             warnings.warn(f"{self.file}: parameters not used by the scene: {', '.join(unused)}",
                           stacklevel=4)
         return plugin
@@ -302,6 +311,7 @@ class _Reader:
                                      el.file, el.line, "<default>")
                 # The first value wins: load_scene's, then the earliest <default>.
                 self.params.setdefault(a["name"], a["value"])
+                self.declared.add(a["name"])
             elif el.tag == "path":
                 self.add_path(el, state, top)
             elif el.tag == "include":

@@ -1,0 +1,115 @@
+r"""Per-pixel mean and per-sample variance from single Mitsuba samples, no Python per sample.
+
+Mitsuba's ``moment`` integrator gives second moments of X, Y, Z only (no RGB
+cross terms, so no RGB variance), and wrapping the estimator in a Python
+integrator (:mod:`mitsuba_refs.moments`) costs one Python call per sample in
+``scalar_rgb``. Here each render call puts ``k`` copies of the scene's camera
+side by side in Mitsuba's ``batch`` sensor and takes **one** sample per pixel:
+the film (box filter) then holds ``k`` independent single samples of every
+pixel, one per copy, rendered by the C++ estimator alone. NumPy reduces them:
+per call the block mean and :math:`M_2 = \sum (L_i - \bar L)^2`, merged over
+calls with Chan's formula, so
+
+.. math::
+
+    \bar L = \frac1n \sum L_i, \qquad s^2 = \frac{M_2}{n - 1}
+
+are exactly the statistics of :mod:`mitsuba_refs.moments` (same samples model,
+float64 sums, and exactly zero variance where all samples agree).
+
+Every call has its own seed (:func:`mitsuba_refs.render.pass_seeds`, spaced
+for the ``k`` times wider film); a copy's pixel is a different film pixel, so
+it draws its own random stream.
+"""
+
+import math
+
+import numpy as np
+
+#: Film pixels per render call (``k * W * H``): bounded memory, and large enough that the
+#: per-call cost (block setup, developing the film) is small next to the path tracing.
+BATCH_PIXELS = 1 << 18
+
+
+def copies_per_call(spp, width, height):
+    """``(k, calls)``: camera copies per call and number of calls for ``spp`` samples
+    (``k * calls >= spp``, balanced so that at most ``calls - 1`` samples are wasted)."""
+    k_max = max(1, BATCH_PIXELS // (width * height))
+    calls = math.ceil(spp / k_max)
+    return math.ceil(spp / calls), calls
+
+
+def batch_sensor(sensor, k, width, height):
+    """Mitsuba ``batch`` sensor of ``k`` copies of ``sensor`` on a ``k*width x height`` box-filtered film."""
+    import mitsuba as mi
+    desc = {"type": "batch",
+            "film": {"type": "hdrfilm", "width": k * width, "height": height,
+                     "rfilter": {"type": "box"}, "pixel_format": "rgb",
+                     "component_format": "float32"}}
+    for i in range(k):
+        desc[f"copy{i}"] = sensor
+    return mi.load_dict(desc)
+
+
+class SampleStatistics:
+    """Running per-pixel count, mean and M2 of blocks of single samples (Chan's merge)."""
+
+    def __init__(self):
+        self.n, self.mean, self.m2 = 0, None, None
+
+    def add(self, samples):
+        """Add ``samples`` of shape (H, k, W, 3): ``k`` samples of every pixel."""
+        samples = np.asarray(samples, dtype=np.float64)
+        k = samples.shape[1]
+        block_mean = samples.mean(axis=1)
+        block_m2 = ((samples - block_mean[:, None]) ** 2).sum(axis=1)
+        if self.n == 0:
+            self.n, self.mean, self.m2 = k, block_mean, block_m2
+            return
+        n = self.n + k
+        delta = block_mean - self.mean
+        self.mean = self.mean + delta * (k / n)
+        self.m2 = self.m2 + block_m2 + delta * delta * (self.n * k / n)
+        self.n = n
+
+    def variance(self):
+        """Unbiased per-sample variance ``M2 / (n - 1)``."""
+        if self.n < 2:
+            raise ValueError("variance needs at least 2 samples per pixel")
+        return self.m2 / (self.n - 1)
+
+
+def render_moments(scene, integrator, spp, seed, stream, log=None):
+    """Render ``spp`` single samples per pixel of ``scene``'s first sensor.
+
+    Parameters
+    ----------
+    scene : mitsuba.Scene
+    integrator : mitsuba.Integrator
+        The estimator itself (no wrapper).
+    spp, seed, stream : int
+        Samples per pixel; base seed and stream of :func:`mitsuba_refs.render.pass_seeds`.
+    log : callable, optional
+
+    Returns
+    -------
+    (mean, var, n, calls, k, seeds)
+        (H, W, 3) float64 mean and per-sample variance, ``n = spp``, and how it was cut.
+    """
+    import mitsuba as mi
+    from .render import pass_seeds
+    sensor = scene.sensors()[0]
+    width, height = (int(v) for v in sensor.film().crop_size())
+    k, calls = copies_per_call(spp, width, height)
+    batch = batch_sensor(sensor, k, width, height)
+    seeds = pass_seeds(seed, calls, k * width, height, stream)
+    stats, remaining = SampleStatistics(), spp
+    for i, call_seed in enumerate(seeds):
+        image = mi.render(scene, sensor=batch, integrator=integrator, spp=1, seed=call_seed)
+        samples = np.array(image, dtype=np.float64)[..., :3].reshape(height, k, width, 3)
+        take = min(k, remaining)
+        stats.add(samples[:, :take])
+        remaining -= take
+        if log and (i + 1) % max(1, calls // 8) == 0:
+            log(f"  {spp - remaining}/{spp} spp")
+    return stats.mean, stats.variance(), stats.n, calls, k, seeds
