@@ -26,8 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BSDF, BSDFSample, as_colour, make_sample
-from .fresnel import fresnel_conductor, reflect_about
+from .base import BSDF, BSDFSample, make_sample
+from .conductor import ConductorFresnel
+from .fresnel import reflect_about
 from .microfacet import MicrofacetDistribution, _dot, _normalize
 
 
@@ -56,16 +57,9 @@ class RoughConductor(BSDF):
         self.distribution = self.distr.distribution
         self.alpha_u = self.distr.alpha_u
         self.alpha_v = self.distr.alpha_v
-        self.specular_reflectance = as_colour(specular_reflectance)
-        self.eta_complex = as_colour(eta) + 1j * as_colour(k)
-        self._perfect_mirror = bool(np.all(self.eta_complex == 1j))
-
-    def fresnel(self, cos_theta: np.ndarray) -> np.ndarray:
-        """Conductor Fresnel factor times ``specular_reflectance`` -> (n, 3)."""
-        if self._perfect_mirror:
-            return np.broadcast_to(self.specular_reflectance, (cos_theta.shape[0], 3))
-        F = fresnel_conductor(cos_theta[:, None], self.eta_complex[None, :])
-        return F * self.specular_reflectance
+        self.fresnel = ConductorFresnel(specular_reflectance, eta, k)
+        self.specular_reflectance = self.fresnel.specular_reflectance
+        self.eta_complex = self.fresnel.eta_complex
 
     def _half_vector(self, wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Half vector and the mask of pairs where both directions are above the surface."""

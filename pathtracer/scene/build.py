@@ -27,10 +27,20 @@ IOR_BY_NAME = {
 }
 SUPPORTED = {
     "shape": ("rectangle", "cube", "disk", "sphere", "obj", "ply"),
-    "bsdf": ("diffuse", "twosided", "conductor", "dielectric", "roughconductor"),
+    "bsdf": ("diffuse", "twosided", "conductor", "roughconductor", "dielectric",
+             "thindielectric", "roughdielectric", "plastic", "roughplastic"),
     "emitter": ("area", "point", "constant"),
     "sensor": ("perspective",),
     "integrator": ("path", "direct", "recursive", "path_bsdf", "path_nee", "smallpt"),
+}
+# BSDFs that only make sense in Mitsuba's polarised variants: refused with the reason.
+VARIANT_ONLY_BSDFS = {
+    "polarizer": "is a polarisation filter (only meaningful in Mitsuba's *_polarized variants)",
+    "retarder": "is a polarisation retarder (only meaningful in Mitsuba's *_polarized variants)",
+    "circular": "is a circular polariser (only meaningful in Mitsuba's *_polarized variants)",
+    "pplastic": "is the polarised plastic model (only meaningful in Mitsuba's *_polarized variants)",
+    "measured_polarized": "is a measured polarised BSDF (only meaningful in Mitsuba's "
+                          "*_polarized variants)",
 }
 # Integrator parameters we validate; the project's own integrators take any.
 INTEGRATOR_PARAMS = {
@@ -157,18 +167,82 @@ def _ior(props: Props, name: str, default: str) -> float:
     return value
 
 
-def _no_material(props: Props) -> None:
-    """Only Mitsuba's ``material="none"`` (a perfect, colourless mirror) is supported."""
-    material = props.string("material", "none")
-    for name in ("eta", "k"):
-        if props.has(name):
-            raise props.plugin.error(f"\"{name}\" is not supported: only material \"none\" "
-                                     "(a perfect mirror scaled by specular_reflectance)",
-                                     props.line(name))
-    if material.strip().lower() != "none":
-        raise props.plugin.error(f"conductor material \"{material}\" is not supported: "
-                                 "only material \"none\" (a perfect mirror scaled by "
-                                 "specular_reflectance)", props.line("material"))
+def _conductor_ior(props: Props) -> tuple[np.ndarray, np.ndarray]:
+    """Complex IOR ``(eta, k)`` of a conductor: Mitsuba's ``material`` preset or explicit values.
+
+    As Mitsuba: ``material="none"`` (the default) is ``0 + 1i``, a perfect
+    mirror; explicit ``eta`` / ``k`` default to 0 / 1 and cannot be combined
+    with another material.
+    """
+    from pathtracer.bsdfs.conductor_presets import CONDUCTOR_PRESETS
+
+    material = props.string("material", "none").strip()
+    if material == "none" or props.has("eta"):
+        if material != "none":
+            raise props.plugin.error(f"give either eta/k or material=\"{material}\", not both",
+                                     props.line("material"))
+        return props.color("eta", 0.0), props.color("k", 1.0)
+    if material not in CONDUCTOR_PRESETS:
+        raise props.plugin.error(f"unknown conductor material \"{material}\" (known: none, "
+                                 f"{', '.join(CONDUCTOR_PRESETS)})", props.line("material"))
+    if props.has("k"):
+        raise props.plugin.error(f"\"k\" without \"eta\" cannot be combined with material="
+                                 f"\"{material}\" (give both eta and k, or only the material)",
+                                 props.line("k"))
+    eta, k = CONDUCTOR_PRESETS[material]
+    return np.array(eta), np.array(k)
+
+
+def _microfacet(props: Props, anisotropic: bool = True) -> tuple[str, float, float]:
+    """``distribution``, ``alpha_u``, ``alpha_v`` of a microfacet BSDF (Mitsuba's rules and defaults)."""
+    plugin = props.plugin
+    distribution = props.string("distribution", "beckmann").strip().lower()
+    if distribution not in ("beckmann", "ggx"):
+        raise plugin.error(f"unknown microfacet distribution \"{distribution}\" "
+                           "(beckmann or ggx)", props.line("distribution"))
+    if not props.bool("sample_visible", True):
+        raise plugin.error("sample_visible=false is not supported (only visible-normal "
+                           "sampling, Mitsuba's default)", props.line("sample_visible"))
+    if props.has("alpha") and (props.has("alpha_u") or props.has("alpha_v")):
+        raise plugin.error("give either alpha or alpha_u/alpha_v, not both",
+                           props.line("alpha"))
+    if props.has("alpha_u") != props.has("alpha_v"):
+        name = "alpha_u" if props.has("alpha_u") else "alpha_v"
+        raise plugin.error("give both alpha_u and alpha_v", props.line(name))
+    if props.has("alpha_u") and not anisotropic:
+        raise plugin.error(f"{plugin.type} supports only isotropic roughness (alpha), as in "
+                           "Mitsuba", props.line("alpha_u"))
+    alpha = props.float("alpha", 0.1)
+    alpha_u, alpha_v = props.float("alpha_u", alpha), props.float("alpha_v", alpha)
+    for name, value in (("alpha", alpha), ("alpha_u", alpha_u), ("alpha_v", alpha_v)):
+        if props.has(name) and not value >= 0.0:
+            raise plugin.error(f"\"{name}\" must be >= 0", props.line(name))
+    return distribution, alpha_u, alpha_v
+
+
+def _distinct_iors(props: Props, default_int: str) -> tuple[float, float]:
+    """``int_ior`` and ``ext_ior``, which the rough interfaces need to differ (Mitsuba's check)."""
+    int_ior, ext_ior = _ior(props, "int_ior", default_int), _ior(props, "ext_ior", "air")
+    if int_ior == ext_ior:
+        raise props.plugin.error(f"{props.plugin.type} needs int_ior != ext_ior (both {int_ior:g})",
+                                 props.line("int_ior") if props.has("int_ior") else None)
+    return int_ior, ext_ior
+
+
+def _build_plastic(props: Props, bsdfs):
+    """``plastic`` / ``roughplastic``: shared parameters, then the smooth or rough model."""
+    rough = props.plugin.type == "roughplastic"
+    if rough:
+        int_ior, ext_ior = _distinct_iors(props, "polypropylene")
+    else:
+        int_ior, ext_ior = _ior(props, "int_ior", "polypropylene"), _ior(props, "ext_ior", "air")
+    common = dict(diffuse_reflectance=props.color("diffuse_reflectance", 0.5),
+                  specular_reflectance=props.color("specular_reflectance", 1.0),
+                  int_ior=int_ior, ext_ior=ext_ior, nonlinear=props.bool("nonlinear", False))
+    if not rough:
+        return bsdfs.Plastic(**common)
+    distribution, alpha, _ = _microfacet(props, anisotropic=False)
+    return bsdfs.RoughPlastic(distribution, alpha, **common)
 
 
 def build_bsdf(plugin: Plugin):
@@ -188,30 +262,28 @@ def build_bsdf(plugin: Plugin):
     if kind == "diffuse":
         result = bsdfs.Diffuse(props.color("reflectance", 0.5))
     elif kind == "conductor":
-        _no_material(props)
-        result = bsdfs.Conductor(props.color("specular_reflectance", 1.0))
-    elif kind == "dielectric":
-        result = bsdfs.Dielectric(_ior(props, "int_ior", "bk7"), _ior(props, "ext_ior", "air"),
-                                  props.color("specular_reflectance", 1.0),
-                                  props.color("specular_transmittance", 1.0))
+        eta, k = _conductor_ior(props)
+        result = bsdfs.Conductor(props.color("specular_reflectance", 1.0), eta, k)
+    elif kind in ("dielectric", "thindielectric"):
+        cls = bsdfs.Dielectric if kind == "dielectric" else bsdfs.ThinDielectric
+        result = cls(_ior(props, "int_ior", "bk7"), _ior(props, "ext_ior", "air"),
+                     props.color("specular_reflectance", 1.0),
+                     props.color("specular_transmittance", 1.0))
+    elif kind == "roughdielectric":
+        int_ior, ext_ior = _distinct_iors(props, "bk7")
+        distribution, alpha_u, alpha_v = _microfacet(props)
+        result = bsdfs.RoughDielectric(distribution, alpha_u, alpha_v, int_ior, ext_ior,
+                                       props.color("specular_reflectance", 1.0),
+                                       props.color("specular_transmittance", 1.0))
     elif kind == "roughconductor":
-        _no_material(props)
-        distribution = props.string("distribution", "beckmann").strip().lower()
-        if distribution not in ("beckmann", "ggx"):
-            raise plugin.error(f"unknown microfacet distribution \"{distribution}\" "
-                               "(beckmann or ggx)", props.line("distribution"))
-        if not props.bool("sample_visible", True):
-            raise plugin.error("sample_visible=false is not supported (only visible-normal "
-                               "sampling)", props.line("sample_visible"))
-        if props.has("alpha") and (props.has("alpha_u") or props.has("alpha_v")):
-            raise plugin.error("give either alpha or alpha_u/alpha_v, not both",
-                               props.line("alpha"))
-        alpha = props.float("alpha", 0.1)
-        alpha_u, alpha_v = props.float("alpha_u", alpha), props.float("alpha_v", alpha)
-        if props.has("alpha_u") != props.has("alpha_v"):
-            raise plugin.error("give both alpha_u and alpha_v")
+        eta, k = _conductor_ior(props)
+        distribution, alpha_u, alpha_v = _microfacet(props)
         result = bsdfs.RoughConductor(distribution, alpha_u, alpha_v,
-                                      props.color("specular_reflectance", 1.0))
+                                      props.color("specular_reflectance", 1.0), eta, k)
+    elif kind in ("plastic", "roughplastic"):
+        result = _build_plastic(props, bsdfs)
+    elif kind in VARIANT_ONLY_BSDFS:
+        raise plugin.error(f"BSDF \"{kind}\" {VARIANT_ONLY_BSDFS[kind]}")
     else:
         raise _unsupported(plugin, "BSDF")
     props.finish()
