@@ -20,23 +20,32 @@ from . import config
 def default_jobs(scenes=None, integrators=None, extra_params=None,
                  per_bounce=True):
     """The references ``build`` makes by default: every scene x integrator at
-    the test resolution, plus ``path`` with ``max_depth`` 1, 2, 3.
+    the test resolution, plus ``path`` with ``max_depth`` 1, 2, 3 (feature scenes:
+    only their own estimators, no per-bounce references).
 
     Returns a list of ``(scene, params, integrator)``.
     """
-    scenes = list(scenes or config.BUILTIN_SCENES)
-    integrators = list(integrators or config.REF_INTEGRATORS)
+    scenes = list(scenes or (*config.BUILTIN_SCENES, *config.FEATURE_SCENES))
     jobs = []
     for scene in scenes:
         width, height = config.test_resolution(scene)
         base = {"width": str(width), "height": str(height)}
         base.update(extra_params or {})
-        for integ in integrators:
+        scene_integrators = list(integrators or _default_integrators(scene))
+        for integ in scene_integrators:
             jobs.append((scene, dict(base), integ))
-        if per_bounce and "path" in integrators and "max_depth" not in base:
+        if (per_bounce and "path" in scene_integrators and "max_depth" not in base
+                and scene not in config.FEATURE_SCENES):
             for depth in config.PER_BOUNCE_DEPTHS:
                 jobs.append((scene, dict(base, max_depth=str(depth)), "path"))
     return jobs
+
+
+def _default_integrators(scene):
+    """The estimators a scene gets references for unless ``--integrators`` says otherwise."""
+    if scene in config.FEATURE_SCENES:
+        return config.FEATURE_SCENES[scene][0]
+    return config.REF_INTEGRATORS
 
 
 def _parse_defines(defines):

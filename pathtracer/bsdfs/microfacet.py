@@ -246,21 +246,33 @@ def _beckmann_visible_slopes_11(cos_theta_i: np.ndarray, u: np.ndarray) -> tuple
     (:math:`10^{-13}`). The visibility weight does not depend on
     :math:`\tilde y`, so :math:`\tilde y` keeps its Gaussian marginal
     :math:`e^{-\tilde y^2}/\sqrt\pi`: :math:`\tilde y = \operatorname{erf}^{-1}(2u_y - 1)`.
+    The root is found once per distinct :math:`(\cos\theta_i, u_x)`: quadrature
+    grids (:mod:`.microfacet_albedo`) repeat each pair many times.
     """
+    order = np.lexsort((u[:, 0], cos_theta_i))
+    cos_sorted, u_sorted = cos_theta_i[order], u[order, 0]
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = (np.diff(cos_sorted) != 0.0) | (np.diff(u_sorted) != 0.0)
+    distinct = _beckmann_visible_slope_x_11(cos_sorted[first], u_sorted[first])
+    slope_x = np.empty(order.size)
+    slope_x[order] = distinct[np.cumsum(first) - 1]
+    u_y = np.clip(u[:, 1], 1e-15, 1.0 - 1e-15)
+    slope_y = _special().erfinv(2.0 * u_y - 1.0)
+    return slope_x, slope_y
+
+
+def _beckmann_visible_slope_x_11(cos_theta_i: np.ndarray, u_x: np.ndarray) -> np.ndarray:
+    r"""The slope :math:`\tilde x` of :func:`_beckmann_visible_slopes_11` for each (cosine, uniform) pair."""
     cos_theta = np.clip(cos_theta_i, 0.0, 1.0)
     sin_theta = np.sqrt(np.maximum(1.0 - cos_theta * cos_theta, 0.0))
     with np.errstate(divide="ignore"):
         cot_theta = np.where(sin_theta > 0.0, cos_theta / np.where(sin_theta > 0.0, sin_theta, 1.0), np.inf)
     hi = np.minimum(cot_theta, _SLOPE_BOUND)
     lo = np.full_like(hi, -_SLOPE_BOUND)
-    target = u[:, 0] * _beckmann_slope_cdf(hi, cos_theta, sin_theta)
+    target = u_x * _beckmann_slope_cdf(hi, cos_theta, sin_theta)
 
-    x0 = np.clip(_special().erfinv(np.clip(2.0 * u[:, 0] - 1.0, -1.0 + 1e-15, 1.0 - 1e-15)), lo, hi)
-    slope_x = _solve_increasing(x0, lo, hi, target, cos_theta, sin_theta)
-
-    u_y = np.clip(u[:, 1], 1e-15, 1.0 - 1e-15)
-    slope_y = _special().erfinv(2.0 * u_y - 1.0)
-    return slope_x, slope_y
+    x0 = np.clip(_special().erfinv(np.clip(2.0 * u_x - 1.0, -1.0 + 1e-15, 1.0 - 1e-15)), lo, hi)
+    return _solve_increasing(x0, lo, hi, target, cos_theta, sin_theta)
 
 
 def _solve_increasing(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, target: np.ndarray,
