@@ -102,8 +102,8 @@ CASES = {
         f'<bsdf type="plastic">\n<float name="nonlinear" value="1"/>{MARK}</bsdf>',
         '<bsdf type="plastic">', 'must be a <boolean>'),
     "sample_visible": (
-        f'<bsdf type="roughconductor">\n<boolean name="sample_visible" value="false"/>{MARK}</bsdf>',
-        '<bsdf type="roughconductor">', "visible-normal"),
+        f'<bsdf type="roughdielectric">\n<boolean name="sample_visible" value="false"/>{MARK}</bsdf>',
+        '<bsdf type="roughdielectric">', "biased estimator"),
     "unknown ior name": (
         f'<bsdf type="dielectric">\n<string name="int_ior" value="unobtainium"/>{MARK}</bsdf>',
         '<bsdf type="dielectric">', "unknown IOR name"),

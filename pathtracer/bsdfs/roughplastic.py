@@ -27,7 +27,8 @@ The density is the mixture
 
 .. math:: p(w_o) = P_s\,\frac{D(h)\,G_1(w_i, h)}{4\cos\theta_i} + (1 - P_s)\frac{\cos\theta_o}{\pi}
 
-and the weight is ``eval / pdf``, as in Mitsuba (whose Beckmann
+(:math:`P_s\,D(h)\cos\theta_h/(4\,w_o\cdot h)` for the glossy part with
+``sample_visible=false``) and the weight is ``eval / pdf``, as in Mitsuba (whose Beckmann
 :math:`G_1` is a rational approximation, see :mod:`.microfacet`).
 """
 from __future__ import annotations
@@ -52,10 +53,11 @@ class RoughPlastic(BSDF):
     def __init__(self, distribution: str = "beckmann", alpha: float = 0.1,
                  diffuse_reflectance=0.5, specular_reflectance=1.0,
                  int_ior: float = POLYPROPYLENE_IOR, ext_ior: float = AIR_IOR,
-                 nonlinear: bool = False):
+                 nonlinear: bool = False, sample_visible: bool = True):
         if int_ior < 0 or ext_ior < 0 or int_ior == ext_ior:
             raise ValueError("The interior and exterior indices of refraction must be positive and differ")
-        self.distr = MicrofacetDistribution(distribution, alpha, alpha)
+        # The coating tables always integrate over visible normals, as Mitsuba's do.
+        self.distr = MicrofacetDistribution(distribution, alpha, alpha, sample_visible)
         self.distribution = self.distr.distribution
         self.alpha_u = self.alpha_v = self.distr.alpha_u
         self.eta = float(int_ior) / float(ext_ior)
@@ -109,7 +111,10 @@ class RoughPlastic(BSDF):
         h, active = self._half_vector(wi, wo)
         cos_i = np.where(active, wi[:, 2], 1.0)
         p_specular = self._specular_probability(wi)
-        glossy = self.distr.eval(h) * smith_g1(wi, h) / (4.0 * cos_i)
+        if self.distr.sample_visible:
+            glossy = self.distr.eval(h) * smith_g1(wi, h) / (4.0 * cos_i)
+        else:
+            glossy = self.distr.pdf(wi, h) / (4.0 * np.where(active, _dot(wo, h), 1.0))
         diffuse = sampling.INV_PI * np.maximum(wo[:, 2], 0.0)
         return np.where(active, p_specular * glossy + (1.0 - p_specular) * diffuse, 0.0)
 
