@@ -470,3 +470,14 @@ def test_builtin_scenes_match_mitsuba(mi):
         assert (ours.camera.width, ours.camera.height) == tuple(sensor.film().size()), name
         assert ours.spp == sensor.sampler().sample_count(), name
         assert len(ours.emitters) == len(theirs.emitters()), name
+
+
+def test_default_bsdf_is_black_on_emitters(tmp_path):
+    """As Mitsuba: a shape without a BSDF is diffuse 0.5, an emitting one diffuse 0 (a lamp's
+    own surface reflects nothing: a grey one made a ground lit by a large light 0.8 % too bright)."""
+    scene = load_scene(write_scene(tmp_path, """
+        <shape type="rectangle"/>
+        <shape type="rectangle"><emitter type="area"/></shape>
+        <shape type="sphere"/>"""))
+    reflectance = [scene.bsdfs[b].reflectance for b in scene.shape_bsdf]
+    np.testing.assert_array_equal(reflectance, [[0.5] * 3, [0.0] * 3, [0.5] * 3])

@@ -665,12 +665,13 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
     emitters, environment = [], None
     shape_bsdf, shape_emitter = [], []
 
-    def bsdf_id(plugin: Plugin | None) -> int:
-        key = id(plugin)
+    def bsdf_id(plugin: Plugin | None, emitter: bool = False) -> int:
+        # Mitsuba's default BSDF: diffuse 0.5, but black on an emitting shape.
+        key = ("default", emitter) if plugin is None else id(plugin)
         if key not in bsdf_index:
             if plugin is None:
                 from pathtracer import bsdfs
-                bsdf_objects.append(bsdfs.Diffuse(np.full(3, 0.5)))
+                bsdf_objects.append(bsdfs.Diffuse(np.full(3, 0.0 if emitter else 0.5)))
             else:
                 bsdf_objects.append(build_bsdf(plugin))
             bsdf_index[key] = len(bsdf_objects) - 1
@@ -683,7 +684,7 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
         if plugin.type not in SUPPORTED["shape"]:
             raise _unsupported(plugin, "shape")
         bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, base_dir)
-        shape_bsdf.append(bsdf_id(bsdf_plugin))
+        shape_bsdf.append(bsdf_id(bsdf_plugin, emitter=emitter_plugin is not None))
         if emitter_plugin is not None:
             emitters.append(build_area(emitter_plugin, shape_id))
             shape_emitter.append(len(emitters) - 1)
