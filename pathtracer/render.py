@@ -21,7 +21,7 @@ import multiprocessing
 
 import numpy as np
 
-from . import geometry
+from . import geometry, workers
 from .camera import camera_rays
 from .integrators import Integrator, make_integrator
 from .rng import RandomStream, sample_keys
@@ -150,9 +150,18 @@ def run_units(job, units, stats, processes: int, progress: bool):
     With ``processes`` > 1 the units go to forked workers that receive ``job`` at fork
     (inherited, never pickled, no global in this process: renders running concurrently
     in threads cannot swap jobs). Blocks are merged in unit order, so the result does not
-    depend on the number of processes.
+    depend on the number of processes. The workers die with this process and are killed
+    at once when the render is interrupted (:mod:`pathtracer.workers`).
     """
     bar = _progress_bar(len(units), progress)
+    try:
+        _run_units(job, units, stats, processes, bar)
+    finally:
+        bar.close()
+    return stats
+
+
+def _run_units(job, units, stats, processes: int, bar) -> None:
     if processes == 1 or len(units) == 1:
         for unit in units:
             _merge(stats, unit, job.run(unit))
@@ -160,12 +169,17 @@ def run_units(job, units, stats, processes: int, progress: bool):
     else:
         ctx = multiprocessing.get_context("fork")
         with ProcessPoolExecutor(processes, mp_context=ctx, initializer=_install_job,
-                                 initargs=(job,)) as pool:
-            for unit, block in zip(units, pool.map(_run_current, units, chunksize=1)):
-                _merge(stats, unit, block)
-                bar.update()
-    bar.close()
-    return stats
+                                 initargs=(job, os.getpid())) as pool:
+            try:
+                with workers.signals_blocked():   # the workers are forked by the first submit
+                    blocks = pool.map(_run_current, units, chunksize=1)
+                for unit, block in zip(units, blocks):
+                    _merge(stats, unit, block)
+                    bar.update()
+            except BaseException:
+                # Ctrl-C, SIGTERM or an error: do not wait for the units in flight.
+                workers.stop_pool(pool)
+                raise
 
 
 def plan_units(n_pixels: int, spp: int, batch_size: int) -> list[tuple[int, int, int, int]]:
@@ -205,7 +219,8 @@ class _Job:
         return self.integrator.radiance(self.scene, rays, rng)
 
 
-def _install_job(job):
+def _install_job(job, parent_pid):
+    workers.init_worker(parent_pid)
     _Job.current = job
 
 

@@ -5,8 +5,9 @@ The BRDF is a Dirac delta around the mirror direction
 
 .. math:: f(w_i, w_o)\,|\cos\theta_o| = F(\cos\theta_i)\,R_s\,\delta(w_o - w_r),
 
-with ``specular_reflectance`` :math:`R_s` and the exact conductor Fresnel
-factor :math:`F` of the complex index :math:`\eta + ik` (per RGB channel,
+with ``specular_reflectance`` :math:`R_s` (a colour or a texture) and the
+exact conductor Fresnel factor :math:`F` of the complex index
+:math:`\eta + ik` (per RGB channel,
 :func:`~pathtracer.bsdfs.fresnel.fresnel_conductor`). Mitsuba's default
 ``material="none"`` is :math:`0 + 1i`, for which :math:`F = 1` exactly; a
 named material uses the RGB indices of
@@ -17,44 +18,42 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BSDF, BSDFSample, as_colour, make_sample, zero_eval, zero_pdf
+from .base import (BSDF, BSDFSample, as_colour, as_colour_or_texture, make_sample, zero_eval,
+                   zero_pdf)
 from .fresnel import fresnel_conductor, reflect
 
 
-class ConductorFresnel:
-    r"""Conductor Fresnel factor times ``specular_reflectance``, shared by the smooth and rough conductors.
+def complex_ior(eta, k) -> np.ndarray:
+    r"""The (3,) complex index :math:`\eta + ik` of a conductor from its RGB parts."""
+    return as_colour(eta) + 1j * as_colour(k)
 
-    Parameters
-    ----------
-    specular_reflectance : (3,) array_like
-    eta, k : (3,) array_like
-        Complex index of refraction :math:`\eta + ik` relative to the outside.
-        The default :math:`0 + 1i` is Mitsuba's ``material="none"``: factor 1.
+
+def conductor_reflectance(cos_theta: np.ndarray, eta_complex: np.ndarray,
+                          specular_reflectance) -> np.ndarray:
+    r""":math:`F(\cos\theta)\,R_s` -> (n, 3), shared by the smooth and rough conductors.
+
+    ``specular_reflectance`` is a (3,) colour or the (n, 3) values of a texture
+    at the hits. For Mitsuba's ``material="none"`` (:math:`0 + 1i`) :math:`F = 1`.
     """
-
-    def __init__(self, specular_reflectance=1.0, eta=0.0, k=1.0):
-        self.specular_reflectance = as_colour(specular_reflectance)
-        self.eta_complex = as_colour(eta) + 1j * as_colour(k)
-        self.perfect_mirror = bool(np.all(self.eta_complex == 1j))
-
-    def __call__(self, cos_theta: np.ndarray) -> np.ndarray:
-        """:math:`F(\\cos\\theta)\\,R_s` -> (n, 3)."""
-        if self.perfect_mirror:
-            return np.broadcast_to(self.specular_reflectance, (cos_theta.shape[0], 3))
-        F = fresnel_conductor(cos_theta[:, None], self.eta_complex[None, :])
-        return F * self.specular_reflectance
+    if np.all(eta_complex == 1j):
+        return np.broadcast_to(specular_reflectance, (cos_theta.shape[0], 3))
+    return fresnel_conductor(cos_theta[:, None], eta_complex[None, :]) * specular_reflectance
 
 
 class Conductor(BSDF):
     """Perfect mirror tinted by ``specular_reflectance`` and the conductor Fresnel factor."""
 
+    texture_params = ("specular_reflectance",)
     has_smooth = False
     is_delta = True
 
     def __init__(self, specular_reflectance=1.0, eta=0.0, k=1.0):
-        self.fresnel = ConductorFresnel(specular_reflectance, eta, k)
-        self.specular_reflectance = self.fresnel.specular_reflectance
-        self.eta_complex = self.fresnel.eta_complex
+        self.specular_reflectance = as_colour_or_texture(specular_reflectance)
+        self.eta_complex = complex_ior(eta, k)
+
+    def fresnel(self, cos_theta: np.ndarray) -> np.ndarray:
+        """Conductor Fresnel factor times ``specular_reflectance`` -> (n, 3)."""
+        return conductor_reflectance(cos_theta, self.eta_complex, self.specular_reflectance)
 
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """0: a delta lobe has no finite value."""

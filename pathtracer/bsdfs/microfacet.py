@@ -70,7 +70,7 @@ def _normalize(v: np.ndarray) -> np.ndarray:
 
 
 class MicrofacetDistribution:
-    """Anisotropic Beckmann or GGX distribution of microfacet normals.
+    r"""Anisotropic Beckmann or GGX distribution of microfacet normals.
 
     Parameters
     ----------

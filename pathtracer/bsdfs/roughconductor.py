@@ -26,14 +26,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BSDF, BSDFSample, make_sample
-from .conductor import ConductorFresnel
+from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
+from .conductor import complex_ior, conductor_reflectance
 from .fresnel import reflect_about
 from .microfacet import MicrofacetDistribution, _dot, _normalize
 
 
 class RoughConductor(BSDF):
-    """Microfacet conductor.
+    r"""Microfacet conductor.
 
     Parameters
     ----------
@@ -51,6 +51,7 @@ class RoughConductor(BSDF):
         :math:`F\,G\,(w_i\cdot m)/(\cos\theta_i\cos\theta_m)`.
     """
 
+    texture_params = ("specular_reflectance",)
     has_smooth = True
     is_delta = False
 
@@ -61,9 +62,12 @@ class RoughConductor(BSDF):
         self.distribution = self.distr.distribution
         self.alpha_u = self.distr.alpha_u
         self.alpha_v = self.distr.alpha_v
-        self.fresnel = ConductorFresnel(specular_reflectance, eta, k)
-        self.specular_reflectance = self.fresnel.specular_reflectance
-        self.eta_complex = self.fresnel.eta_complex
+        self.specular_reflectance = as_colour_or_texture(specular_reflectance)
+        self.eta_complex = complex_ior(eta, k)
+
+    def fresnel(self, cos_theta: np.ndarray) -> np.ndarray:
+        """Conductor Fresnel factor times ``specular_reflectance`` -> (n, 3)."""
+        return conductor_reflectance(cos_theta, self.eta_complex, self.specular_reflectance)
 
     def _half_vector(self, wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Half vector and the mask of pairs where both directions are above the surface."""

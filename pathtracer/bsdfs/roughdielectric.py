@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BSDF, BSDFSample, as_colour, make_sample
+from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR, BK7_IOR
 from .fresnel import fresnel_dielectric, reflect_about, refract_about
 from .microfacet import MicrofacetDistribution, _dot, _normalize
@@ -48,6 +48,7 @@ def _mulsign_z(v: np.ndarray, sign_of: np.ndarray) -> np.ndarray:
 class RoughDielectric(BSDF):
     """Microfacet interface between media of indices ``int_ior`` (inside) and ``ext_ior``."""
 
+    texture_params = ("specular_reflectance", "specular_transmittance")
     has_smooth = True
     is_delta = False
 
@@ -61,8 +62,8 @@ class RoughDielectric(BSDF):
         self.distribution = self.distr.distribution
         self.alpha_u, self.alpha_v = self.distr.alpha_u, self.distr.alpha_v
         self.eta = float(int_ior) / float(ext_ior)
-        self.specular_reflectance = as_colour(specular_reflectance)
-        self.specular_transmittance = as_colour(specular_transmittance)
+        self.specular_reflectance = as_colour_or_texture(specular_reflectance)
+        self.specular_transmittance = as_colour_or_texture(specular_transmittance)
 
     def _geometry(self, wi: np.ndarray, wo: np.ndarray):
         """Reflection mask, relative index :math:`\\eta'`, generalised half vector (upper side)."""

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BSDF, BSDFSample, as_colour, make_sample, zero_eval, zero_pdf
+from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample, zero_eval, zero_pdf
 from .dielectric import AIR_IOR, BK7_IOR
 from .fresnel import fresnel_dielectric, reflect
 
@@ -27,6 +27,7 @@ from .fresnel import fresnel_dielectric, reflect
 class ThinDielectric(BSDF):
     """Thin two-sided sheet of glass between media of index ``ext_ior``."""
 
+    texture_params = ("specular_reflectance", "specular_transmittance")
     has_smooth = False
     is_delta = True
 
@@ -35,8 +36,8 @@ class ThinDielectric(BSDF):
         if int_ior < 0 or ext_ior < 0:
             raise ValueError("The interior and exterior indices of refraction must be positive")
         self.eta = float(int_ior) / float(ext_ior)
-        self.specular_reflectance = as_colour(specular_reflectance)
-        self.specular_transmittance = as_colour(specular_transmittance)
+        self.specular_reflectance = as_colour_or_texture(specular_reflectance)
+        self.specular_transmittance = as_colour_or_texture(specular_transmittance)
 
     def reflectance(self, cos_theta_i: np.ndarray) -> np.ndarray:
         r"""Reflectance :math:`r = 2R/(1 + R)` of the slab, all internal reflections summed -> (n,)."""
