@@ -30,12 +30,12 @@ EXIT_CODES = {0: "success / agrees", 1: "compare: disagrees with Mitsuba",
 def default_jobs(scenes=None, integrators=None, extra_params=None,
                  per_bounce=True, resolution=None):
     """The references ``build`` makes by default: every scene x integrator at
-    the test resolution, plus ``path`` with ``max_depth`` 1, 2, 3.
+    the test resolution, plus ``path`` with ``max_depth`` 1, 2, 3 (feature scenes:
+    only their own estimators, no per-bounce references).
 
     Returns a list of ``(scene, params, integrator)``.
     """
-    scenes = list(scenes or config.BUILTIN_SCENES)
-    integrators = list(integrators or config.REF_INTEGRATORS)
+    scenes = list(scenes or (*config.BUILTIN_SCENES, *config.FEATURE_SCENES))
     jobs = []
     for scene in scenes:
         base = {}
@@ -43,10 +43,11 @@ def default_jobs(scenes=None, integrators=None, extra_params=None,
             width, height = config.test_resolution(scene)
             base = {"width": str(width), "height": str(height)}
         base.update(extra_params or {})
-        for integ in integrators:
+        scene_integrators = list(integrators or _default_integrators(scene))
+        for integ in scene_integrators:
             jobs.append((scene, dict(base), integ))
-        if per_bounce and "path" in integrators and "max_depth" not in base \
-                and _declares_max_depth(scene):
+        if (per_bounce and "path" in scene_integrators and "max_depth" not in base
+                and scene not in config.FEATURE_SCENES and _declares_max_depth(scene)):
             for depth in config.PER_BOUNCE_DEPTHS:
                 jobs.append((scene, dict(base, max_depth=str(depth)), "path"))
     return jobs
@@ -59,6 +60,13 @@ def _declares_max_depth(scene):
     path = scene_path(scene)
     parse_xml(path)  # a malformed file: one line naming file, line and column
     return "max_depth" in xml_defaults(path)
+
+
+def _default_integrators(scene):
+    """The estimators a scene gets references for unless ``--integrators`` says otherwise."""
+    if scene in config.FEATURE_SCENES:
+        return config.FEATURE_SCENES[scene][0]
+    return config.REF_INTEGRATORS
 
 
 def parse_defines(defines):

@@ -57,6 +57,14 @@ BUILTIN_SCENES = (
     "envmap", "spot-directional",
 )
 
+#: Built-in scenes that exercise one feature (e.g. the BSDFs of users' scenes), with
+#: references for a few estimators at a small film so that their own agreement tests
+#: take seconds. They are not in BUILTIN_SCENES, whose every suite runs every integrator.
+#: name -> (our integrators with a reference, width, height)
+FEATURE_SCENES = {
+    "materials": (("path", "path_bsdf", "path_nee"), 32, 32),
+}
+
 #: Our integrator names for which references are built by default.
 REF_INTEGRATORS = ("path", "path_bsdf", "path_nee", "direct")
 
@@ -75,6 +83,8 @@ ENV_CACHE = "MITSUBA_REFS_CACHE"
 
 def test_resolution(scene_name):
     """Return ``(width, height)`` of the test film for a built-in scene."""
+    if scene_name in FEATURE_SCENES:
+        return FEATURE_SCENES[scene_name][1:]
     if scene_name in WIDE_SCENES:
         return TEST_WIDTH, TEST_HEIGHT_4_3
     if scene_name in SMALL_SCENES:

@@ -4,9 +4,11 @@ A light path is written as the string of its vertices from the light to the
 eye (Heckbert 1990, the lecture's "Heckbert's Classification" slides)::
 
     L   a light source          (an emitter hit, a light sample, the environment)
-    D   a diffuse reflection    (``diffuse``)
-    S   a specular event        (``conductor``, ``dielectric``: a Dirac lobe)
-    G   a glossy reflection     (``roughconductor``), unless folded into D or S
+    D   a diffuse reflection    (``diffuse``; also ``plastic``, whose letter is its
+        diffuse lobe: a letter belongs to a BSDF, not to the lobe sampled)
+    S   a specular event        (``conductor``, ``dielectric``, ``thindielectric``: Dirac lobes)
+    G   a glossy reflection     (``roughconductor``, ``roughdielectric``, ``roughplastic``),
+        unless folded into D or S
     E   the eye
 
 Syntax of a class expression (whitespace is ignored)::
@@ -332,14 +334,15 @@ def is_partition(expressions, max_vertices: int = 6, letters: str = SCATTERING) 
 
 def bsdf_letter(bsdf, glossy="G") -> str:
     """Heckbert letter of one BSDF object (see the module docstring for ``glossy``)."""
-    from .bsdfs import Conductor, Dielectric, Diffuse, RoughConductor, TwoSided
+    from .bsdfs import (Conductor, Dielectric, Diffuse, RoughConductor, RoughDielectric,
+                        RoughPlastic, TwoSided)
     if isinstance(bsdf, TwoSided):
         return bsdf_letter(bsdf.nested, glossy)
     if isinstance(bsdf, Diffuse):
         return "D"
     if isinstance(bsdf, (Conductor, Dielectric)):
         return "S"
-    if isinstance(bsdf, RoughConductor):
+    if isinstance(bsdf, (RoughConductor, RoughDielectric, RoughPlastic)):
         if isinstance(glossy, str):
             if glossy.upper() not in ("G", "D", "S"):
                 raise ValueError(f"glossy must be 'G', 'D', 'S' or an alpha threshold, got {glossy!r}")

@@ -13,7 +13,7 @@ that a test of its own documents:
 * ``point-light`` with ``smallpt``: BSDF sampling alone can never reach a Dirac
   light, so the image is black by construction (test_analytic.py asserts it).
 """
-from mitsuba_refs.config import BUILTIN_SCENES
+from mitsuba_refs.config import BUILTIN_SCENES, FEATURE_SCENES
 from pathtracer import INTEGRATORS
 
 EXCLUDED = {
@@ -28,6 +28,10 @@ NOISELESS = {("point-light", "path_bsdf")}
 
 AGREEMENT_CASES = [(scene, integrator) for scene in BUILTIN_SCENES for integrator in sorted(INTEGRATORS)
                    if (scene, integrator) not in EXCLUDED]
+
+#: Feature scenes (mitsuba_refs.config.FEATURE_SCENES) with each estimator they have a reference for.
+FEATURE_CASES = [(scene, integrator) for scene, (integrators, _, _) in FEATURE_SCENES.items()
+                 for integrator in integrators]
 
 
 #: Small scenes that exist to test emitters (envmap, spot, directional). The convergence law

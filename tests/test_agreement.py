@@ -1,4 +1,5 @@
-"""Every integrator on every built-in scene against the committed Mitsuba 3 references.
+"""Every integrator on every built-in scene against the committed Mitsuba 3 references
+(and the feature scenes, e.g. ``materials``, with the estimators they have references for).
 
 Mean: tile-aggregated z test against Mitsuba's ``path`` (or the same estimator).
 Variance: where Mitsuba runs the same estimator (path, path_bsdf, path_nee,
@@ -11,12 +12,12 @@ import pytest
 from mitsuba_refs.compare import SAME_ESTIMATOR, compare
 from pathtracer import INTEGRATORS
 from tests.budget import ALPHA
-from tests.scenes import AGREEMENT_CASES, NOISELESS, integrator_options, spp_for
+from tests.scenes import AGREEMENT_CASES, FEATURE_CASES, NOISELESS, integrator_options, spp_for
 
 pytestmark = pytest.mark.statistical(assertions=2)
 
 
-@pytest.mark.parametrize("scene,integrator", AGREEMENT_CASES)
+@pytest.mark.parametrize("scene,integrator", AGREEMENT_CASES + FEATURE_CASES)
 def test_mean_and_variance_agree_with_mitsuba(scene, integrator):
     comparison = compare(scene, integrator, spp=spp_for(integrator), alpha=ALPHA,
                          convergence=False, bounces=False, processes=2,

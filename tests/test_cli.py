@@ -50,9 +50,9 @@ def test_bad_arguments_give_one_line_and_exit_code_2(args, needle):
 
 def test_bad_scene_file_names_file_line_and_plugin(tmp_path):
     scene = tmp_path / "bad.xml"
-    scene.write_text('<scene version="3.0.0">\n  <bsdf type="plastic"/>\n</scene>\n')
+    scene.write_text('<scene version="3.0.0">\n  <bsdf type="hair"/>\n</scene>\n')
     done = run("render", str(scene), "-o", str(tmp_path / "x.exr"))
-    assert done.returncode == 2 and "bad.xml:2" in done.stderr and "plastic" in done.stderr
+    assert done.returncode == 2 and "bad.xml:2" in done.stderr and "hair" in done.stderr
 
 
 def test_scenes_lists_the_built_in_scenes():

@@ -25,8 +25,11 @@ def load_text(tmp_path, body: str, sensor: str = SENSOR, name: str = "broken.xml
 
 CASES = {
     "unknown bsdf": (
-        f'<shape type="cube"><bsdf type="plastic"/>{MARK}</shape>',
-        '<bsdf type="plastic">', "unsupported BSDF (supported: diffuse"),
+        f'<shape type="cube"><bsdf type="hair"/>{MARK}</shape>',
+        '<bsdf type="hair">', "unsupported BSDF (supported: diffuse"),
+    "polarised-only bsdf": (
+        f'<shape type="cube"><bsdf type="polarizer"/>{MARK}</shape>',
+        '<bsdf type="polarizer">', "_polarized variants"),
     "unknown shape": (
         f'<shape type="heightfield">{MARK}</shape>', '<shape type="heightfield">', "unsupported shape"),
     "unknown emitter": (
@@ -121,14 +124,29 @@ CASES = {
         f'<bsdf type="diffuse">\n<float name="roughness" value="0.1"/>{MARK}</bsdf>',
         '<bsdf type="diffuse">', 'unsupported property "roughness"'),
     "conductor material": (
-        f'<bsdf type="conductor">\n<string name="material" value="Au"/>{MARK}</bsdf>',
-        '<bsdf type="conductor">', 'only material "none"'),
-    "conductor eta": (
-        f'<bsdf type="roughconductor">\n<rgb name="eta" value="0.2"/>{MARK}</bsdf>',
-        '<bsdf type="roughconductor">', 'only material "none"'),
+        f'<bsdf type="conductor">\n<string name="material" value="Unobtainium"/>{MARK}</bsdf>',
+        '<bsdf type="conductor">', 'unknown conductor material "Unobtainium" (known: none, Ag'),
+    "conductor eta and material": (
+        f'<bsdf type="roughconductor">\n<string name="material" value="Au"/>{MARK}\n<rgb name="eta" value="0.2"/></bsdf>',
+        '<bsdf type="roughconductor">', 'give either eta/k or material="Au", not both'),
+    "conductor k and material": (
+        f'<bsdf type="conductor">\n<string name="material" value="Cu"/>\n<rgb name="k" value="2"/>{MARK}</bsdf>',
+        '<bsdf type="conductor">', '"k" without "eta"'),
+    "anisotropic roughplastic": (
+        f'<bsdf type="roughplastic">\n<float name="alpha_u" value="0.1"/>{MARK}\n<float name="alpha_v" value="0.2"/></bsdf>',
+        '<bsdf type="roughplastic">', "only isotropic roughness"),
+    "roughdielectric equal iors": (
+        f'<bsdf type="roughdielectric">\n<float name="int_ior" value="1.2"/>{MARK}\n<float name="ext_ior" value="1.2"/></bsdf>',
+        '<bsdf type="roughdielectric">', "int_ior != ext_ior"),
+    "negative roughness": (
+        f'<bsdf type="roughdielectric">\n<float name="alpha" value="-0.1"/>{MARK}</bsdf>',
+        '<bsdf type="roughdielectric">', '"alpha" must be >= 0'),
+    "plastic nonlinear type": (
+        f'<bsdf type="plastic">\n<float name="nonlinear" value="1"/>{MARK}</bsdf>',
+        '<bsdf type="plastic">', 'must be a <boolean>'),
     "sample_visible": (
-        f'<bsdf type="roughconductor">\n<boolean name="sample_visible" value="false"/>{MARK}</bsdf>',
-        '<bsdf type="roughconductor">', "visible-normal"),
+        f'<bsdf type="roughdielectric">\n<boolean name="sample_visible" value="false"/>{MARK}</bsdf>',
+        '<bsdf type="roughdielectric">', "biased estimator"),
     "unknown ior name": (
         f'<bsdf type="dielectric">\n<string name="int_ior" value="unobtainium"/>{MARK}</bsdf>',
         '<bsdf type="dielectric">', "unknown IOR name"),

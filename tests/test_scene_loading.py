@@ -146,7 +146,7 @@ def test_defaults_of_plugins(tmp_path):
     s = load_scene(path)
     assert s.integrator.name == "path" and s.spp == 4 and s.seed == 0
     assert [type(b).__name__ for b in s.bsdfs] == ["Diffuse", "Dielectric", "RoughConductor"]
-    np.testing.assert_allclose(s.bsdfs[0].reflectance, 0.5)
+    np.testing.assert_allclose(s.bsdfs[0].reflectance, 0.0)   # Mitsuba's default on an emitter
     assert s.bsdfs[1].int_ior == pytest.approx(1.5046) and s.bsdfs[1].ext_ior == pytest.approx(1.000277)
     assert s.bsdfs[2].distribution == "beckmann"
     assert s.bsdfs[2].alpha_u == pytest.approx(0.1) and s.bsdfs[2].alpha_v == pytest.approx(0.1)
@@ -465,6 +465,17 @@ def test_builtin_scenes_match_mitsuba(mi):
         assert (ours.camera.width, ours.camera.height) == tuple(sensor.film().size()), name
         assert ours.spp == sensor.sampler().sample_count(), name
         assert len(ours.emitters) == len(theirs.emitters()), name
+
+
+def test_default_bsdf_is_black_on_emitters(tmp_path):
+    """As Mitsuba: a shape without a BSDF is diffuse 0.5, an emitting one diffuse 0 (a lamp's
+    own surface reflects nothing: a grey one made a ground lit by a large light 0.8 % too bright)."""
+    scene = load_scene(write_scene(tmp_path, """
+        <shape type="rectangle"/>
+        <shape type="rectangle"><emitter type="area"/></shape>
+        <shape type="sphere"/>"""))
+    reflectance = [scene.bsdfs[b].reflectance for b in scene.shape_bsdf]
+    np.testing.assert_array_equal(reflectance, [[0.5] * 3, [0.0] * 3, [0.5] * 3])
 
 
 def test_storage_only_film_options_and_literal_sample_count(tmp_path):

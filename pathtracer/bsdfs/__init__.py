@@ -8,11 +8,15 @@ from .dielectric import Dielectric
 from .diffuse import Diffuse
 from .fresnel import fresnel_conductor, fresnel_dielectric, fresnel_schlick, reflect, refract
 from .microfacet import MicrofacetDistribution
+from .plastic import Plastic
 from .roughconductor import RoughConductor
+from .roughdielectric import RoughDielectric
+from .roughplastic import RoughPlastic
+from .thindielectric import ThinDielectric
 from .twosided import TwoSided
 
 __all__ = [
     "BSDF", "BSDFSample", "Conductor", "Dielectric", "Diffuse", "MicrofacetDistribution",
-    "RoughConductor", "TwoSided", "fresnel_conductor", "fresnel_dielectric", "fresnel_schlick",
-    "reflect", "refract",
+    "Plastic", "RoughConductor", "RoughDielectric", "RoughPlastic", "ThinDielectric", "TwoSided",
+    "fresnel_conductor", "fresnel_dielectric", "fresnel_schlick", "reflect", "refract",
 ]

@@ -70,16 +70,20 @@ def _normalize(v: np.ndarray) -> np.ndarray:
 
 
 class MicrofacetDistribution:
-    """Anisotropic Beckmann or GGX distribution of microfacet normals.
+    r"""Anisotropic Beckmann or GGX distribution of microfacet normals.
 
     Parameters
     ----------
     distribution : {"beckmann", "ggx"}
     alpha_u, alpha_v : float
         Roughness along local x and y (clamped below at 1e-4 as in Mitsuba).
+    sample_visible : bool
+        :meth:`sample` draws visible normals (default, Mitsuba's too) or normals
+        distributed as :math:`D(m)\cos\theta_m` (:meth:`sample_all`).
     """
 
-    def __init__(self, distribution: str, alpha_u: float, alpha_v: float | None = None):
+    def __init__(self, distribution: str, alpha_u: float, alpha_v: float | None = None,
+                 sample_visible: bool = True):
         distribution = distribution.lower()
         if distribution not in ("beckmann", "ggx"):
             raise ValueError(f'invalid microfacet distribution "{distribution}": '
@@ -87,6 +91,18 @@ class MicrofacetDistribution:
         self.distribution = distribution
         self.alpha_u = max(float(alpha_u), ALPHA_MIN)
         self.alpha_v = max(float(alpha_u if alpha_v is None else alpha_v), ALPHA_MIN)
+        self.sample_visible = bool(sample_visible)
+
+    def scaled(self, factor: np.ndarray) -> "MicrofacetDistribution":
+        """A copy with both roughnesses multiplied by ``factor`` (one value per query row).
+
+        For Walter et al.'s widening of the sampling lobe, which Mitsuba's
+        ``roughdielectric`` applies when visible normals are not sampled.
+        """
+        copy = MicrofacetDistribution(self.distribution, 1.0, 1.0, self.sample_visible)
+        copy.alpha_u = self.alpha_u * np.asarray(factor, dtype=np.float64)
+        copy.alpha_v = self.alpha_v * np.asarray(factor, dtype=np.float64)
+        return copy
 
     @property
     def is_beckmann(self) -> bool:
@@ -154,16 +170,64 @@ class MicrofacetDistribution:
     # ------------------------------------------------------------------
 
     def pdf(self, wi: np.ndarray, m: np.ndarray) -> np.ndarray:
-        r"""Visible-normal density as Mitsuba reports it: :math:`D(m)\,G_1(w_i, m)\,|w_i\cdot m| / \cos\theta_i`."""
+        r"""Density of :meth:`sample` as Mitsuba reports it.
+
+        Visible normals: :math:`D(m)\,G_1(w_i, m)\,|w_i\cdot m| / \cos\theta_i`;
+        otherwise :math:`D(m)\cos\theta_m`.
+        """
+        if not self.sample_visible:
+            return self.eval(m) * m[:, 2]
+        return self._pdf_visible(wi, m)
+
+    def _pdf_visible(self, wi: np.ndarray, m: np.ndarray) -> np.ndarray:
         with np.errstate(divide="ignore", invalid="ignore"):
             return self.eval(m) * self.smith_g1(wi, m) * np.abs(_dot(wi, m)) / wi[:, 2]
 
     def pdf_exact(self, wi: np.ndarray, m: np.ndarray) -> np.ndarray:
         r"""Density :meth:`sample` actually draws from (exact :math:`G_1`)."""
+        if not self.sample_visible:
+            return self.pdf(wi, m)
         with np.errstate(divide="ignore", invalid="ignore"):
             return self.eval(m) * self.smith_g1_exact(wi, m) * np.abs(_dot(wi, m)) / wi[:, 2]
 
     def sample(self, wi: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A microfacet normal and its density: :meth:`sample_visible_normal` or :meth:`sample_all`."""
+        if self.sample_visible:
+            return self.sample_visible_normal(wi, u)
+        return self.sample_all(u)
+
+    def sample_all(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        r"""Draw :math:`m` with density :math:`D(m)\cos\theta_m`, ignoring visibility (Walter et al. 2007).
+
+        The azimuth is uniform when :math:`\alpha_u = \alpha_v`, otherwise
+        :math:`\tan\phi = (\alpha_v/\alpha_u)\tan 2\pi u_y` (quadrant kept), with the
+        effective roughness :math:`\alpha^2 = 1/(\cos^2\phi/\alpha_u^2 + \sin^2\phi/\alpha_v^2)`;
+        the elevation inverts the radial CDF:
+        :math:`\tan^2\theta_m = -\alpha^2\ln(1 - u_x)` (Beckmann),
+        :math:`\alpha^2 u_x/(1 - u_x)` (GGX). Returns (m, pdf), pdf = :meth:`pdf`.
+        """
+        alpha_u = np.broadcast_to(self.alpha_u, u.shape[:1])
+        alpha_v = np.broadcast_to(self.alpha_v, u.shape[:1])
+        phi = 2.0 * np.pi * u[:, 1]
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            tan_phi = (alpha_v / alpha_u) * np.tan(phi)
+            cos_aniso = np.copysign(1.0 / np.sqrt(tan_phi * tan_phi + 1.0), np.abs(u[:, 1] - 0.5) - 0.25)
+            sin_aniso = cos_aniso * tan_phi
+            isotropic = alpha_u == alpha_v
+            cos_phi = np.where(isotropic, np.cos(phi), cos_aniso)
+            sin_phi = np.where(isotropic, np.sin(phi), sin_aniso)
+            alpha_2 = np.where(isotropic, alpha_u * alpha_u,
+                               1.0 / ((cos_phi / alpha_u) ** 2 + (sin_phi / alpha_v) ** 2))
+            if self.is_beckmann:
+                tan_theta_2 = -alpha_2 * np.log1p(-u[:, 0])
+            else:
+                tan_theta_2 = alpha_2 * u[:, 0] / (1.0 - u[:, 0])
+            cos_theta = 1.0 / np.sqrt(1.0 + tan_theta_2)
+            sin_theta = np.sqrt(np.maximum(1.0 - cos_theta * cos_theta, 0.0))
+        m = np.stack((cos_phi * sin_theta, sin_phi * sin_theta, cos_theta), axis=1)
+        return m, self.pdf(m, m)
+
+    def sample_visible_normal(self, wi: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         r"""Draw a visible normal for ``wi`` (:math:`\cos\theta_i > 0`) and its density.
 
         Stretch-sample-unstretch (Heitz and d'Eon 2014):
@@ -205,7 +269,7 @@ class MicrofacetDistribution:
             sx = (cos_phi * slope_x - sin_phi * slope_y) * self.alpha_u
             sy = (sin_phi * slope_x + cos_phi * slope_y) * self.alpha_v
             m = _normalize(np.stack((-sx, -sy, np.ones_like(sx)), axis=1))
-            return m, self.pdf(wi, m)
+            return m, self._pdf_visible(wi, m)
 
     def sample_visible_11(self, cos_theta_i: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         r"""Slopes of visible normals of the isotropic roughness-1 distribution.
@@ -246,21 +310,33 @@ def _beckmann_visible_slopes_11(cos_theta_i: np.ndarray, u: np.ndarray) -> tuple
     (:math:`10^{-13}`). The visibility weight does not depend on
     :math:`\tilde y`, so :math:`\tilde y` keeps its Gaussian marginal
     :math:`e^{-\tilde y^2}/\sqrt\pi`: :math:`\tilde y = \operatorname{erf}^{-1}(2u_y - 1)`.
+    The root is found once per distinct :math:`(\cos\theta_i, u_x)`: quadrature
+    grids (:mod:`.microfacet_albedo`) repeat each pair many times.
     """
+    order = np.lexsort((u[:, 0], cos_theta_i))
+    cos_sorted, u_sorted = cos_theta_i[order], u[order, 0]
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = (np.diff(cos_sorted) != 0.0) | (np.diff(u_sorted) != 0.0)
+    distinct = _beckmann_visible_slope_x_11(cos_sorted[first], u_sorted[first])
+    slope_x = np.empty(order.size)
+    slope_x[order] = distinct[np.cumsum(first) - 1]
+    u_y = np.clip(u[:, 1], 1e-15, 1.0 - 1e-15)
+    slope_y = _special().erfinv(2.0 * u_y - 1.0)
+    return slope_x, slope_y
+
+
+def _beckmann_visible_slope_x_11(cos_theta_i: np.ndarray, u_x: np.ndarray) -> np.ndarray:
+    r"""The slope :math:`\tilde x` of :func:`_beckmann_visible_slopes_11` for each (cosine, uniform) pair."""
     cos_theta = np.clip(cos_theta_i, 0.0, 1.0)
     sin_theta = np.sqrt(np.maximum(1.0 - cos_theta * cos_theta, 0.0))
     with np.errstate(divide="ignore"):
         cot_theta = np.where(sin_theta > 0.0, cos_theta / np.where(sin_theta > 0.0, sin_theta, 1.0), np.inf)
     hi = np.minimum(cot_theta, _SLOPE_BOUND)
     lo = np.full_like(hi, -_SLOPE_BOUND)
-    target = u[:, 0] * _beckmann_slope_cdf(hi, cos_theta, sin_theta)
+    target = u_x * _beckmann_slope_cdf(hi, cos_theta, sin_theta)
 
-    x0 = np.clip(_special().erfinv(np.clip(2.0 * u[:, 0] - 1.0, -1.0 + 1e-15, 1.0 - 1e-15)), lo, hi)
-    slope_x = _solve_increasing(x0, lo, hi, target, cos_theta, sin_theta)
-
-    u_y = np.clip(u[:, 1], 1e-15, 1.0 - 1e-15)
-    slope_y = _special().erfinv(2.0 * u_y - 1.0)
-    return slope_x, slope_y
+    x0 = np.clip(_special().erfinv(np.clip(2.0 * u_x - 1.0, -1.0 + 1e-15, 1.0 - 1e-15)), lo, hi)
+    return _solve_increasing(x0, lo, hi, target, cos_theta, sin_theta)
 
 
 def _solve_increasing(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, target: np.ndarray,

@@ -26,13 +26,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BSDF, BSDFSample, as_colour, as_colour_or_texture, make_sample
-from .fresnel import fresnel_conductor, reflect_about
+from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
+from .conductor import complex_ior, conductor_reflectance
+from .fresnel import reflect_about
 from .microfacet import MicrofacetDistribution, _dot, _normalize
 
 
 class RoughConductor(BSDF):
-    """Microfacet conductor.
+    r"""Microfacet conductor.
 
     Parameters
     ----------
@@ -44,6 +45,10 @@ class RoughConductor(BSDF):
     eta, k : (3,) array_like, optional
         Complex index of refraction. The default ``0 + 1i`` is Mitsuba's
         ``material="none"``: Fresnel factor exactly 1.
+    sample_visible : bool
+        Sample visible normals (default) or :math:`D(m)\cos\theta_m`; then
+        :math:`p = D\cos\theta_m/(4\,w_o\cdot m)` and the weight is
+        :math:`F\,G\,(w_i\cdot m)/(\cos\theta_i\cos\theta_m)`.
     """
 
     texture_params = ("specular_reflectance",)
@@ -52,21 +57,17 @@ class RoughConductor(BSDF):
 
     def __init__(self, distribution: str = "beckmann", alpha_u: float = 0.1,
                  alpha_v: float | None = None, specular_reflectance=1.0,
-                 eta=0.0, k=1.0):
-        self.distr = MicrofacetDistribution(distribution, alpha_u, alpha_v)
+                 eta=0.0, k=1.0, sample_visible: bool = True):
+        self.distr = MicrofacetDistribution(distribution, alpha_u, alpha_v, sample_visible)
         self.distribution = self.distr.distribution
         self.alpha_u = self.distr.alpha_u
         self.alpha_v = self.distr.alpha_v
         self.specular_reflectance = as_colour_or_texture(specular_reflectance)
-        self.eta_complex = as_colour(eta) + 1j * as_colour(k)
-        self._perfect_mirror = bool(np.all(self.eta_complex == 1j))
+        self.eta_complex = complex_ior(eta, k)
 
     def fresnel(self, cos_theta: np.ndarray) -> np.ndarray:
         """Conductor Fresnel factor times ``specular_reflectance`` -> (n, 3)."""
-        if self._perfect_mirror:
-            return np.broadcast_to(self.specular_reflectance, (cos_theta.shape[0], 3))
-        F = fresnel_conductor(cos_theta[:, None], self.eta_complex[None, :])
-        return F * self.specular_reflectance
+        return conductor_reflectance(cos_theta, self.eta_complex, self.specular_reflectance)
 
     def _half_vector(self, wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Half vector and the mask of pairs where both directions are above the surface."""
@@ -99,7 +100,10 @@ class RoughConductor(BSDF):
         h, active = self._half_vector(wi, wo)
         active &= (_dot(wi, h) > 0.0) & (_dot(wo, h) > 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
-            result = self.distr.eval(h) * smith_g1(wi, h) / (4.0 * wi[:, 2])
+            if self.distr.sample_visible:
+                result = self.distr.eval(h) * smith_g1(wi, h) / (4.0 * wi[:, 2])
+            else:
+                result = self.distr.pdf(wi, h) / (4.0 * _dot(wo, h))
         return np.where(active, result, 0.0)
 
     def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
@@ -113,5 +117,12 @@ class RoughConductor(BSDF):
         with np.errstate(divide="ignore", invalid="ignore"):
             pdf = pdf_m / (4.0 * cos_o_m)
         valid = up & (pdf_m > 0.0) & (wo[:, 2] > 0.0) & np.isfinite(pdf) & np.all(np.isfinite(m), axis=1)
-        weight = self.distr.smith_g1(wo, m)[:, None] * self.fresnel(_dot(wi_up, m))
+        weight = self._sample_weight(wi_up, wo, m)[:, None] * self.fresnel(_dot(wi_up, m))
         return make_sample(wo, weight, pdf, delta=False, eta=1.0, valid=valid)
+
+    def _sample_weight(self, wi: np.ndarray, wo: np.ndarray, m: np.ndarray) -> np.ndarray:
+        """``eval / pdf`` without the Fresnel factor, for a normal drawn by the distribution."""
+        if self.distr.sample_visible:
+            return self.distr.smith_g1(wo, m)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return self.distr.G(wi, wo, m) * _dot(wi, m) / (wi[:, 2] * m[:, 2])

@@ -29,11 +29,21 @@ IOR_BY_NAME = {
 }
 SUPPORTED = {
     "shape": ("rectangle", "cube", "disk", "sphere", "obj", "ply", "serialized"),
-    "bsdf": ("diffuse", "twosided", "conductor", "dielectric", "roughconductor"),
+    "bsdf": ("diffuse", "twosided", "conductor", "roughconductor", "dielectric",
+             "thindielectric", "roughdielectric", "plastic", "roughplastic"),
     "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
     "sensor": ("perspective",),
     "integrator": ("path", "direct", "recursive", "path_bsdf", "path_nee", "smallpt"),
     "texture": ("bitmap", "checkerboard"),
+}
+# BSDFs that only make sense in Mitsuba's polarised variants: refused with the reason.
+VARIANT_ONLY_BSDFS = {
+    "polarizer": "is a polarisation filter (only meaningful in Mitsuba's *_polarized variants)",
+    "retarder": "is a polarisation retarder (only meaningful in Mitsuba's *_polarized variants)",
+    "circular": "is a circular polariser (only meaningful in Mitsuba's *_polarized variants)",
+    "pplastic": "is the polarised plastic model (only meaningful in Mitsuba's *_polarized variants)",
+    "measured_polarized": "is a measured polarised BSDF (only meaningful in Mitsuba's "
+                          "*_polarized variants)",
 }
 # BSDF parameters that take a <texture> (and the checkerboard's colours).
 TEXTURED_PARAMS = ("reflectance", "specular_reflectance", "specular_transmittance",
@@ -211,6 +221,10 @@ class Props:
         self.used.update(names)
 
     def _no_texture(self, name: str):
+        if self.plugin.type in ("plastic", "roughplastic"):
+            raise self.textures[name].error(
+                f"a texture for \"{name}\" is not supported on {self.plugin.type} (Mitsuba "
+                "picks its lobes by the texture's mean, which this tracer does not compute)")
         raise self.textures[name].error(
             f"a texture for \"{name}\" is not supported (this tracer takes textures for: "
             f"{', '.join(TEXTURED_PARAMS)})")
@@ -275,18 +289,90 @@ def _ior(props: Props, name: str, default: str) -> float:
     return value
 
 
-def _no_material(props: Props) -> None:
-    """Only Mitsuba's ``material="none"`` (a perfect, colourless mirror) is supported."""
-    material = props.string("material", "none")
-    for name in ("eta", "k"):
-        if props.has(name):
-            raise props.plugin.error(f"\"{name}\" is not supported: only material \"none\" "
-                                     "(a perfect mirror scaled by specular_reflectance)",
-                                     props.line(name))
-    if material.strip().lower() != "none":
-        raise props.plugin.error(f"conductor material \"{material}\" is not supported: "
-                                 "only material \"none\" (a perfect mirror scaled by "
-                                 "specular_reflectance)", props.line("material"))
+def _conductor_ior(props: Props) -> tuple[np.ndarray, np.ndarray]:
+    """Complex IOR ``(eta, k)`` of a conductor: Mitsuba's ``material`` preset or explicit values.
+
+    As Mitsuba: ``material="none"`` (the default) is ``0 + 1i``, a perfect
+    mirror; explicit ``eta`` / ``k`` default to 0 / 1 and cannot be combined
+    with another material.
+    """
+    from pathtracer.bsdfs.conductor_presets import CONDUCTOR_PRESETS
+
+    material = props.string("material", "none").strip()
+    if material == "none" or props.has("eta"):
+        if material != "none":
+            raise props.plugin.error(f"give either eta/k or material=\"{material}\", not both",
+                                     props.line("material"))
+        return props.color("eta", 0.0, kind="unbounded"), props.color("k", 1.0, kind="unbounded")
+    if material not in CONDUCTOR_PRESETS:
+        raise props.plugin.error(f"unknown conductor material \"{material}\" (known: none, "
+                                 f"{', '.join(CONDUCTOR_PRESETS)})", props.line("material"))
+    if props.has("k"):
+        raise props.plugin.error(f"\"k\" without \"eta\" cannot be combined with material="
+                                 f"\"{material}\" (give both eta and k, or only the material)",
+                                 props.line("k"))
+    eta, k = CONDUCTOR_PRESETS[material]
+    return np.array(eta), np.array(k)
+
+
+def _microfacet(props: Props, anisotropic: bool = True) -> tuple[str, float, float, bool]:
+    """``distribution``, ``alpha_u``, ``alpha_v``, ``sample_visible`` of a microfacet BSDF
+    (Mitsuba's rules and defaults)."""
+    plugin = props.plugin
+    distribution = props.string("distribution", "beckmann").strip().lower()
+    if distribution not in ("beckmann", "ggx"):
+        raise plugin.error(f"unknown microfacet distribution \"{distribution}\" "
+                           "(beckmann or ggx)", props.line("distribution"))
+    sample_visible = props.bool("sample_visible", True)
+    if not sample_visible and plugin.type == "roughdielectric":
+        # Measured: at 80 degrees (GGX, alpha 0.3, eta 1.5) its mean sample weight is
+        # 0.931 +- 0.005 where the integral of its own eval is 0.875.
+        raise plugin.error("sample_visible=false is refused for roughdielectric: Mitsuba 3.9.1 "
+                           "then widens the sampled roughness but leaves D/D_widened out of the "
+                           "sample weight, a biased estimator this tracer does not reproduce",
+                           props.line("sample_visible"))
+    if props.has("alpha") and (props.has("alpha_u") or props.has("alpha_v")):
+        raise plugin.error("give either alpha or alpha_u/alpha_v, not both",
+                           props.line("alpha"))
+    if props.has("alpha_u") != props.has("alpha_v"):
+        name = "alpha_u" if props.has("alpha_u") else "alpha_v"
+        raise plugin.error("give both alpha_u and alpha_v", props.line(name))
+    if props.has("alpha_u") and not anisotropic:
+        raise plugin.error(f"{plugin.type} supports only isotropic roughness (alpha), as in "
+                           "Mitsuba", props.line("alpha_u"))
+    alpha = props.float("alpha", 0.1)
+    alpha_u, alpha_v = props.float("alpha_u", alpha), props.float("alpha_v", alpha)
+    for name, value in (("alpha", alpha), ("alpha_u", alpha_u), ("alpha_v", alpha_v)):
+        if props.has(name) and not value >= 0.0:
+            raise plugin.error(f"\"{name}\" must be >= 0", props.line(name))
+    return distribution, alpha_u, alpha_v, sample_visible
+
+
+def _distinct_iors(props: Props, default_int: str) -> tuple[float, float]:
+    """``int_ior`` and ``ext_ior``, which the rough interfaces need to differ (Mitsuba's check)."""
+    int_ior, ext_ior = _ior(props, "int_ior", default_int), _ior(props, "ext_ior", "air")
+    if int_ior == ext_ior:
+        raise props.plugin.error(f"{props.plugin.type} needs int_ior != ext_ior (both {int_ior:g})",
+                                 props.line("int_ior") if props.has("int_ior") else None)
+    return int_ior, ext_ior
+
+
+def _build_plastic(props: Props, bsdfs):
+    """``plastic`` / ``roughplastic``: shared parameters, then the smooth or rough model."""
+    rough = props.plugin.type == "roughplastic"
+    if rough:
+        int_ior, ext_ior = _distinct_iors(props, "polypropylene")
+    else:
+        int_ior, ext_ior = _ior(props, "int_ior", "polypropylene"), _ior(props, "ext_ior", "air")
+    # Textures are refused here (Props.reflectance): Mitsuba's lobe-selection weight
+    # uses a texture's mean, which the tracer's textures do not provide yet.
+    common = dict(diffuse_reflectance=props.reflectance("diffuse_reflectance", 0.5),
+                  specular_reflectance=props.reflectance("specular_reflectance", 1.0),
+                  int_ior=int_ior, ext_ior=ext_ior, nonlinear=props.bool("nonlinear", False))
+    if not rough:
+        return bsdfs.Plastic(**common)
+    distribution, alpha, _, sample_visible = _microfacet(props, anisotropic=False)
+    return bsdfs.RoughPlastic(distribution, alpha, **common, sample_visible=sample_visible)
 
 
 def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | None = None):
@@ -321,30 +407,28 @@ def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | Non
     if kind == "diffuse":
         result = bsdfs.Diffuse(colour("reflectance", 0.5))
     elif kind == "conductor":
-        _no_material(props)
-        result = bsdfs.Conductor(colour("specular_reflectance", 1.0))
-    elif kind == "dielectric":
-        result = bsdfs.Dielectric(_ior(props, "int_ior", "bk7"), _ior(props, "ext_ior", "air"),
-                                  colour("specular_reflectance", 1.0),
-                                  colour("specular_transmittance", 1.0))
+        eta, k = _conductor_ior(props)
+        result = bsdfs.Conductor(colour("specular_reflectance", 1.0), eta, k)
+    elif kind in ("dielectric", "thindielectric"):
+        cls = bsdfs.Dielectric if kind == "dielectric" else bsdfs.ThinDielectric
+        result = cls(_ior(props, "int_ior", "bk7"), _ior(props, "ext_ior", "air"),
+                     colour("specular_reflectance", 1.0), colour("specular_transmittance", 1.0))
+    elif kind == "roughdielectric":
+        int_ior, ext_ior = _distinct_iors(props, "bk7")
+        distribution, alpha_u, alpha_v, _ = _microfacet(props)
+        result = bsdfs.RoughDielectric(distribution, alpha_u, alpha_v, int_ior, ext_ior,
+                                       colour("specular_reflectance", 1.0),
+                                       colour("specular_transmittance", 1.0))
     elif kind == "roughconductor":
-        _no_material(props)
-        distribution = props.string("distribution", "beckmann").strip().lower()
-        if distribution not in ("beckmann", "ggx"):
-            raise plugin.error(f"unknown microfacet distribution \"{distribution}\" "
-                               "(beckmann or ggx)", props.line("distribution"))
-        if not props.bool("sample_visible", True):
-            raise plugin.error("sample_visible=false is not supported (only visible-normal "
-                               "sampling)", props.line("sample_visible"))
-        if props.has("alpha") and (props.has("alpha_u") or props.has("alpha_v")):
-            raise plugin.error("give either alpha or alpha_u/alpha_v, not both",
-                               props.line("alpha"))
-        alpha = props.float("alpha", 0.1)
-        alpha_u, alpha_v = props.float("alpha_u", alpha), props.float("alpha_v", alpha)
-        if props.has("alpha_u") != props.has("alpha_v"):
-            raise plugin.error("give both alpha_u and alpha_v")
+        eta, k = _conductor_ior(props)
+        distribution, alpha_u, alpha_v, sample_visible = _microfacet(props)
         result = bsdfs.RoughConductor(distribution, alpha_u, alpha_v,
-                                      colour("specular_reflectance", 1.0))
+                                      colour("specular_reflectance", 1.0), eta, k,
+                                      sample_visible)
+    elif kind in ("plastic", "roughplastic"):
+        result = _build_plastic(props, bsdfs)
+    elif kind in VARIANT_ONLY_BSDFS:
+        raise plugin.error(f"BSDF \"{kind}\" {VARIANT_ONLY_BSDFS[kind]}")
     else:
         raise _unsupported(plugin, "BSDF")
     props.finish()
@@ -988,12 +1072,13 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     folders = search_folders(root, base_dir)
     attached: dict[int, Plugin] = {}  # area emitter plugin -> the shape it lights
 
-    def bsdf_id(plugin: Plugin | None) -> int:
-        key = id(plugin)
+    def bsdf_id(plugin: Plugin | None, emitter: bool = False) -> int:
+        # Mitsuba's default BSDF: diffuse 0.5, but black on an emitting shape.
+        key = ("default", emitter) if plugin is None else id(plugin)
         if key not in bsdf_index:
             if plugin is None:
                 from pathtracer import bsdfs
-                bsdf_objects.append(bsdfs.Diffuse(np.full(3, 0.5)))
+                bsdf_objects.append(bsdfs.Diffuse(np.full(3, 0.0 if emitter else 0.5)))
             else:
                 bsdf_objects.append(build_bsdf(plugin, folders, textures))
             bsdf_index[key] = len(bsdf_objects) - 1
@@ -1008,7 +1093,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         if plugin.type not in SUPPORTED["shape"]:
             raise _unsupported(plugin, "shape")
         bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, folders)
-        shape_bsdf.append(bsdf_id(bsdf_plugin))
+        shape_bsdf.append(bsdf_id(bsdf_plugin, emitter=emitter_plugin is not None))
         if emitter_plugin is not None:
             _attach(emitter_plugin, plugin, attached)
             emitters.append(build_area(emitter_plugin, shape_id))
