@@ -13,7 +13,6 @@ from pathtracer import sampling
 from pathtracer.bsdfs import (Conductor, Dielectric, Diffuse, RoughConductor, TwoSided,
                               fresnel_dielectric, fresnel_schlick, reflect, refract)
 from pathtracer.bsdfs.fresnel import fresnel_conductor, schlick_f0
-from tests.live_mitsuba import import_mitsuba_or_skip
 
 pytestmark = pytest.mark.statistical(assertions=1)
 
@@ -480,15 +479,6 @@ def test_dielectric_defaults_and_flags():
 # Comparison with Mitsuba 3's own plugins
 # --------------------------------------------------------------------------
 
-def _mitsuba():
-    mi = import_mitsuba_or_skip()
-    try:
-        mi.set_variant("scalar_rgb")
-    except Exception as error:  # pragma: no cover - depends on the install
-        pytest.skip(f"mitsuba scalar_rgb variant unavailable: {error}")
-    return mi
-
-
 def _f32(x: np.ndarray) -> np.ndarray:
     """Round to float32 so that both renderers see exactly the same inputs."""
     return np.asarray(x, dtype=np.float32).astype(np.float64)
@@ -567,8 +557,7 @@ def _rough_spec(distribution, alpha_u, alpha_v, colour, eta_k=None):
 
 @pytest.mark.mitsuba
 @pytest.mark.parametrize("distribution, alpha_u, alpha_v", ROUGH_CASES)
-def test_mitsuba_roughconductor_eval_pdf(distribution, alpha_u, alpha_v):
-    mi = _mitsuba()
+def test_mitsuba_roughconductor_eval_pdf(distribution, alpha_u, alpha_v, mi):
     colour = [0.9, 0.6, 0.3]
     theirs = _MitsubaBSDF(mi, _rough_spec(distribution, alpha_u, alpha_v, colour))
     ours = RoughConductor(distribution, alpha_u, alpha_v, colour)
@@ -580,8 +569,7 @@ def test_mitsuba_roughconductor_eval_pdf(distribution, alpha_u, alpha_v):
 
 
 @pytest.mark.mitsuba
-def test_mitsuba_roughconductor_complex_ior():
-    mi = _mitsuba()
+def test_mitsuba_roughconductor_complex_ior(mi):
     eta_k = ([0.2, 0.9, 1.1], [3.9, 2.4, 2.2])
     for distribution in DISTRIBUTIONS:
         theirs = _MitsubaBSDF(mi, _rough_spec(distribution, 0.2, 0.2, [1, 1, 1], eta_k))
@@ -593,9 +581,8 @@ def test_mitsuba_roughconductor_complex_ior():
 
 @pytest.mark.mitsuba
 @pytest.mark.parametrize("distribution, alpha_u, alpha_v", ROUGH_CASES)
-def test_mitsuba_roughconductor_sample(distribution, alpha_u, alpha_v):
+def test_mitsuba_roughconductor_sample(distribution, alpha_u, alpha_v, mi):
     """Same uniforms -> the same microfacet normal: our VNDF samplers invert the same maps as Mitsuba's."""
-    mi = _mitsuba()
     colour = [0.9, 0.6, 0.3]
     theirs = _MitsubaBSDF(mi, _rough_spec(distribution, alpha_u, alpha_v, colour))
     ours = RoughConductor(distribution, alpha_u, alpha_v, colour)
@@ -618,8 +605,7 @@ def test_mitsuba_roughconductor_sample(distribution, alpha_u, alpha_v):
 
 
 @pytest.mark.mitsuba
-def test_mitsuba_diffuse_and_twosided():
-    mi = _mitsuba()
+def test_mitsuba_diffuse_and_twosided(mi):
     colour = [0.2, 0.5, 0.8]
     wi, wo = _pairs(800, 40)
     for spec, ours in [({"type": "diffuse", "reflectance": {"type": "rgb", "value": colour}}, Diffuse(colour)),
@@ -647,8 +633,7 @@ def test_mitsuba_diffuse_and_twosided():
 
 @pytest.mark.mitsuba
 @pytest.mark.parametrize("int_ior, ext_ior", [(1.5, 1.0), (1.5046, 1.000277), (1.33, 1.5), (2.4, 1.0)])
-def test_mitsuba_dielectric_sample(int_ior, ext_ior):
-    mi = _mitsuba()
+def test_mitsuba_dielectric_sample(int_ior, ext_ior, mi):
     refl, trans = [1.0, 0.9, 0.8], [0.7, 0.8, 1.0]
     theirs = _MitsubaBSDF(mi, {"type": "dielectric", "int_ior": int_ior, "ext_ior": ext_ior,
                                "specular_reflectance": {"type": "rgb", "value": refl},
@@ -675,8 +660,7 @@ def test_mitsuba_dielectric_sample(int_ior, ext_ior):
 
 
 @pytest.mark.mitsuba
-def test_mitsuba_conductor_sample():
-    mi = _mitsuba()
+def test_mitsuba_conductor_sample(mi):
     colour = [0.9, 0.5, 0.1]
     theirs = _MitsubaBSDF(mi, {"type": "conductor", "specular_reflectance": {"type": "rgb", "value": colour}})
     ours = Conductor(colour)
@@ -693,8 +677,7 @@ def test_mitsuba_conductor_sample():
 
 
 @pytest.mark.mitsuba
-def test_mitsuba_fresnel_functions():
-    mi = _mitsuba()
+def test_mitsuba_fresnel_functions(mi):
     rng = np.random.default_rng(70)
     cos_i = _f32(np.concatenate((rng.uniform(-1, 1, 300), [0.0, 1.0, -1.0, 1e-3, -1e-3])))
     for eta in (1.5, 1.0 / 1.33, 1.000277, 2.4):

@@ -25,16 +25,6 @@ from mitsuba_refs.render import Reference, resolve_scene
 REPO = Path(__file__).resolve().parent.parent
 ALPHA = 1e-4
 
-try:
-    import mitsuba  # noqa: F401
-    HAVE_MITSUBA = True
-except ImportError:
-    HAVE_MITSUBA = False
-
-needs_mitsuba = pytest.mark.skipif(not HAVE_MITSUBA,
-                                   reason="needs a live Mitsuba 3 install")
-
-
 # --------------------------------------------------------------- helpers
 
 def tile_welch(mean_a, var_a, n_a, mean_b, var_b, n_b, tile=8, alpha=ALPHA):
@@ -241,9 +231,7 @@ def test_committed_direct_equals_path_depth2(scene):
 # ------------------------------------------------------ live Mitsuba tests
 
 @pytest.fixture(scope="module")
-def mi_variant():
-    if not HAVE_MITSUBA:
-        pytest.skip("needs a live Mitsuba 3 install")
+def mi_variant(mi):
     from mitsuba_refs.variant import set_variant
     variant, _ = set_variant()
     return variant
@@ -253,7 +241,7 @@ def _spp(variant, jit, scalar):
     return jit if variant != "scalar_rgb" else scalar
 
 
-@needs_mitsuba
+@pytest.mark.mitsuba
 def test_variant_choice_and_override(monkeypatch):
     from mitsuba_refs.variant import choose_variant
     v, reason = choose_variant("scalar_rgb")
@@ -265,7 +253,7 @@ def test_variant_choice_and_override(monkeypatch):
     assert v in ("llvm_ad_rgb", "scalar_rgb") and reason
 
 
-@needs_mitsuba
+@pytest.mark.mitsuba
 def test_moment_mean_equals_path_render(mi_variant):
     import mitsuba as mi
     from mitsuba_refs import moments
@@ -279,7 +267,7 @@ def test_moment_mean_equals_path_render(mi_variant):
     assert np.all(m2 >= m1 * m1 - 1e-4)
 
 
-@needs_mitsuba
+@pytest.mark.mitsuba
 def test_moment_variance_furnace(mi_variant):
     """Furnace, BSDF sampling, roulette from depth 1 (q = rho, weight 1):
     the number of emitter hits is 1 + Geometric, mean 1/(1-rho), per-sample
@@ -299,7 +287,7 @@ def test_moment_variance_furnace(mi_variant):
     assert np.all(ref.var < 1e-9)
 
 
-@needs_mitsuba
+@pytest.mark.mitsuba
 @pytest.mark.parametrize("integrator", ["path_bsdf", "path_nee"])
 def test_lecture_integrators_mean_agrees_with_path_live(mi_variant, integrator):
     """Live render on the Cornell box: each lecture estimator vs ``path``."""
@@ -313,7 +301,7 @@ def test_lecture_integrators_mean_agrees_with_path_live(mi_variant, integrator):
     assert ok, f"max |z| = {zmax:.2f} >= {thr:.2f}"
 
 
-@needs_mitsuba
+@pytest.mark.mitsuba
 def test_box_filter_enforced(tmp_path, mi_variant):
     from mitsuba_refs.render import render_reference
     src = resolve_scene("furnace").read_text().replace('<rfilter type="box"/>',

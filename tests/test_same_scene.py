@@ -162,11 +162,9 @@ def test_sample_statistics_merge_equals_one_pass():
 # ------------------------------------------------------------------ live Mitsuba
 
 @pytest.fixture
-def mitsuba_variant():
+def mitsuba_variant(mi):
     """scalar_rgb: the variant a user without LLVM gets, where the fast reference path
     matters; it needs no JIT compilation, so these tests take seconds."""
-    from tests.live_mitsuba import import_mitsuba_or_skip
-    import_mitsuba_or_skip()
     from mitsuba_refs.variant import set_variant
     return set_variant("scalar_rgb")[0]
 
