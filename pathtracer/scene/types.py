@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from ..film import BOX, ReconstructionFilter
+
 
 @dataclass
 class Camera:
@@ -40,6 +42,8 @@ class Camera:
         Clip distances measured along the optical axis.
     width, height : int
         Film resolution in pixels; row 0 is the top of the image.
+    rfilter : ReconstructionFilter
+        The film's reconstruction filter (:mod:`pathtracer.film`).
     """
 
     to_world: np.ndarray
@@ -48,6 +52,7 @@ class Camera:
     far_clip: float = 1e4
     width: int = 256
     height: int = 256
+    rfilter: ReconstructionFilter = BOX
 
 
 @dataclass
