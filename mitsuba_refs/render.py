@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from . import config
+from .rfilter import check_variant, film_filter, filter_metadata, per_sample_variance
 
 #: our integrator name -> Mitsuba integrator type
 INTEGRATOR_MAP = {
@@ -231,7 +232,6 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     from . import moments
 
     path = resolve_scene(scene_path_or_name)
-    check_box_filter(path)
     scene_kw, integ_kw = split_params(path, params)
     chosen, reason = set_variant(variant)
     import mitsuba as mi
@@ -239,8 +239,12 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     scene_kw = dict(scene_kw, spp=str(min(spp, pass_spp or config.PASS_SPP)))
     scene = mi.load_file(str(path), **scene_kw)
     film = scene.sensors()[0].film()
-    if "BoxFilter" not in str(film.rfilter()).split("[")[0]:
-        raise ValueError(f"{path}: Mitsuba loaded a {film.rfilter()} filter")
+    # The film's filter (box, tent, gaussian) also shapes the statistics (.rfilter).
+    try:
+        rfilter = film_filter(film)
+        check_variant(chosen, rfilter)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
     width, height = (int(v) for v in film.crop_size())
     nested = integrator_dict(integrator, integ_kw)
     integ = mi.load_dict(moments.moment_dict(nested))
@@ -260,7 +264,7 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         if log:
             log(f"  pass {k + 1}/{n_passes}: {n_k} spp, seed {s}")
     m1, m2, n = moments.combine(passes)
-    var = moments.sample_variance(m1, m2, n)
+    var = per_sample_variance(m1, m2, n, rfilter)
     elapsed = time.time() - t0
     metadata = {
         "scene": path.stem,
@@ -275,6 +279,7 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         "pass_spp": pass_spp,
         "width": width,
         "height": height,
+        "rfilter": filter_metadata(rfilter),
         "variant": chosen,
         "variant_reason": reason,
         "mitsuba_version": mi.__version__,
