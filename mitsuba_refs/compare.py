@@ -28,6 +28,7 @@ import numpy as np
 
 from . import config
 from .cache import get_reference, scene_hash
+from .rfilter import pixel_value_counts, reference_correlation
 from .stats import (compare_means, compare_variances, convergence_law, first_diverging_bounce,
                     image_mse, rare_errors_dominate, reference_mse_floor)
 from .stats.mean import VARIANCE_BOUND
@@ -200,12 +201,16 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     # Same estimator on both sides: a test-side variance far above the reference's is
     # itself wrong, so it may not hide a bias (stats.mean.VARIANCE_BOUND).
     bound = VARIANCE_BOUND if name in SAME_ESTIMATOR else None
+    # A tent or gaussian film correlates neighbouring pixels (docs/statistics.md).
+    correlation = reference_correlation(reference)
     result = Comparison(scene, name, params, spp,
                         compare_means(mean, variance, spp, reference.mean, reference.var,
-                                      reference.n, alpha=alpha, max_var_ratio=bound))
+                                      reference.n, alpha=alpha, max_var_ratio=bound,
+                                      pixel_correlation=correlation))
     both_noiseless = not np.any(variance) and not np.any(reference.var)
     if name in SAME_ESTIMATOR and not both_noiseless:
-        result.variance = compare_variances(variance, spp, reference.var, reference.n, alpha=alpha)
+        result.variance = compare_variances(variance, spp, reference.var, reference.n, alpha=alpha,
+                                            pixel_correlation=correlation)
     if convergence:
         result.convergence, result.convergence_mse = convergence_test(
             scene, integrator, params, reference, alpha, processes, render, ladder, replicas,
@@ -267,6 +272,10 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
     one array per level, with one value per render and sub-lattice.
     """
     lattices = [np.s_[a::INTERLEAVE, b::INTERLEAVE] for a in range(INTERLEAVE) for b in range(INTERLEAVE)]
+    if not reference_correlation(reference).independent:
+        lattices = [np.s_[:, :]]      # a wide filter correlates neighbours: whole renders only
+    # var / n_eff is each reference pixel's own variance (var / n with a box filter).
+    ref_n = pixel_value_counts(reference)
     mse = [[] for _ in ladder]
     lowest_image_mse = []
     top, batch = 0, replicas
@@ -277,10 +286,10 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
                 test_mean, _ = render(scene, integrator, params, n, CONVERGENCE_SEED + 100_000 * j + k,
                                       processes=processes)
                 mse[j] += [image_mse(test_mean[part], reference.mean[part], reference.var[part],
-                                     reference.n) for part in lattices]
+                                     ref_n[part]) for part in lattices]
                 if j == 0:
                     lowest_image_mse.append(image_mse(test_mean, reference.mean, reference.var,
-                                                      reference.n))
+                                                      ref_n))
         top += batch
         rare = rare_errors_dominate(lowest_image_mse)
         if not rare or top >= replicas * max_growth:
@@ -288,7 +297,7 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
         batch = top
     mse = [np.array(level) for level in mse]
     law = convergence_law(np.array(ladder), mse,
-                          ref_mse_floor=reference_mse_floor(reference.var, reference.n),
+                          ref_mse_floor=reference_mse_floor(reference.var, ref_n),
                           alpha=alpha, image_mean=float(reference.mean.mean()))
     if rare:
         note = (f"rare bright paths carry the error even with {top} replicas at the top level: "
@@ -308,7 +317,8 @@ def localise_bounce(scene, integrator, name, params, spp, alpha, processes, rend
         mean, variance = render(scene, integrator, params, spp, TEST_SEED + depth,
                                 processes=processes, max_depth=depth)
         results[depth] = compare_means(mean, variance, spp, reference.mean, reference.var,
-                                       reference.n, alpha=alpha)
+                                       reference.n, alpha=alpha,
+                                       pixel_correlation=reference_correlation(reference))
     return results
 
 
