@@ -30,3 +30,15 @@ def test_mean_and_variance_agree_with_mitsuba(scene, integrator):
 
 def test_every_integrator_is_covered():
     assert {i for _, i in AGREEMENT_CASES} == set(INTEGRATORS)
+
+
+@pytest.mark.parametrize("rfilter", ["tent", "gaussian"])
+def test_filtered_film_agrees_with_mitsuba(rfilter):
+    """The quad-light scene on a tent / gaussian film against Mitsuba's film with the same
+    filter (committed references): mean and variance, with the statistics for correlated
+    pixels (docs/statistics.md, "Reconstruction filters")."""
+    params = {"rfilter": rfilter, "width": 64, "height": 48}
+    comparison = compare("quad-light-filtered", "path", params, spp=32, alpha=ALPHA,
+                         convergence=False, bounces=False, processes=2)
+    assert comparison.mean.agree, comparison.report()
+    assert comparison.variance is not None and comparison.variance.agree, comparison.report()
