@@ -77,7 +77,7 @@ def per_sample_variance(m1, m2, n, rfilter):
 def reference_correlation(reference):
     """How the reference's film filter correlates pixels (:mod:`mitsuba_refs.stats.correlation`)."""
     from .stats.correlation import pixel_correlation
-    return pixel_correlation(filter_from_metadata(reference.metadata))
+    return pixel_correlation(filter_from_metadata(getattr(reference, "metadata", None)))
 
 
 def pixel_value_counts(reference):
@@ -88,4 +88,5 @@ def pixel_value_counts(reference):
     """
     from pathtracer.film import effective_counts
     height, width = reference.mean.shape[:2]
-    return effective_counts(filter_from_metadata(reference.metadata), width, height, reference.n)
+    rfilter = filter_from_metadata(getattr(reference, "metadata", None))
+    return effective_counts(rfilter, width, height, reference.n)
