@@ -52,7 +52,10 @@ For heavy positive skew this statistic is *conservative* for "too much variance"
 liberal for "too little"; only "too much" (one-sided, upper) is used for outliers.
 
 Family: Šidák over the two components (global, tiles).  Pixels must be independent
-(box filter).  Pure function: no I/O.
+(box filter) unless ``pixel_correlation`` describes how a tent or gaussian film correlates
+them (:mod:`mitsuba_refs.stats.correlation`): the global t is then divided by
+:math:`1+2c_T` and the per-tile :math:`U_T` by :math:`\sqrt{k_T}`, with
+:math:`P/k_T` effective pixels.  Pure function: no I/O.
 
 Policy: "not more than X times the reference's"
 -----------------------------------------------
@@ -244,7 +247,8 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
     num, den = float(np.sum(wT * A[ok])), float(np.sum(wT * B[ok]))
     if den > 0 and num > 0:
         ratio = num / den
-        se_r = inflation * math.sqrt(m / (m - 1) * float(np.sum((wT * (A[ok] - ratio * B[ok])) ** 2))) / den
+        spread = m / (m - 1) * float(np.sum((wT * (A[ok] - ratio * B[ok])) ** 2))
+        se_r = inflation * math.sqrt(spread) / den
         q = float(sps.t.ppf(0.5 + ci_level / 2, df))
         k = math.exp(q * se_r / ratio)
         ratio_ci = (ratio / k, ratio * k)
