@@ -8,13 +8,23 @@ an argparse subparser and returning the handler), so others can add
 [-D name=value ...] [--variant V] [--force]`` renders missing, stale or
 corrupt references and prints the chosen variant (and why) and the time
 per reference.
+
+Exit status of every subcommand (:data:`EXIT_CODES`): 0 success (and, for
+``compare``, agreement), 1 ``compare`` disagrees, 2 bad input or usage (one
+line on stderr, no traceback), 130 interrupted (Ctrl-C).
 """
 
 import argparse
 import sys
 import time
+import xml.etree.ElementTree as ET
 
 from . import config
+from .errors import RefsInputError, one_line
+
+#: Exit status -> meaning, for every subcommand.
+EXIT_CODES = {0: "success / agrees", 1: "compare: disagrees with Mitsuba",
+              2: "bad input or usage", 130: "interrupted"}
 
 
 def default_jobs(scenes=None, integrators=None, extra_params=None,
@@ -39,12 +49,13 @@ def default_jobs(scenes=None, integrators=None, extra_params=None,
     return jobs
 
 
-def _parse_defines(defines):
+def parse_defines(defines):
+    """``["name=value", ...]`` (the ``-D`` options) as a dict; a one-line error otherwise."""
     params = {}
     for item in defines or []:
-        if "=" not in item:
-            raise SystemExit(f"-D expects name=value, got {item!r}")
-        name, value = item.split("=", 1)
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise RefsInputError(f"-D expects name=value, got {item!r}")
         params[name.strip()] = value.strip()
     return params
 
@@ -53,11 +64,15 @@ def _add_build(subparsers):
     p = subparsers.add_parser(
         "build", help="render missing/stale references",
         description="Render the Mitsuba references that are missing, stale "
-                    "or corrupt (all of them with --force).")
+                    "or corrupt (all of them with --force). Exit code: 0 done, "
+                    "2 bad input (one line on stderr), 130 interrupted.")
     p.add_argument("scenes", nargs="*", metavar="SCENES",
                    help="built-in scene names or XML files (default: all built-in)")
-    p.add_argument("--integrators", nargs="+", default=None,
-                   help=f"our integrator names (default: {' '.join(config.REF_INTEGRATORS)})")
+    from .render import INTEGRATOR_MAP
+    p.add_argument("--integrators", nargs="+", default=None, choices=sorted(INTEGRATOR_MAP),
+                   metavar="NAME",
+                   help=f"our integrator names, of {', '.join(sorted(INTEGRATOR_MAP))} "
+                        f"(default: {' '.join(config.REF_INTEGRATORS)})")
     p.add_argument("--spp", type=int, default=config.REF_SPP,
                    help=f"samples per pixel (default {config.REF_SPP})")
     p.add_argument("--seed", type=int, default=config.REF_SEED,
@@ -77,14 +92,23 @@ def _add_build(subparsers):
 
 def cmd_build(args):
     """Handler of ``build``."""
-    from .cache import (cache_dir, get_reference, reference_stem, validate)
-    from .variant import choose_variant
+    from .cache import (cache_dir, get_reference, mitsuba_available, reference_stem,
+                        validate)
+    from .preflight import check_scene, check_spp
 
-    extra = _parse_defines(args.defines)
+    check_spp(args.spp)
+    if args.seed < 0:
+        raise RefsInputError(f"--seed must be >= 0, got {args.seed}")
+    extra = parse_defines(args.defines)
     jobs = default_jobs(args.scenes or None, args.integrators, extra,
                         per_bounce=not args.no_per_bounce)
+    for scene, params in {(s, tuple(sorted(p.items()))) for s, p, _ in jobs}:
+        check_scene(scene, dict(params))
     directory = args.cache_dir or cache_dir()
-    variant, reason = choose_variant(args.variant)
+    if not mitsuba_available():
+        raise RefsInputError("build renders with Mitsuba 3, which is not installed: "
+                             "pip install mitsuba==3.9.1")
+    variant, reason = _usable_variant(args.variant)
     print(f"variant: {variant} ({reason})")
     print(f"cache: {directory}; {len(jobs)} references at {args.spp} spp")
     import mitsuba as mi
@@ -111,6 +135,17 @@ def cmd_build(args):
     return 0
 
 
+def _usable_variant(requested):
+    """``choose_variant``'s choice, refused in one line if this Mitsuba lacks it."""
+    import mitsuba as mi
+    from .variant import choose_variant
+    variant, reason = choose_variant(requested)
+    if variant not in mi.variants():
+        raise RefsInputError(f"Mitsuba variant {variant!r} ({reason}) is not available; "
+                             f"this Mitsuba has {', '.join(mi.variants())}")
+    return variant, reason
+
+
 #: name -> function(subparsers) returning the handler; extend to add commands.
 def _add_compare(subparsers):
     from .cli_compare import add_compare
@@ -120,9 +155,23 @@ def _add_compare(subparsers):
 SUBCOMMANDS = {"build": _add_build, "compare": _add_compare}
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An ``ArgumentParser`` whose usage errors are one line (and exit status 2)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+#: Errors a user can fix: printed in one line with exit status 2. ``SceneError`` and
+#: ``RefsInputError`` are ``ValueError``s; ``ReferenceUnavailable`` is a ``RuntimeError``.
+def _user_errors():
+    from .cache import ReferenceUnavailable
+    return (ValueError, OSError, ET.ParseError, ReferenceUnavailable)
+
+
 def make_parser():
     """The argparse parser with one subparser per :data:`SUBCOMMANDS` entry."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="mitsuba-refs",
         description="Mitsuba 3 references for validating the NumPy path tracer.")
     subparsers = parser.add_subparsers(dest="command", required=True)
@@ -133,8 +182,22 @@ def make_parser():
 
 
 def main(argv=None):
-    args = make_parser().parse_args(argv)
-    return args.handler(args)
+    """Run one subcommand; return its exit status (:data:`EXIT_CODES`).
+
+    Bad input ends in one line on stderr and status 2, Ctrl-C in one line
+    and status 130; only a bug shows a traceback.
+    """
+    try:
+        args = make_parser().parse_args(argv)
+        prog = f"mitsuba-refs {args.command}"
+        try:
+            return args.handler(args)
+        except _user_errors() as error:
+            print(f"{prog}: error: {one_line(error)}", file=sys.stderr)
+            return 2
+    except KeyboardInterrupt:
+        print("mitsuba-refs: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -1,21 +1,30 @@
 """``mitsuba-refs compare``: one integrator against Mitsuba on one scene, with verdicts.
 
 Exit code 0 when every verdict agrees, 1 when one disagrees, 2 on bad input
-(unknown scene or integrator, malformed -D, a reference that is neither
-cached nor renderable).
+(unknown scene or integrator, malformed -D, an option out of range, a scene
+our tracer or Mitsuba refuses, a reference that is neither cached nor
+renderable), 130 when interrupted. The scene is loaded by our tracer and
+every option checked *before* a reference is looked up or rendered, so bad
+input fails in about a second, with the tracer's own message.
 """
 from __future__ import annotations
 
+import argparse
 import sys
+import warnings
 
 from . import config
-from .compare import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
+from .config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 
 
 def _positive_ints(text: str) -> tuple[int, ...]:
-    values = tuple(int(v) for v in text.split(","))
+    try:
+        values = tuple(int(v) for v in text.split(","))
+    except ValueError:
+        values = ()
     if not values or min(values) < 1:
-        raise ValueError(text)
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated sample counts >= 1 (e.g. 1,4,16,64), got {text!r}")
     return values
 
 
@@ -28,7 +37,8 @@ def add_compare(subparsers):
                     "the cached reference), and decide with calibrated tests whether they agree in "
                     "mean and variance and whether the error obeys the N^-1/2 law. On disagreement, "
                     "the first diverging bounce and the likely cause are printed and diagnostic "
-                    "pictures are written. Exit code: 0 agree, 1 disagree, 2 bad input.")
+                    "pictures are written. Exit code: 0 agree, 1 disagree, 2 bad input (one line "
+                    "on stderr), 130 interrupted.")
     p.add_argument("scene", help="built-in scene name or Mitsuba 3 XML file")
     p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
                    help="scene parameter for both renderers (repeatable); built-in scenes default "
@@ -54,29 +64,55 @@ def add_compare(subparsers):
 
 
 def run_compare(args) -> int:
-    from pathtracer import SceneError
-    from .cache import ReferenceUnavailable
-    from .compare import compare
+    """Handler of ``compare``; input errors propagate to :func:`mitsuba_refs.cli.main`
+    (one line, exit status 2)."""
+    from .cli import parse_defines
 
-    params = {}
-    for item in args.defines:
-        name, sep, value = item.partition("=")
-        if not sep or not name:
-            print(f"mitsuba-refs compare: error: -D expects name=value, got {item!r}", file=sys.stderr)
-            return 2
-        params[name] = value
-    if args.spp < 1 or args.replicas < 1 or not 0 < args.alpha < 1:
-        print("mitsuba-refs compare: error: need --spp >= 1, --replicas >= 1 and 0 < --alpha < 1",
-              file=sys.stderr)
-        return 2
+    params = parse_defines(args.defines)
+    check_options(args)
+    preload(args.scene, params)
+    from .compare import compare
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
-    try:
-        result = compare(args.scene, args.integrator, params, spp=args.spp, alpha=args.alpha,
-                         convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
-                         processes=args.processes, ladder=args.ladder, replicas=args.replicas,
-                         log=lambda message: print(message, file=sys.stderr))
-    except (SceneError, ReferenceUnavailable, ValueError, FileNotFoundError) as error:
-        print(f"mitsuba-refs compare: error: {error}", file=sys.stderr)
-        return 2
+    result = compare(args.scene, args.integrator, params, spp=args.spp, alpha=args.alpha,
+                     convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
+                     processes=args.processes, ladder=args.ladder, replicas=args.replicas,
+                     log=lambda message: print(message, file=sys.stderr))
     print(result.report())
     return 0 if result.agree else 1
+
+
+def check_options(args) -> None:
+    """Refuse out-of-range options in one line saying what to change."""
+    from .errors import RefsInputError
+    from .preflight import check_ladder, check_output_folder, check_spp
+    check_spp(args.spp)
+    if not 0 < args.alpha < 1:
+        raise RefsInputError(f"--alpha must be between 0 and 1 (e.g. 1e-3), got {args.alpha}")
+    if not args.no_convergence:
+        check_ladder(args.ladder)
+    if args.replicas < 1:
+        raise RefsInputError(f"--replicas must be >= 1, got {args.replicas}")
+    if args.processes is not None and args.processes < 1:
+        raise RefsInputError(f"--processes must be >= 1, got {args.processes}")
+    check_output_folder(args.out)
+
+
+def preload(scene, params) -> None:
+    """Load ``scene`` in our tracer first (its messages name file and line), then check
+    what Mitsuba will be given, all before any reference is looked up or rendered.
+
+    The loaded scene is kept by :func:`mitsuba_refs.compare.loaded_scene` for the renders.
+    Warnings of the loader (e.g. a parameter the file does not use) are printed as one
+    line each once the input is known to be good.
+    """
+    from .preflight import check_image_size, check_scene, scene_path
+    scene_path(scene)
+    from .compare import default_params, loaded_scene  # imports the statistics (scipy)
+    params = {**default_params(scene), **params}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        loaded = loaded_scene(scene, params)
+    check_scene(scene, params)
+    check_image_size(loaded.camera.width, loaded.camera.height, scene)
+    for warning in caught:
+        print(f"mitsuba-refs compare: warning: {warning.message}", file=sys.stderr)

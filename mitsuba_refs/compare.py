@@ -33,10 +33,10 @@ from .stats import (compare_means, compare_variances, convergence_law, first_div
                     image_mse, rare_errors_dominate, reference_mse_floor)
 from .stats.mean import VARIANCE_BOUND
 
-#: spp ladder of the convergence test (4x steps: RMSE should halve) and the independent
-#: replicas at its top level; lower levels get more (:func:`level_replicas`).
-CONVERGENCE_LADDER = (1, 4, 16, 64)
-CONVERGENCE_REPLICAS = 2
+#: spp ladder of the convergence test and its replicas at the top level (defined in config,
+#: so that the command line's parser does not import the statistics).
+CONVERGENCE_LADDER = config.CONVERGENCE_LADDER
+CONVERGENCE_REPLICAS = config.CONVERGENCE_REPLICAS
 #: The replicas double (at every level) while rare bright paths carry the mean MSE
 #: (stats.rare_errors_dominate), up to this many times the first count.
 CONVERGENCE_MAX_GROWTH = 16

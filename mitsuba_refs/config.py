@@ -3,7 +3,9 @@
 Test resolution
     ``TEST_WIDTH x TEST_HEIGHT`` = 64 x 64 for square scenes, 64 x 48 for the
     4:3 scenes (``smallpt``, ``veach-mis``, ``quad-light``, ``point-light``,
-    ``cornell-lights``).
+    ``cornell-lights``), 32 x 32 for the small emitter scenes (``envmap``,
+    ``spot-directional``), which keep the agreement tests of the extra
+    emitters cheap.
     48 is not a multiple of 32: in ``scalar_rgb`` Mitsuba seeds 32 x 32
     blocks from ``seed * W * H``, so :mod:`mitsuba_refs.render` spaces pass
     seeds far enough apart for the padded block count (see
@@ -33,9 +35,12 @@ Per-bounce references
 TEST_WIDTH = 64
 TEST_HEIGHT = 64
 TEST_HEIGHT_4_3 = 48
+TEST_SIZE_SMALL = 32
 
 #: Scenes whose test film is 64 x 48 (4:3 aspect) instead of 64 x 64.
 WIDE_SCENES = ("smallpt", "veach-mis", "quad-light", "point-light", "cornell-lights")
+#: Scenes whose test film is 32 x 32.
+SMALL_SCENES = ("envmap", "spot-directional")
 
 TEST_MAX_SPP = 64
 REF_SPP_FACTOR = 64
@@ -49,12 +54,19 @@ REF_SEED = 1
 BUILTIN_SCENES = (
     "cornell-box", "cornell-caustics", "glass-cube", "smallpt", "veach-mis", "mesh",
     "furnace", "quad-light", "point-light", "sky-sphere", "cornell-lights",
+    "envmap", "spot-directional",
 )
 
 #: Our integrator names for which references are built by default.
 REF_INTEGRATORS = ("path", "path_bsdf", "path_nee", "direct")
 
 PER_BOUNCE_DEPTHS = (1, 2, 3)
+
+#: spp ladder of ``compare``'s convergence test (4x steps: RMSE should halve) and the
+#: independent replicas at its top level; lower levels get more
+#: (:func:`mitsuba_refs.compare.level_replicas`).
+CONVERGENCE_LADDER = (1, 4, 16, 64)
+CONVERGENCE_REPLICAS = 2
 
 #: Environment variables.
 ENV_VARIANT = "MITSUBA_REFS_VARIANT"
@@ -65,4 +77,6 @@ def test_resolution(scene_name):
     """Return ``(width, height)`` of the test film for a built-in scene."""
     if scene_name in WIDE_SCENES:
         return TEST_WIDTH, TEST_HEIGHT_4_3
+    if scene_name in SMALL_SCENES:
+        return TEST_SIZE_SMALL, TEST_SIZE_SMALL
     return TEST_WIDTH, TEST_HEIGHT

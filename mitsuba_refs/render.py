@@ -109,20 +109,55 @@ def xml_defaults(path):
     return {d.get("name"): d.get("value") for d in root.iter("default")}
 
 
+def _elements(path, tag, _seen=frozenset()):
+    """The ``tag`` elements of the scene file ``path`` and of the XML files it
+    ``<include>``s (Mitsuba inserts their content where the include stands)."""
+    root = ET.parse(path).getroot()
+    found = list(root.iter(tag))
+    seen = _seen | {Path(path).resolve()}
+    for include in root.iter("include"):
+        name = include.get("filename") or ""
+        included = (Path(path).parent / name).resolve()
+        if name.endswith(".xml") and "$" not in name and included.exists() \
+                and included not in seen:
+            found.extend(_elements(included, tag, seen))
+    return found
+
+
 def check_box_filter(path):
     """Raise ``ValueError`` unless every film of the scene file uses
     ``<rfilter type="box"/>`` (Mitsuba's default is a gaussian, which makes
     pixels correlated weighted ratios)."""
-    root = ET.parse(path).getroot()
-    films = list(root.iter("film"))
+    films = _elements(path, "film")
     if not films:
-        raise ValueError(f"{path}: no <film>; the default film has a gaussian filter")
+        raise ValueError(f"{path}: no <film> (nor in its <include>d files); Mitsuba's "
+                         f"default film has a gaussian filter; add <film type=\"hdrfilm\"> "
+                         f"with <rfilter type=\"box\"/>")
     for film in films:
         rfilters = film.findall("rfilter")
         if len(rfilters) != 1 or rfilters[0].get("type") != "box":
             kind = rfilters[0].get("type") if rfilters else "gaussian (default)"
             raise ValueError(f"{path}: film reconstruction filter is {kind}; "
                              f"references need <rfilter type=\"box\"/>")
+
+
+#: Film reconstruction filters both renderers implement (mitsuba_refs.rfilter).
+SUPPORTED_FILTERS = ("box", "tent", "gaussian")
+
+
+def check_film_filter(path):
+    """Raise ``ValueError`` when a film of the scene file (or its ``<include>``d files) uses
+    a reconstruction filter other than box, tent or gaussian (the tracer's), naming it.
+
+    A film without ``<rfilter>`` gets Mitsuba's default gaussian; a ``$param`` type is
+    checked once Mitsuba has loaded the film (:func:`render_reference`).
+    """
+    for film in _elements(path, "film"):
+        for rfilter in film.findall("rfilter"):
+            kind = rfilter.get("type") or ""
+            if "$" not in kind and kind not in SUPPORTED_FILTERS:
+                raise ValueError(f"{path}: film reconstruction filter is {kind}; references "
+                                 f"support {', '.join(SUPPORTED_FILTERS)}")
 
 
 def split_params(path, params):

@@ -98,8 +98,9 @@ def set_variant(variant=None):
     import mitsuba as mi
     chosen, reason = choose_variant(variant)
     if chosen not in mi.variants():
-        raise RuntimeError(f"Mitsuba variant {chosen!r} is not available "
-                           f"(have: {', '.join(mi.variants())})")
+        from .errors import RefsInputError
+        raise RefsInputError(f"Mitsuba variant {chosen!r} ({reason}) is not available "
+                             f"(have: {', '.join(mi.variants())})")
     if mi.variant() != chosen:
         mi.set_variant(chosen)
     from . import integrators, moments

@@ -2,11 +2,17 @@
 from __future__ import annotations
 
 import argparse
+import math
+import os
+import signal
 import sys
+import threading
+import warnings
 from pathlib import Path
 
 from .integrators import INTEGRATORS
 from .integrators.base import HEMISPHERE_RULES, ROULETTE_RULES
+from .resources import SEED_MAX, SPP_MAX
 
 EPILOG = """\
 examples:
@@ -17,8 +23,16 @@ examples:
 
 SCENE is a Mitsuba 3 XML file or the name of a built-in scene (see `pathtracer scenes`).
 The EXR holds R, G, B (pixel mean) and var.R, var.G, var.B (per-sample variance);
-a tonemapped PNG preview is written beside it.
+a tonemapped PNG preview is written beside it. Both are written to a temporary name
+and renamed when complete: an interrupted render leaves no partial file.
+
+exit codes: 0 done, 1 failed while running (a worker died, the disk is full),
+2 bad input or usage (nothing rendered), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
 """
+
+#: Exit codes (README, "Exit codes").
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+EXIT_INTERRUPTED, EXIT_TERMINATED = 128 + signal.SIGINT, 128 + signal.SIGTERM
 
 
 class _Parser(argparse.ArgumentParser):
@@ -30,15 +44,48 @@ class _Parser(argparse.ArgumentParser):
 
 def _define(text: str) -> tuple[str, str]:
     name, sep, value = text.partition("=")
-    if not sep or not name:
+    if not sep or not name.strip():
         raise argparse.ArgumentTypeError(f"expected name=value, got {text!r}")
-    return name, value
+    return name.strip(), value
+
+
+def _integer(text: str, low: int, high: int | None, what: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+    if value < low or (high is not None and value > high):
+        raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
+    return value
 
 
 def _positive(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return _integer(text, 1, None, "a whole number >= 1")
+
+
+def _natural(text: str) -> int:
+    return _integer(text, 0, None, "a whole number >= 0")
+
+
+def _spp(text: str) -> int:
+    return _integer(text, 1, SPP_MAX, f"a whole number from 1 to {SPP_MAX}")
+
+
+def _seed(text: str) -> int:
+    return _integer(text, 0, SEED_MAX, f"a whole number from 0 to {SEED_MAX} (32 bits, as Mitsuba's seed)")
+
+
+def _depth(text: str) -> int:
+    return _integer(text, -1, None, "-1 (unlimited) or a whole number >= 0")
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
     return value
 
 
@@ -54,30 +101,30 @@ def build_parser() -> argparse.ArgumentParser:
                     "per-pixel mean and per-sample variance to an EXR file.")
     render.add_argument("scene", help="Mitsuba 3 XML file or built-in scene name")
     render.add_argument("-o", "--output", required=True, type=Path,
-                        help="output EXR path (a PNG preview is written beside it)")
+                        help="output EXR path, ending in .exr (a PNG preview is written beside it)")
     render.add_argument("-D", dest="defines", action="append", type=_define, default=[],
                         metavar="NAME=VALUE", help="set a scene parameter (<default> override); repeatable")
     render.add_argument("--integrator", choices=sorted(INTEGRATORS),
                         help="integrator (default: the file's <integrator>, else path)")
-    render.add_argument("--spp", type=_positive, help="samples per pixel (default: the file's sampler)")
-    render.add_argument("--seed", type=int, help="random seed (default: the file's sampler seed)")
-    render.add_argument("--max-depth", type=int,
+    render.add_argument("--spp", type=_spp, help="samples per pixel (default: the file's sampler)")
+    render.add_argument("--seed", type=_seed, help="random seed (default: the file's sampler seed)")
+    render.add_argument("--max-depth", type=_depth,
                         help="longest path in segments: 1 = visible emitters, 2 = direct light, -1 = unlimited")
     render.add_argument("--rr-depth", type=int, help="segments before Russian roulette starts (default 5)")
     render.add_argument("--roulette", choices=ROULETTE_RULES,
                         help="roulette rule: Mitsuba's, the lecture's constant q, or off")
-    render.add_argument("--rr-q", type=float, help="termination probability of --roulette constant")
+    render.add_argument("--rr-q", type=_finite, help="termination probability of --roulette constant")
     render.add_argument("--hemisphere", choices=HEMISPHERE_RULES,
                         help="diffuse sampling: cosine-weighted (default) or uniform")
     render.add_argument("--branches", type=_positive, help="recursive: indirect rays per hit")
-    render.add_argument("--branch-depth", type=int, help="recursive: depth down to which hits branch")
+    render.add_argument("--branch-depth", type=_natural, help="recursive: depth down to which hits branch")
     render.add_argument("--paths", metavar="REGEX",
                         help="render only the paths of a Heckbert class, light first, e.g. 'LS+DE' "
                              "(caustics), 'LDE', 'L.*E' (MIS path tracer; see docs/experiments.md)")
     render.add_argument("--glossy", default="G",
                         help="--paths: letter of rough conductors, G, D, S or an alpha threshold")
     render.add_argument("--processes", type=_positive, help="worker processes (default: all cores)")
-    render.add_argument("--exposure", type=float, default=0.0, help="PNG preview exposure in stops")
+    render.add_argument("--exposure", type=_finite, default=0.0, help="PNG preview exposure in stops")
     render.add_argument("--no-progress", action="store_true", help="never show a progress bar")
 
     commands.add_parser("scenes", help="list the built-in scenes")
@@ -95,9 +142,58 @@ def main(argv=None) -> int:
     return _render(args)
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that the render cleans up as for Ctrl-C."""
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated
+
+
 def _render(args) -> int:
-    from . import render
-    from .io import write_exr, write_png
+    """Run a render with one-line errors and exit codes; the same cleanup for every stop."""
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _raise_terminated) if in_main_thread else None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("default")
+            warnings.showwarning = _show_warning
+            return _render_checked(args)
+    except KeyboardInterrupt:
+        print("pathtracer: interrupted; no output written", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Terminated:
+        print("pathtracer: terminated; no output written", file=sys.stderr)
+        return EXIT_TERMINATED
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """Warnings as one line each, without Python's source line."""
+    print(f"pathtracer: warning: {message}", file=sys.stderr)
+
+
+def _integrator_choice(args, options: dict):
+    """The ``integrator`` argument of :func:`render`: a name, None, or the --paths integrator."""
+    if not args.paths:
+        return args.integrator
+    from .integrators.pathclass import PathClassIntegrator
+    if args.integrator not in (None, "path"):
+        raise ValueError("--paths works with the path integrator only")
+    return PathClassIntegrator(args.paths, glossy=args.glossy,
+                               **{k: v for k, v in options.items()
+                                  if v is not None and k not in ("branches", "branch_depth")})
+
+
+def _render_checked(args) -> int:
+    """Check everything (scene, options, memory, output), render, write; exit code."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from . import render, resources
+    from .io import output_paths, write_exr, write_png
+    from .render import DEFAULT_BATCH, integrator_for
     from .scene import SceneError, load_scene
 
     options = dict(max_depth=args.max_depth, rr_depth=args.rr_depth, roulette=args.roulette,
@@ -105,27 +201,37 @@ def _render(args) -> int:
                    branch_depth=args.branch_depth)
     try:
         scene = load_scene(args.scene, **dict(args.defines))
-        integrator = args.integrator
-        if args.paths:
-            from .integrators.pathclass import PathClassIntegrator
-            if integrator not in (None, "path"):
-                raise ValueError("--paths works with the path integrator only")
-            integrator = PathClassIntegrator(args.paths, glossy=args.glossy,
-                                             **{k: v for k, v in options.items()
-                                                if v is not None and k not in ("branches", "branch_depth")})
+        resources.check_spp(scene.spp if args.spp is None else args.spp)
+        processes = args.processes or os.cpu_count() or 1
+        resources.check_memory(scene.camera.width, scene.camera.height, processes, DEFAULT_BATCH)
+        integrator = _integrator_choice(args, options)
+        integrator_for(scene, integrator, **options)   # refuse bad options before any output
+        exr, png = output_paths(args.output)    # creates missing folders: after the checks
         result = render(scene, integrator=integrator, spp=args.spp, seed=args.seed,
                         processes=args.processes, progress=False if args.no_progress else None,
                         **{k: v for k, v in options.items() if v is not None})
     except (SceneError, ValueError, FileNotFoundError) as error:
         print(f"pathtracer: error: {error}", file=sys.stderr)
-        return 2
-    exr = write_exr(args.output, result)
-    png = write_png(exr.with_suffix(".png"), result.mean, args.exposure)
+        return EXIT_USAGE
+    except BrokenProcessPool:
+        print("pathtracer: error: a worker process died during the render (killed, or out of "
+              "memory?); nothing was written", file=sys.stderr)
+        return EXIT_FAILED
+    except MemoryError:
+        print("pathtracer: error: out of memory during the render; render fewer pixels or use "
+              "fewer --processes; nothing was written", file=sys.stderr)
+        return EXIT_FAILED
+    try:
+        write_exr(exr, result)
+        write_png(png, result.mean, args.exposure)
+    except OSError as error:
+        print(f"pathtracer: error: cannot write {exr}: {error.strerror or error}", file=sys.stderr)
+        return EXIT_FAILED
     height, width = result.mean.shape[:2]
     paths_per_second = width * height * result.spp / max(result.seconds, 1e-9)
     print(f"{result.integrator}: {width}x{height} at {result.spp} spp in {result.seconds:.2f} s "
           f"({paths_per_second / 1e3:.0f}k paths/s); wrote {exr} and {png}")
-    return 0
+    return EXIT_OK
 
 
 if __name__ == "__main__":

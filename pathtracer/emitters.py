@@ -9,7 +9,12 @@ Mitsuba's conventions (DESIGN.md):
   uniform point; disks a uniform point; a sphere seen from outside samples
   the cone it subtends, from inside a uniform point on its surface;
 * the solid-angle pdf of an area sample is ``pdf_area * dist^2 / |cos theta_light|``;
-* point lights are Dirac: weight ``I / r^2`` with pdf 1 (MIS weight 1).
+* point and spot lights are Dirac in position: weight ``I falloff / r^2``
+  with pdf 1 (MIS weight 1); a directional light is Dirac in direction:
+  weight ``E`` (its irradiance), a shadow ray to infinity, pdf 1;
+* the environment (``constant`` or ``envmap``) is seen by every ray that
+  escapes; it samples its own directions (:class:`ConstantEmitter` uniformly,
+  :class:`pathtracer.envmap.EnvironmentMap` by luminance).
 """
 from __future__ import annotations
 
@@ -24,8 +29,6 @@ from .sampling import (square_to_uniform_cone, square_to_uniform_cone_pdf,
 from .scene.types import Scene
 from .vec import cross, dot, norm, normalize, to_world
 
-INV_FOUR_PI = 1.0 / (4.0 * np.pi)
-
 
 @dataclass
 class EmitterSample:
@@ -37,7 +40,7 @@ class EmitterSample:
     dist : (n,) distance (inf for the environment).
     pdf : (n,) solid-angle pdf, including the 1 / N_emitters choice (1 for Dirac lights).
     weight : (n, 3) radiance / pdf, zero when the light faces away or is occluded.
-    delta : (n,) True for point lights.
+    delta : (n,) True for Dirac lights (point, spot, directional).
     """
 
     wo: np.ndarray
@@ -57,8 +60,8 @@ def hit_emitter(scene: Scene, hit) -> np.ndarray:
 def emitted_radiance(scene: Scene, hit, wi: np.ndarray) -> np.ndarray:
     """Radiance leaving the hit points towards ``wi`` (unit, pointing away from the surface).
 
-    Area lights count on their front side only; rays that escaped see the
-    constant environment, if any.
+    Area lights count on their front side only; rays that escaped (along
+    ``-wi``) see the environment, if any.
     """
     radiance = np.zeros((len(wi), 3))
     on_emitter = hit_emitter(scene, hit) >= 0
@@ -66,8 +69,9 @@ def emitted_radiance(scene: Scene, hit, wi: np.ndarray) -> np.ndarray:
     if front.any():
         table = _area_radiance_table(scene)
         radiance[front] = table[scene.shape_emitter[hit.shape[front]]]
-    if scene.environment is not None:
-        radiance[~hit.valid] = scene.environment.radiance
+    miss = ~hit.valid
+    if scene.environment is not None and miss.any():
+        radiance[miss] = scene.environment.eval(-wi[miss])
     return radiance
 
 
@@ -93,8 +97,9 @@ def pdf_emitter_direction(scene: Scene, ref_p: np.ndarray, hit, d: np.ndarray) -
     n_emitters = scene.num_emitters
     if n_emitters == 0:
         return pdf
-    if scene.environment is not None:
-        pdf[~hit.valid] = INV_FOUR_PI / n_emitters
+    miss = ~hit.valid
+    if scene.environment is not None and miss.any():
+        pdf[miss] = scene.environment.pdf(d[miss]) / n_emitters
     lit = (hit_emitter(scene, hit) >= 0) & (dot(hit.sh_n, d) < 0)
     for s in np.unique(hit.shape[lit]):
         rows = np.flatnonzero(lit & (hit.shape == s))
@@ -156,9 +161,11 @@ def sample_emitter(scene: Scene, hit, u_choice: np.ndarray, u: np.ndarray,
         [(e, np.flatnonzero(which == e)) for e in np.unique(which)]
     for e, rows in groups:
         light = scene.emitters[e]
-        if light.kind == "point":
+        if light.kind in ("point", "spot"):
             _sample_point(light, hit.p[rows], sample, rows)
-        elif light.kind == "constant":
+        elif light.kind == "directional":
+            _sample_directional(light, sample, rows)
+        elif light.kind in ("constant", "envmap"):
             _sample_environment(light, u[rows], sample, rows)
         else:
             _sample_area(scene, light, hit.p[rows], u[rows], sample, rows)
@@ -189,19 +196,36 @@ def shadowed(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
 
 
 def _sample_point(emitter, ref_p, sample, rows):
+    """Point or spot light: the one position, intensity / r^2 (times the spot's falloff)."""
     to_light = emitter.position - ref_p
     dist = norm(to_light)
-    sample.wo[rows] = to_light / dist[:, None]
+    wo = to_light / dist[:, None]
+    weight = emitter.intensity / (dist ** 2)[:, None]
+    if emitter.kind == "spot":
+        weight = weight * emitter.falloff(-wo)[:, None]
+    sample.wo[rows] = wo
     sample.dist[rows] = dist
     sample.pdf[rows] = 1.0
     sample.delta[rows] = True
-    sample.weight[rows] = emitter.intensity / (dist ** 2)[:, None]
+    sample.weight[rows] = weight
+
+
+def _sample_directional(emitter, sample, rows):
+    """Parallel light: the one direction it comes from, a shadow ray to infinity."""
+    sample.wo[rows] = -emitter.direction
+    sample.dist[rows] = np.inf
+    sample.pdf[rows] = 1.0
+    sample.delta[rows] = True
+    sample.weight[rows] = emitter.irradiance
 
 
 def _sample_environment(emitter, u, sample, rows):
-    sample.wo[rows] = square_to_uniform_sphere(u)
-    sample.pdf[rows] = INV_FOUR_PI
-    sample.weight[rows] = emitter.radiance / INV_FOUR_PI
+    """Constant or image environment: a direction drawn by the emitter's own density."""
+    wo, pdf, radiance = emitter.sample(u)
+    ok = pdf > 0
+    sample.wo[rows] = wo
+    sample.pdf[rows] = np.where(ok, pdf, 0.0)
+    sample.weight[rows] = np.where(ok[:, None], radiance / np.where(ok, pdf, 1.0)[:, None], 0.0)
 
 
 def _sample_area(scene, emitter, ref_p, u, sample, rows):

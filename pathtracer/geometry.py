@@ -50,9 +50,10 @@ class Hit:
         Triangle index into ``tri_*``, or sphere / disk index into
         ``sphere_*`` / ``disk_*``; -1 on a miss.
     uv : (n, 2) float64
-        Triangles: barycentrics (b1, b2) of p1 and p2. Spheres: Mitsuba's
-        ``(phi / 2pi, theta / pi)`` in the local frame (z up). Disks: local
-        (x, y) on the unit disk.
+        Primitive coordinates. Triangles: barycentrics (b1, b2) of p1 and p2.
+        Spheres: ``(phi / 2pi, theta / pi)`` around the world z axis. Disks:
+        local (x, y) on the unit disk. Textures use :func:`texture_uv`
+        (Mitsuba's surface uv), computed from these.
     """
 
     valid: np.ndarray
@@ -319,3 +320,56 @@ def _fill_disks(scene, hit, sel, o, d):
     hit.n[sel] = nrm
     hit.sh_n[sel] = nrm
     hit.shape[sel] = scene.disk_shape[i]
+
+
+# ----------------------------------------------------------------------
+# Texture coordinates
+
+
+def texture_uv(scene, hit, rows: np.ndarray) -> np.ndarray:
+    """Mitsuba's surface ``uv`` at the hits ``rows`` (valid hits), as (m, 2).
+
+    * Meshes (rectangle, cube, obj, ply): the vertices' ``scene.tri_uv``
+      interpolated with the hit's barycentrics (the barycentrics themselves
+      when ``tri_uv`` is None).
+    * Spheres: ``(phi / 2pi, theta / pi)`` of the direction from the center
+      in the sphere's object frame (``scene.sphere_to_local``; the world axes
+      when that is None), phi in [0, 2pi).
+    * Disks: ``(r, phi / 2pi)`` of the local point, phi in [0, 2pi).
+
+    Computed only where a texture needs it, so untextured scenes never pay.
+    """
+    rows = np.asarray(rows)
+    out = np.empty((len(rows), 2))
+    prim = hit.prim[rows]
+    shape = hit.shape[rows]
+    kind = np.asarray(scene.shape_kind)[shape] if len(rows) else np.zeros(0, str)
+    tri = np.flatnonzero(kind == "mesh")
+    if len(tri):
+        b = hit.uv[rows[tri]]
+        if scene.tri_uv is None:
+            out[tri] = b
+        else:
+            corner = scene.tri_uv[prim[tri]]
+            out[tri] = ((1.0 - b[:, 0] - b[:, 1])[:, None] * corner[:, 0]
+                        + b[:, 0, None] * corner[:, 1] + b[:, 1, None] * corner[:, 2])
+    sph = np.flatnonzero(kind == "sphere")
+    if len(sph):
+        i = prim[sph]
+        local = normalize(hit.p[rows[sph]] - scene.sphere_center[i])
+        if scene.sphere_to_local is not None:
+            local = np.einsum("kij,kj->ki", scene.sphere_to_local[i], local)
+        out[sph, 0] = _unit_angle(np.arctan2(local[:, 1], local[:, 0]))
+        out[sph, 1] = np.arccos(np.clip(local[:, 2], -1.0, 1.0)) / np.pi
+    dsk = np.flatnonzero(kind == "disk")
+    if len(dsk):
+        local = hit.uv[rows[dsk]]
+        out[dsk, 0] = np.hypot(local[:, 0], local[:, 1])
+        out[dsk, 1] = _unit_angle(np.arctan2(local[:, 1], local[:, 0]))
+    return out
+
+
+def _unit_angle(phi: np.ndarray) -> np.ndarray:
+    """An angle in (-pi, pi] as a fraction of a turn in [0, 1)."""
+    turn = phi / (2.0 * np.pi)
+    return np.where(turn < 0.0, turn + 1.0, turn)

@@ -27,7 +27,7 @@ import multiprocessing
 
 import numpy as np
 
-from . import geometry
+from . import geometry, workers
 from .film import effective_counts, splat
 from .camera import camera_rays
 from .integrators import Integrator, make_integrator
@@ -165,10 +165,18 @@ def run_units(job, units, stats, processes: int, progress: bool, merge=None):
     With ``processes`` > 1 the units go to forked workers that receive ``job`` at fork
     (inherited, never pickled, no global in this process: renders running concurrently
     in threads cannot swap jobs). Blocks are merged in unit order, so the result does not
-    depend on the number of processes.
+    depend on the number of processes. The workers die with this process and are killed
+    at once when the render is interrupted (:mod:`pathtracer.workers`).
     """
-    merge = merge or _merge
     bar = _progress_bar(len(units), progress)
+    try:
+        _run_units(job, units, stats, processes, bar, merge or _merge)
+    finally:
+        bar.close()
+    return stats
+
+
+def _run_units(job, units, stats, processes: int, bar, merge) -> None:
     if processes == 1 or len(units) == 1:
         for unit in units:
             merge(stats, unit, job.run(unit))
@@ -176,12 +184,17 @@ def run_units(job, units, stats, processes: int, progress: bool, merge=None):
     else:
         ctx = multiprocessing.get_context("fork")
         with ProcessPoolExecutor(processes, mp_context=ctx, initializer=_install_job,
-                                 initargs=(job,)) as pool:
-            for unit, block in zip(units, pool.map(_run_current, units, chunksize=1)):
-                merge(stats, unit, block)
-                bar.update()
-    bar.close()
-    return stats
+                                 initargs=(job, os.getpid())) as pool:
+            try:
+                with workers.signals_blocked():   # the workers are forked by the first submit
+                    blocks = pool.map(_run_current, units, chunksize=1)
+                for unit, block in zip(units, blocks):
+                    merge(stats, unit, block)
+                    bar.update()
+            except BaseException:
+                # Ctrl-C, SIGTERM or an error: do not wait for the units in flight.
+                workers.stop_pool(pool)
+                raise
 
 
 def plan_units(n_pixels: int, spp: int, batch_size: int) -> list[tuple[int, int, int, int]]:
@@ -273,7 +286,8 @@ def filtered_mean_and_variance(sums, n_eff) -> tuple[np.ndarray, np.ndarray]:
     return mean, spread * (n_eff / np.maximum(n_eff - 1, 1e-300))
 
 
-def _install_job(job):
+def _install_job(job, parent_pid):
+    workers.init_worker(parent_pid)
     _Job.current = job
 
 

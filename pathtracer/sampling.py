@@ -287,3 +287,128 @@ def power_heuristic(pdf_a: np.ndarray, pdf_b: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         w = a2 / (a2 + b2)
     return np.where(np.isfinite(w), w, 0.0)
+
+
+# --------------------------------------------------------------------------
+# 2-D distributions
+# --------------------------------------------------------------------------
+
+def _interval_to_linear(v0: np.ndarray, v1: np.ndarray, u: np.ndarray) -> np.ndarray:
+    r"""Invert the CDF of the density :math:`\propto (1 - x) v_0 + x v_1` on [0, 1].
+
+    Solving :math:`u = \frac{2 v_0 x + (v_1 - v_0) x^2}{v_0 + v_1}` for x and
+    rationalising gives :math:`x = u (v_0 + v_1) / (v_0 + \sqrt{(1-u) v_0^2 + u v_1^2})`,
+    which stays exact (no cancellation) when :math:`v_0 \approx v_1`.
+    """
+    root = np.sqrt(np.maximum((1.0 - u) * v0 * v0 + u * v1 * v1, 0.0))
+    denominator = v0 + root
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = u * (v0 + v1) / denominator
+    return np.where(denominator > 0, x, u)
+
+
+def _pad_even(level: np.ndarray) -> np.ndarray:
+    """Zero-pad a 2-D array to even numbers of rows and columns."""
+    return np.pad(level, ((0, level.shape[0] % 2), (0, level.shape[1] % 2)))
+
+
+class Distribution2D:
+    r"""Sampling a bilinearly interpolated 2-D function on the unit square.
+
+    ``values`` holds the function at the vertices of a regular grid: vertex
+    ``(i, j)`` (row i, column j) sits at :math:`(x, y) = (j / (W - 1), i / (H - 1))`,
+    and between vertices the function is bilinear. The density is that
+    function normalised to integrate to one over :math:`[0, 1]^2`. This is
+    Mitsuba's ``Hierarchical2D``: the same uniform numbers land on the same
+    point (up to float32 round-off on Mitsuba's side).
+
+    Sampling descends a pyramid of patch integrals (the finest level holds
+    the integral of each bilinear patch, each coarser level the sums of
+    2x2 blocks), choosing a row then a column at each level and rescaling
+    the uniform numbers, then samples the chosen bilinear patch exactly
+    (marginal in y, conditional in x, each a linear density).
+
+    Parameters
+    ----------
+    values : (H, W) array_like
+        Non-negative vertex values, H, W >= 2.
+    """
+
+    def __init__(self, values):
+        values = np.asarray(values, dtype=np.float64)
+        if values.ndim != 2 or min(values.shape) < 2:
+            raise ValueError(f"Distribution2D needs an (H, W) array with H, W >= 2, got {values.shape}")
+        if np.any(values < 0) or not np.all(np.isfinite(values)):
+            raise ValueError("Distribution2D needs finite, non-negative values")
+        self.patches = np.array(values.shape[::-1]) - 1          # (patches in x, patches in y)
+        patch_mean = 0.25 * (values[:-1, :-1] + values[:-1, 1:] + values[1:, :-1] + values[1:, 1:])
+        total = patch_mean.sum()
+        #: Zero everywhere: sampling fails (pdf 0) and the density is 0.
+        self.is_zero = total <= 0
+        scale = 0.0 if self.is_zero else patch_mean.size / total
+        self.vertices = values * scale
+        self.levels = [_pad_even(patch_mean * scale)]
+        while max(self.levels[-1].shape) > 2:
+            fine = self.levels[-1]
+            coarse = fine[0::2, 0::2] + fine[0::2, 1::2] + fine[1::2, 0::2] + fine[1::2, 1::2]
+            self.levels.append(_pad_even(coarse))
+
+    def sample(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Warp uniform numbers to points of the unit square.
+
+        Parameters
+        ----------
+        u : (n, 2) ndarray
+            Uniform numbers in :math:`[0, 1]^2`.
+
+        Returns
+        -------
+        points : (n, 2) ndarray
+            ``(x, y)`` in :math:`[0, 1]^2`.
+        pdf : (n,) ndarray
+            The density at ``points`` (0 when the function is zero).
+        """
+        ux, uy = np.clip(u[:, 0], 0.0, 1.0), np.clip(u[:, 1], 0.0, 1.0)
+        ox = np.zeros(len(u), dtype=np.int64)
+        oy = np.zeros(len(u), dtype=np.int64)
+        for level in reversed(self.levels):
+            ox, oy = 2 * ox, 2 * oy
+            v00, v10 = level[oy, ox], level[oy, ox + 1]
+            v01, v11 = level[oy + 1, ox], level[oy + 1, ox + 1]
+            ux, uy = np.clip(ux, 0.0, 1.0), np.clip(uy, 0.0, 1.0)
+            r0, r1 = v00 + v10, v01 + v11
+            uy = uy * (r0 + r1)
+            lower = uy > r0
+            oy += lower
+            uy = np.where(lower, uy - r0, uy)
+            dy = np.where(lower, r1, r0)
+            c0, c1 = np.where(lower, v01, v00), np.where(lower, v11, v10)
+            ux = ux * dy
+            right = ux > c0
+            ox += right
+            ux = np.where(right, ux - c0, ux)
+            dx = np.where(right, c1, c0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ux, uy = np.nan_to_num(ux / dx), np.nan_to_num(uy / dy)
+        ox = np.minimum(ox, self.patches[0] - 1)
+        oy = np.minimum(oy, self.patches[1] - 1)
+        v00, v10, v01, v11 = self._corners(ox, oy)
+        y = _interval_to_linear(v00 + v10, v01 + v11, np.clip(uy, 0.0, 1.0))
+        c0, c1 = v00 + (v01 - v00) * y, v10 + (v11 - v10) * y
+        x = _interval_to_linear(c0, c1, np.clip(ux, 0.0, 1.0))
+        pdf = c0 + (c1 - c0) * x
+        points = np.stack(((ox + x) / self.patches[0], (oy + y) / self.patches[1]), axis=1)
+        return points, pdf
+
+    def pdf(self, points: np.ndarray) -> np.ndarray:
+        """Density at ``points`` (n, 2) of the unit square (clamped into it)."""
+        pos = np.clip(points, 0.0, 1.0) * self.patches
+        offset = np.minimum(pos.astype(np.int64), self.patches - 1)
+        fx, fy = (pos - offset).T
+        v00, v10, v01, v11 = self._corners(offset[:, 0], offset[:, 1])
+        return (v00 * (1 - fx) + v10 * fx) * (1 - fy) + (v01 * (1 - fx) + v11 * fx) * fy
+
+    def _corners(self, ox: np.ndarray, oy: np.ndarray):
+        """Normalised values at the four corners of patches (ox, oy)."""
+        v = self.vertices
+        return v[oy, ox], v[oy, ox + 1], v[oy + 1, ox], v[oy + 1, ox + 1]

@@ -3,7 +3,9 @@
 Each hit's BSDF is ``scene.bsdfs[scene.shape_bsdf[hit.shape]]``. Hits are
 grouped by BSDF so that every BSDF object works on one contiguous batch in its
 local shading frame (z = shading normal); directions go in and out of that
-frame here, so integrators never see local coordinates.
+frame here, so integrators never see local coordinates. A BSDF with a
+texture is bound to its hits' texture coordinates first (:meth:`BSDF.at
+<pathtracer.bsdfs.base.BSDF.at>`); constant BSDFs are used as they are.
 """
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .geometry import texture_uv
 from .scene.types import Scene
 from .vec import to_local, to_world
 
@@ -41,9 +44,13 @@ def bsdf_index(scene: Scene, hit) -> np.ndarray:
 
 
 def _groups(scene: Scene, hit):
+    """(BSDF, rows) per BSDF present in the batch; a textured BSDF comes bound to its rows' uv."""
     ids = bsdf_index(scene, hit)
     for b in np.unique(ids):
-        yield scene.bsdfs[b], np.flatnonzero(ids == b)
+        bsdf, rows = scene.bsdfs[b], np.flatnonzero(ids == b)
+        if bsdf.textured:
+            bsdf = bsdf.at(texture_uv(scene, hit, rows))
+        yield bsdf, rows
 
 
 def has_smooth(scene: Scene, hit) -> np.ndarray:

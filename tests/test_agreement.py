@@ -32,6 +32,21 @@ def test_every_integrator_is_covered():
     assert {i for _, i in AGREEMENT_CASES} == set(INTEGRATORS)
 
 
+#: The textured scene's committed reference: ``path`` at 32 x 32 (mitsuba-refs build
+#: textured --integrators path -D width=32 -D height=32 --no-per-bounce).
+TEXTURED_PARAMS = {"width": 32, "height": 32}
+
+
+def test_textured_scene_agrees_with_mitsuba():
+    """Bitmap (PNG, sRGB and raw; nearest, bilinear; repeat, mirror, clamp; to_uv) and
+    checkerboard textures on a rectangle, sphere, cube and disk, as reflectance and as
+    a mirror's specular_reflectance."""
+    comparison = compare("textured", "path", TEXTURED_PARAMS, spp=64, alpha=ALPHA,
+                         convergence=False, bounces=False, processes=2)
+    assert comparison.mean.agree, comparison.report()
+    assert comparison.variance is not None and comparison.variance.agree, comparison.report()
+
+
 @pytest.mark.parametrize("rfilter", ["tent", "gaussian"])
 def test_filtered_film_agrees_with_mitsuba(rfilter):
     """The quad-light scene on a tent / gaussian film against Mitsuba's film with the same

@@ -1,6 +1,6 @@
 """The convergence law for every integrator on every built-in scene: 4x samples, half the error.
 
-For each (scene, integrator) pair: the same number of samples at every spp of
+For each (scene, integrator) pair (tests/scenes.py, CONVERGENCE_CASES): the same number of samples at every spp of
 ``LADDER`` (``REPLICAS`` renders at the top, 4x as many per 4x fewer spp, all
 doubled while rare bright paths carry the error: mitsuba_refs.compare.convergence_test);
 MSE against the committed Mitsuba reference, minus the reference's own variance
@@ -16,7 +16,7 @@ import pytest
 from mitsuba_refs.compare import CONVERGENCE_LADDER, check_convergence
 from pathtracer.integrators.path import PathIntegrator
 from tests.budget import ALPHA
-from tests.scenes import AGREEMENT_CASES, NOISELESS, integrator_options
+from tests.scenes import CONVERGENCE_CASES, NOISELESS, integrator_options
 
 pytestmark = pytest.mark.statistical(assertions=1)
 
@@ -24,7 +24,7 @@ LADDER = (1, 4, 16)
 REPLICAS = 2
 
 
-@pytest.mark.parametrize("scene,integrator", [c for c in AGREEMENT_CASES if c not in NOISELESS])
+@pytest.mark.parametrize("scene,integrator", CONVERGENCE_CASES)
 def test_convergence_law(scene, integrator):
     law, mse = check_convergence(scene, integrator, alpha=ALPHA, processes=2, ladder=LADDER,
                                  replicas=REPLICAS, options=integrator_options(integrator))

@@ -1,16 +1,19 @@
 """Light sampling: chi-square goodness of fit of next-event directions against their pdf.
 
 For every kind of area light (rectangle, disk, sphere seen from outside and
-from inside, a mesh) and the constant environment, directions drawn by
+from inside, a mesh), the constant environment and an image (``envmap``), directions drawn by
 ``sample_emitter`` from a reference point must follow
 ``pdf_emitter_direction`` (the density MIS uses for the same light); samples
 on the back of a one-sided light are invalid (pdf 0), and their share must
 match the missing mass of the pdf. Also: the weight equals Le / pdf.
 """
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from pathtracer import load_scene
+from pathtracer.scene import builtin_scene_path
 from pathtracer.emitters import pdf_emitter_direction, sample_emitter
 from pathtracer.geometry import Hit, intersect
 from tests.chi2 import chi2_sphere
@@ -24,6 +27,7 @@ SCENE = """<scene version="3.0.0">
   {light}
 </scene>"""
 
+ENVMAP_IMAGE = Path(builtin_scene_path("envmap")).parent / "envmap-sky.exr"
 AREA = '<emitter type="area"><rgb name="radiance" value="2, 3, 4"/></emitter>'
 LIGHTS = {
     "rectangle": f"""<shape type="rectangle"><transform name="to_world">
@@ -39,6 +43,8 @@ LIGHTS = {
     "cube": f"""<shape type="cube"><transform name="to_world"><scale x="0.3" y="0.5" z="0.2"/>
         <rotate y="1" angle="35"/><translate value="0.1, 1.4, 0.2"/></transform>{AREA}</shape>""",
     "environment": '<emitter type="constant"><rgb name="radiance" value="2, 3, 4"/></emitter>',
+    "envmap": f"""<emitter type="envmap"><string name="filename" value="{ENVMAP_IMAGE}"/>
+        <transform name="to_world"><rotate x="1" angle="70"/></transform></emitter>""",
 }
 REFERENCE_POINT = np.array([0.05, -0.2, 0.1])
 
@@ -75,7 +81,7 @@ def test_light_sampling_follows_its_pdf(light_scene):
     axis = probe.mean(axis=0)
     axis /= np.linalg.norm(axis)
     lowest = float(np.min(probe @ axis))
-    if name in ("environment", "sphere-inside"):
+    if name in ("environment", "envmap", "sphere-inside"):
         edges = None
     else:
         edges = np.concatenate(([-1.0], np.linspace(max(lowest - 0.02, -1.0), 1.0, 13)[:-1], [1.0]))

@@ -115,14 +115,16 @@ def test_loader_defaults_to_mitsubas_gaussian(tmp_path):
 # ------------------------------------------------------------------ against Mitsuba
 
 @pytest.fixture(scope="module")
-def mi_llvm():
-    mi = pytest.importorskip("mitsuba", reason="mitsuba not installed: no reference film")
+def mi_llvm(mi):
+    """Mitsuba in ``llvm_ad_rgb`` (exact filter weights, as the references), then back to
+    the conftest's ``scalar_rgb``."""
     from mitsuba_refs.variant import probe_llvm
     ok, detail = probe_llvm()
     if not ok:
         pytest.skip(f"llvm_ad_rgb unusable ({detail}); scalar variants tabulate the filter")
     mi.set_variant("llvm_ad_rgb")
-    return mi
+    yield mi
+    mi.set_variant("scalar_rgb")
 
 
 @pytest.mark.mitsuba

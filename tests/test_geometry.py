@@ -227,14 +227,6 @@ def test_spawned_rays_do_not_hit_their_own_surface():
 # Against Mitsuba 3
 
 
-@pytest.fixture(scope="module")
-def mi():
-    mitsuba = pytest.importorskip(
-        "mitsuba", reason="mitsuba not installed: no reference intersections to compare with")
-    mitsuba.set_variant("scalar_rgb")
-    return mitsuba
-
-
 def mitsuba_trace(mi, scene, o, d):
     """Mitsuba's t (inf on miss), geometric and shading normals, one ray at a time."""
     t = np.full(len(o), np.inf)

@@ -209,6 +209,7 @@ def _scenes_for(integrator):
     scenes = [s for s in config.BUILTIN_SCENES if s != "furnace"]
     if integrator == "path_bsdf":
         scenes.remove("point-light")  # point lights cannot be hit
+        scenes.remove("spot-directional")  # nor spot and directional lights (only its sky is seen)
     return scenes
 
 

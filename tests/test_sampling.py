@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from pathtracer import sampling
-from tests.live_mitsuba import import_mitsuba_or_skip
 
 pytestmark = pytest.mark.statistical(assertions=1)
 
@@ -149,9 +148,7 @@ def test_chi2_detects_wrong_pdf():
 # --------------------------------------------------------------------------
 
 @pytest.mark.mitsuba
-def test_mitsuba_warps_identical():
-    mi = import_mitsuba_or_skip()
-    mi.set_variant("scalar_rgb")
+def test_mitsuba_warps_identical(mi):
     u = np.random.default_rng(80).random((400, 2)).astype(np.float32).astype(np.float64)
     u[:4] = [[0.5, 0.5], [0.0, 0.0], [0.999, 0.25], [0.25, 0.999]]
 
@@ -176,9 +173,7 @@ def test_mitsuba_warps_identical():
 
 
 @pytest.mark.mitsuba
-def test_mitsuba_discrete_distribution():
-    mi = import_mitsuba_or_skip()
-    mi.set_variant("scalar_rgb")
+def test_mitsuba_discrete_distribution(mi):
     weights = [0.5, 0.0, 2.0, 1.0, 0.25, 3.0]
     dist = mi.DiscreteDistribution(weights)
     u = np.random.default_rng(81).random(300).astype(np.float32).astype(np.float64)

@@ -28,9 +28,9 @@ CASES = {
         f'<shape type="cube"><bsdf type="plastic"/>{MARK}</shape>',
         '<bsdf type="plastic">', "unsupported BSDF (supported: diffuse"),
     "unknown shape": (
-        f'<shape type="serialized">{MARK}</shape>', '<shape type="serialized">', "unsupported shape"),
+        f'<shape type="heightfield">{MARK}</shape>', '<shape type="heightfield">', "unsupported shape"),
     "unknown emitter": (
-        f'<emitter type="envmap"/>{MARK}', '<emitter type="envmap">', "unsupported emitter"),
+        f'<emitter type="projector"/>{MARK}', '<emitter type="projector">', "unsupported emitter"),
     "unknown integrator": (
         f'<integrator type="volpath"/>{MARK}', '<integrator type="volpath">', "unsupported integrator"),
     "integrator parameter": (
@@ -42,12 +42,55 @@ CASES = {
     "unknown shape property": (
         f'<shape type="cube">\n<float name="radius" value="2"/>{MARK}</shape>',
         '<shape type="cube">', 'unsupported property "radius"'),
-    "texture": (
+    "texture without filename": (
         f'<bsdf type="diffuse"><texture type="bitmap" name="reflectance"/>{MARK}</bsdf>',
-        '<texture type="bitmap">', "use an <rgb>"),
-    "spectrum": (
-        f'<bsdf type="diffuse"><spectrum name="reflectance" value="0.5"/>{MARK}</bsdf>',
-        "<spectrum>", "use <rgb>"),
+        '<texture type="bitmap">', 'missing <string name="filename">'),
+    "spectrum plugin": (
+        f'<bsdf type="diffuse">\n<spectrum name="reflectance" type="blackbody"/>{MARK}</bsdf>',
+        '<bsdf type="diffuse">', "spectrum plugins"),
+    "spectrum wavelengths not increasing": (
+        f'<bsdf type="diffuse">\n<spectrum name="reflectance" value="500:0.1, 400:0.2"/>{MARK}</bsdf>',
+        '<bsdf type="diffuse">', "must increase"),
+    "polarizer": (
+        f'<shape type="cube"><bsdf type="polarizer"/>{MARK}</shape>',
+        '<bsdf type="polarizer">', "polarized variants"),
+    "projective integrator": (
+        f'<integrator type="prb_projective"/>{MARK}', '<integrator type="prb_projective">',
+        "differentiable"),
+    "curve shape": (
+        f'<shape type="bsplinecurve">{MARK}</shape>', '<shape type="bsplinecurve">',
+        "not implemented in this tracer"),
+    "direct samples both ways": (
+        f'<integrator type="direct">\n<integer name="shading_samples" value="2"/>{MARK}'
+        '<integer name="bsdf_samples" value="2"/></integrator>', '<integrator type="direct">',
+        "either shading_samples"),
+    "area emitter on two shapes": (
+        '<emitter type="area" id="glow"/>\n<shape type="cube"><ref id="glow"/></shape>\n'
+        f'<shape type="sphere"><ref id="glow"/>{MARK}</shape>', '<shape type="sphere">',
+        "already attached"),
+    "missing search path": (
+        f'<path value="no/such/folder"/>{MARK}', "<path>", "not found"),
+    "missing image": (
+        f'<bsdf type="diffuse"><texture type="bitmap" name="reflectance">\n'
+        f'<string name="filename" value="nothere.png"/>{MARK}</texture></bsdf>',
+        '<texture type="bitmap">', 'file not found: "nothere.png"'),
+    "unknown wrap mode": (
+        f'<bsdf type="diffuse"><texture type="bitmap" name="reflectance">\n'
+        f'<string name="wrap_mode" value="wrap"/>{MARK}</texture></bsdf>',
+        '<texture type="bitmap">', 'unknown wrap_mode "wrap" (supported: repeat, mirror, clamp)'),
+    "unknown texture": (
+        f'<bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"/>{MARK}</bsdf>',
+        '<texture type="mesh_attribute">', "unsupported texture (supported: bitmap, checkerboard)"),
+    "texture for a scalar parameter": (
+        f'<bsdf type="roughconductor">\n<texture type="checkerboard" name="alpha"/>{MARK}</bsdf>',
+        '<texture type="checkerboard">', 'a texture for "alpha" is not supported'),
+    "checkerboard colour above 1": (
+        f'<bsdf type="diffuse"><texture type="checkerboard" name="reflectance">\n'
+        f'<rgb name="color0" value="1.5, 0.2, 0.2"/>{MARK}</texture></bsdf>',
+        '<texture type="checkerboard">', '"color0" must lie in [0, 1]'),
+    "texture without a name": (
+        f'<bsdf type="diffuse">\n<texture type="checkerboard"/>{MARK}</bsdf>',
+        '<texture type="checkerboard">', "needs a name"),
     "malformed rgb": (
         f'<bsdf type="diffuse">\n<rgb name="reflectance" value="1,2,x"/>{MARK}</bsdf>',
         '<bsdf type="diffuse">', '"x"'),
@@ -65,9 +108,9 @@ CASES = {
         f'<shape type="cube"><transform name="to_world">\n'
         f'<lookat origin="1,1,1" target="1,1,1"/>{MARK}</transform></shape>',
         '<shape type="cube">', "target equals origin"),
-    "non-unit rotation axis": (
-        f'<shape type="cube"><transform name="to_world">\n<rotate value="1,1,0" angle="45"/>{MARK}'
-        '</transform></shape>', '<shape type="cube">', "unit length"),
+    "non-unit rotation axis on a disk": (
+        f'<shape type="disk">\n<transform name="to_world">{MARK}<rotate value="1,1,0" angle="45"/>'
+        '</transform></shape>', '<shape type="disk">', "non-unit axis"),
     "unknown parameter": (
         f'<shape type="cube"><float name="radius" value="$size"/>{MARK}</shape>',
         '<shape type="cube">', "undefined parameter $size"),
@@ -89,11 +132,9 @@ CASES = {
     "unknown ior name": (
         f'<bsdf type="dielectric">\n<string name="int_ior" value="unobtainium"/>{MARK}</bsdf>',
         '<bsdf type="dielectric">', "unknown IOR name"),
-    "two constant emitters": (
+    "two environment emitters": (
         f'<emitter type="constant"/>\n<emitter type="constant"/>{MARK}',
-        '<emitter type="constant">', "at most one constant"),
-    "top-level area emitter": (
-        f'<emitter type="area"/>{MARK}', '<emitter type="area">', "nested inside a <shape>"),
+        '<emitter type="constant">', "at most one environment emitter"),
     "ellipsoid sphere": (
         f'<shape type="sphere">{MARK}<transform name="to_world"><scale x="2"/></transform></shape>',
         '<shape type="sphere">', "uniformly"),
@@ -103,6 +144,42 @@ CASES = {
     "duplicate property": (
         f'<bsdf type="diffuse"><rgb name="reflectance" value="0.1"/>\n'
         f'<rgb name="reflectance" value="0.2"/>{MARK}</bsdf>', '<bsdf type="diffuse">', "given twice"),
+    "nan radiance": (
+        f'<shape type="sphere"><emitter type="area">\n<rgb name="radiance" value="nan"/>{MARK}</emitter></shape>',
+        '<emitter type="area">', "not a finite number"),
+    "inf radiance": (
+        f'<emitter type="constant">\n<rgb name="radiance" value="1, inf, 1"/>{MARK}</emitter>',
+        '<emitter type="constant">', "not a finite number"),
+    "inf reflectance": (
+        f'<bsdf type="diffuse">\n<float name="reflectance" value="-inf"/>{MARK}</bsdf>',
+        '<bsdf type="diffuse">', "not a finite number"),
+    "beyond float32": (
+        f'<shape type="sphere">\n<float name="radius" value="1e39"/>{MARK}</shape>',
+        '<shape type="sphere">', "not a finite number"),
+    "nan translate": (
+        f'<shape type="cube"><transform name="to_world">\n<translate x="nan"/>{MARK}</transform></shape>',
+        '<shape type="cube">', "not a finite number"),
+    "rgb reflectance above 1": (
+        f'<bsdf type="diffuse">\n<rgb name="reflectance" value="0.5, 1.2, 0.5"/>{MARK}</bsdf>',
+        '<bsdf type="diffuse">', '"reflectance" must lie in [0, 1]'),
+    "float reflectance above 1": (
+        f'<bsdf type="diffuse">\n<float name="reflectance" value="1.0001"/>{MARK}</bsdf>',
+        '<bsdf type="diffuse">', '"reflectance" must lie in [0, 1]'),
+    "negative reflectance": (
+        f'<bsdf type="diffuse">\n<rgb name="reflectance" value="-0.1"/>{MARK}</bsdf>',
+        '<bsdf type="diffuse">', '"reflectance" must lie in [0, 1]'),
+    "conductor reflectance above 1": (
+        f'<bsdf type="conductor">\n<rgb name="specular_reflectance" value="1.5"/>{MARK}</bsdf>',
+        '<bsdf type="conductor">', '"specular_reflectance" must lie in [0, 1]'),
+    "transmittance above 1": (
+        f'<bsdf type="dielectric">\n<rgb name="specular_transmittance" value="2"/>{MARK}</bsdf>',
+        '<bsdf type="dielectric">', '"specular_transmittance" must lie in [0, 1]'),
+    "max_depth below -1": (
+        f'<integrator type="path">\n<integer name="max_depth" value="-2"/>{MARK}</integrator>',
+        '<integrator type="path">', "max_depth must be -1 (unlimited) or >= 0"),
+    "max_depth below -1 in a project integrator": (
+        f'<integrator type="path_nee">\n<integer name="max_depth" value="-7"/>{MARK}</integrator>',
+        '<integrator type="path_nee">', "max_depth must be -1 (unlimited) or >= 0"),
     "twosided with two bsdfs": (
         f'<bsdf type="twosided">{MARK}<bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>',
         '<bsdf type="diffuse">', "at most 1"),
@@ -132,11 +209,11 @@ SENSOR_CASES = {
         '<rfilter type="gaussian">', 'unsupported property "radius"'),
     "sample border": (
         SENSOR.replace('<rfilter type="box"/>',
-                       f'<rfilter type="box"/>\n<boolean name="sample_border" value="true"/>{MARK}'),
-        '<film type="hdrfilm">', "sample_border = true is not supported"),
+                       f'<rfilter type="tent"/>\n<boolean name="sample_border" value="true"/>{MARK}'),
+        '<film type="hdrfilm">', "sample_border = true is not supported with a tent filter"),
     "crop": (
         SENSOR.replace('<rfilter type="box"/>', f'<rfilter type="box"/>\n<integer name="crop_width" value="8"/>{MARK}'),
-        '<film type="hdrfilm">', 'unsupported property "crop_width"'),
+        '<film type="hdrfilm">', 'crop_width is not supported'),
     "sampler": (
         SENSOR.replace("</sensor>", f'\n<sampler type="stratified"/>{MARK}</sensor>'),
         '<sampler type="stratified">', "i.i.d."),
@@ -147,6 +224,14 @@ SENSOR_CASES = {
         SENSOR.replace("</sensor>", f'\n<transform name="to_world"><scale value="2"/></transform>{MARK}</sensor>')
         .replace("<sensor", f"<sensor"),
         '<sensor type="perspective">', "scale factors"),
+    "negative seed": (
+        SENSOR.replace("</sensor>", f'<sampler type="independent">\n<integer name="seed" value="-1"/>{MARK}'
+                       '</sampler></sensor>'),
+        '<sampler type="independent">', "seed must lie in [0, 4294967295]"),
+    "seed beyond 32 bits": (
+        SENSOR.replace("</sensor>", f'<sampler type="independent">\n<integer name="seed" value="4294967296"/>{MARK}'
+                       '</sampler></sensor>'),
+        '<sampler type="independent">', "seed must lie in [0, 4294967295]"),
     "fov_axis": (
         SENSOR.replace("</sensor>", f'\n<string name="fov_axis" value="diag"/>{MARK}</sensor>'),
         '<sensor type="perspective">', "fov_axis"),
@@ -190,3 +275,104 @@ def test_scene_error_is_value_error():
     assert issubclass(SceneError, ValueError)
     e = SceneError("bad", "a.xml", 3, '<bsdf type="x">')
     assert str(e) == 'a.xml:3: <bsdf type="x">: bad' and e.line == 3
+
+
+@pytest.mark.parametrize("attribute,reason", [
+    ("", "missing attribute version"),
+    (' version="abc"', 'invalid version "abc"'),
+    (' version="3.0"', 'invalid version "3.0"'),
+    (' version=""', 'invalid version ""'),
+    (' version="3.0.0.1"', 'invalid version "3.0.0.1"'),
+])
+def test_scene_version_is_required_and_has_three_numbers(tmp_path, attribute, reason):
+    """As Mitsuba 3.9.1: "Missing version attribute" / "Invalid version number"."""
+    path = tmp_path / "v.xml"
+    path.write_text(f'<?xml version="1.0"?>\n<scene{attribute}>\n{SENSOR}\n</scene>\n')
+    with pytest.raises(SceneError) as info:
+        load_scene(str(path))
+    assert str(info.value).startswith("v.xml:2: <scene>: ") and reason in str(info.value)
+
+
+def test_values_at_the_edges_of_what_mitsuba_accepts_still_load(tmp_path):
+    sampler = '<sampler type="independent"><integer name="seed" value="4294967295"/></sampler>'
+    body = ('<integrator type="path"><integer name="max_depth" value="-1"/></integrator>\n'
+            '<shape type="cube"><bsdf type="diffuse"><rgb name="reflectance" value="0, 1, 0.5"/></bsdf>'
+            '<emitter type="area"><rgb name="radiance" value="1e30"/></emitter></shape>')
+    path = tmp_path / "edges.xml"
+    path.write_text(f'<scene version="2.1.0">\n{SENSOR.replace("</sensor>", sampler + "</sensor>")}'
+                    f'\n{body}\n</scene>\n')
+    scene = load_scene(str(path))
+    assert scene.seed == 2 ** 32 - 1 and scene.integrator.params["max_depth"] == -1
+    assert scene.emitters[0].radiance[0] == 1e30
+
+
+MESHES = {
+    "nan.obj": "v 0 0 0\nv 1 0 0\nv 0 nan 0\nf 1 2 3\n",
+    "inf-normal.obj": "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 inf\nf 1//1 2//1 3//2\n",
+    "nan.ply": ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                "end_header\n0 0 0\n1 0 0\n0 nan 0\n3 0 1 2\n"),
+}
+
+
+@pytest.mark.parametrize("mesh,where", [("nan.obj", "nan.obj:3: vertex"),
+                                        ("inf-normal.obj", "inf-normal.obj:5: normal"),
+                                        ("nan.ply", "nan.ply: 1 vertex value(s) are not finite")])
+def test_non_finite_mesh_coordinates_are_refused(tmp_path, mesh, where):
+    (tmp_path / mesh).write_text(MESHES[mesh])
+    kind = mesh.rsplit(".", 1)[1]
+    message, line = load_text(
+        tmp_path, f'<shape type="{kind}">\n<string name="filename" value="{mesh}"/>{MARK}</shape>')
+    assert f"broken.xml:{line}:" in message and where in message and "not finite" in message
+
+
+def test_unreadable_scene_is_a_scene_error(tmp_path, monkeypatch):
+    import builtins
+    path = tmp_path / "locked.xml"
+    path.write_text("<scene/>")
+    real_open = builtins.open
+
+    def deny(file, *args, **kwargs):     # chmod does not stop root: refuse the open itself
+        if str(file) == str(path):
+            raise PermissionError(13, "Permission denied", str(file))
+        return real_open(file, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "open", deny)
+    with pytest.raises(SceneError, match="locked.xml: cannot read the scene file: Permission denied"):
+        load_scene(str(path))
+
+
+@pytest.mark.mitsuba
+def test_mitsuba_refuses_and_accepts_the_same_values(tmp_path, mi):
+    """The refusals above follow Mitsuba 3.9.1: it refuses each of these files too, and
+    loads the edge values."""
+    integrator = '<integrator type="path"/>'
+    refused = {
+        "no version": f"<scene>{integrator}{SENSOR}</scene>",
+        "bad version": f'<scene version="3.0">{integrator}{SENSOR}</scene>',
+        "reflectance": f'<scene version="3.0.0">{integrator}{SENSOR}<bsdf type="diffuse">'
+                       '<rgb name="reflectance" value="1.0001"/></bsdf></scene>',
+        "checkerboard colour": f'<scene version="3.0.0">{integrator}{SENSOR}<bsdf type="diffuse">'
+                               '<texture type="checkerboard" name="reflectance"><rgb name="color0" '
+                               'value="1.5, 0.2, 0.2"/></texture></bsdf></scene>',
+        "seed": f'<scene version="3.0.0">{integrator}' + SENSOR.replace(
+            "</sensor>", '<sampler type="independent"><integer name="seed" value="-1"/></sampler></sensor>')
+        + "</scene>",
+        "max_depth": f'<scene version="3.0.0"><integrator type="path"><integer name="max_depth" '
+                     f'value="-2"/></integrator>{SENSOR}</scene>',
+    }
+    for name, text in refused.items():
+        with pytest.raises(Exception):
+            mi.load_string(text)
+        path = tmp_path / f"{name.replace(' ', '_')}.xml"
+        path.write_text(text)
+        with pytest.raises(SceneError):
+            load_scene(str(path))
+    edges = (f'<scene version="2.1.0"><integrator type="path"><integer name="max_depth" value="-1"/>'
+             f'</integrator>' + SENSOR.replace("</sensor>", '<sampler type="independent"><integer '
+             'name="seed" value="4294967295"/></sampler></sensor>')
+             + '<bsdf type="diffuse"><rgb name="reflectance" value="0, 1, 0.5"/></bsdf></scene>')
+    mi.load_string(edges)
+    path = tmp_path / "edges.xml"
+    path.write_text(edges)
+    load_scene(str(path))

@@ -42,10 +42,10 @@ def test_translate_scale_rotate_matrices():
     # 90 degrees about x takes y to z; about y takes z to x.
     np.testing.assert_allclose(transform.rotate([1, 0, 0], 90)[:3, :3] @ [0, 1, 0], [0, 0, 1], atol=1e-15)
     np.testing.assert_allclose(transform.rotate([0, 1, 0], 90)[:3, :3] @ [0, 0, 1], [1, 0, 0], atol=1e-15)
-    # Mitsuba does not normalise the axis (and then transforms normals
-    # inconsistently), so a non-unit axis is refused.
-    with pytest.raises(ValueError, match="unit length"):
-        transform.rotate([0, 0, 2], 90)
+    # Mitsuba does not normalise the axis: Rodrigues' formula with a = (0, 0, 2)
+    # gives cos I + sin [a]x + (1 - cos) a a^T = [[0, -2, 0], [2, 0, 0], [0, 0, 4]].
+    np.testing.assert_allclose(transform.rotate([0, 0, 2], 90)[:3, :3],
+                               [[0, -2, 0], [2, 0, 0], [0, 0, 4]], atol=1e-15)
 
 
 def test_lookat_by_hand():
@@ -116,13 +116,15 @@ def test_default_and_params(tmp_path):
     sensor = SENSOR.replace('<film type="hdrfilm">',
                             '<sampler type="independent"><integer name="sample_count" value="$spp"/>'
                             '</sampler><film type="hdrfilm">')
+    # Mitsuba reads top to bottom: the <default>s come before their uses.
     path = write_scene(tmp_path, """
         <default name="spp" value="8"/>
         <default name="refl" value="0.25"/>
+        """ + sensor + """
         <integrator type="path"><integer name="max_depth" value="$depth"/></integrator>
         <bsdf type="diffuse" id="mat"><rgb name="reflectance" value="$refl, 0.5, $refl"/></bsdf>
         <shape type="rectangle"><ref id="mat"/></shape>
-        <shape type="cube"><ref name="bsdf" id="mat"/></shape>""", sensor=sensor)
+        <shape type="cube"><ref name="bsdf" id="mat"/></shape>""", sensor="")
     s = load_scene(path, depth=3)
     assert s.spp == 8 and s.integrator.params == {"max_depth": 3}
     assert s.integrator.name == "path"
@@ -328,13 +330,6 @@ def test_sensor_fields(tmp_path):
 
 # -- comparison with Mitsuba ----------------------------------------------------
 
-@pytest.fixture(scope="module")
-def mi():
-    mitsuba = pytest.importorskip("mitsuba", reason="mitsuba not installed: no cross-check")
-    mitsuba.set_variant("scalar_rgb")
-    return mitsuba
-
-
 def mitsuba_triangles(shape):
     pos = np.array(shape.vertex_positions_buffer(), dtype=float).reshape(-1, 3)
     nrm = np.array(shape.vertex_normals_buffer(), dtype=float).reshape(-1, 3)
@@ -472,3 +467,16 @@ def test_builtin_scenes_match_mitsuba(mi):
         assert ours.camera.rfilter == film_filter(sensor.film()), name
         assert ours.spp == sensor.sampler().sample_count(), name
         assert len(ours.emitters) == len(theirs.emitters()), name
+
+
+def test_storage_only_film_options_and_literal_sample_count(tmp_path):
+    """Options that change how Mitsuba stores the image, not its values, are accepted."""
+    sensor = ('<sensor type="perspective"><float name="fov" value="40"/>'
+              '<sampler type="independent"><integer name="sample_count" value="24"/></sampler>'
+              '<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/>'
+              '<string name="pixel_format" value="rgba"/><string name="component_format" value="float16"/>'
+              '<string name="file_format" value="openexr"/><boolean name="sample_border" value="true"/>'
+              '<boolean name="compensate" value="true"/><boolean name="banner" value="false"/>'
+              '<rfilter type="box"/></film></sensor>')
+    s = load_scene(write_scene(tmp_path, "", sensor=sensor))
+    assert (s.camera.width, s.camera.height, s.spp) == (8, 6, 24)

@@ -13,12 +13,20 @@ Conventions (Mitsuba 3's)
   :math:`f\,|\cos\theta_o| / p`; for a Dirac lobe it is the factor that
   multiplies the path throughput (Fresnel terms, colour, :math:`\eta^2`
   radiance scaling, divided by the discrete lobe-selection probability).
+
+Colour parameters (``reflectance``, ``specular_reflectance``, ...) are (3,)
+arrays when constant, or :class:`~pathtracer.textures.Texture` objects; a
+BSDF with a texture is :attr:`BSDF.textured` and is evaluated through
+:meth:`BSDF.at`, which looks the textures up at the hits' ``uv``.
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..textures import ConstantTexture, Texture
 
 
 @dataclass
@@ -65,6 +73,16 @@ def as_colour(value) -> np.ndarray:
     return np.broadcast_to(colour, (3,)).copy()
 
 
+def as_colour_or_texture(value):
+    """A spatially varying :class:`~pathtracer.textures.Texture` as given, anything else
+    (a constant texture included) as a (3,) colour: constants keep the fast path."""
+    if isinstance(value, ConstantTexture):
+        return value.value.copy()
+    if isinstance(value, Texture):
+        return value
+    return as_colour(value)
+
+
 def make_sample(wo: np.ndarray, weight: np.ndarray, pdf: np.ndarray, delta,
                 eta, valid: np.ndarray) -> BSDFSample:
     """Assemble a :class:`BSDFSample`, zeroing weight and pdf where invalid.
@@ -95,6 +113,28 @@ class BSDF:
 
     has_smooth: bool = False
     is_delta: bool = False
+    #: Attributes that may hold a :class:`~pathtracer.textures.Texture`.
+    texture_params: tuple = ()
+
+    @property
+    def textured(self) -> bool:
+        """Some parameter varies over the surface: call :meth:`at` before evaluating."""
+        return any(isinstance(getattr(self, name), Texture) for name in self.texture_params)
+
+    def at(self, uv: np.ndarray) -> "BSDF":
+        """This BSDF for a batch of hits with texture coordinates ``uv`` (n, 2).
+
+        A shallow copy whose textured parameters are replaced by their (n, 3)
+        values at the hits (constant parameters stay (3,) arrays; both
+        broadcast the same way in ``eval`` and ``sample``). Rows of the batch
+        given to the copy must be those of ``uv``.
+        """
+        bound = copy.copy(self)
+        for name in self.texture_params:
+            value = getattr(self, name)
+            if isinstance(value, Texture):
+                setattr(bound, name, value.eval(uv))
+        return bound
 
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         r"""BSDF times foreshortening, :math:`f(w_i, w_o)\,|\cos\theta_o|` -> (n, 3)."""

@@ -13,18 +13,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BSDF, BSDFSample, as_colour, make_sample, zero_eval, zero_pdf
+from .base import (BSDF, BSDFSample, as_colour_or_texture, make_sample, zero_eval,
+                   zero_pdf)
 from .fresnel import reflect
 
 
 class Conductor(BSDF):
     """Perfect mirror tinted by ``specular_reflectance``."""
 
+    texture_params = ("specular_reflectance",)
     has_smooth = False
     is_delta = True
 
     def __init__(self, specular_reflectance=1.0):
-        self.specular_reflectance = as_colour(specular_reflectance)
+        self.specular_reflectance = as_colour_or_texture(specular_reflectance)
 
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """0: a delta lobe has no finite value."""

@@ -28,7 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BSDF, BSDFSample, as_colour, make_sample, zero_eval, zero_pdf
+from .base import (BSDF, BSDFSample, as_colour_or_texture, make_sample, zero_eval,
+                   zero_pdf)
 from .fresnel import fresnel_dielectric, reflect, refract
 
 BK7_IOR = 1.5046
@@ -38,6 +39,7 @@ AIR_IOR = 1.000277
 class Dielectric(BSDF):
     """Smooth glass-like interface between media of indices ``int_ior`` (inside) and ``ext_ior``."""
 
+    texture_params = ("specular_reflectance", "specular_transmittance")
     has_smooth = False
     is_delta = True
 
@@ -48,8 +50,8 @@ class Dielectric(BSDF):
         self.int_ior = float(int_ior)
         self.ext_ior = float(ext_ior)
         self.eta = self.int_ior / self.ext_ior
-        self.specular_reflectance = as_colour(specular_reflectance)
-        self.specular_transmittance = as_colour(specular_transmittance)
+        self.specular_reflectance = as_colour_or_texture(specular_reflectance)
+        self.specular_transmittance = as_colour_or_texture(specular_transmittance)
 
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """0: both lobes are Dirac deltas."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import sampling
-from .base import BSDF, BSDFSample, as_colour, make_sample
+from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 
 
 class Diffuse(BSDF):
@@ -24,11 +24,12 @@ class Diffuse(BSDF):
     the lecture's comparison.
     """
 
+    texture_params = ("reflectance",)
     has_smooth = True
     is_delta = False
 
     def __init__(self, reflectance=0.5):
-        self.reflectance = as_colour(reflectance)
+        self.reflectance = as_colour_or_texture(reflectance)
 
     def _active(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Both directions strictly above the surface."""

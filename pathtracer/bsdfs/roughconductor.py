@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BSDF, BSDFSample, as_colour, make_sample
+from .base import BSDF, BSDFSample, as_colour, as_colour_or_texture, make_sample
 from .fresnel import fresnel_conductor, reflect_about
 from .microfacet import MicrofacetDistribution, _dot, _normalize
 
@@ -46,6 +46,7 @@ class RoughConductor(BSDF):
         ``material="none"``: Fresnel factor exactly 1.
     """
 
+    texture_params = ("specular_reflectance",)
     has_smooth = True
     is_delta = False
 
@@ -56,7 +57,7 @@ class RoughConductor(BSDF):
         self.distribution = self.distr.distribution
         self.alpha_u = self.distr.alpha_u
         self.alpha_v = self.distr.alpha_v
-        self.specular_reflectance = as_colour(specular_reflectance)
+        self.specular_reflectance = as_colour_or_texture(specular_reflectance)
         self.eta_complex = as_colour(eta) + 1j * as_colour(k)
         self._perfect_mirror = bool(np.all(self.eta_complex == 1j))
 

@@ -33,6 +33,15 @@ class TwoSided(BSDF):
         self.has_smooth = nested.has_smooth
         self.is_delta = nested.is_delta
 
+    @property
+    def textured(self) -> bool:
+        """The nested BSDF has a texture."""
+        return self.nested.textured
+
+    def at(self, uv: np.ndarray) -> "TwoSided":
+        """Two-sided wrapper of the nested BSDF bound to the hits' ``uv``."""
+        return TwoSided(self.nested.at(uv))
+
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Nested ``eval`` with both directions mirrored where ``wi`` is on the back side."""
         back = np.signbit(wi[:, 2])

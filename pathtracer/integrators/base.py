@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import geometry
-from ..emitters import hit_emitter
+from ..emitters import emitted_radiance, hit_emitter
 from ..camera import Rays
 from ..scene.types import Scene
 
@@ -51,7 +51,8 @@ class Integrator:
     hemisphere : {'cosine', 'uniform'}
         Sampling of the diffuse lobe: same mean, different variance.
     hide_emitters : bool
-        Camera rays pass through directly visible area emitters.
+        Camera rays pass through directly visible area emitters and see
+        no environment where they escape (Mitsuba's meaning).
     """
 
     name = "base"
@@ -95,6 +96,17 @@ class Integrator:
         if not self.hide_emitters:
             return hit
         return skip_emitters(scene, rays, hit)
+
+    def emission(self, scene: Scene, hit, wi: np.ndarray, depth: int) -> np.ndarray:
+        """Radiance emitted towards ``wi`` at the hits of segment ``depth`` + 1.
+
+        With ``hide_emitters``, camera rays (``depth`` 0) that escape see no
+        environment, as in Mitsuba (area lights are skipped by :meth:`trace_camera`).
+        """
+        radiance = emitted_radiance(scene, hit, wi)
+        if depth == 0 and self.hide_emitters:
+            radiance[~hit.valid] = 0.0
+        return radiance
 
     def roulette_survivors(self, beta: np.ndarray, eta: np.ndarray, depth: int,
                            u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -4,15 +4,30 @@ The first term pair of the lecture's split L = Le + Ld + Li, with Li dropped::
 
     L = Le(x, w) + integral over lights of f_r Le G V dA
 
-estimated as Mitsuba's ``direct`` plugin does (one light sample and one BSDF
-sample, combined with the power heuristic), so the two agree in variance::
+estimated as Mitsuba's ``direct`` plugin does: N = ``emitter_samples`` light
+samples and M = ``bsdf_samples`` BSDF samples per camera ray, combined with
+Veach's multi-sample MIS (power heuristic on the sample-count-weighted
+densities, pbrt's ``n_a p_a``)::
 
-    L  = Le(x_1)                                        directly visible emitter
-    L += f cos Le V / p_light * w_light                 shadow ray (smooth BSDFs)
-    L += f cos / p_bsdf * Le(x_2) * w_bsdf              BSDF sample that hits a light
+    L  = Le(x_1)                                           directly visible emitter
+    L += sum_{i<N} f cos Le V / p_light * w_light / N      shadow rays (smooth BSDFs)
+    L += sum_{j<M} f cos / p_bsdf * Le(x_2) * w_bsdf / M   BSDF samples that hit a light
 
-A Dirac BSDF sample (mirror, glass) that reaches a light has weight 1. In mean
-it equals path tracing with max_depth = 2.
+    w_light = (N p_light)^2 / ((N p_light)^2 + (M p_bsdf)^2)
+    w_bsdf  = (M p_bsdf)^2  / ((M p_bsdf)^2  + (N p_light)^2)
+
+(Mitsuba scales both densities by N / (N + M) and M / (N + M); the common
+factor cancels.) A Dirac BSDF sample (mirror, glass) that reaches a light has
+weight 1 / M. A sample of a Dirac *light* (point light) has weight 1 and no
+1 / N: Mitsuba 3.9.1 does this, so with N > 1 point lights count N times;
+we reproduce it because the references are Mitsuba's (with the default
+N = M = 1 the estimate is unbiased). With N = 0 only BSDF samples are used
+(weight 1 / M), with M = 0 only light samples. In mean it equals path
+tracing with max_depth = 2.
+
+The light samples come first, then the BSDF samples, each drawing
+(1d, 2d) numbers in turn, so N = M = 1 consumes random numbers exactly as
+the single-sample estimator did.
 """
 from __future__ import annotations
 
@@ -25,9 +40,40 @@ from .base import Integrator, spawn, subset_hit, trace
 
 
 class DirectIntegrator(Integrator):
-    """Direct lighting with MIS (Mitsuba's ``direct`` with one sample of each kind)."""
+    """Direct lighting with multi-sample MIS (Mitsuba's ``direct``).
+
+    Parameters
+    ----------
+    emitter_samples, bsdf_samples : int, optional
+        Light and BSDF samples per camera ray (Mitsuba's defaults: 1 each,
+        or ``shading_samples``).
+    shading_samples : int, optional
+        Sets both counts at once; cannot be combined with them.
+    **options
+        The :class:`Integrator` options (``max_depth``, ``hide_emitters``...).
+    """
 
     name = "direct"
+
+    def __init__(self, emitter_samples: int | None = None, bsdf_samples: int | None = None,
+                 shading_samples: int | None = None, **options):
+        super().__init__(**options)
+        if shading_samples is not None and (emitter_samples is not None
+                                            or bsdf_samples is not None):
+            raise ValueError("give either shading_samples or emitter_samples/bsdf_samples, "
+                             "not both")
+        both = 1 if shading_samples is None else int(shading_samples)
+        self.emitter_samples = both if emitter_samples is None else int(emitter_samples)
+        self.bsdf_samples = both if bsdf_samples is None else int(bsdf_samples)
+        if min(self.emitter_samples, self.bsdf_samples) < 0:
+            raise ValueError("emitter_samples and bsdf_samples must be >= 0")
+        if self.emitter_samples + self.bsdf_samples == 0:
+            raise ValueError("need at least one emitter or BSDF sample")
+
+    def options(self) -> dict:
+        """The base options plus the two sample counts."""
+        return dict(super().options(), emitter_samples=self.emitter_samples,
+                    bsdf_samples=self.bsdf_samples)
 
     def radiance(self, scene, rays, rng):
         n = len(rays)
@@ -42,13 +88,29 @@ class DirectIntegrator(Integrator):
             return L
         row = np.flatnonzero(hit.valid)
         hit, wi, rng = subset_hit(hit, row), wi[row], rng.subset(row)
+        for _ in range(self.emitter_samples):
+            L[row] += self.light_sample(scene, hit, wi, rng)
+        for _ in range(self.bsdf_samples):
+            rows, contribution = self.bsdf_sample(scene, hit, wi, rng)
+            L[row[rows]] += contribution
+        return L
 
+    def light_sample(self, scene, hit, wi, rng) -> np.ndarray:
+        """One MIS-weighted light sample's contribution at every hit -> (n, 3)."""
         light = sample_emitter(scene, hit, rng.next_1d(), rng.next_2d())
         f_light, pdf_bsdf = eval_bsdf(scene, hit, wi, light.wo, self.hemisphere)
-        w_light = np.where(light.delta, 1.0, power_heuristic(light.pdf, pdf_bsdf))
+        # Scaling both densities by the sample counts is exact for N = M = 1
+        # (x 0.5 is a power of two), keeping the single-sample images bit-identical.
+        total = self.emitter_samples + self.bsdf_samples
+        mis = power_heuristic(light.pdf * (self.emitter_samples / total),
+                              pdf_bsdf * (self.bsdf_samples / total)) / self.emitter_samples
+        w_light = np.where(light.delta, 1.0, mis)
         use = has_smooth(scene, hit) & (light.pdf > 0)
-        L[row] += np.where(use[:, None], f_light * light.weight * w_light[:, None], 0.0)
+        return np.where(use[:, None], f_light * light.weight * w_light[:, None], 0.0)
 
+    def bsdf_sample(self, scene, hit, wi, rng) -> tuple[np.ndarray, np.ndarray]:
+        """One MIS-weighted BSDF sample: the hits whose sample reached a light
+        (indices into ``hit``) and their contributions."""
         bs = sample_bsdf(scene, hit, wi, rng.next_1d(), rng.next_2d(), self.hemisphere)
         ok = np.flatnonzero(np.any(bs.weight > 0, axis=1))
         next_rays = spawn(subset_hit(hit, ok), bs.wo[ok])
@@ -56,6 +118,7 @@ class DirectIntegrator(Integrator):
         Le = emitted_radiance(scene, light_hit, -next_rays.d)
         pdf_light = np.where(bs.delta[ok], 0.0,
                              pdf_emitter_direction(scene, hit.p[ok], light_hit, next_rays.d))
-        w_bsdf = power_heuristic(bs.pdf[ok], pdf_light)
-        L[row[ok]] += bs.weight[ok] * Le * w_bsdf[:, None]
-        return L
+        total = self.emitter_samples + self.bsdf_samples
+        w_bsdf = power_heuristic(bs.pdf[ok] * (self.bsdf_samples / total),
+                                 pdf_light * (self.emitter_samples / total)) / self.bsdf_samples
+        return ok, bs.weight[ok] * Le * w_bsdf[:, None]

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
+from ..emitters import pdf_emitter_direction, sample_emitter
 from ..sampling import power_heuristic
 from ..shading import eval_bsdf, has_smooth, sample_bsdf
 from .base import Integrator, spawn, subset_hit, trace
@@ -47,7 +47,7 @@ class PathIntegrator(Integrator):
         while len(row):
             wi = -d
             # Emission found by BSDF sampling, weighted against light sampling.
-            Le = emitted_radiance(scene, hit, wi)
+            Le = self.emission(scene, hit, wi, depth)
             pdf_light = np.where(prev_delta, 0.0, pdf_emitter_direction(scene, prev_p, hit, d))
             L[row] += beta * Le * power_heuristic(prev_pdf, pdf_light)[:, None]
 

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters import emitted_radiance
 from ..shading import sample_bsdf
 from .base import Integrator, spawn, subset_hit, trace
 
@@ -35,7 +34,7 @@ class PathBSDFIntegrator(Integrator):
         depth = 0
         while len(row):
             wi = -d
-            L[row] += beta * emitted_radiance(scene, hit, wi)
+            L[row] += beta * self.emission(scene, hit, wi, depth)
 
             live = np.flatnonzero(hit.valid & (depth + 1 < self.depth_limit))
             row, beta, eta, wi = row[live], beta[live], eta[live], wi[live]

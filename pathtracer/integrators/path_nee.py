@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters import emitted_radiance, sample_emitter
+from ..emitters import sample_emitter
 from ..shading import eval_bsdf, has_smooth, sample_bsdf
 from .base import Integrator, spawn, subset_hit, trace
 
@@ -47,7 +47,7 @@ class PathNEEIntegrator(Integrator):
         depth = 0
         while len(row):
             wi = -d
-            Le = emitted_radiance(scene, hit, wi)
+            Le = self.emission(scene, hit, wi, depth)
             L[row] += np.where(last_specular[:, None], beta * Le, 0.0)
 
             live = np.flatnonzero(hit.valid & (depth + 1 < self.depth_limit))

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
+from ..emitters import pdf_emitter_direction, sample_emitter
 from ..pathclasses import LETTER, _parse_glossy, bsdf_letters, compile_classes
 from ..render import _Job
 from ..sampling import power_heuristic
@@ -96,7 +96,7 @@ class PathClassIntegrator(Integrator):
         depth = 0
         while len(row):
             wi = -d
-            Le = emitted_radiance(scene, hit, wi)
+            Le = self.emission(scene, hit, wi, depth)
             pdf_light = np.where(prev_delta, 0.0, pdf_emitter_direction(scene, prev_p, hit, d))
             add(row, state, beta * Le * power_heuristic(prev_pdf, pdf_light)[:, None])
 

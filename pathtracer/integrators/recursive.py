@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters import emitted_radiance, sample_emitter
+from ..emitters import sample_emitter
 from ..shading import eval_bsdf, has_smooth, sample_bsdf
 from .base import Integrator, spawn, subset_hit, trace
 
@@ -66,7 +66,7 @@ class RecursiveIntegrator(Integrator):
         while len(row):
             wi = -d
             # Le counts only when the last bounce was specular (or from the camera).
-            Le = emitted_radiance(scene, hit, wi)
+            Le = self.emission(scene, hit, wi, depth)
             np.add.at(L, row, np.where(last_specular[:, None], share[:, None] * beta * Le, 0.0))
 
             live = np.flatnonzero(hit.valid & (depth + 1 < self.depth_limit))

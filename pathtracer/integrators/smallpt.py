@@ -23,18 +23,24 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs import Dielectric
-from ..emitters import emitted_radiance
 from ..rng import RandomStream
 from ..shading import bsdf_index, dielectric_lobes, sample_bsdf
+from ..textures import Texture
 from .base import Integrator, spawn, subset_hit, trace
 
 
 def surface_colour(bsdf) -> np.ndarray:
-    """smallpt's ``obj.c``: the colour whose maximum drives the roulette."""
+    """smallpt's ``obj.c``: the colour whose maximum drives the roulette.
+
+    For a texture, its largest value: smallpt has one colour per object.
+    """
     bsdf = getattr(bsdf, "nested", bsdf)
     for name in ("reflectance", "specular_reflectance"):
         if hasattr(bsdf, name):
-            return np.asarray(getattr(bsdf, name), dtype=float)
+            value = getattr(bsdf, name)
+            if isinstance(value, Texture):
+                return value.max_value()
+            return np.asarray(value, dtype=float)
     return np.ones(3)
 
 
@@ -71,7 +77,7 @@ class SmallptIntegrator(Integrator):
         depth = 0
         while len(row):
             wi = -d
-            np.add.at(L, row, beta * emitted_radiance(scene, hit, wi))     # obj.e
+            np.add.at(L, row, beta * self.emission(scene, hit, wi, depth))     # obj.e
 
             live = np.flatnonzero(hit.valid & (depth + 1 < self.depth_limit))
             row, beta, wi, hit, rng = row[live], beta[live], wi[live], subset_hit(hit, live), rng.subset(live)

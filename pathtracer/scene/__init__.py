@@ -1,6 +1,7 @@
 """Mitsuba 3 XML scene loading: ``load_scene(path_or_name, **params) -> Scene``."""
 from __future__ import annotations
 
+import difflib
 import os
 
 from .build import build_scene
@@ -48,10 +49,14 @@ def load_scene(path: str | os.PathLike, **params) -> Scene:
         if not os.path.isfile(file):
             names = sorted(f[:-4] for f in os.listdir(BUILTIN_DIR) if f.endswith(".xml")) \
                 if os.path.isdir(BUILTIN_DIR) else []
-            raise SceneError(f"no built-in scene \"{text}\" (built-in: {', '.join(names) or 'none'}; "
+            close = difflib.get_close_matches(text, names, n=1)
+            hint = f"did you mean \"{close[0]}\"? " if close else ""
+            raise SceneError(f"no built-in scene \"{text}\" ({hint}built-in: {', '.join(names) or 'none'}; "
                              "give a path to load a file)")
     else:
         file = text
+        if os.path.isdir(file):
+            raise SceneError(f"{file} is a directory, not a scene file")
         if not os.path.isfile(file):
             raise SceneError(f"scene file not found: {file}")
     root = parse_file(file, params)

@@ -7,13 +7,15 @@ being silently ignored, because it would make the two renderers disagree.
 from __future__ import annotations
 
 import os
+import warnings
 
 import numpy as np
 
-from . import meshes, transform
+from . import meshes, spectra, transform
 from ..film import FILTER_PARAMS, ReconstructionFilter
-from .types import (AreaEmitter, Camera, ConstantEmitter, IntegratorSpec,
-                    PointEmitter, Scene)
+from .types import (AreaEmitter, Camera, ConstantEmitter, DirectionalEmitter,
+                    IntegratorSpec, PointEmitter, Scene, SpotEmitter)
+from ..resources import SEED_MAX
 from .xml import Plugin
 
 # Mitsuba's table of named indices of refraction (Hecht, Optics; ~589 nm).
@@ -27,12 +29,16 @@ IOR_BY_NAME = {
     "pet": 1.5750, "diamond": 2.419,
 }
 SUPPORTED = {
-    "shape": ("rectangle", "cube", "disk", "sphere", "obj", "ply"),
+    "shape": ("rectangle", "cube", "disk", "sphere", "obj", "ply", "serialized"),
     "bsdf": ("diffuse", "twosided", "conductor", "dielectric", "roughconductor"),
-    "emitter": ("area", "point", "constant"),
+    "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
     "sensor": ("perspective",),
     "integrator": ("path", "direct", "recursive", "path_bsdf", "path_nee", "smallpt"),
+    "texture": ("bitmap", "checkerboard"),
 }
+# BSDF parameters that take a <texture> (and the checkerboard's colours).
+TEXTURED_PARAMS = ("reflectance", "specular_reflectance", "specular_transmittance",
+                   "color0", "color1")
 # Integrator parameters we validate; the project's own integrators take any.
 INTEGRATOR_PARAMS = {
     "path": {"max_depth", "rr_depth", "hide_emitters"},
@@ -42,7 +48,41 @@ INTEGRATOR_PARAMS = {
 INTEGRATOR_PARAM_TAGS = {"max_depth": "integer", "rr_depth": "integer",
                          "hide_emitters": "boolean", "emitter_samples": "integer",
                          "bsdf_samples": "integer", "shading_samples": "integer"}
-COLOR_TAGS = ("rgb", "float", "integer")
+COLOR_TAGS = ("rgb", "float", "integer", "spectrum")
+# Plugins that exist in Mitsuba 3 but only make sense in other variants or
+# renderers, with the reason shown to the user (merged into the errors of
+# every plugin kind).
+VARIANT_ONLY = {
+    "polarizer": "a polarization filter: only meaningful in Mitsuba's *_polarized variants",
+    "retarder": "a polarization retarder: only meaningful in Mitsuba's *_polarized variants",
+    "measured_polarized": "measured polarized BSDF data: only meaningful in Mitsuba's "
+                          "*_polarized variants",
+    "pplastic": "a polarized plastic: only meaningful in Mitsuba's *_polarized variants",
+    "stokes": "renders Stokes vectors: only meaningful in Mitsuba's *_polarized variants",
+    "specfilm": "a film of spectral sensitivity bands: only meaningful in Mitsuba's spectral "
+                "variants",
+    "prb": "a differentiable (path replay backpropagation) integrator: it renders what path "
+           "renders, but only for gradients in Mitsuba's *_ad variants; use path",
+    "prb_basic": "a differentiable integrator for Mitsuba's *_ad variants; use path",
+    "prbvolpath": "a differentiable volumetric integrator for Mitsuba's *_ad variants",
+    "direct_projective": "a projective-sampling differentiable integrator for Mitsuba's "
+                         "*_ad variants; use direct",
+    "prb_projective": "a projective-sampling differentiable integrator for Mitsuba's *_ad "
+                      "variants; use path",
+}
+# Shapes that are valid in RGB variants but not implemented here (like Nori's
+# stubs, the message says so rather than pretending the type is unknown).
+NOT_IMPLEMENTED_SHAPES = {
+    "bsplinecurve": "B-spline curves (ray-curve intersection)",
+    "linearcurve": "linear curves (ray-cylinder-segment intersection)",
+    "sdfgrid": "signed-distance-field grids",
+    "ellipsoids": "ellipsoid point clouds",
+    "ellipsoidsmesh": "ellipsoid point clouds",
+    "cylinder": "analytic cylinders",
+    "instance": "instancing",
+    "shapegroup": "instancing",
+    "merge": "shape merging",
+}
 FLOAT_TAGS = ("float", "integer")
 
 
@@ -55,8 +95,21 @@ class Props:
     def __init__(self, plugin: Plugin):
         self.plugin = plugin
         self.used: set[str] = set()
+        # Nested <texture> children by parameter name (read by reflectance_or_texture).
+        self.textures: dict[str, Plugin] = {}
+        for name, child in plugin.named_children():
+            if child.kind != "texture":
+                continue
+            if not name:
+                raise child.error(f"a <texture> inside {plugin.label} needs a name "
+                                  "(the parameter it gives, e.g. name=\"reflectance\")")
+            if name in plugin.props or name in self.textures:
+                raise child.error(f"parameter \"{name}\" given twice")
+            self.textures[name] = child
 
     def _get(self, name: str, tags: tuple, what: str):
+        if name in self.textures:
+            self._no_texture(name)
         prop = self.plugin.props.get(name)
         self.used.add(name)
         if prop is None:
@@ -72,10 +125,49 @@ class Props:
     def line(self, name: str) -> int:
         return self.plugin.props[name].line
 
-    def color(self, name: str, default: float) -> np.ndarray:
-        v = self._get(name, COLOR_TAGS, "an <rgb> (or <float>) colour")
+    def color(self, name: str, default: float, kind: str | None = None) -> np.ndarray:
+        """An RGB colour from ``<rgb>``, ``<float>`` or ``<spectrum>``.
+
+        ``kind`` says how a ``<spectrum>`` becomes RGB (see
+        :func:`pathtracer.scene.spectra.to_rgb`): by default ``'emission'``
+        inside an ``<emitter>`` and ``'reflectance'`` elsewhere, as Mitsuba's
+        emitters and BSDFs read their colours; pass ``'unbounded'`` for
+        values that may exceed 1 but are not emitted (indices of refraction).
+        """
+        v = self._get(name, COLOR_TAGS, "an <rgb> (or <float>, <spectrum>) colour")
+        if isinstance(v, spectra.Spectrum):
+            if kind is None:
+                kind = "emission" if self.plugin.kind == "emitter" else "reflectance"
+            return spectra.to_rgb(v, kind)
         return np.full(3, float(default)) if v is None else np.broadcast_to(
             np.asarray(v, dtype=float), (3,)).copy()
+
+    def reflectance(self, name: str, default: float) -> np.ndarray:
+        """A colour that scales reflected or transmitted light: each channel in [0, 1].
+
+        Mitsuba refuses an ``<rgb>`` outside [0, 1] here; a ``<float>`` it does not check,
+        but above 1 a surface creates energy, so both are refused.
+        """
+        value = self.color(name, default)
+        if not np.all((value >= 0.0) & (value <= 1.0)):
+            raise self.plugin.error(f"\"{name}\" must lie in [0, 1] (as Mitsuba requires of a "
+                                    f"reflectance), got {', '.join(f'{v:g}' for v in value)}",
+                                    self.line(name))
+        return value
+
+    def reflectance_or_texture(self, name: str, default: float, folders: list[str],
+                               cache: dict):
+        """A :meth:`reflectance` that may also be a nested ``<texture>``.
+
+        Returns a (3,) array for an ``<rgb>``/``<float>`` value (or the
+        default), else the built :class:`~pathtracer.textures.Texture`
+        (whose values are not range-checked: Mitsuba only warns about them).
+        """
+        child = self.textures.get(name)
+        self.used.add(name)
+        if child is None:
+            return self.reflectance(name, default)
+        return build_texture(child, folders, cache)
 
     def float(self, name: str, default):
         v = self._get(name, FLOAT_TAGS, "a <float>")
@@ -100,8 +192,17 @@ class Props:
         v = self._get(name, ("transform",), "a <transform>")
         return np.eye(4) if v is None else v
 
+    def normal_matrix(self, name: str = "to_world"):
+        """The matrix Mitsuba transforms this transform's normals with when it
+        is not the true inverse transpose (a ``<rotate>`` about a non-unit
+        axis), else None."""
+        p = self.plugin.props.get(name)
+        return None if p is None else p.normal_matrix
+
     def raw(self, name: str):
         """The value whatever its type (for pass-through parameters)."""
+        if name in self.textures:
+            self._no_texture(name)
         self.used.add(name)
         p = self.plugin.props.get(name)
         return None if p is None else p.value
@@ -110,7 +211,15 @@ class Props:
         """Accept properties that do not change the rendered values."""
         self.used.update(names)
 
+    def _no_texture(self, name: str):
+        raise self.textures[name].error(
+            f"a texture for \"{name}\" is not supported (this tracer takes textures for: "
+            f"{', '.join(TEXTURED_PARAMS)})")
+
     def finish(self) -> None:
+        for name in self.textures:
+            if name not in self.used:
+                self._no_texture(name)
         for name, prop in self.plugin.props.items():
             if name not in self.used:
                 known = sorted(self.used)
@@ -133,12 +242,21 @@ def _children(plugin: Plugin, allowed: dict[str, int]) -> dict[str, list[Plugin]
 
 
 def _unsupported(plugin: Plugin, what: str) -> Exception:
+    if plugin.type in VARIANT_ONLY:
+        return plugin.error(f"{what} \"{plugin.type}\" is not supported: it is "
+                            f"{VARIANT_ONLY[plugin.type]}")
+    if plugin.kind == "shape" and plugin.type in NOT_IMPLEMENTED_SHAPES:
+        return plugin.error(f"shape \"{plugin.type}\" is not implemented in this tracer "
+                            f"({NOT_IMPLEMENTED_SHAPES[plugin.type]}); it is valid in Mitsuba's "
+                            "RGB variants, so the scene cannot be compared")
     return plugin.error(f"unsupported {what} (supported: {', '.join(SUPPORTED[plugin.kind])})")
 
 
 # -- BSDFs -------------------------------------------------------------------
 
 def _ior(props: Props, name: str, default: str) -> float:
+    if name in props.textures:
+        props._no_texture(name)
     p = props.plugin.props.get(name)
     props.used.add(name)
     if p is None:
@@ -172,10 +290,21 @@ def _no_material(props: Props) -> None:
                                  "specular_reflectance)", props.line("material"))
 
 
-def build_bsdf(plugin: Plugin):
-    """Construct the :mod:`pathtracer.bsdfs` object for a ``<bsdf>`` element."""
+def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | None = None):
+    """Construct the :mod:`pathtracer.bsdfs` object for a ``<bsdf>`` element.
+
+    Parameters
+    ----------
+    plugin : Plugin
+    folders : list of str
+        Where texture files are looked up (:func:`search_folders`).
+    textures : dict, optional
+        Textures already built, by ``id`` of their plugin (textures shared by ``<ref>``
+        read the image once).
+    """
     from pathtracer import bsdfs  # imported lazily: written concurrently
 
+    textures = {} if textures is None else textures
     props = Props(plugin)
     kind = plugin.type
     if kind == "twosided":
@@ -184,17 +313,21 @@ def build_bsdf(plugin: Plugin):
             raise plugin.error("twosided needs exactly one nested <bsdf> "
                                "(different front/back materials are not supported)")
         props.finish()
-        return bsdfs.TwoSided(build_bsdf(nested[0]))
-    _children(plugin, {})
+        return bsdfs.TwoSided(build_bsdf(nested[0], folders, textures))
+    _children(plugin, {"texture": 10**9})
+
+    def colour(name, default):
+        return props.reflectance_or_texture(name, default, folders, textures)
+
     if kind == "diffuse":
-        result = bsdfs.Diffuse(props.color("reflectance", 0.5))
+        result = bsdfs.Diffuse(colour("reflectance", 0.5))
     elif kind == "conductor":
         _no_material(props)
-        result = bsdfs.Conductor(props.color("specular_reflectance", 1.0))
+        result = bsdfs.Conductor(colour("specular_reflectance", 1.0))
     elif kind == "dielectric":
         result = bsdfs.Dielectric(_ior(props, "int_ior", "bk7"), _ior(props, "ext_ior", "air"),
-                                  props.color("specular_reflectance", 1.0),
-                                  props.color("specular_transmittance", 1.0))
+                                  colour("specular_reflectance", 1.0),
+                                  colour("specular_transmittance", 1.0))
     elif kind == "roughconductor":
         _no_material(props)
         distribution = props.string("distribution", "beckmann").strip().lower()
@@ -212,9 +345,53 @@ def build_bsdf(plugin: Plugin):
         if props.has("alpha_u") != props.has("alpha_v"):
             raise plugin.error("give both alpha_u and alpha_v")
         result = bsdfs.RoughConductor(distribution, alpha_u, alpha_v,
-                                      props.color("specular_reflectance", 1.0))
+                                      colour("specular_reflectance", 1.0))
     else:
         raise _unsupported(plugin, "BSDF")
+    props.finish()
+    return result
+
+
+# -- textures ----------------------------------------------------------------
+
+def build_texture(plugin: Plugin, folders: list[str], cache: dict):
+    """The :mod:`pathtracer.textures` object of a ``<texture>`` (built once per plugin)."""
+    key = id(plugin)
+    if key not in cache:
+        cache[key] = _build_texture(plugin, folders, cache)
+    return cache[key]
+
+
+def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
+    from pathtracer import textures
+    from pathtracer.bitmap import read_bitmap
+
+    props = Props(plugin)
+    _children(plugin, {"texture": 2})
+    to_uv = props.transform("to_uv")
+    if plugin.type == "checkerboard":
+        result = textures.Checkerboard(props.reflectance_or_texture("color0", 0.4, folders, cache),
+                                       props.reflectance_or_texture("color1", 0.2, folders, cache),
+                                       to_uv)
+    elif plugin.type == "bitmap":
+        filter_type = props.string("filter_type", "bilinear").strip().lower()
+        wrap_mode = props.string("wrap_mode", "repeat").strip().lower()
+        for name, value, allowed in (("filter_type", filter_type, textures.FILTER_TYPES),
+                                     ("wrap_mode", wrap_mode, textures.WRAP_MODES)):
+            if value not in allowed:
+                raise plugin.error(f"unknown {name} \"{value}\" (supported: "
+                                   f"{', '.join(allowed)})", props.line(name))
+        raw = props.bool("raw", False)
+        # accel only picks hardware texture units on GPUs; the values are the same.
+        props.ignore("accel")
+        path = find_file(plugin, props, "filename", folders)
+        try:
+            data = read_bitmap(path, raw=raw)
+        except ValueError as e:
+            raise plugin.error(f"{os.path.basename(path)}: {e}", props.line("filename")) from None
+        result = textures.BitmapTexture(data, filter_type, wrap_mode, to_uv)
+    else:
+        raise _unsupported(plugin, "texture")
     props.finish()
     return result
 
@@ -225,18 +402,20 @@ class _Geometry:
     """Accumulates primitives of all shapes before they become arrays."""
 
     def __init__(self):
-        self.tri_p, self.tri_n, self.tri_shape = [], [], []
+        self.tri_p, self.tri_n, self.tri_uv, self.tri_shape = [], [], [], []
         self.ntri = 0
         self.spheres, self.disks = [], []
         self.kind, self.prim, self.area, self.cdf, self.name = [], [], [], [], []
 
-    def add_mesh(self, shape_id: int, p: np.ndarray, n: np.ndarray) -> None:
+    def add_mesh(self, shape_id: int, p: np.ndarray, n: np.ndarray, uv: np.ndarray) -> None:
+        """Add a mesh shape: (k, 3, 3) vertices, normals and (k, 3, 2) texture coordinates."""
         areas = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
         total = areas.sum()
         cdf = np.cumsum(areas) / total if total > 0 else np.arange(1, len(p) + 1) / len(p)
         cdf[-1] = 1.0
         self.tri_p.append(p)
         self.tri_n.append(n)
+        self.tri_uv.append(uv)
         self.tri_shape.append(np.full(len(p), shape_id, dtype=np.int32))
         self.kind.append("mesh")
         self.prim.append((self.ntri, self.ntri + len(p)))
@@ -250,33 +429,55 @@ def _shape_label(plugin: Plugin) -> str:
     return f"{plugin.type}{ident} ({plugin.file}:{plugin.line})"
 
 
-def _flip(p: np.ndarray, n: np.ndarray):
+def _flip(p: np.ndarray, n: np.ndarray, uv: np.ndarray):
     """Reverse the winding (flips the geometric normal) and negate the
-    shading normals: Mitsuba's ``flip_normals`` on meshes."""
-    return p[:, ::-1].copy(), -n[:, ::-1]
+    shading normals: Mitsuba's ``flip_normals`` on meshes. The texture
+    coordinates follow their vertices."""
+    return p[:, ::-1].copy(), -n[:, ::-1], uv[:, ::-1].copy()
 
 
-def _planar_mesh(corners_local, normal_local, m, flip):
+def _normals(props: "Props", m: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Object-space normals to world space as Mitsuba does: by the inverse
+    transpose of ``to_world``, or by the matrix it tracks instead after a
+    ``<rotate>`` about a non-unit axis."""
+    normal_m = props.normal_matrix("to_world")
+    if normal_m is None:
+        return transform.apply_normals(m, n)
+    return transform.apply_normal_matrix(normal_m, n)
+
+
+def _planar_mesh(corners_local, normal_local, m, flip, props):
     """Triangles of a flat shape whose normal is the transformed local normal
     (Mitsuba's rectangle: normal by the inverse transpose, even when ``m``
-    mirrors; the winding follows it)."""
+    mirrors; the winding follows the true geometric normal). Texture
+    coordinates: Mitsuba's rectangle maps local (x, y) in [-1, 1]^2 to
+    ((x + 1) / 2, (y + 1) / 2)."""
     p = transform.apply_points(m, corners_local.reshape(-1, 3)).reshape(-1, 3, 3)
-    n = transform.apply_normals(m, normal_local[None])[0]
+    uv = 0.5 * (corners_local[:, :, :2] + 1.0)
+    n = _normals(props, m, normal_local[None])[0]
     geo = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     if np.dot(geo[0], n) < 0:
-        p = p[:, ::-1].copy()
+        p, uv = p[:, ::-1].copy(), uv[:, ::-1].copy()
     nn = np.broadcast_to(n, p.shape).copy()
-    return _flip(p, nn) if flip else (p, nn)
+    return _flip(p, nn, uv) if flip else (p, nn, uv)
 
 
 _RECT_LOCAL = np.array([[[-1, -1, 0], [1, -1, 0], [1, 1, 0]],
                         [[-1, -1, 0], [1, 1, 0], [-1, 1, 0]]], dtype=float)
 
 
+# Texture coordinates of Mitsuba's cube, per face (axis, sign): u and v as
+# 0.5 + 0.5 * (sign_u * x[axis_u]), 0.5 + 0.5 * (sign_v * x[axis_v]) of the local
+# corner x (measured with Mitsuba 3.9.1: SurfaceInteraction3f.uv of cube hits).
+_CUBE_UV = {(0, 1.0): ((1, 1.0), (2, -1.0)), (0, -1.0): ((1, 1.0), (2, 1.0)),
+            (1, 1.0): ((0, -1.0), (2, -1.0)), (1, -1.0): ((2, 1.0), (0, 1.0)),
+            (2, 1.0): ((1, 1.0), (0, 1.0)), (2, -1.0): ((1, -1.0), (0, 1.0))}
+
+
 def _cube_local():
-    """12 triangles of [-1, 1]^3, counter-clockwise seen from outside, and
-    the outward face normal of each corner."""
-    tris, normals = [], []
+    """12 triangles of [-1, 1]^3, counter-clockwise seen from outside, the
+    outward face normal of each corner and Mitsuba's texture coordinates."""
+    tris, normals, uvs = [], [], []
     for axis in range(3):
         for sign in (1.0, -1.0):
             n = np.zeros(3)
@@ -287,65 +488,107 @@ def _cube_local():
             quad = [n - u - v, n + u - v, n + u + v, n - u + v]
             tris += [[quad[0], quad[1], quad[2]], [quad[0], quad[2], quad[3]]]
             normals += [[n, n, n]] * 2
-    return np.array(tris), np.array(normals)
+            (au, su), (av, sv) = _CUBE_UV[(axis, sign)]
+            uv = [[0.5 + 0.5 * su * c[au], 0.5 + 0.5 * sv * c[av]] for c in quad]
+            uvs += [[uv[0], uv[1], uv[2]], [uv[0], uv[2], uv[3]]]
+    return np.array(tris), np.array(normals), np.array(uvs)
 
 
-def _load_mesh(plugin: Plugin, props: Props, base_dir: str) -> meshes.MeshData:
-    filename = props.string("filename", None)
+def search_folders(root: Plugin, base_dir: str) -> list[str]:
+    """Where relative file names (meshes, spectra, textures) are looked up,
+    first match wins, as Mitsuba's file resolver: the top-level file's
+    ``<path>`` folders (the last one first), the scene file's folder, then
+    the current working directory."""
+    return list(root.search_paths) + [base_dir, os.getcwd()]
+
+
+def find_file(plugin: Plugin, props: Props, name: str, folders: list[str]) -> str:
+    """The file ``props`` names in its string property ``name``, looked up in ``folders``."""
+    filename = props.string(name, None)
     if filename is None:
-        raise plugin.error("missing <string name=\"filename\">")
-    path = filename if os.path.isabs(filename) else os.path.join(base_dir, filename)
-    if not os.path.isfile(path):
-        raise plugin.error(f"mesh file not found: \"{filename}\" (looked for {path})",
-                           props.line("filename"))
+        raise plugin.error(f"missing <string name=\"{name}\">")
+    candidates = [filename] if os.path.isabs(filename) else [
+        os.path.join(folder, filename) for folder in folders]
+    for path in candidates:
+        if os.path.isfile(path):
+            return path
+    raise plugin.error(f"file not found: \"{filename}\" (looked for {', '.join(candidates)})",
+                       props.line(name))
+
+
+def _load_mesh(plugin: Plugin, props: Props, folders: list[str]) -> meshes.MeshData:
+    path = find_file(plugin, props, "filename", folders)
     try:
-        return meshes.read_obj(path) if plugin.type == "obj" else meshes.read_ply(path)
+        if plugin.type == "obj":
+            return meshes.read_obj(path)
+        if plugin.type == "ply":
+            return meshes.read_ply(path)
+        index = props.int("shape_index", 0)
+        return meshes.read_serialized(path, index)
     except meshes.MeshFormatError as e:
         raise plugin.error(str(e), props.line("filename")) from None
+    except OSError as e:
+        raise plugin.error(f"cannot read mesh file \"{filename}\": {e.strerror or e}",
+                           props.line("filename")) from None
 
 
-def _mesh_triangles(plugin, props, base_dir, m):
-    """World-space triangles and shading normals of an obj/ply shape."""
-    data = _load_mesh(plugin, props, base_dir)
+def _mesh_triangles(plugin, props, folders, m):
+    """World-space triangles and shading normals of an obj/ply/serialized shape."""
+    data = _load_mesh(plugin, props, folders)
     face_normals = props.bool("face_normals", False)
-    props.ignore("flip_tex_coords")  # no textures: uv orientation is irrelevant
+    # Mitsuba flips v (v -> 1 - v) by default for OBJ files only; its serialized
+    # shape has no flip_tex_coords parameter (never flips).
+    flip_v = plugin.type != "serialized" and props.bool("flip_tex_coords", plugin.type == "obj")
     pos = transform.apply_points(m, data.positions)
     p = pos[data.faces]
+    if data.texcoords is None:
+        # Without stored coordinates Mitsuba's uv is the barycentrics (b1, b2).
+        uv = np.broadcast_to(_BARYCENTRIC_UV, (len(p), 3, 2)).copy()
+    else:
+        uv = data.texcoords[data.faces]
+        if flip_v:
+            uv[:, :, 1] = 1.0 - uv[:, :, 1]
     if face_normals:
         geo = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
         n = np.repeat(meshes._unit(geo)[:, None], 3, axis=1)
     elif data.normals is not None:
-        n = transform.apply_normals(m, data.normals)[data.faces]
+        n = _normals(props, m, data.normals)[data.faces]
     else:
         # Mitsuba recomputes after applying to_world, so angles are world angles.
         n = meshes.smooth_vertex_normals(pos, data.faces)[data.faces]
-    return p, n
+    return p, n, uv
 
 
-def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, base_dir: str):
-    """Add one shape's primitives to ``geo``; returns its nested bsdf and emitter plugins."""
+_BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+
+
+def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str]):
+    """Add one shape's primitives to ``geo``; returns its nested bsdf and emitter plugins.
+
+    ``folders`` are where mesh files are looked up (:func:`search_folders`).
+    """
     props = Props(plugin)
     kids = _children(plugin, {"bsdf": 1, "emitter": 1})
     m = props.transform("to_world")
     flip = props.bool("flip_normals", False)
     kind = plugin.type
-    if kind in ("rectangle", "cube", "obj", "ply"):
+    if kind in ("rectangle", "cube", "obj", "ply", "serialized"):
         if kind == "rectangle":
-            p, n = _planar_mesh(_RECT_LOCAL, np.array([0.0, 0.0, 1.0]), m, flip)
+            p, n, uv = _planar_mesh(_RECT_LOCAL, np.array([0.0, 0.0, 1.0]), m, flip, props)
         else:
             if kind == "cube":
-                local_p, local_n = _cube_local()
+                local_p, local_n, uv = _cube_local()
                 p = transform.apply_points(m, local_p.reshape(-1, 3)).reshape(-1, 3, 3)
                 if props.bool("face_normals", False):
                     geo_n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
                     n = np.repeat(meshes._unit(geo_n)[:, None], 3, axis=1)
                 else:
-                    n = transform.apply_normals(m, local_n.reshape(-1, 3)).reshape(-1, 3, 3)
+                    n = _normals(props, m, local_n.reshape(-1, 3)).reshape(-1, 3, 3)
             else:
-                p, n = _mesh_triangles(plugin, props, base_dir, m)
+                p, n, uv = _mesh_triangles(plugin, props, folders, m)
             if flip:
-                p, n = _flip(p, n)
-        geo.add_mesh(shape_id, p, n)
+                p, n, uv = _flip(p, n, uv)
+        geo.add_mesh(shape_id, p, n, uv)
     elif kind == "sphere":
         center = props.point("center", np.zeros(3))
         radius = props.float("radius", 1.0)
@@ -357,13 +600,20 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, base_dir: str):
                                "uniformly (non-uniform scale or shear would make an ellipsoid)")
         if np.linalg.det(lin) < 0:
             flip = not flip  # Mitsuba: a mirroring transform turns the sphere inside out
-        geo.spheres.append((full[:3, 3].copy(), float(np.sqrt(s2)), flip, shape_id))
+        # Object frame for texture coordinates: the inverse of the rotation (a
+        # mirror included) left after dividing out the radius.
+        to_local = (lin / np.sqrt(s2)).T
+        geo.spheres.append((full[:3, 3].copy(), float(np.sqrt(s2)), flip, shape_id, to_local))
         geo.kind.append("sphere")
         geo.prim.append((len(geo.spheres) - 1, len(geo.spheres)))
         geo.area.append(4.0 * np.pi * s2)
         geo.cdf.append(None)
     elif kind == "disk":
         transform.check_affine(m)
+        if props.normal_matrix("to_world") is not None:
+            raise plugin.error("a disk rotated about a non-unit axis is not supported (Mitsuba "
+                               "then transforms its normal inconsistently with its surface)",
+                               props.line("to_world"))
         geo.disks.append((m, flip, shape_id))
         geo.kind.append("disk")
         geo.prim.append((len(geo.disks) - 1, len(geo.disks)))
@@ -391,25 +641,101 @@ def build_area(plugin: Plugin, shape_id: int) -> AreaEmitter:
     return AreaEmitter(shape=shape_id, radiance=radiance)
 
 
-def build_emitter(plugin: Plugin):
-    """A top-level ``point`` or ``constant`` emitter."""
+def build_emitter(plugin: Plugin, folders: list[str] = (".",)):
+    """A top-level ``point``, ``spot``, ``directional``, ``constant`` or ``envmap`` emitter."""
     props = Props(plugin)
-    _children(plugin, {})
-    if plugin.type == "point":
-        if props.has("position") and props.has("to_world"):
-            raise plugin.error("give either position or to_world, not both")
-        position = props.point("position", None)
-        if position is None:
-            position = props.transform("to_world")[:3, 3].copy()
-        result = PointEmitter(position=position, intensity=props.color("intensity", 1.0))
-    elif plugin.type == "constant":
-        result = ConstantEmitter(radiance=props.color("radiance", 1.0))
-    elif plugin.type == "area":
-        raise plugin.error("an area emitter must be nested inside a <shape>")
-    else:
+    builders = {"point": _build_point, "spot": _build_spot, "directional": _build_directional,
+                "constant": _build_constant, "envmap": _build_envmap}
+    if plugin.type not in builders:
         raise _unsupported(plugin, "emitter")
+    if plugin.type != "spot":
+        _children(plugin, {})
+    result = builders[plugin.type](plugin, props, folders)
     props.finish()
     return result
+
+
+def _build_point(plugin, props, folders):
+    if props.has("position") and props.has("to_world"):
+        raise plugin.error("give either position or to_world, not both")
+    position = props.point("position", None)
+    if position is None:
+        position = props.transform("to_world")[:3, 3].copy()
+    return PointEmitter(position=position, intensity=props.color("intensity", 1.0))
+
+
+def _build_constant(plugin, props, folders):
+    return ConstantEmitter(radiance=props.color("radiance", 1.0))
+
+
+def _build_spot(plugin, props, folders):
+    kids = _children(plugin, {"texture": 1})
+    if kids["texture"]:
+        raise kids["texture"][0].error("a spot light's projected \"texture\" is not supported "
+                                       "(only a uniform intensity)")
+    m = props.transform("to_world")
+    cutoff = props.float("cutoff_angle", 20.0)
+    beam = props.float("beam_width", cutoff * 0.75)
+    if not 0 < cutoff <= 180:
+        raise plugin.error(f"cutoff_angle must lie in (0, 180] degrees, got {cutoff:g}",
+                           props.line("cutoff_angle"))
+    if not 0 <= beam <= cutoff:
+        raise plugin.error(f"beam_width must lie in [0, cutoff_angle = {cutoff:g}] degrees, got {beam:g}",
+                           props.line("beam_width") if props.has("beam_width") else None)
+    return SpotEmitter(position=m[:3, 3].copy(), to_local=np.linalg.inv(m[:3, :3]),
+                       intensity=props.color("intensity", 1.0),
+                       cutoff_angle=np.radians(cutoff), beam_width=np.radians(beam))
+
+
+def _build_directional(plugin, props, folders):
+    if props.has("direction") and props.has("to_world"):
+        raise plugin.error("give either direction or to_world, not both")
+    direction = props.point("direction", None)
+    if direction is None:
+        m = _rotation_only(plugin, props)
+        direction = m[:3, 2].copy()
+    if not np.linalg.norm(direction) > 0:
+        raise plugin.error("direction must not be zero", props.line("direction"))
+    return DirectionalEmitter(direction=direction / np.linalg.norm(direction),
+                              irradiance=props.color("irradiance", 1.0))
+
+
+def _build_envmap(plugin, props, folders):
+    from pathtracer.bitmap import BitmapError, read_bitmap
+    from pathtracer.envmap import EnvironmentMap
+
+    if props.has("bitmap"):
+        raise plugin.error("\"bitmap\" (a Bitmap object) exists only in Python dictionaries; "
+                           "give a filename", props.line("bitmap"))
+    if not props.has("filename"):
+        raise plugin.error("missing <string name=\"filename\"> (the latitude-longitude image)")
+    filename = props.string("filename", None)
+    path = find_file(plugin, props, "filename", folders)
+    try:
+        image = read_bitmap(path)
+    except BitmapError as error:
+        raise plugin.error(str(error), props.line("filename")) from None
+    if image.shape[2] == 1:
+        image = np.repeat(image, 3, axis=2)
+    if image.shape[1] < 2 or image.shape[0] < 3:
+        raise plugin.error(f"\"{filename}\": an environment map needs at least 2x3 pixels, "
+                           f"got {image.shape[1]}x{image.shape[0]}", props.line("filename"))
+    if not np.all(np.isfinite(image)) or np.any(image < 0):
+        raise plugin.error(f"\"{filename}\": radiance must be finite and non-negative",
+                           props.line("filename"))
+    return EnvironmentMap(image, scale=props.float("scale", 1.0),
+                          to_world=_rotation_only(plugin, props),
+                          mis_compensation=props.bool("mis_compensation", False))
+
+
+def _rotation_only(plugin, props) -> np.ndarray:
+    """``to_world`` of a light at infinity, refused when it scales (Mitsuba would not renormalise)."""
+    m = props.transform("to_world")
+    if transform.has_scale(m):
+        raise plugin.error("to_world must not scale or shear a light at infinity (Mitsuba "
+                           "would use unnormalised directions); use rotate or lookat",
+                           props.line("to_world"))
+    return m
 
 
 def x_fov_from(fov: float, axis: str, aspect: float) -> float:
@@ -460,6 +786,8 @@ def _rfilter(plugin: Plugin | None) -> ReconstructionFilter:
 
 
 def _film(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
+    if plugin.type in VARIANT_ONLY:
+        raise _unsupported(plugin, "film")
     if plugin.type != "hdrfilm":
         raise plugin.error("unsupported film (supported: hdrfilm)")
     props = Props(plugin)
@@ -468,16 +796,26 @@ def _film(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
     width, height = props.int("width", 768), props.int("height", 576)
     if width <= 0 or height <= 0:
         raise plugin.error("film width and height must be positive")
-    if props.bool("sample_border", False):
-        raise plugin.error("sample_border = true is not supported (samples are drawn inside "
-                           "the image only, Mitsuba's default)", props.line("sample_border"))
-    # Formats change storage, not values; compensate only changes summation accuracy.
-    props.ignore("pixel_format", "component_format", "compensate")
+    for name in ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height"):
+        if props.has(name):
+            raise plugin.error(f"{name} is not supported: the tracer renders the whole film "
+                               "(remove the crop, or render at the cropped size)",
+                               props.line(name))
+    # Mitsuba's sample border is ceil(radius - 0.5) pixels: empty for the box filter.
+    if props.bool("sample_border", False) and not rfilter.is_box:
+        raise plugin.error(f"sample_border = true is not supported with a {rfilter.kind} filter "
+                           "(samples are drawn inside the image only, Mitsuba's default)",
+                           props.line("sample_border"))
+    # Formats change storage, not values; compensate only changes summation accuracy; a
+    # banner is drawn on LDR output only.
+    props.ignore("pixel_format", "component_format", "file_format", "compensate", "banner")
     props.finish()
     return width, height, rfilter
 
 
 def _sampler(plugin: Plugin) -> tuple[int, int]:
+    if plugin.type in VARIANT_ONLY:
+        raise _unsupported(plugin, "sampler")
     if plugin.type != "independent":
         raise plugin.error("unsupported sampler: only \"independent\" gives the i.i.d. samples "
                            "the statistical comparison assumes")
@@ -486,6 +824,9 @@ def _sampler(plugin: Plugin) -> tuple[int, int]:
     spp, seed = props.int("sample_count", 4), props.int("seed", 0)
     if spp <= 0:
         raise plugin.error("sample_count must be positive", props.line("sample_count"))
+    if not 0 <= seed <= SEED_MAX:
+        raise plugin.error(f"seed must lie in [0, {SEED_MAX}] (an unsigned 32-bit integer, as "
+                           f"in Mitsuba), got {seed}", props.line("seed"))
     props.finish()
     return spp, seed
 
@@ -544,6 +885,8 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
         return IntegratorSpec("path", {})
     if plugin.type not in SUPPORTED["integrator"]:
         raise _unsupported(plugin, "integrator")
+    if plugin.type == "direct":
+        _check_direct_samples(plugin)
     _children(plugin, {})
     allowed = INTEGRATOR_PARAMS.get(plugin.type)
     params = {}
@@ -557,8 +900,29 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
         if prop.tag not in ("integer", "boolean", "float", "string"):
             raise plugin.error(f"integrator parameter \"{name}\" must be an integer, boolean, "
                                "float or string", prop.line)
+        if name == "max_depth" and prop.value < -1:
+            raise plugin.error(f"max_depth must be -1 (unlimited) or >= 0, as in Mitsuba, got "
+                               f"{prop.value}", prop.line)
         params[name] = prop.value
     return IntegratorSpec(plugin.type, params)
+
+
+def _check_direct_samples(plugin: Plugin) -> None:
+    """Mitsuba's rules for ``direct``'s sample counts, located in the file."""
+    props = plugin.props
+    if "shading_samples" in props and ("emitter_samples" in props or "bsdf_samples" in props):
+        raise plugin.error("give either shading_samples or emitter_samples/bsdf_samples, "
+                           "not both (as in Mitsuba)", props["shading_samples"].line)
+    counts = {}
+    for name in ("shading_samples", "emitter_samples", "bsdf_samples"):
+        prop = props.get(name)
+        if prop is not None and prop.tag == "integer":
+            if prop.value < 0:
+                raise plugin.error(f"{name} must be >= 0", prop.line)
+            counts[name] = prop.value
+    both = counts.get("shading_samples", 1)
+    if counts.get("emitter_samples", both) + counts.get("bsdf_samples", both) == 0:
+        raise plugin.error("direct needs at least one emitter or BSDF sample")
 
 
 # -- the scene -----------------------------------------------------------------
@@ -568,7 +932,7 @@ def _bbox(geo: _Geometry, tri_p: np.ndarray) -> np.ndarray:
     if len(tri_p):
         lo.append(tri_p.reshape(-1, 3).min(0))
         hi.append(tri_p.reshape(-1, 3).max(0))
-    for c, r, _, _ in geo.spheres:
+    for c, r, *_ in geo.spheres:
         lo.append(c - r)
         hi.append(c + r)
     for m, _, _ in geo.disks:
@@ -578,6 +942,29 @@ def _bbox(geo: _Geometry, tri_p: np.ndarray) -> np.ndarray:
     if not lo:
         return np.zeros((2, 3))
     return np.array([np.min(lo, axis=0), np.max(hi, axis=0)])
+
+
+def _attach(emitter: Plugin, shape: Plugin, attached: dict) -> None:
+    """Record that ``shape`` carries ``emitter`` (nested or by ``<ref>``); an
+    emitter on two shapes is refused, as Mitsuba refuses it."""
+    first = attached.setdefault(id(emitter), shape)
+    if first is not shape:
+        raise shape.error(f"area emitter{_id_text(emitter)} is already attached to the shape "
+                          f"at {first.file}:{first.line}; Mitsuba allows an emitter on one "
+                          "shape only (give each shape its own <emitter>)")
+
+
+def _id_text(plugin: Plugin) -> str:
+    return f' "{plugin.id}"' if plugin.id else ""
+
+
+def _unattached_area(plugin: Plugin, attached: dict) -> None:
+    """A top-level area emitter: fine when a shape references it; otherwise
+    Mitsuba drops it silently, and we say so."""
+    if id(plugin) not in attached:
+        warnings.warn(f"{plugin.file}:{plugin.line}: area emitter{_id_text(plugin)} is not "
+                      "attached to any shape and emits nothing (as in Mitsuba); reference it "
+                      "with <ref id=\"...\"/> inside a <shape>", stacklevel=4)
 
 
 def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
@@ -590,14 +977,18 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
     source : str
         Path or built-in name, stored in ``Scene.source``.
     base_dir : str
-        Directory against which relative mesh file names are resolved.
+        The scene file's folder: relative mesh file names are looked up in
+        the file's ``<path>`` folders, then here, then in the working
+        directory (:func:`search_folders`).
     """
     kids = _children(root, {"shape": 10**9, "bsdf": 10**9, "emitter": 10**9,
-                            "sensor": 1, "integrator": 1})
+                            "sensor": 1, "integrator": 1, "texture": 10**9})
     geo = _Geometry()
-    bsdf_objects, bsdf_index = [], {}
+    bsdf_objects, bsdf_index, textures = [], {}, {}
     emitters, environment = [], None
     shape_bsdf, shape_emitter = [], []
+    folders = search_folders(root, base_dir)
+    attached: dict[int, Plugin] = {}  # area emitter plugin -> the shape it lights
 
     def bsdf_id(plugin: Plugin | None) -> int:
         key = id(plugin)
@@ -606,28 +997,35 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
                 from pathtracer import bsdfs
                 bsdf_objects.append(bsdfs.Diffuse(np.full(3, 0.5)))
             else:
-                bsdf_objects.append(build_bsdf(plugin))
+                bsdf_objects.append(build_bsdf(plugin, folders, textures))
             bsdf_index[key] = len(bsdf_objects) - 1
         return bsdf_index[key]
 
-    # Top-level BSDFs are built even when unused so that their errors surface.
+    # Top-level BSDFs and textures are built even when unused so that their errors surface.
+    for plugin in kids["texture"]:
+        build_texture(plugin, folders, textures)
     for plugin in kids["bsdf"]:
         bsdf_id(plugin)
     for shape_id, plugin in enumerate(kids["shape"]):
         if plugin.type not in SUPPORTED["shape"]:
             raise _unsupported(plugin, "shape")
-        bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, base_dir)
+        bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, folders)
         shape_bsdf.append(bsdf_id(bsdf_plugin))
         if emitter_plugin is not None:
+            _attach(emitter_plugin, plugin, attached)
             emitters.append(build_area(emitter_plugin, shape_id))
             shape_emitter.append(len(emitters) - 1)
         else:
             shape_emitter.append(-1)
     for plugin in kids["emitter"]:
-        emitter = build_emitter(plugin)
-        if isinstance(emitter, ConstantEmitter):
+        if plugin.type == "area":
+            _unattached_area(plugin, attached)
+            continue
+        emitter = build_emitter(plugin, folders)
+        if emitter.kind in ("constant", "envmap"):
             if environment is not None:
-                raise plugin.error("at most one constant emitter is supported")
+                raise plugin.error("at most one environment emitter (constant or envmap) "
+                                   "is allowed, as in Mitsuba")
             environment = emitter
         emitters.append(emitter)
     if not kids["sensor"]:
@@ -637,15 +1035,17 @@ def build_scene(root: Plugin, source: str, base_dir: str) -> Scene:
 
     tri_p = np.concatenate(geo.tri_p) if geo.tri_p else np.zeros((0, 3, 3))
     tri_n = np.concatenate(geo.tri_n) if geo.tri_n else np.zeros((0, 3, 3))
+    tri_uv = np.concatenate(geo.tri_uv) if geo.tri_uv else np.zeros((0, 3, 2))
     tri_shape = np.concatenate(geo.tri_shape) if geo.tri_shape else np.zeros(0, np.int32)
     sph = geo.spheres
     dsk = geo.disks
     return Scene(
-        tri_p=tri_p, tri_n=tri_n, tri_shape=tri_shape,
+        tri_p=tri_p, tri_n=tri_n, tri_shape=tri_shape, tri_uv=tri_uv,
         sphere_center=np.array([s[0] for s in sph]).reshape(-1, 3),
         sphere_radius=np.array([s[1] for s in sph], dtype=float),
         sphere_flip=np.array([s[2] for s in sph], dtype=bool),
         sphere_shape=np.array([s[3] for s in sph], dtype=np.int32),
+        sphere_to_local=np.array([s[4] for s in sph]).reshape(-1, 3, 3),
         disk_to_world=np.array([d[0] for d in dsk]).reshape(-1, 4, 4),
         disk_to_local=np.array([np.linalg.inv(d[0]) for d in dsk]).reshape(-1, 4, 4),
         disk_flip=np.array([d[1] for d in dsk], dtype=bool),

@@ -1,4 +1,4 @@
-"""OBJ and PLY triangle-mesh readers and Mitsuba's vertex-normal rule.
+"""OBJ, PLY and Mitsuba ``serialized`` triangle-mesh readers and Mitsuba's vertex-normal rule.
 
 The readers return object-space data; :mod:`pathtracer.scene.build` applies
 ``to_world`` and decides between file normals, recomputed smooth normals and
@@ -6,7 +6,10 @@ flat normals, in the same order as Mitsuba (transform first, then recompute).
 """
 from __future__ import annotations
 
+import math
 import os
+import struct
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,11 +30,15 @@ class MeshData:
         Per-vertex normals stored in the file, if any.
     faces : (F, 3) int64
         Vertex indices of each triangle, in file order.
+    texcoords : (V, 2) float64 or None
+        Per-vertex texture coordinates stored in the file, if any, as stored
+        (the loader applies ``flip_tex_coords``).
     """
 
     positions: np.ndarray
     normals: np.ndarray | None
     faces: np.ndarray
+    texcoords: np.ndarray | None = None
 
 
 def read_obj(path: str) -> MeshData:
@@ -42,15 +49,20 @@ def read_obj(path: str) -> MeshData:
     vertices, which matters for recomputed normals), and an index a corner
     leaves out is *inherited from the previous corner of the same face*
     (``f 1/1 2 3`` gives keys 1/1, 2/1, 3/1). Polygons are fan-triangulated
-    ``(v0, v[i-1], v[i])``. Only ``v``, ``vn`` and ``f`` lines matter.
+    ``(v0, v[i-1], v[i])``. Only ``v``, ``vt``, ``vn`` and ``f`` lines matter
+    (``vt``: the first two numbers, u and v).
+
+    Face corners without a ``vt`` index get NaN texture coordinates when
+    others have one (Mitsuba 3.9.1 reports NaN uv there).
 
     Raises
     ------
     MeshFormatError
-        On a malformed line, an invalid or negative index, or normals given
-        for only some face corners (Mitsuba leaves the others undefined).
+        On a malformed line, a NaN or infinite coordinate, an invalid or
+        negative index, or normals given for only some face corners (Mitsuba
+        leaves the others undefined).
     """
-    positions, normals = [], []
+    positions, normals, texcoords = [], [], []
     vertex_of_key: dict[tuple, int] = {}
     keys: list[tuple] = []
     triangles: list[tuple] = []
@@ -61,14 +73,23 @@ def read_obj(path: str) -> MeshData:
                 continue
             head = tokens[0]
             try:
-                if head == "v":
-                    positions.append([float(t) for t in tokens[1:4]])
-                    if len(positions[-1]) != 3:
+                if head in ("v", "vn"):
+                    values = [float(t) for t in tokens[1:4]]
+                    if len(values) != 3:
                         raise ValueError
-                elif head == "vn":
-                    normals.append([float(t) for t in tokens[1:4]])
-                    if len(normals[-1]) != 3:
+                    if not all(math.isfinite(v) for v in values):
+                        raise MeshFormatError(f"{os.path.basename(path)}:{lineno}: "
+                                              f"{'vertex' if head == 'v' else 'normal'} "
+                                              f"\"{line.strip()}\" is not finite")
+                    (positions if head == "v" else normals).append(values)
+                elif head == "vt":
+                    values = [float(t) for t in tokens[1:3]]
+                    if len(values) != 2:
                         raise ValueError
+                    if not all(math.isfinite(v) for v in values):
+                        raise MeshFormatError(f"{os.path.basename(path)}:{lineno}: texture "
+                                              f"coordinate \"{line.strip()}\" is not finite")
+                    texcoords.append(values)
                 elif head == "f":
                     corners = []
                     key = [0, 0, 0]
@@ -86,6 +107,9 @@ def read_obj(path: str) -> MeshData:
                         if not 1 <= key[0] <= len(positions):
                             raise MeshFormatError(
                                 f"{os.path.basename(path)}:{lineno}: reference to invalid vertex {key[0]}")
+                        if key[1] > len(texcoords):
+                            raise MeshFormatError(
+                                f"{os.path.basename(path)}:{lineno}: reference to invalid texture coordinate {key[1]}")
                         if key[2] > len(normals):
                             raise MeshFormatError(
                                 f"{os.path.basename(path)}:{lineno}: reference to invalid normal {key[2]}")
@@ -111,7 +135,12 @@ def read_obj(path: str) -> MeshData:
             raise MeshFormatError(f"{os.path.basename(path)}: the file has vn normals but some "
                                   "face corners use none (Mitsuba leaves those undefined)")
         nrm = np.array(normals, dtype=float)[key_arr[:, 2] - 1]
-    return MeshData(pos, nrm, np.array(triangles, dtype=np.int64))
+    uv = None
+    if texcoords and np.any(key_arr[:, 1] != 0):
+        # Corners without a vt get NaN, as in Mitsuba (textures there are black).
+        table = np.vstack((np.full((1, 2), np.nan), np.array(texcoords, dtype=float)))
+        uv = table[key_arr[:, 1]]
+    return MeshData(pos, nrm, np.array(triangles, dtype=np.int64), uv)
 
 
 _PLY_TYPES = {
@@ -175,8 +204,10 @@ def read_ply(path: str) -> MeshData:
     """Read an ASCII or binary (little/big endian) PLY triangle mesh.
 
     Vertex properties ``x, y, z`` are required, ``nx, ny, nz`` are used when
-    all present. Faces come from ``vertex_indices`` or ``vertex_index`` and
-    must be triangles, as Mitsuba requires.
+    all present, and so are texture coordinates named ``u, v``, ``s, t`` or
+    ``texture_u, texture_v`` (Mitsuba's names). Faces come from
+    ``vertex_indices`` or ``vertex_index`` and must be triangles, as Mitsuba
+    requires. NaN or infinite coordinates are refused.
     """
     name = os.path.basename(path)
     with open(path, "rb") as f:
@@ -216,6 +247,10 @@ def read_ply(path: str) -> MeshData:
     return _ply_mesh(data, elements, name)
 
 
+#: Vertex properties Mitsuba's PLY reader takes as texture coordinates, in its order.
+PLY_TEXCOORD_NAMES = (("u", "v"), ("s", "t"), ("texture_u", "texture_v"))
+
+
 def _ply_mesh(data: dict, elements, name: str) -> MeshData:
     props = {el_name: [p for p, _, _ in el_props] for el_name, _, el_props in elements}
     if "vertex" not in data or not {"x", "y", "z"} <= set(props["vertex"]):
@@ -228,6 +263,16 @@ def _ply_mesh(data: dict, elements, name: str) -> MeshData:
     normals = None
     if {"nx", "ny", "nz"} <= set(props["vertex"]):
         normals = np.stack([v["nx"], v["ny"], v["nz"]], axis=1).astype(float)
+    for what, values in (("vertex", positions), ("normal", normals)):
+        bad = np.flatnonzero(~np.isfinite(values).all(axis=1)) if values is not None else []
+        if len(bad):
+            raise MeshFormatError(f"{name}: {len(bad)} {what} value(s) are not finite "
+                                  f"(the first is vertex {bad[0]}: {values[bad[0]].tolist()})")
+    texcoords = None
+    for u_name, v_name in PLY_TEXCOORD_NAMES:
+        if {u_name, v_name} <= set(props["vertex"]):
+            texcoords = np.stack([v[u_name], v[v_name]], axis=1).astype(float)
+            break
     face_field = next((k for k in ("vertex_indices", "vertex_index")
                        if k in props.get("face", [])), None)
     if face_field is None:
@@ -239,7 +284,104 @@ def _ply_mesh(data: dict, elements, name: str) -> MeshData:
     idx = faces[face_field].astype(np.int64)
     if idx.size and (idx.min() < 0 or idx.max() >= len(positions)):
         raise MeshFormatError(f"{name}: face refers to a vertex that does not exist")
-    return MeshData(positions, normals, idx.reshape(-1, 3))
+    return MeshData(positions, normals, idx.reshape(-1, 3), texcoords)
+
+
+#: Magic number and versions of Mitsuba's serialized format.
+SERIALIZED_MAGIC = 0x041C
+SERIALIZED_VERSIONS = (3, 4)
+# Flags in the header of each compressed shape.
+HAS_NORMALS, HAS_TEXCOORDS, HAS_COLORS = 0x0001, 0x0002, 0x0008
+FACE_NORMALS, SINGLE_PRECISION, DOUBLE_PRECISION = 0x0010, 0x1000, 0x2000
+
+
+def _serialized_offsets(data: bytes, name: str) -> tuple[list[int], int]:
+    """Start of each shape and the format version, from the table at the end of the file.
+
+    The file ends with one offset per shape (uint64 in version 4, uint32 in
+    version 3) followed by the uint32 shape count; every shape starts with
+    the uint16 magic number and uint16 version.
+    """
+    if len(data) < 8:
+        raise MeshFormatError(f"{name}: too short for a serialized mesh")
+    magic, version = struct.unpack_from("<HH", data, 0)
+    if magic != SERIALIZED_MAGIC or version not in SERIALIZED_VERSIONS:
+        raise MeshFormatError(f"{name}: not a Mitsuba serialized mesh (magic 0x{magic:04x}, "
+                              f"version {version})")
+    (count,) = struct.unpack_from("<I", data, len(data) - 4)
+    width = 8 if version == 4 else 4
+    table = len(data) - 4 - width * count
+    if count == 0 or table < 4:
+        raise MeshFormatError(f"{name}: corrupt shape table ({count} shapes)")
+    offsets = list(struct.unpack_from(f"<{count}{'Q' if width == 8 else 'I'}", data, table))
+    if any(not 0 <= o < table for o in offsets):
+        raise MeshFormatError(f"{name}: corrupt shape table (offset beyond the data)")
+    return offsets + [table], version
+
+
+def _take(buffer: bytes, offset: int, dtype: str, count: int, name: str):
+    size = np.dtype(dtype).itemsize * count
+    if offset + size > len(buffer):
+        raise MeshFormatError(f"{name}: shape data ends early")
+    return np.frombuffer(buffer, dtype=dtype, count=count, offset=offset), offset + size
+
+
+def read_serialized(path: str, shape_index: int = 0) -> MeshData:
+    """Read shape ``shape_index`` of a Mitsuba ``.serialized`` file.
+
+    Each shape is a zlib stream holding: uint32 flags; in version 4 a
+    NUL-terminated name; uint64 vertex and triangle counts; positions,
+    then (by flag) normals, texture coordinates and colours (read past), in
+    float32 or float64; then the triangles' vertex indices, uint32 (uint64 when there
+    are more than 2^32 - 1 vertices). All little endian. The face-normal
+    flag is ignored, as Mitsuba 3.9.1 ignores it (only the shape's
+    ``face_normals`` property makes a mesh flat).
+
+    Raises
+    ------
+    MeshFormatError
+        On a malformed file or a ``shape_index`` out of range.
+    """
+    name = os.path.basename(path)
+    with open(path, "rb") as f:
+        data = f.read()
+    bounds, version = _serialized_offsets(data, name)
+    if not 0 <= shape_index < len(bounds) - 1:
+        raise MeshFormatError(f"{name}: shape_index {shape_index} is out of range (the file "
+                              f"holds shapes 0..{len(bounds) - 2})")
+    start, end = bounds[shape_index], bounds[shape_index + 1]
+    try:
+        stream = zlib.decompressobj().decompress(data[start + 4:end])
+    except zlib.error as e:
+        raise MeshFormatError(f"{name}: shape {shape_index}: corrupt compressed data "
+                              f"({e})") from None
+    (flags,) = struct.unpack_from("<I", stream, 0)
+    offset = 4
+    if version == 4:
+        offset = stream.index(b"\0", offset) + 1  # skip the shape's name
+    n_vertices, n_triangles = struct.unpack_from("<QQ", stream, offset)
+    offset += 16
+    real = "<f8" if flags & DOUBLE_PRECISION else "<f4"
+    positions, offset = _take(stream, offset, real, 3 * n_vertices, name)
+    normals = None
+    if flags & HAS_NORMALS:
+        normals, offset = _take(stream, offset, real, 3 * n_vertices, name)
+        normals = normals.reshape(-1, 3).astype(float)
+    texcoords = None
+    if flags & HAS_TEXCOORDS:
+        texcoords, offset = _take(stream, offset, real, 2 * n_vertices, name)
+        texcoords = texcoords.reshape(-1, 2).astype(float)
+    if flags & HAS_COLORS:
+        _, offset = _take(stream, offset, real, 3 * n_vertices, name)
+    index = "<u8" if n_vertices > 0xFFFFFFFF else "<u4"
+    faces, offset = _take(stream, offset, index, 3 * n_triangles, name)
+    faces = faces.astype(np.int64).reshape(-1, 3)
+    if n_triangles == 0:
+        raise MeshFormatError(f"{name}: shape {shape_index} has no triangles")
+    if faces.max() >= n_vertices:
+        raise MeshFormatError(f"{name}: shape {shape_index}: face refers to a vertex that does "
+                              "not exist")
+    return MeshData(positions.reshape(-1, 3).astype(float), normals, faces, texcoords)
 
 
 def unit_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -23,23 +23,15 @@ def scale(v) -> np.ndarray:
 
 
 def rotate(axis, angle_deg: float) -> np.ndarray:
-    """Rotation by ``angle_deg`` degrees about the unit vector ``axis`` (right-handed).
+    """Rotation by ``angle_deg`` degrees about ``axis`` (right-handed).
 
-    Rodrigues' formula ``cos I + sin [a]x + (1 - cos) a a^T``. Mitsuba 3.9.1
-    applies it to the axis *as given* (a non-unit axis then also scales the
-    positions) while still transforming normals as if it were a pure rotation,
-    so the two disagree; we refuse such axes instead of guessing.
-
-    Raises
-    ------
-    ValueError
-        If ``|axis|`` differs from 1 by more than 1e-5.
+    Rodrigues' formula ``cos I + sin [a]x + (1 - cos) a a^T`` applied to the
+    axis *as given*, as Mitsuba 3.9.1 does: a non-unit axis is not
+    normalised, so the matrix then also scales and shears. (Mitsuba also
+    keeps the transpose as its inverse; the loader reproduces that for
+    normals, see :func:`pathtracer.scene.xml.Prop.normal_matrix`.)
     """
     a = np.asarray(axis, dtype=float)
-    length = np.linalg.norm(a)
-    if abs(length - 1.0) > 1e-5:
-        raise ValueError(f"rotation axis {a.tolist()} must have unit length (it has {length:.6g}); "
-                         "Mitsuba does not normalise it and would scale the shape")
     theta = np.deg2rad(angle_deg)
     c, s = np.cos(theta), np.sin(theta)
     skew = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
@@ -123,6 +115,20 @@ def apply_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
 def apply_vectors(m: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Transform (n, 3) direction vectors (no translation)."""
     return v @ m[:3, :3].T
+
+
+def apply_normal_matrix(normal_m: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Transform (n, 3) normals by ``normal_m`` (an inverse transpose given
+    explicitly) and renormalise."""
+    out = n @ normal_m[:3, :3].T
+    length = np.linalg.norm(out, axis=1, keepdims=True)
+    return out / np.where(length > 0, length, 1.0)
+
+
+def is_orthonormal(m: np.ndarray, tol: float = 1e-6) -> bool:
+    """True if the linear part of ``m`` is a rotation or mirror (to ``tol``)."""
+    lin = m[:3, :3]
+    return bool(np.all(np.abs(lin @ lin.T - np.eye(3)) <= tol))
 
 
 def apply_normals(m: np.ndarray, n: np.ndarray) -> np.ndarray:

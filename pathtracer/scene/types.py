@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..film import BOX, ReconstructionFilter
+from ..sampling import INV_FOUR_PI, square_to_uniform_sphere
 
 
 @dataclass
@@ -74,11 +75,59 @@ class PointEmitter:
 
 
 @dataclass
+class SpotEmitter:
+    """Mitsuba's ``spot``: a point light shining along its local +z, inside a cone.
+
+    Radiant intensity ``intensity`` [W/sr] within ``beam_width`` of the axis,
+    falling linearly in angle to 0 at ``cutoff_angle`` (both in radians here).
+    """
+
+    position: np.ndarray    # (3,)
+    to_local: np.ndarray    # (3, 3) inverse of the linear part of to_world
+    intensity: np.ndarray   # (3,)
+    cutoff_angle: float
+    beam_width: float
+    kind: str = "spot"
+
+    def falloff(self, d_world: np.ndarray) -> np.ndarray:
+        """Fraction (n,) of the full intensity emitted along world directions ``d_world``."""
+        local = d_world @ self.to_local.T
+        cos_theta = local[:, 2] / np.linalg.norm(local, axis=1)
+        angle = np.arccos(np.clip(cos_theta, -1.0, 1.0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ramp = (self.cutoff_angle - angle) / (self.cutoff_angle - self.beam_width)
+        ramp = np.where(cos_theta >= np.cos(self.beam_width), 1.0, ramp)
+        return np.where(cos_theta > np.cos(self.cutoff_angle), ramp, 0.0)
+
+
+@dataclass
+class DirectionalEmitter:
+    """Mitsuba's ``directional``: parallel light of ``irradiance`` [W/m^2] travelling along ``direction``."""
+
+    direction: np.ndarray   # (3,) unit, the direction the light travels
+    irradiance: np.ndarray  # (3,)
+    kind: str = "directional"
+
+
+@dataclass
 class ConstantEmitter:
     """Uniform environment: every escaped ray sees ``radiance``."""
 
     radiance: np.ndarray  # (3,)
     kind: str = "constant"
+
+    def eval(self, d_world: np.ndarray) -> np.ndarray:
+        """Radiance (n, 3) arriving from the directions ``d_world``."""
+        return np.tile(self.radiance, (len(d_world), 1))
+
+    def sample(self, u: np.ndarray):
+        """Uniform directions on the sphere: ``(wo, pdf, radiance)``."""
+        wo = square_to_uniform_sphere(u)
+        return wo, np.full(len(u), INV_FOUR_PI), self.eval(wo)
+
+    def pdf(self, d_world: np.ndarray) -> np.ndarray:
+        """Solid-angle density (n,) of :meth:`sample`: 1 / 4 pi."""
+        return np.full(len(d_world), INV_FOUR_PI)
 
 
 @dataclass
@@ -101,11 +150,19 @@ class Scene:
         Unit shading normals at the three vertices, world space.
     tri_shape : (T,) int32
         Shape id of each triangle.
+    tri_uv : (T, 3, 2) float64 or None
+        Texture coordinates at the three vertices (Mitsuba's per shape: the
+        file's for meshes, else (0, 0), (1, 0), (0, 1) so that the
+        interpolated uv is the barycentrics). None: not known (a scene built
+        by hand), textures then see the barycentrics.
     sphere_center : (S, 3) float64
     sphere_radius : (S,) float64
     sphere_flip : (S,) bool
         ``flip_normals``: the normal points inwards.
     sphere_shape : (S,) int32
+    sphere_to_local : (S, 3, 3) float64 or None
+        Rotation from world axes to each sphere's object frame (for its
+        texture coordinates); None: the world axes.
     disk_to_world : (D, 4, 4) float64
     disk_to_local : (D, 4, 4) float64
     disk_flip : (D,) bool
@@ -129,9 +186,11 @@ class Scene:
     bsdfs : list
         BSDF objects from :mod:`pathtracer.bsdfs`.
     emitters : list
-        :class:`AreaEmitter`, :class:`PointEmitter`, :class:`ConstantEmitter`.
-    environment : ConstantEmitter or None
-        The constant emitter, if any (at most one is allowed).
+        :class:`AreaEmitter`, :class:`PointEmitter`, :class:`SpotEmitter`,
+        :class:`DirectionalEmitter`, :class:`ConstantEmitter`,
+        :class:`pathtracer.envmap.EnvironmentMap`.
+    environment : ConstantEmitter, EnvironmentMap or None
+        The environment emitter (``constant`` or ``envmap``), if any (at most one is allowed).
     camera : Camera
     spp : int
         ``sample_count`` of the independent sampler.
@@ -164,12 +223,14 @@ class Scene:
     shape_name: list
     bsdfs: list
     emitters: list
-    environment: ConstantEmitter | None
+    environment: Any
     camera: Camera
     spp: int = 16
     seed: int = 0
     integrator: IntegratorSpec = field(default_factory=IntegratorSpec)
     source: str = "<memory>"
+    tri_uv: np.ndarray | None = None
+    sphere_to_local: np.ndarray | None = None
     bbox: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))
     # Built lazily by pathtracer.geometry (BVH over tri_p).
     _accel: Any = None

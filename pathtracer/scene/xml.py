@@ -1,9 +1,14 @@
 """Mitsuba 3 XML -> a generic tree of :class:`Plugin` objects.
 
 This module knows the *syntax* of the format (elements, properties,
-``<default>``/``$param`` substitution, ``<ref>``, transforms) but nothing about
-what a given plugin means; :mod:`pathtracer.scene.build` interprets the tree.
-Every node remembers its file and line so that errors can point at it.
+``<default>``/``$param`` substitution, ``<include>``, ``<path>``, ``<ref>``,
+``<spectrum>``, transforms) but nothing about what a given plugin means;
+:mod:`pathtracer.scene.build` interprets the tree. Every node remembers its
+file and line so that errors can point at it, also inside included files.
+
+Like Mitsuba's parser, a file is read top to bottom: a ``<default>`` (and an
+``<include>``'s defaults) takes effect where it stands, and the first value
+given for a name wins.
 """
 from __future__ import annotations
 
@@ -16,42 +21,48 @@ from xml.parsers import expat
 
 import numpy as np
 
-from . import transform
+from . import spectra, transform
 from .errors import SceneError
 
 # Elements that instantiate a plugin (they carry a ``type`` attribute).
 PLUGIN_TAGS = {"shape", "bsdf", "emitter", "sensor", "film", "sampler",
-               "rfilter", "integrator"}
+               "rfilter", "integrator", "texture"}
 # Valid Mitsuba elements this tracer refuses, with the reason shown to the user.
 REFUSED_TAGS = {
-    "texture": "textures are not supported by this tracer; use an <rgb> value instead",
-    "spectrum": "<spectrum> is not supported by this tracer (it renders in RGB); "
-                "use <rgb> instead",
     "medium": "participating media are not supported",
     "phase": "participating media are not supported",
     "volume": "participating media are not supported",
-    "include": "<include> is not supported; put everything in one file",
     "alias": "<alias> is not supported",
-    "path": "<path> is not supported; give file names relative to the scene file",
 }
 # Allowed attributes of each property element (besides ``name``).
 PROPERTY_ATTRS = {
     "float": {"value"}, "integer": {"value"}, "boolean": {"value"},
     "string": {"value"}, "rgb": {"value"},
+    "spectrum": {"value", "wavelengths", "values", "filename", "type"},
     "point": {"value", "x", "y", "z"}, "vector": {"value", "x", "y", "z"},
 }
+#: Largest finite float32: Mitsuba's numbers are float32.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+#: ``<scene version="...">``: three whole numbers, as Mitsuba 3 requires.
+VERSION_RE = re.compile(r"\d+\.\d+\.\d+")
 PARAM_RE = re.compile(r"(?<!\\)\$([A-Za-z_][A-Za-z0-9_]*)")
 SPLIT_RE = re.compile(r"[,\s]+")
 
 
 @dataclass
 class Element:
-    """A raw XML element with the line it starts on."""
+    """A raw XML element with the file and line it starts on.
+
+    ``file`` is the name shown in messages, ``folder`` the absolute directory
+    of that file (relative ``<include>`` and ``<path>`` values start there).
+    """
 
     tag: str
     attrs: dict[str, str]
     line: int
     children: list["Element"] = field(default_factory=list)
+    file: str = ""
+    folder: str = ""
 
 
 @dataclass
@@ -62,6 +73,10 @@ class Prop:
     name: str
     value: Any
     line: int
+    #: For a ``<transform>`` whose normals Mitsuba does not transform by the
+    #: true inverse transpose (a ``<rotate>`` about a non-unit axis), the 4x4
+    #: matrix it uses instead; None otherwise.
+    normal_matrix: Any = None
 
 
 @dataclass(eq=False)
@@ -82,6 +97,9 @@ class Plugin:
     children : list of Plugin
         Nested plugins in document order; ``<ref>`` are already resolved, so
         one referenced Plugin can appear as the child of several others.
+    ref_names : dict of int to str
+        For children that came from ``<ref id=".." name="..">``: child
+        position -> the ``name`` the reference gave (a texture's parameter).
     file, line : where the element starts.
     """
 
@@ -93,6 +111,14 @@ class Plugin:
     line: int
     props: dict[str, Prop] = field(default_factory=dict)
     children: list["Plugin"] = field(default_factory=list)
+    #: On the ``<scene>`` node only: the folders of the top-level file's
+    #: ``<path>`` elements, the last one first (where Mitsuba looks first).
+    search_paths: list[str] = field(default_factory=list)
+    ref_names: dict[int, str] = field(default_factory=dict)
+
+    def named_children(self) -> list[tuple[str | None, "Plugin"]]:
+        """(name, child) pairs: the reference's ``name`` for referenced children, else the child's own."""
+        return [(self.ref_names.get(i, child.name), child) for i, child in enumerate(self.children)]
 
     @property
     def label(self) -> str:
@@ -121,14 +147,18 @@ def read_elements(path: str, display: str) -> Element:
     SceneError
         On an XML syntax error, with the line reported by expat.
     """
-    with open(path, "rb") as f:
-        data = f.read()
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise SceneError(f"cannot read the scene file: {e.strerror or e}", display) from None
     parser = expat.ParserCreate()
     stack: list[Element] = []
     roots: list[Element] = []
+    folder = os.path.dirname(os.path.abspath(path))
 
     def start(tag, attrs):
-        el = Element(tag, dict(attrs), parser.CurrentLineNumber)
+        el = Element(tag, dict(attrs), parser.CurrentLineNumber, file=display, folder=folder)
         (stack[-1].children if stack else roots).append(el)
         stack.append(el)
 
@@ -159,24 +189,55 @@ def parse_floats(text: str, count: tuple[int, ...], what: str) -> np.ndarray:
 
 
 def parse_float(text: str, what: str) -> float:
-    """One floating-point number; ValueError naming ``what`` otherwise."""
+    """One finite floating-point number within float32's range; ValueError naming ``what`` otherwise.
+
+    ``nan`` and ``inf`` (which Python and Mitsuba parse) would make the image
+    meaningless, and Mitsuba stores numbers as float32, so a larger magnitude is
+    infinite there.
+    """
     try:
         if "_" in text:  # Python accepts 1_000, Mitsuba does not
             raise ValueError
-        return float(text)
+        value = float(text)
     except ValueError:
         raise ValueError(f"could not parse {what} value \"{text}\" as a number") from None
+    if not abs(value) <= FLOAT32_MAX:
+        raise ValueError(f"{what} value \"{text}\" is not a finite number (nan, inf and "
+                         f"magnitudes above float32's {FLOAT32_MAX:.4g} are refused)")
+    return value
+
+
+#: Mitsuba stops at this include depth; deeper nesting is a cycle or a mistake.
+MAX_INCLUDE_DEPTH = 15
+
+
+@dataclass
+class _FileState:
+    """Where the reader is: the include chain down to the file being read
+    (real paths) and where that file's ``<include>``s are looked up.
+
+    ``lookup`` is this file's part of Mitsuba's file resolver, first match
+    wins: this file's ``<path>`` folders (last first), this file's folder,
+    then the including file's list. An ``<include>`` tries the including
+    file's folder before all of them.
+    """
+
+    lookup: list[str]
+    chain: tuple[str, ...]
 
 
 class _Reader:
-    """Turns the Element tree of one file into Plugin objects."""
+    """Turns the Element tree of a file (and the files it includes) into Plugin objects."""
 
-    def __init__(self, file: str, params: dict[str, Any]):
+    def __init__(self, file: str, params: dict[str, Any], top_dir: str):
         self.file = file
+        self.top_dir = top_dir
         self.params = {k: _param_text(v) for k, v in params.items()}
         self.given = set(params)
         self.used: set[str] = set()
         self.ids: dict[str, Plugin] = {}
+        self.search_paths: list[str] = []
+        self.defaults_later: dict[str, int] = {}
 
     # -- substitution -----------------------------------------------------
     def substitute(self, el: Element, owner: str) -> dict[str, str]:
@@ -185,34 +246,24 @@ class _Reader:
             def repl(m):
                 name = m.group(1)
                 if name not in self.params:
-                    raise SceneError(f"undefined parameter ${name} (attribute {key}=\"{value}\"); "
-                                     f"pass it to load_scene or add <default name=\"{name}\" value=\"...\"/>",
-                                     self.file, el.line, owner)
+                    later = self.defaults_later.get((el.file, name))
+                    hint = (f"; its <default> on line {later} comes after this use, and Mitsuba "
+                            "reads the file top to bottom" if later else
+                            f"; pass it to load_scene or add <default name=\"{name}\" "
+                            "value=\"...\"/> before this line")
+                    raise SceneError(f"undefined parameter ${name} (attribute {key}=\"{value}\")"
+                                     + hint, el.file, el.line, owner)
                 self.used.add(name)
                 return self.params[name]
             out[key] = PARAM_RE.sub(repl, value).replace("\\$", "$")
         return out
 
     # -- tree -------------------------------------------------------------
-    def scene(self, root: Element) -> Plugin:
-        if root.tag != "scene":
-            raise SceneError(f"the root element must be <scene>, not <{root.tag}>",
-                             self.file, root.line)
-        attrs = self.substitute(root, "<scene>")
-        unknown = set(attrs) - {"version"}
-        if unknown:
-            raise SceneError(f"unknown attribute(s) {sorted(unknown)}", self.file, root.line, "<scene>")
-        # Defaults first (params given to load_scene win), so that a
-        # parameter can be used anywhere in the file.
-        for el in root.children:
-            if el.tag == "default":
-                a = self.substitute(el, "<default>")
-                if set(a) != {"name", "value"}:
-                    raise SceneError("<default> needs exactly the attributes name and value",
-                                     self.file, el.line, "<default>")
-                self.params.setdefault(a["name"], a["value"])
-        plugin = Plugin("scene", "", None, None, self.file, root.line)
-        self.fill(plugin, root, top_level=True)
+    def scene(self, root: Element, state: _FileState) -> Plugin:
+        self.check_root(root)
+        plugin = Plugin("scene", "", None, None, root.file, root.line)
+        self.fill_scene(plugin, root, state, top=True)
+        plugin.search_paths = list(self.search_paths)
         self.resolve(plugin, set())
         unused = sorted(self.given - self.used)
         if unused:
@@ -222,44 +273,129 @@ class _Reader:
                           stacklevel=4)
         return plugin
 
-    def fill(self, plugin: Plugin, el: Element, top_level: bool = False) -> None:
-        for child in el.children:
-            tag = child.tag
-            if tag == "default":
-                if not top_level:
-                    raise SceneError("<default> must be a direct child of <scene>",
-                                     self.file, child.line, plugin.label)
-                continue
-            attrs = self.substitute(child, plugin.label)
-            if tag in REFUSED_TAGS:
-                what = f'<{tag} type="{attrs["type"]}">' if "type" in attrs else f"<{tag}>"
-                raise SceneError(REFUSED_TAGS[tag], self.file, child.line, what)
-            if tag in PLUGIN_TAGS:
-                plugin.children.append(self.plugin(child, attrs))
-            elif tag == "ref":
-                if "id" not in attrs or set(attrs) - {"id", "name"}:
-                    raise SceneError("<ref> needs an id (and optionally a name)",
-                                     self.file, child.line, plugin.label)
-                plugin.children.append(_Ref(attrs["id"], attrs.get("name"), child.line))
-            elif tag == "transform":
-                self.add_prop(plugin, "transform", attrs, child, self.transform(child, plugin))
-            elif tag in PROPERTY_ATTRS:
-                self.add_prop(plugin, tag, attrs, child, self.prop_value(tag, attrs, child, plugin))
-            else:
-                raise SceneError(f"unknown element <{tag}>", self.file, child.line, plugin.label)
+    def check_root(self, root: Element) -> None:
+        if root.tag != "scene":
+            raise SceneError(f"the root element must be <scene>, not <{root.tag}>",
+                             root.file, root.line)
+        attrs = self.substitute(root, "<scene>")
+        unknown = set(attrs) - {"version"}
+        if unknown:
+            raise SceneError(f"unknown attribute(s) {sorted(unknown)}", root.file, root.line,
+                             "<scene>")
+        if "version" not in attrs:
+            raise SceneError("missing attribute version (Mitsuba 3 requires it), e.g. "
+                             "<scene version=\"3.0.0\">", root.file, root.line, "<scene>")
+        if not VERSION_RE.fullmatch(attrs["version"]):
+            raise SceneError(f"invalid version \"{attrs['version']}\": Mitsuba 3 needs three "
+                             "numbers, e.g. version=\"3.0.0\"", root.file, root.line, "<scene>")
 
-    def plugin(self, el: Element, attrs: dict[str, str]) -> Plugin:
+    def fill_scene(self, plugin: Plugin, root: Element, state: _FileState, top: bool) -> None:
+        """The children of a ``<scene>`` (the top file's or an included one's)."""
+        for el in root.children:
+            if el.tag == "default":  # remembered only to explain a use before it
+                self.defaults_later.setdefault((el.file, el.attrs.get("name")), el.line)
+        for el in root.children:
+            if el.tag == "default":
+                a = self.substitute(el, "<default>")
+                if set(a) != {"name", "value"}:
+                    raise SceneError("<default> needs exactly the attributes name and value",
+                                     el.file, el.line, "<default>")
+                # The first value wins: load_scene's, then the earliest <default>.
+                self.params.setdefault(a["name"], a["value"])
+            elif el.tag == "path":
+                self.add_path(el, state, top)
+            elif el.tag == "include":
+                self.include(plugin, el, state)
+            else:
+                self.child(plugin, el, state)
+
+    def add_path(self, el: Element, state: _FileState, top: bool) -> None:
+        attrs = self.substitute(el, "<path>")
+        if set(attrs) != {"value"}:
+            raise SceneError("<path> needs exactly the attribute value", el.file, el.line, "<path>")
+        folder = os.path.normpath(os.path.join(el.folder, attrs["value"]))
+        if not os.path.isdir(folder):
+            raise SceneError(f"folder \"{attrs['value']}\" not found (looked for {folder})",
+                             el.file, el.line, "<path>")
+        state.lookup.insert(0, folder)
+        if top:
+            # Only the top-level file's <path>s reach mesh and texture
+            # names: Mitsuba drops an included file's <path>s at its end,
+            # and loads meshes after the whole file has been read.
+            self.search_paths.insert(0, folder)
+
+    def include(self, plugin: Plugin, el: Element, state: _FileState) -> None:
+        attrs = self.substitute(el, "<include>")
+        if set(attrs) != {"filename"}:
+            raise SceneError("<include> needs exactly the attribute filename",
+                             el.file, el.line, "<include>")
+        name = attrs["filename"]
+        # Mitsuba tries the including file's folder before its file resolver.
+        lookup = [el.folder] + state.lookup
+        target = _find(name, lookup)
+        if target is None:
+            raise SceneError(f"file \"{name}\" not found (looked in "
+                             f"{', '.join(dict.fromkeys(lookup))})", el.file, el.line, "<include>")
+        real = os.path.realpath(target)
+        if real in state.chain or len(state.chain) > MAX_INCLUDE_DEPTH:
+            cycle = " -> ".join(os.path.basename(p) for p in state.chain + (real,))
+            raise SceneError(f"include cycle {cycle}", el.file, el.line, "<include>")
+        display = os.path.relpath(real, self.top_dir)
+        if display.startswith(".."):
+            display = real
+        root = read_elements(target, display)
+        self.check_root(root)
+        inner = _FileState([root.folder] + state.lookup, state.chain + (real,))
+        self.fill_scene(plugin, root, inner, top=False)
+
+    def fill(self, plugin: Plugin, el: Element, state: _FileState) -> None:
+        for child in el.children:
+            self.child(plugin, child, state)
+
+    def child(self, plugin: Plugin, child: Element, state: _FileState) -> None:
+        """One nested element of ``plugin``: a plugin, reference, property or
+        ``<include>`` (whose file's elements then become ``plugin``'s, as in Mitsuba)."""
+        tag = child.tag
+        if tag == "include":
+            self.include(plugin, child, state)
+            return
+        if tag in ("default", "path"):
+            raise SceneError(f"<{tag}> must be a direct child of <scene>",
+                             child.file, child.line, plugin.label)
+        attrs = self.substitute(child, plugin.label)
+        if tag in REFUSED_TAGS:
+            what = f'<{tag} type="{attrs["type"]}">' if "type" in attrs else f"<{tag}>"
+            raise SceneError(REFUSED_TAGS[tag], child.file, child.line, what)
+        if tag in PLUGIN_TAGS:
+            plugin.children.append(self.plugin(child, attrs, state))
+        elif tag == "ref":
+            if "id" not in attrs or set(attrs) - {"id", "name"}:
+                raise SceneError("<ref> needs an id (and optionally a name)",
+                                 child.file, child.line, plugin.label)
+            plugin.children.append(_Ref(attrs["id"], attrs.get("name"), child.line))
+        elif tag == "transform":
+            matrix, normal_matrix = self.transform(child, plugin)
+            self.add_prop(plugin, "transform", attrs, child, matrix)
+            plugin.props[attrs["name"]].normal_matrix = normal_matrix
+        elif tag in PROPERTY_ATTRS:
+            self.add_prop(plugin, tag, attrs, child, self.prop_value(tag, attrs, child, plugin))
+        else:
+            raise SceneError(f"unknown element <{tag}>", child.file, child.line, plugin.label)
+
+    def plugin(self, el: Element, attrs: dict[str, str], state: _FileState) -> Plugin:
         if "type" not in attrs:
-            raise SceneError("missing attribute type", self.file, el.line, f"<{el.tag}>")
+            raise SceneError("missing attribute type", el.file, el.line, f"<{el.tag}>")
         unknown = set(attrs) - {"type", "id", "name"}
-        p = Plugin(el.tag, attrs["type"], attrs.get("id"), attrs.get("name"), self.file, el.line)
+        p = Plugin(el.tag, attrs["type"], attrs.get("id"), attrs.get("name"), el.file, el.line)
         if unknown:
             raise p.error(f"unknown attribute(s) {sorted(unknown)}")
         if p.id is not None:
             if p.id in self.ids:
-                raise p.error(f"duplicate id \"{p.id}\" (first defined on line {self.ids[p.id].line})")
+                first = self.ids[p.id]
+                raise p.error(f"duplicate id \"{p.id}\" (first defined in {first.file} "
+                              f"on line {first.line})")
             self.ids[p.id] = p
-        self.fill(p, el)
+        self.fill(p, el, state)
         return p
 
     def add_prop(self, plugin: Plugin, tag: str, attrs: dict, el: Element, value: Any) -> None:
@@ -278,6 +414,8 @@ class _Reader:
         try:
             if tag in ("point", "vector"):
                 return _xyz(attrs, 0.0, f"<{tag} name=\"{attrs.get('name')}\">")
+            if tag == "spectrum":
+                return self.spectrum(attrs)
             if "value" not in attrs:
                 raise ValueError(f"<{tag}> needs a value attribute")
             text = attrs["value"]
@@ -299,19 +437,52 @@ class _Reader:
         except ValueError as e:
             raise plugin.error(str(e), el.line) from None
 
-    def transform(self, el: Element, plugin: Plugin) -> np.ndarray:
+    def spectrum(self, attrs: dict) -> spectra.Spectrum:
+        """A ``<spectrum>`` given by value, by wavelengths + values, or by a file."""
+        given = set(attrs) - {"name"}
+        if "type" in given:
+            raise ValueError(f"spectrum plugins (type=\"{attrs['type']}\") are not supported; "
+                             "give value=\"wavelength:value, ...\" or one value")
+        if given not in ({"value"}, {"wavelengths", "values"}, {"filename"}):
+            raise ValueError("<spectrum> needs value=\"...\", or wavelengths and values, "
+                             "or filename")
+        if "value" in attrs:
+            return spectra.parse_spectrum(attrs["value"])
+        if "filename" in attrs:
+            lookup = self.search_paths + [self.top_dir, os.getcwd()]
+            path = _find(attrs["filename"], lookup)
+            if path is None:
+                raise ValueError(f"spectrum file \"{attrs['filename']}\" not found "
+                                 f"(looked in {', '.join(lookup)})")
+            return spectra.read_spectrum_file(path)
+        return spectra.spectrum_from_lists(attrs["wavelengths"], attrs["values"])
+
+    def transform(self, el: Element, plugin: Plugin) -> tuple[np.ndarray, np.ndarray | None]:
+        """The matrix of a ``<transform>`` and, when it differs from the true
+        inverse transpose, the matrix Mitsuba transforms normals with."""
         m = np.eye(4)
+        normal_m = np.eye(4)
+        tracked = False
         for op in el.children:
             attrs = self.substitute(op, plugin.label)
             try:
-                m = _transform_op(op.tag, attrs) @ m
+                op_m = _transform_op(op.tag, attrs)
             except ValueError as e:
                 raise plugin.error(f"<{op.tag}>: {e}", op.line) from None
+            m = op_m @ m
+            if op.tag == "rotate":
+                # Mitsuba stores a rotation's inverse as its transpose, which
+                # is wrong when the axis is not a unit vector; its normals
+                # then use the rotation matrix itself.
+                tracked |= not transform.is_orthonormal(op_m)
+                normal_m = op_m @ normal_m
+            elif np.all(np.isfinite(op_m)) and abs(np.linalg.det(op_m)) > 0:
+                normal_m = np.linalg.inv(op_m).T @ normal_m
         try:
             transform.check_affine(m)
         except ValueError as e:
             raise plugin.error(str(e), el.line) from None
-        return m
+        return m, (normal_m if tracked else None)
 
     def resolve(self, plugin: Plugin, active: set) -> None:
         """Replace _Ref placeholders by the Plugin they name."""
@@ -324,8 +495,24 @@ class _Reader:
                     raise plugin.error(f"<ref id=\"{child.id}\">: no element with this id "
                                        f"(ids defined: {known})", child.line)
                 plugin.children[i] = target
+                if child.name is not None:
+                    plugin.ref_names[i] = child.name
             elif id(child) not in active:
                 self.resolve(child, active)
+
+
+def _find(name: str, folders: list[str]) -> str | None:
+    """The first existing ``folder/name`` (Mitsuba's FileResolver), or None.
+
+    An absolute ``name`` is returned as is when it exists.
+    """
+    if os.path.isabs(name):
+        return name if os.path.isfile(name) else None
+    for folder in folders:
+        candidate = os.path.join(folder, name)
+        if os.path.isfile(candidate):
+            return candidate
+    return None
 
 
 def _param_text(value: Any) -> str:
@@ -405,4 +592,6 @@ def parse_file(path: str, params: dict[str, Any] | None = None,
     """
     name = display_name or os.path.basename(path)
     root = read_elements(path, name)
-    return _Reader(name, params or {}).scene(root)
+    top_dir = os.path.dirname(os.path.abspath(path))
+    state = _FileState([top_dir, os.getcwd()], (os.path.realpath(path),))
+    return _Reader(name, params or {}, top_dir).scene(root, state)

@@ -1,0 +1,109 @@
+"""Checks of the command line's input made before anything is rendered.
+
+A reference takes minutes to render; a bad scene path, an undeclared ``-D``
+name, an option out of range or an image too small for the tests must be
+refused at once, in one line that says what to change
+(:class:`~mitsuba_refs.errors.RefsInputError`).
+"""
+
+import math
+import os
+from pathlib import Path
+
+from . import config
+from .cache import parse_xml, scene_hash
+from .errors import RefsInputError
+from .render import check_film_filter, resolve_scene, split_params
+
+#: Edge of the tiles of the mean and variance tests (mitsuba_refs.stats), and the fewest
+#: tiles the variance test accepts.
+TILE = 8
+MIN_TILES = 8
+
+
+def scene_path(scene):
+    """The file of ``scene`` (a path or a built-in name), or a one-line error."""
+    path = Path(scene)
+    if path.is_dir():
+        raise RefsInputError(f"{scene}: is a folder, not a scene file")
+    try:
+        return resolve_scene(scene)
+    except FileNotFoundError:
+        pass
+    if path.exists():
+        raise RefsInputError(f"{scene}: a scene file must end in .xml")
+    builtin = ", ".join(config.BUILTIN_SCENES)
+    raise RefsInputError(f"{scene}: no such file, and not a built-in scene ({builtin})")
+
+
+def check_scene(scene, params):
+    """Check a scene file and the parameters given for it without Mitsuba.
+
+    The file must exist and be well-formed, its included files must exist,
+    every name in ``params`` must be a ``<default>`` of the file or an
+    integrator option, and every film must use a filter both renderers implement
+    (box, tent, gaussian).
+
+    Returns
+    -------
+    Path
+        The scene file.
+
+    Raises
+    ------
+    RefsInputError
+        Saying what is wrong, naming the file (and line where known).
+    """
+    path = scene_path(scene)
+    parse_xml(path)
+    try:
+        split_params(path, {str(k): str(v) for k, v in (params or {}).items()})
+    except KeyError as error:
+        raise RefsInputError(f"-D: {error.args[0]}") from None
+    scene_hash(path)
+    try:
+        check_film_filter(path)
+    except ValueError as error:
+        raise RefsInputError(str(error)) from None
+    return path
+
+
+def check_spp(spp, option="--spp"):
+    """Refuse fewer than two samples per pixel: a per-pixel variance needs two."""
+    if spp < 2:
+        raise RefsInputError(f"{option} must be >= 2 (a per-pixel variance needs two samples), "
+                             f"got {spp}")
+
+
+def check_ladder(ladder):
+    """The convergence ladder: at least three increasing sample counts >= 1."""
+    if len(ladder) < 3 or any(b <= a for a, b in zip(ladder, ladder[1:])) or ladder[0] < 1:
+        shown = ",".join(map(str, ladder))
+        raise RefsInputError(f"--ladder needs at least 3 increasing sample counts >= 1 "
+                             f"(e.g. 1,4,16,64), got {shown}")
+
+
+def check_image_size(width, height, scene):
+    """Refuse an image with fewer than :data:`MIN_TILES` tiles of ``TILE`` x ``TILE`` pixels."""
+    tiles = math.ceil(width / TILE) * math.ceil(height / TILE)
+    if tiles < MIN_TILES:
+        raise RefsInputError(
+            f"{scene}: the image is {width}x{height} pixels, {tiles} tile(s) of {TILE}x{TILE}; "
+            f"the tests need at least {MIN_TILES} tiles: render at least 32x16 pixels "
+            f"(e.g. -D width=32 -D height=32, if the file declares them)")
+
+
+def check_output_folder(folder, option="--out"):
+    """Refuse an output folder that could not be created or written, before any work:
+    an existing file, a path under a file, or a folder without write permission."""
+    path = Path(folder)
+    if path.exists() and not path.is_dir():
+        raise RefsInputError(f"{option} {folder}: is a file, not a folder")
+    existing = path
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise RefsInputError(f"{option} {folder}: {existing} is a file, so the folder "
+                             f"cannot be created")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise RefsInputError(f"{option} {folder}: {existing} is not writable")
