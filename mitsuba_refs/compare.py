@@ -28,6 +28,7 @@ import numpy as np
 
 from . import config
 from .cache import get_reference, scene_hash
+from .rfilter import pixel_value_counts, reference_correlation
 from .stats import (compare_means, compare_variances, convergence_law, first_diverging_bounce,
                     image_mse, rare_errors_dominate, reference_mse_floor)
 from .stats.mean import VARIANCE_BOUND
@@ -52,6 +53,10 @@ CLOSEST_ESTIMATOR = {"smallpt": "path_bsdf", "recursive": "path_nee"}
 #: mean MSE is unchanged and its uncertainty gets K * s^2 - 1 degrees of freedom
 #: instead of K - 1, which is what gives the test power at a small alpha.
 INTERLEAVE = 4
+#: Lowest convergence level of a tent or gaussian film (ratio estimator, see convergence_test).
+FILTERED_MIN_SPP = 4
+#: A filtered film's renders are cut into BLOCKS x BLOCKS contiguous blocks (_spatial_blocks).
+BLOCKS = 4
 #: Seeds of our renders: far from each other and from the references' seeds.
 TEST_SEED = 1000
 CONVERGENCE_SEED = 2000
@@ -228,18 +233,22 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     # Same estimator on both sides: a test-side variance far above the reference's is
     # itself wrong, so it may not hide a bias (stats.mean.VARIANCE_BOUND).
     bound = VARIANCE_BOUND if name in SAME_ESTIMATOR else None
+    # A tent or gaussian film correlates neighbouring pixels (docs/statistics.md).
+    correlation = reference_correlation(reference)
     result = Comparison(scene, name, params, spp,
                         compare_means(mean, variance, spp, reference.mean, reference.var,
-                                      reference.n, alpha=alpha, max_var_ratio=bound))
+                                      reference.n, alpha=alpha, max_var_ratio=bound,
+                                      pixel_correlation=correlation))
     result.rendered = rendered_settings(reference.metadata)
     both_noiseless = not np.any(variance) and not np.any(reference.var)
     if name in SAME_ESTIMATOR and not both_noiseless:
-        result.variance = compare_variances(variance, spp, reference.var, reference.n, alpha=alpha)
+        result.variance = compare_variances(variance, spp, reference.var, reference.n, alpha=alpha,
+                                            pixel_correlation=correlation)
     if convergence:
         result.convergence, result.convergence_mse = convergence_test(
             scene, integrator, params, reference, alpha, processes, render, ladder, replicas,
             max_growth)
-        result.ladder = tuple(ladder)
+        result.ladder = convergence_ladder(reference, ladder)
     if bounces or (bounces is None and not result.mean.agree):
         result.bounce_results = localise_bounce(scene, integrator, name, params, spp, alpha,
                                                 processes, render, log, options, resolution)
@@ -301,6 +310,29 @@ def level_replicas(ladder, replicas: int) -> list[int]:
     return [replicas * -(-top // n) for n in ladder]
 
 
+def _spatial_blocks(height: int, width: int) -> list:
+    """``BLOCKS x BLOCKS`` contiguous blocks of the image (slices).
+
+    A tent or gaussian film correlates neighbouring pixels, so interleaved sub-lattices are
+    not independent; contiguous blocks share only the samples along their borders. Blocks
+    see different parts of the image, so they are paired across the ladder's levels (the
+    same block at every level) rather than taken as replicas.
+    """
+    rows = np.array_split(np.arange(height), BLOCKS)
+    cols = np.array_split(np.arange(width), BLOCKS)
+    return [np.s_[r[0]:r[-1] + 1, c[0]:c[-1] + 1] for r in rows for c in cols]
+
+
+def convergence_ladder(reference, ladder=CONVERGENCE_LADDER) -> tuple:
+    """The spp levels used with this reference: ``ladder``, from FILTERED_MIN_SPP up for a
+    tent or gaussian film. A filtered pixel is a ratio (sum w f / sum w) whose error has an
+    O(1/N^2) part besides the 1/N law, which steepens the slope at 1 spp (docs/statistics.md).
+    """
+    if reference_correlation(reference).independent:
+        return tuple(ladder)
+    return tuple(n for n in ladder if n >= FILTERED_MIN_SPP) or tuple(ladder[-1:])
+
+
 def convergence_test(scene, integrator, params, reference, alpha, processes, render,
                      ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS,
                      max_growth=CONVERGENCE_MAX_GROWTH):
@@ -309,9 +341,18 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
     Starts with ``replicas`` renders at the top level and doubles the renders of every
     level while a few renders carry the lowest level's mean MSE, at most ``max_growth``-fold.
     Returns the :class:`ConvergenceResult` and the MSEs:
-    one array per level, with one value per render and sub-lattice.
+    one array per level, with one value per render and sub-lattice; for a tent or gaussian
+    film a (blocks, levels) table of each block's mean MSE.
     """
-    lattices = [np.s_[a::INTERLEAVE, b::INTERLEAVE] for a in range(INTERLEAVE) for b in range(INTERLEAVE)]
+    filtered = not reference_correlation(reference).independent
+    if filtered:
+        lattices = _spatial_blocks(*reference.mean.shape[:2])
+    else:
+        lattices = [np.s_[a::INTERLEAVE, b::INTERLEAVE] for a in range(INTERLEAVE)
+                    for b in range(INTERLEAVE)]
+    ladder = convergence_ladder(reference, ladder)
+    # var / n_eff is each reference pixel's own variance (var / n with a box filter).
+    ref_n = pixel_value_counts(reference)
     mse = [[] for _ in ladder]
     lowest_image_mse = []
     top, batch = 0, replicas
@@ -322,18 +363,20 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
                 test_mean, _ = render(scene, integrator, params, n, CONVERGENCE_SEED + 100_000 * j + k,
                                       processes=processes)
                 mse[j] += [image_mse(test_mean[part], reference.mean[part], reference.var[part],
-                                     reference.n) for part in lattices]
+                                     ref_n[part]) for part in lattices]
                 if j == 0:
                     lowest_image_mse.append(image_mse(test_mean, reference.mean, reference.var,
-                                                      reference.n))
+                                                      ref_n))
         top += batch
         rare = rare_errors_dominate(lowest_image_mse)
         if not rare or top >= replicas * max_growth:
             break
         batch = top
     mse = [np.array(level) for level in mse]
+    if filtered:   # rows: blocks (each block's mean MSE over its renders), paired across levels
+        mse = np.stack([level.reshape(-1, len(lattices)).mean(axis=0) for level in mse], axis=1)
     law = convergence_law(np.array(ladder), mse,
-                          ref_mse_floor=reference_mse_floor(reference.var, reference.n),
+                          ref_mse_floor=reference_mse_floor(reference.var, ref_n),
                           alpha=alpha, image_mean=float(reference.mean.mean()))
     if rare:
         note = (f"rare bright paths carry the error even with {top} replicas at the top level: "
@@ -365,7 +408,8 @@ def localise_bounce(scene, integrator, name, params, spp, alpha, processes, rend
         mean, variance = render(scene, integrator, params, spp, TEST_SEED + depth,
                                 processes=processes, max_depth=depth)
         results[depth] = compare_means(mean, variance, spp, reference.mean, reference.var,
-                                       reference.n, alpha=alpha)
+                                       reference.n, alpha=alpha,
+                                       pixel_correlation=reference_correlation(reference))
     return results
 
 

@@ -20,7 +20,8 @@ From these, the unbiased per-sample variance is
     s^2 = \frac{n}{n-1}\left(\bar m_2 - \bar m_1^2\right),
 
 and the variance of the pixel mean is :math:`s^2 / n`. Channels are read by
-name (``m1.R`` ...), never by position.
+name (``m1.R`` ...), never by position. With a tent or gaussian filter the film
+holds filter-weighted moments instead (:mod:`mitsuba_refs.rfilter`).
 
 Moments of several passes (independent seeds, :math:`n_j` samples each)
 combine exactly: :math:`\bar m_k = \sum_j n_j \bar m_{k,j} / \sum_j n_j`.

@@ -13,7 +13,7 @@ from pathlib import Path
 from . import config
 from .cache import parse_xml, scene_hash
 from .errors import RefsInputError
-from .render import check_box_filter, resolve_scene, split_params
+from .render import check_film_filter, resolve_scene, split_params
 
 #: Edge of the tiles of the mean and variance tests (mitsuba_refs.stats), and the fewest
 #: tiles the variance test accepts.
@@ -41,7 +41,8 @@ def check_scene(scene, params):
 
     The file must exist and be well-formed, its included files must exist,
     every name in ``params`` must be a ``<default>`` of the file or an
-    integrator option, and every film must use a box filter.
+    integrator option, and every film must use a filter both renderers implement
+    (box, tent, gaussian).
 
     Returns
     -------
@@ -61,7 +62,7 @@ def check_scene(scene, params):
         raise RefsInputError(f"-D: {error.args[0]}") from None
     scene_hash(path)
     try:
-        check_box_filter(path)
+        check_film_filter(path)
     except ValueError as error:
         raise RefsInputError(str(error)) from None
     return path

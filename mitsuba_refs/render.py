@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from . import config
+from .rfilter import check_variant, film_filter, filter_metadata, per_sample_variance
 
 #: our integrator name -> Mitsuba integrator type
 INTEGRATOR_MAP = {
@@ -142,6 +143,25 @@ def check_box_filter(path):
             kind = rfilters[0].get("type") if rfilters else "gaussian (default)"
             raise ValueError(f"{path}: film reconstruction filter is {kind}; "
                              f"references need <rfilter type=\"box\"/>")
+
+
+#: Film reconstruction filters both renderers implement (mitsuba_refs.rfilter).
+SUPPORTED_FILTERS = ("box", "tent", "gaussian")
+
+
+def check_film_filter(path):
+    """Raise ``ValueError`` when a film of the scene file (or its ``<include>``d files) uses
+    a reconstruction filter other than box, tent or gaussian (the tracer's), naming it.
+
+    A film without ``<rfilter>`` gets Mitsuba's default gaussian; a ``$param`` type is
+    checked once Mitsuba has loaded the film (:func:`render_reference`).
+    """
+    for film in _elements(path, "film"):
+        for rfilter in film.findall("rfilter"):
+            kind = rfilter.get("type") or ""
+            if "$" not in kind and kind not in SUPPORTED_FILTERS:
+                raise ValueError(f"{path}: film reconstruction filter is {kind}; references "
+                                 f"support {', '.join(SUPPORTED_FILTERS)}")
 
 
 def reference_settings(path, params, options=None, resolution=None):
@@ -333,19 +353,29 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     from .variant import set_variant
 
     path = resolve_scene(scene_path_or_name)
-    check_box_filter(path)
+    check_film_filter(path)
     scene_kw, transport, settings = reference_settings(path, params, options, resolution)
     chosen, reason = set_variant(variant)
     import mitsuba as mi
 
     scene = load_mitsuba_scene(path, scene_kw, resolution)
     film = scene.sensors()[0].film()
-    if "BoxFilter" not in str(film.rfilter()).split("[")[0]:
-        raise ValueError(f"{path}: Mitsuba loaded a {film.rfilter()} filter")
+    # The film's filter (box, tent, gaussian) also shapes the statistics (.rfilter).
+    try:
+        rfilter = film_filter(film)
+        check_variant(chosen, rfilter)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
     check_framing(path, scene, settings)
     width, height = settings.resolution
     nested = integrator_dict(integrator, transport)
     stream = stream_id(integrator, params, options, resolution)
+    if rfilter.kind != "box":
+        # Camera copies side by side would splat samples across each other's borders.
+        if method == "batch":
+            raise ValueError(f"{path}: the batch method needs a box filter, the film has "
+                             f"{rfilter.kind}")
+        method = "moments"
     method = method or default_method(chosen)
     t0 = time.time()
     if method == "batch":
@@ -353,8 +383,9 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         m1, var, n, calls, per_call, seeds = render_moments(
             scene, mi.load_dict(nested), spp, seed, stream, log=log)
     elif method == "moments":
-        m1, var, n, per_call, seeds = _render_with_wrapper(
+        m1, m2, n, per_call, seeds = _render_with_wrapper(
             scene, nested, spp, seed, stream, pass_spp, log)
+        var = per_sample_variance(m1, m2, n, rfilter)
     else:
         raise ValueError(f"unknown method {method!r} (batch or moments)")
     elapsed = time.time() - t0
@@ -373,6 +404,7 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         "method": method,
         "width": width,
         "height": height,
+        "rfilter": filter_metadata(rfilter),
         "variant": chosen,
         "variant_reason": reason,
         "mitsuba_version": mi.__version__,
@@ -386,7 +418,8 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
 
 
 def _render_with_wrapper(scene, nested, spp, seed, stream, pass_spp, log):
-    """The ``rgb_moments`` method: passes of at most ``pass_spp`` samples, moments combined."""
+    """The ``rgb_moments`` method: passes of at most ``pass_spp`` samples, moments combined
+    (first and second moment per pixel, as the film's filter weighted them)."""
     import mitsuba as mi
     from . import moments
     film = scene.sensors()[0].film()
@@ -405,4 +438,4 @@ def _render_with_wrapper(scene, nested, spp, seed, stream, pass_spp, log):
         if log:
             log(f"  pass {k + 1}/{n_passes}: {n_k} spp, seed {s}")
     m1, m2, n = moments.combine(passes)
-    return m1, moments.sample_variance(m1, m2, n), n, pass_spp, seeds
+    return m1, m2, n, pass_spp, seeds

@@ -8,7 +8,13 @@ variance of exactly zero), and blocks merge in order with Chan's formula.
 Random numbers depend only on (seed, pixel, sample index), and a pixel's
 samples are reduced in a fixed order, so the image is bit-identical whatever
 the batch size and the number of processes.
+
+A film with a tent or gaussian filter (:mod:`pathtracer.film`) spreads every sample
+over the pixels within the filter's radius: a unit then yields filter-weighted sums
+over the rows it reaches, added in unit order (the image does not depend on the
+number of processes; a different batch size changes only the float64 rounding).
 """
+
 from __future__ import annotations
 
 import copy
@@ -22,6 +28,7 @@ import multiprocessing
 import numpy as np
 
 from . import geometry, workers
+from .film import effective_counts, splat
 from .camera import camera_rays
 from .integrators import Integrator, make_integrator
 from .rng import RandomStream, sample_keys
@@ -157,16 +164,24 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
 
     start = time.perf_counter()
     job = _Job(scene, integrator, spp, seed, camera or camera_rays)
-    stats = run_units(job, units, pixel_statistics(n_pixels),
-                      processes, progress)
-    mean, variance = mean_and_variance(stats)
+    if scene.camera.rfilter.is_box:
+        stats = run_units(job, units, pixel_statistics(n_pixels),
+                          processes, progress)
+        mean, variance = mean_and_variance(stats)
+    else:
+        sums = run_units(_FilteredJob(job), units, film_sums(n_pixels), processes, progress,
+                         merge=_merge_sums)
+        mean, variance = filtered_mean_and_variance(sums, effective_counts(
+            scene.camera.rfilter, scene.camera.width, scene.camera.height, spp).reshape(-1, 1))
     shape = (scene.camera.height, scene.camera.width, 3)
     return RenderResult(mean.reshape(shape), variance.reshape(shape), spp, seed, integrator.name,
                         integrator.options(), time.perf_counter() - start, scene.source)
 
 
-def run_units(job, units, stats, processes: int, progress: bool):
+def run_units(job, units, stats, processes: int, progress: bool, merge=None):
     """Run ``job.run(unit)`` for every unit and merge the blocks into ``stats`` (returned).
+
+    ``merge(stats, unit, block)`` defaults to the per-pixel (count, mean, M2) update.
 
     With ``processes`` > 1 the units go to forked workers that receive ``job`` at fork
     (inherited, never pickled, no global in this process: renders running concurrently
@@ -176,16 +191,16 @@ def run_units(job, units, stats, processes: int, progress: bool):
     """
     bar = _progress_bar(len(units), progress)
     try:
-        _run_units(job, units, stats, processes, bar)
+        _run_units(job, units, stats, processes, bar, merge or _merge)
     finally:
         bar.close()
     return stats
 
 
-def _run_units(job, units, stats, processes: int, bar) -> None:
+def _run_units(job, units, stats, processes: int, bar, merge) -> None:
     if processes == 1 or len(units) == 1:
         for unit in units:
-            _merge(stats, unit, job.run(unit))
+            merge(stats, unit, job.run(unit))
             bar.update()
     else:
         ctx = multiprocessing.get_context("fork")
@@ -195,7 +210,7 @@ def _run_units(job, units, stats, processes: int, bar) -> None:
                 with workers.signals_blocked():   # the workers are forked by the first submit
                     blocks = pool.map(_run_current, units, chunksize=1)
                 for unit, block in zip(units, blocks):
-                    _merge(stats, unit, block)
+                    merge(stats, unit, block)
                     bar.update()
             except BaseException:
                 # Ctrl-C, SIGTERM or an error: do not wait for the units in flight.
@@ -238,6 +253,58 @@ class _Job:
     def estimate(self, rays, rng):
         """(n, channels) values of the camera rays: the integrator's radiance."""
         return self.integrator.radiance(self.scene, rays, rng)
+
+
+class _FilteredJob:
+    """Renders a unit exactly as ``job`` does, then splats it through the film's filter."""
+
+    def __init__(self, job):
+        self.job = job
+
+    def run(self, unit):
+        """(lo, hi, sum w, sum w f, sum w f^2) over the flat pixel range ``lo:hi`` it reaches."""
+        job, (p0, p1, s0, s1) = self.job, unit
+        camera = job.scene.camera
+        pixels, samples = p1 - p0, s1 - s0
+        pixel = np.repeat(np.arange(p0, p1), samples)
+        sample = np.tile(np.arange(s0, s1), pixels)
+        rng = RandomStream(sample_keys(job.seed, pixel.astype(np.int64) * job.spp + sample))
+        u_film = rng.next_2d()
+        values = job.estimate(job.camera(camera, pixel, u_film), rng)
+        reach = camera.rfilter.reach
+        lo = max(0, p0 // camera.width - reach) * camera.width
+        hi = min(camera.height, (p1 - 1) // camera.width + reach + 1) * camera.width
+        return (lo, hi) + splat(camera.rfilter, camera.width, camera.height, np.arange(p0, p1),
+                                u_film.reshape(pixels, samples, 2),
+                                values.reshape(pixels, samples, -1), lo, hi)
+
+
+def film_sums(n_pixels: int, channels: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Empty filter-weighted sums: ``sum w`` (n_pixels,), ``sum w f`` and ``sum w f^2``."""
+    return np.zeros(n_pixels), np.zeros((n_pixels, channels)), np.zeros((n_pixels, channels))
+
+
+def _merge_sums(sums, unit, block) -> None:
+    lo, hi, *parts = block
+    for total, part in zip(sums, parts):
+        total[lo:hi] += part
+
+
+def filtered_mean_and_variance(sums, n_eff) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel value ``sum w f / sum w`` and per-sample variance of a filtered film.
+
+    The variance is the weighted spread ``sum w f^2 / sum w - mean^2`` made unbiased with
+    the pixel's effective sample count ``n_eff`` (:func:`pathtracer.film.effective_counts`):
+    times ``n_eff / (n_eff - 1)``, which is ``n / (n - 1)`` for the box filter. Spreads
+    within float64 rounding of zero (every sample equal) are set to exactly zero.
+    """
+    weight, wf, wf2 = sums
+    w = np.maximum(weight, np.finfo(float).tiny)[:, None]
+    mean, second = wf / w, wf2 / w
+    spread = second - mean * mean
+    spread[spread <= 16 * np.finfo(float).eps * np.abs(second)] = 0.0
+    n_eff = np.asarray(n_eff, dtype=np.float64)
+    return mean, spread * (n_eff / np.maximum(n_eff - 1, 1e-300))
 
 
 def _install_job(job, parent_pid):

@@ -46,3 +46,15 @@ def test_textured_scene_agrees_with_mitsuba():
                          convergence=False, bounces=False, processes=2)
     assert comparison.mean.agree, comparison.report()
     assert comparison.variance is not None and comparison.variance.agree, comparison.report()
+
+
+@pytest.mark.parametrize("rfilter", ["tent", "gaussian"])
+def test_filtered_film_agrees_with_mitsuba(rfilter):
+    """The quad-light scene on a tent / gaussian film against Mitsuba's film with the same
+    filter (committed references): mean and variance, with the statistics for correlated
+    pixels (docs/statistics.md, "Reconstruction filters")."""
+    params = {"rfilter": rfilter, "width": 64, "height": 48}
+    comparison = compare("quad-light-filtered", "path", params, spp=32, alpha=ALPHA,
+                         convergence=False, bounces=False, processes=2)
+    assert comparison.mean.agree, comparison.report()
+    assert comparison.variance is not None and comparison.variance.agree, comparison.report()

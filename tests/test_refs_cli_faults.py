@@ -63,12 +63,17 @@ def write_scenes(folder: Path) -> None:
         "huge.xml": text.replace('<default name="radiance" value="10"/>',
                                  '<default name="radiance" value="1e30"/>'),
         "gauss.xml": text.replace('<rfilter type="box"/>', '<rfilter type="gaussian"/>'),
+        "lanczos.xml": text.replace('<rfilter type="box"/>', '<rfilter type="lanczos"/>'),
         "film.xml": f'<scene version="3.0.0">\n{film}\n</scene>\n',
         "incfilm.xml": text[:film_start] + '<include filename="film.xml"/>' + text[film_end:],
         "film_gauss.xml": f'<scene version="3.0.0">\n{film}\n</scene>\n'.replace(
             '<rfilter type="box"/>', '<rfilter type="gaussian"/>'),
         "incgauss.xml": text[:film_start] + '<include filename="film_gauss.xml"/>'
                         + text[film_end:],
+        "film_lanczos.xml": f'<scene version="3.0.0">\n{film}\n</scene>\n'.replace(
+            '<rfilter type="box"/>', '<rfilter type="lanczos"/>'),
+        "inclanczos.xml": text[:film_start] + '<include filename="film_lanczos.xml"/>'
+                          + text[film_end:],
     }
     for name, content in variants.items():
         (folder / name).write_text(content)
@@ -115,8 +120,9 @@ IN_PROCESS_CASES = {
                                    ["--integrator", "pathh", "path_nee"], False),
     "compare-image-too-small": (["compare", "quad-light", "-D", "width=4", "-D", "height=4"], 2,
                                 ["4x4", "at least 32x16"], False),
-    "compare-gaussian-film-in-include": (["compare", "incgauss.xml"], 2,
-                                         ["film_gauss.xml:", "gaussian", "box"], False),
+    "compare-lanczos-film-in-include": (["compare", "inclanczos.xml"], 2,
+                                        ["film_lanczos.xml:", "lanczos", "box, tent, gaussian"],
+                                        False),
     "compare-bad-D-value": (["compare", "quad-light", "-D", "width=abc"], 2,
                             ["quad-light.xml:", "abc"], False),
     "compare-text-file": (["compare", "notes.txt"], 2, ["notes.txt", ".xml"], False),
@@ -127,7 +133,8 @@ IN_PROCESS_CASES = {
     "build-missing-mesh": (["build", "missingmesh.xml"], 2, ["missingmesh.xml", "missing.ply"],
                            False),
     "build-no-such-scene": (["build", "nosuch.xml.xml"], 2, ["nosuch.xml.xml"], False),
-    "build-gaussian-filter": (["build", "gauss.xml"], 2, ["gauss.xml", "gaussian", "box"], False),
+    "build-lanczos-filter": (["build", "lanczos.xml"], 2,
+                             ["lanczos.xml", "lanczos", "box, tent, gaussian"], False),
     "build-spp-1": (["build", "quad-light", "--spp", "1"], 2, ["--spp must be >= 2"], False),
     # Mitsuba's own refusals, translated
     "build-mitsuba-unknown-plugin": (["build", "unknownplugin.xml", *TINY_BUILD], 2,
@@ -239,11 +246,14 @@ def exit_status(args) -> int:
 def test_a_film_in_an_include_is_not_reported_as_missing(scenes):
     """The reference side's own film check used to miss a <film> in an <include>d file
     and say "no <film>"; it now follows includes (and compare lets the tracer speak
-    first: case compare-gaussian-film-in-include names the included file and line)."""
-    from mitsuba_refs.render import check_box_filter
+    first: case compare-lanczos-film-in-include names the included file and line)."""
+    from mitsuba_refs.render import check_box_filter, check_film_filter
     check_box_filter(scenes / "incfilm.xml")  # finds the included box film: no exception
     with pytest.raises(ValueError, match="gaussian"):
         check_box_filter(scenes / "incgauss.xml")
+    check_film_filter(scenes / "incgauss.xml")   # a gaussian film is supported
+    with pytest.raises(ValueError, match="lanczos"):
+        check_film_filter(scenes / "inclanczos.xml")
 
 
 @pytest.mark.mitsuba

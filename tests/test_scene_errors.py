@@ -214,12 +214,21 @@ def test_error_names_file_line_and_plugin(tmp_path, case):
 
 
 SENSOR_CASES = {
-    "gaussian rfilter": (
-        SENSOR.replace('<rfilter type="box"/>', f'\n<rfilter type="gaussian"/>{MARK}'),
-        '<rfilter type="gaussian">', 'use <rfilter type="box"/>'),
-    "missing rfilter": (
-        SENSOR.replace(FILM, f'\n<film type="hdrfilm">{MARK}</film>'),
-        '<film type="hdrfilm">', 'add <rfilter type="box"/>'),
+    "lanczos rfilter": (
+        SENSOR.replace('<rfilter type="box"/>', f'\n<rfilter type="lanczos"/>{MARK}'),
+        '<rfilter type="lanczos">', 'unsupported reconstruction filter "lanczos"'),
+    "tent radius": (
+        SENSOR.replace('<rfilter type="box"/>',
+                       f'<rfilter type="tent">\n<float name="radius" value="-1"/>{MARK}</rfilter>'),
+        '<rfilter type="tent">', "radius must lie in (0, 64]"),
+    "gaussian parameter": (
+        SENSOR.replace('<rfilter type="box"/>',
+                       f'<rfilter type="gaussian">\n<float name="radius" value="2"/>{MARK}</rfilter>'),
+        '<rfilter type="gaussian">', 'unsupported property "radius"'),
+    "sample border": (
+        SENSOR.replace('<rfilter type="box"/>',
+                       f'<rfilter type="tent"/>\n<boolean name="sample_border" value="true"/>{MARK}'),
+        '<film type="hdrfilm">', "sample_border = true is not supported with a tent filter"),
     "crop": (
         SENSOR.replace('<rfilter type="box"/>', f'<rfilter type="box"/>\n<integer name="crop_width" value="8"/>{MARK}'),
         '<film type="hdrfilm">', 'crop_width is not supported'),

@@ -92,6 +92,7 @@ import numpy as np
 from scipy import special
 
 from ._mvn import correlation_from_differences, p_max_abs
+from .correlation import INDEPENDENT, PixelCorrelation
 from ._tiles import as_count, as_image, region_name, sidak, sidak_per_test, tile_counts, tile_sums
 
 __all__ = ["MeanAgreement", "compare_means", "tile_z", "LUMINANCE", "VARIANCE_BOUND", "overflow_scale"]
@@ -262,7 +263,8 @@ def _fmt_pct(x: float) -> str:
 
 def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alpha: float,
                   ci_level: float = 0.95, rel_floor: float = 1e-5,
-                  max_var_ratio: float | None = None) -> MeanAgreement:
+                  max_var_ratio: float | None = None,
+                  pixel_correlation: PixelCorrelation | None = None) -> MeanAgreement:
     r"""Test whether two renders (a = test, b = reference) have the same expected image.
 
     Parameters
@@ -290,6 +292,12 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
         when the test estimator's per-sample variance, summed over the image, is at most
         that many times the reference's.  None (default): tiles and image only.
 
+    pixel_correlation : PixelCorrelation, optional
+        How the film's reconstruction filter correlates neighbouring pixels
+        (:func:`mitsuba_refs.stats.correlation.pixel_correlation`); None: independent
+        pixels (box filter).  With a tent or gaussian filter ``var / n`` is each pixel's
+        covariance row sum, and a tile's variance is the share of it inside the tile.
+
     Returns
     -------
     MeanAgreement
@@ -300,7 +308,8 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
 
     Notes
     -----
-    Pixels must be independent (box reconstruction filter).  Pure function: no I/O.
+    Pixels must be independent (box reconstruction filter) unless ``pixel_correlation``
+    describes the filter.  Pure function: no I/O.
     """
     if not (0.0 < alpha < 1.0):
         raise ValueError("alpha must be in (0, 1)")
@@ -326,7 +335,9 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
         raise ValueError("tile must be >= 1")
 
     # ---- per-tile z at the base scale -----------------------------------------------
-    z0, inf0 = tile_z(ma, va, n_a, mb, vb, n_b, tile, rel_floor=rel_floor)
+    # A filtered pixel's var / n is its covariance row sum; a tile keeps the share inside it.
+    share = (pixel_correlation or INDEPENDENT).within_tile_share(tile)
+    z0, inf0 = tile_z(ma, va * share, n_a, mb, vb * share, n_b, tile, rel_floor=rel_floor)
     tile_inf = inf0.any(axis=2)
     m0 = int(tile_inf.sum())                               # informative tiles
     R = correlation_from_differences((ma - mb).reshape(-1, C))

@@ -52,7 +52,10 @@ For heavy positive skew this statistic is *conservative* for "too much variance"
 liberal for "too little"; only "too much" (one-sided, upper) is used for outliers.
 
 Family: Šidák over the two components (global, tiles).  Pixels must be independent
-(box filter).  Pure function: no I/O.
+(box filter) unless ``pixel_correlation`` describes how a tent or gaussian film correlates
+them (:mod:`mitsuba_refs.stats.correlation`): the global t is then divided by
+:math:`1+2c_T` and the per-tile :math:`U_T` by :math:`\sqrt{k_T}`, with
+:math:`P/k_T` effective pixels.  Pure function: no I/O.
 
 Policy: "not more than X times the reference's"
 -----------------------------------------------
@@ -85,6 +88,7 @@ import numpy as np
 from scipy import stats as sps
 
 from ._tiles import as_count, as_image, region_name, sidak, sidak_per_test, tile_counts, tile_sums
+from .correlation import INDEPENDENT, PixelCorrelation
 from .mean import overflow_scale
 
 __all__ = ["VarianceAgreement", "compare_variances", "MAX_VARIANCE_RATIO"]
@@ -167,7 +171,8 @@ def _fmt_p(p: float) -> str:
 
 def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
                       ci_level: float = 0.95,
-                      max_ratio: float = MAX_VARIANCE_RATIO) -> VarianceAgreement:
+                      max_ratio: float = MAX_VARIANCE_RATIO,
+                      pixel_correlation: PixelCorrelation | None = None) -> VarianceAgreement:
     r"""Test equality of per-sample variance of two renders using the same estimator.
 
     Parameters
@@ -185,6 +190,11 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
     max_ratio : float
         X of the one-sided policy test "not more than X times the reference's"
         (``policy_*`` fields; ``agree`` stays the two-sided equality test).
+    pixel_correlation : PixelCorrelation, optional
+        How the film's reconstruction filter correlates neighbouring pixels; None:
+        independent pixels (box filter).  Neighbouring tiles then share a little
+        information (the global t is divided by ``1 + 2 c_T``) and a tile holds
+        ``T^2 / k_T`` effectively independent pixels (the per-tile t).
 
     Returns
     -------
@@ -220,11 +230,15 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
         raise ValueError(f"need >= 8 tiles with non-zero variance, got {m}; use a smaller tile")
 
     # ---- global: one-sample t test of e_T ------------------------------------------
+    # With a wide filter, side-by-side tiles are slightly correlated: the spread of the e_T
+    # understates the variance of their mean by (1 + 2c)^2.
+    corr = pixel_correlation or INDEPENDENT
+    inflation = 1.0 + 2.0 * corr.neighbour_correlation(tile)
     e = (A[ok] - B[ok]) / Vp[ok]
     sd = float(e.std(ddof=1))
     df = m - 1
     if sd > 0:
-        t_glob = float(e.mean() / (sd / math.sqrt(m)))
+        t_glob = float(e.mean() / (sd / math.sqrt(m))) / inflation
         p_glob = float(2 * sps.t.sf(abs(t_glob), df))
     else:
         t_glob = 0.0 if e.mean() == 0 else math.copysign(math.inf, e.mean())
@@ -233,7 +247,8 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
     num, den = float(np.sum(wT * A[ok])), float(np.sum(wT * B[ok]))
     if den > 0 and num > 0:
         ratio = num / den
-        se_r = math.sqrt(m / (m - 1) * float(np.sum((wT * (A[ok] - ratio * B[ok])) ** 2))) / den
+        spread = m / (m - 1) * float(np.sum((wT * (A[ok] - ratio * B[ok])) ** 2))
+        se_r = inflation * math.sqrt(spread) / den
         q = float(sps.t.ppf(0.5 + ci_level / 2, df))
         k = math.exp(q * se_r / ratio)
         ratio_ci = (ratio / k, ratio * k)
@@ -245,16 +260,20 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
     d = va - vb
     S1 = tile_sums(d, tile)
     S2 = tile_sums(d * d, tile)
+    # Correlated pixels (wide filter): Var(S1) is k_T times what S2 shows, and the tile
+    # holds cnt / k_T effectively independent pixels.
+    k_tile = corr.design_effect(tile)
+    n_eff = cnt / k_tile
     with np.errstate(divide="ignore", invalid="ignore"):
-        U = np.where(S2 > 0, S1 / np.sqrt(S2), 0.0)
-        tt = U * np.sqrt((cnt - 1) / np.maximum(cnt - U * U, 1e-300))
-    tt = np.where((S2 > 0) & (cnt >= 2), tt, 0.0)
-    p_tiles = sps.t.sf(tt, np.maximum(cnt - 1, 1))        # one-sided: excess variance
-    informative = (S2 > 0) & (cnt >= 2)
+        U = np.where(S2 > 0, S1 / np.sqrt(S2 * k_tile), 0.0)
+        tt = U * np.sqrt((n_eff - 1) / np.maximum(n_eff - U * U, 1e-300))
+    tt = np.where((S2 > 0) & (n_eff >= 2), tt, 0.0)
+    p_tiles = sps.t.sf(tt, np.maximum(n_eff - 1, 1))        # one-sided: excess variance
+    informative = (S2 > 0) & (n_eff >= 2)
     mt = int(informative.sum())
     tile_p = sidak(float(p_tiles[informative].min()) if mt else 1.0, mt)
 
-    policy_p = _policy_p(A, B, nha, nhb, ok, max_ratio)
+    policy_p = _policy_p(A, B, nha, nhb, ok, max_ratio, inflation)
 
     p_family = sidak(min(p_glob, tile_p), 2)
     agree = not (p_family <= alpha)
@@ -300,10 +319,11 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
         policy_verdict=policy_verdict)
 
 
-def _policy_p(A, B, nha, nhb, ok, max_ratio) -> float:
+def _policy_p(A, B, nha, nhb, ok, max_ratio, inflation=1.0) -> float:
     """p-value of H0 "the image's variance <= max_ratio x the reference's" (one-sided; module
     notes). ``A, B`` tile-average channel-summed variances; ``nha, nhb`` tile harmonic-mean
-    counts; ``ok`` tiles with non-zero pooled variance.
+    counts; ``ok`` tiles with non-zero pooled variance; ``inflation`` the factor by which
+    correlated neighbouring tiles widen the standard error (1 for independent pixels).
     """
     X = float(max_ratio)
     W = (nha * A + nhb * X * B) / (nha + nhb)          # pooled estimate of X sigma^2 at rho = X
@@ -312,7 +332,7 @@ def _policy_p(A, B, nha, nhb, ok, max_ratio) -> float:
     e = (A[use] - X * B[use]) / W[use]
     sd = float(e.std(ddof=1)) if m > 1 else 0.0
     if sd > 0:
-        p_glob = float(sps.t.sf(e.mean() / (sd / math.sqrt(m)), m - 1))
+        p_glob = float(sps.t.sf(e.mean() / (sd / math.sqrt(m)) / inflation, m - 1))
     else:
         p_glob = 0.0 if e.mean() > 0 else 1.0
     return p_glob

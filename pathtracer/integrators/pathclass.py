@@ -145,7 +145,8 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
     """Render one image per path class in a single pass.
 
     Random numbers are keyed exactly as in :func:`pathtracer.render`, so with
-    the same ``seed`` and options the classes are a split of the ``path`` image.
+    the same ``seed`` and options the classes are a split of the ``path`` image
+    (of its box-filtered image: the classes ignore the film's reconstruction filter).
 
     Returns
     -------

@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 
 from . import meshes, spectra, transform
+from ..film import FILTER_PARAMS, ReconstructionFilter
 from .types import (AreaEmitter, Camera, ConstantEmitter, DirectionalEmitter,
                     IntegratorSpec, PointEmitter, Scene, SpotEmitter)
 from ..resources import SEED_MAX
@@ -847,25 +848,35 @@ def x_fov_from(fov: float, axis: str, aspect: float) -> float:
     raise ValueError(f"fov_axis must be x, y, diagonal, smaller or larger, not \"{axis}\"")
 
 
-def _film(plugin: Plugin) -> tuple[int, int]:
+def _rfilter(plugin: Plugin | None) -> ReconstructionFilter:
+    """The film's ``<rfilter>``: box, tent or gaussian (Mitsuba's default when absent)."""
+    if plugin is None:
+        return ReconstructionFilter.make("gaussian")
+    if plugin.type not in FILTER_PARAMS:
+        raise plugin.error(f"unsupported reconstruction filter \"{plugin.type}\" (supported: "
+                           "box, tent, gaussian; Mitsuba's lanczos and mitchell have negative "
+                           "lobes, not implemented here)")
+    props = Props(plugin)
+    _children(plugin, {})
+    name, default = FILTER_PARAMS[plugin.type]
+    value = props.float(name, default)
+    if plugin.type == "box" and value != 0.5:
+        raise plugin.error("box filter radius must be 0.5 (one pixel)", props.line(name))
+    if not 0.0 < value <= 64.0:
+        raise plugin.error(f"{plugin.type} filter {name} must lie in (0, 64] pixels",
+                           props.line(name))
+    props.finish()
+    return ReconstructionFilter.make(plugin.type, value)
+
+
+def _film(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
     if plugin.type in VARIANT_ONLY:
         raise _unsupported(plugin, "film")
     if plugin.type != "hdrfilm":
         raise plugin.error("unsupported film (supported: hdrfilm)")
     props = Props(plugin)
     filters = _children(plugin, {"rfilter": 1})["rfilter"]
-    if not filters:
-        raise plugin.error("no <rfilter>: Mitsuba then uses a gaussian filter, which blends "
-                           "neighbouring pixels; add <rfilter type=\"box\"/> inside the film")
-    rf = filters[0]
-    if rf.type != "box":
-        raise rf.error("only the box reconstruction filter is supported (a pixel is then a "
-                       "plain mean of its samples); use <rfilter type=\"box\"/>")
-    rprops = Props(rf)
-    _children(rf, {})
-    if rprops.float("radius", 0.5) != 0.5:
-        raise rf.error("box filter radius must be 0.5 (one pixel)", rprops.line("radius"))
-    rprops.finish()
+    rfilter = _rfilter(filters[0] if filters else None)
     width, height = props.int("width", 768), props.int("height", 576)
     if width <= 0 or height <= 0:
         raise plugin.error("film width and height must be positive")
@@ -874,13 +885,16 @@ def _film(plugin: Plugin) -> tuple[int, int]:
             raise plugin.error(f"{name} is not supported: the tracer renders the whole film "
                                "(remove the crop, or render at the cropped size)",
                                props.line(name))
-    # Formats change storage, not values; with a 0.5 box filter the sample
-    # border is empty; compensate only changes summation accuracy; a banner
-    # is drawn on LDR output only.
-    props.ignore("pixel_format", "component_format", "file_format", "sample_border",
-                 "compensate", "banner")
+    # Mitsuba's sample border is ceil(radius - 0.5) pixels: empty for the box filter.
+    if props.bool("sample_border", False) and not rfilter.is_box:
+        raise plugin.error(f"sample_border = true is not supported with a {rfilter.kind} filter "
+                           "(samples are drawn inside the image only, Mitsuba's default)",
+                           props.line("sample_border"))
+    # Formats change storage, not values; compensate only changes summation accuracy; a
+    # banner is drawn on LDR output only.
+    props.ignore("pixel_format", "component_format", "file_format", "compensate", "banner")
     props.finish()
-    return width, height
+    return width, height, rfilter
 
 
 def _sampler(plugin: Plugin) -> tuple[int, int]:
@@ -913,10 +927,10 @@ def build_sensor(plugin: Plugin, resolution: tuple[int, int] | None = None,
         raise _unsupported(plugin, "sensor")
     props = Props(plugin)
     kids = _children(plugin, {"film": 1, "sampler": 1})
-    if not kids["film"]:
-        raise plugin.error("no <film>: Mitsuba's default film uses a gaussian filter; add "
-                           "<film type=\"hdrfilm\"> with <rfilter type=\"box\"/>")
-    width, height = _film(kids["film"][0])
+    if kids["film"]:
+        width, height, rfilter = _film(kids["film"][0])
+    else:   # Mitsuba's default film
+        width, height, rfilter = 768, 576, ReconstructionFilter.make("gaussian")
     spp_file, seed = _sampler(kids["sampler"][0]) if kids["sampler"] else (4, 0)
     if resolution is not None:
         width, height = (int(v) for v in resolution)
@@ -954,7 +968,7 @@ def build_sensor(plugin: Plugin, resolution: tuple[int, int] | None = None,
     props.ignore("focus_distance", "shutter_open", "shutter_close")
     props.finish()
     camera = Camera(to_world=to_world, x_fov=x_fov, near_clip=near, far_clip=far,
-                    width=width, height=height)
+                    width=width, height=height, rfilter=rfilter)
     return camera, spp, seed
 
 

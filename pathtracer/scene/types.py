@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from ..film import BOX, ReconstructionFilter
 from ..sampling import INV_FOUR_PI, square_to_uniform_sphere
 
 
@@ -42,6 +43,8 @@ class Camera:
         Clip distances measured along the optical axis.
     width, height : int
         Film resolution in pixels; row 0 is the top of the image.
+    rfilter : ReconstructionFilter
+        The film's reconstruction filter (:mod:`pathtracer.film`).
     """
 
     to_world: np.ndarray
@@ -50,6 +53,7 @@ class Camera:
     far_clip: float = 1e4
     width: int = 256
     height: int = 256
+    rfilter: ReconstructionFilter = BOX
 
 
 @dataclass
