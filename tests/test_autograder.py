@@ -19,6 +19,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from autograder import grading, results
@@ -119,24 +120,55 @@ def test_mutant_loses_points_with_the_expected_hint(graded, path):
 
 
 def alternative_checks(path) -> list:
-    """The checks of the integrators an alternative changes (the others run the reference's
-    own classes: test_alternatives_are_listed checks that)."""
-    changed = constants(path).CHANGES
-    return [c for c in grading.CHECKS if c.integrator in changed and not c.camera]
+    """The checks an alternative is graded on: those of the integrators it changes (the others
+    run the reference's own classes: test_alternatives_are_listed checks that), less the scenes
+    where its images are the reference's bit for bit (``SAME_AS_REFERENCE``, proved by
+    test_alternatives_equal_the_reference_where_not_graded) or outside ``GRADED_SCENES``."""
+    module = constants(path)
+    skipped = set(getattr(module, "SAME_AS_REFERENCE", ()))
+    graded = set(getattr(module, "GRADED_SCENES", [c.scene for c in grading.CHECKS]))
+    return [c for c in grading.CHECKS if c.integrator in module.CHANGES and not c.camera
+            and c.scene in graded - skipped]
+
+
+def _load_alternative(name, monkeypatch):
+    import importlib.util
+    monkeypatch.syspath_prepend(str(ALTERNATIVES_DIR))
+    spec = importlib.util.spec_from_file_location(f"alternative_{name}",
+                                                  ALTERNATIVES_DIR / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize("name", [n for n in ALTERNATIVES if getattr(
+    constants(ALTERNATIVES_DIR / f"{n}.py"), "SAME_AS_REFERENCE", ())])
+def test_alternatives_equal_the_reference_where_not_graded(name, monkeypatch):
+    """Where an alternative is not graded because its estimator is the reference's there, its
+    renders (at each such check's settings, small) equal the reference's bit for bit."""
+    from pathtracer import load_scene, render
+    from pathtracer.integrators import INTEGRATORS as REFERENCE
+    module = _load_alternative(name, monkeypatch)
+    checks = [c for c in grading.CHECKS if c.integrator in module.CHANGES and not c.camera
+              and c.scene in module.SAME_AS_REFERENCE]
+    assert {c.scene for c in checks} == set(module.SAME_AS_REFERENCE)
+    for check in checks:
+        params = dict(grading.check_params(check), width=16, height=12)
+        options = {} if check.max_depth is None else {"max_depth": check.max_depth}
+        images = [render(load_scene(check.scene, **params), cls(), spp=8, seed=3, processes=1,
+                         **options)
+                  for cls in (module.INTEGRATORS[check.integrator], REFERENCE[check.integrator])]
+        np.testing.assert_array_equal(images[0].mean, images[1].mean, err_msg=check.id)
+        np.testing.assert_array_equal(images[0].variance, images[1].variance, err_msg=check.id)
 
 
 def test_alternatives_are_listed(monkeypatch):
-    import importlib.util
     from pathtracer.integrators import INTEGRATORS as REFERENCE
     found = {Path(p).stem for p in glob.glob(str(ALTERNATIVES_DIR / "*.py"))
              if not Path(p).name.startswith("_")}
     assert found == set(ALTERNATIVES)
-    monkeypatch.syspath_prepend(str(ALTERNATIVES_DIR))
     for name in ALTERNATIVES:
-        spec = importlib.util.spec_from_file_location(f"alternative_{name}",
-                                                      ALTERNATIVES_DIR / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
+        module = _load_alternative(name, monkeypatch)
         differ = {k for k, cls in module.INTEGRATORS.items() if cls is not REFERENCE.get(k)}
         assert differ == set(module.CHANGES), name
 
