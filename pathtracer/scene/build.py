@@ -68,7 +68,7 @@ VARIANT_ONLY = {
     "measured_polarized": "measured polarized BSDF data: only meaningful in Mitsuba's "
                           "*_polarized variants",
     "pplastic": "a polarized plastic: only meaningful in Mitsuba's *_polarized variants",
-    "stokes": "renders Stokes vectors: only meaningful in Mitsuba's *_polarized variants",
+    "stokes": "an integrator of Stokes vectors: only meaningful in Mitsuba's *_polarized variants",
     "specfilm": "a film of spectral sensitivity bands: only meaningful in Mitsuba's spectral "
                 "variants",
     "prb": "a differentiable (path replay backpropagation) integrator: it renders what path "
