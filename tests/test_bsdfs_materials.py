@@ -16,7 +16,7 @@ from pathtracer.bsdfs.conductor_presets import CONDUCTOR_PRESETS
 from pathtracer.bsdfs.fresnel import fresnel_diffuse_reflectance
 from pathtracer.bsdfs.microfacet_albedo import interpolate, table_cosines
 from tests.chi2 import chi2_sphere
-from tests.test_bsdfs import (_MitsubaBSDF, _assert_close, _f32, _mitsuba, _pairs, density,
+from tests.test_bsdfs import (_MitsubaBSDF, _assert_close, _f32, _pairs, density,
                               direction, random_directions, tile)
 
 statistical = pytest.mark.statistical(assertions=1)
@@ -284,8 +284,7 @@ def _rgb(value):
 @pytest.mark.mitsuba
 @pytest.mark.parametrize("nonlinear, int_ior, ext_ior", [(False, 1.6, 1.000277), (True, 1.6, 1.000277),
                                                         (True, 1.2, 1.5)])   # eta < 1: other F_dr fit
-def test_mitsuba_plastic(nonlinear, int_ior, ext_ior):
-    mi = _mitsuba()
+def test_mitsuba_plastic(nonlinear, int_ior, ext_ior, mi):
     spec = {"type": "plastic", "diffuse_reflectance": _rgb(COLOUR), "nonlinear": nonlinear,
             "specular_reflectance": _rgb([1.0, 0.9, 0.7]), "int_ior": int_ior, "ext_ior": ext_ior}
     ours = Plastic(COLOUR, [1.0, 0.9, 0.7], int_ior, ext_ior, nonlinear)
@@ -298,9 +297,8 @@ def test_mitsuba_plastic(nonlinear, int_ior, ext_ior):
     ("ggx", 0.05, False, 1.5046, 1.000277), ("ggx", 0.5, True, 1.5046, 1.000277),
     ("beckmann", 0.2, False, 1.5, 1.0), ("beckmann", 0.005, False, 2.0, 1.000277),
     ("ggx", 0.3, True, 1.2, 1.5)])
-def test_mitsuba_roughplastic(distribution, alpha, nonlinear, int_ior, ext_ior):
+def test_mitsuba_roughplastic(distribution, alpha, nonlinear, int_ior, ext_ior, mi):
     """Also checks the coating tables: eval's diffuse term is T_i T_o / (1 - R_int)."""
-    mi = _mitsuba()
     spec = {"type": "roughplastic", "distribution": distribution, "alpha": alpha,
             "diffuse_reflectance": _rgb(COLOUR), "nonlinear": nonlinear, "int_ior": int_ior,
             "ext_ior": ext_ior}
@@ -313,8 +311,7 @@ def test_mitsuba_roughplastic(distribution, alpha, nonlinear, int_ior, ext_ior):
 @pytest.mark.parametrize("distribution, alpha_u, alpha_v, int_ior, ext_ior", [
     ("ggx", 0.1, 0.1, 1.5, 1.0), ("beckmann", 0.3, 0.3, 1.5, 1.0), ("ggx", 0.6, 0.6, 1.0, 1.33),
     ("beckmann", 0.05, 0.3, 1.5046, 1.000277)])
-def test_mitsuba_roughdielectric(distribution, alpha_u, alpha_v, int_ior, ext_ior):
-    mi = _mitsuba()
+def test_mitsuba_roughdielectric(distribution, alpha_u, alpha_v, int_ior, ext_ior, mi):
     spec = {"type": "roughdielectric", "distribution": distribution, "alpha_u": alpha_u,
             "alpha_v": alpha_v, "int_ior": int_ior, "ext_ior": ext_ior,
             "specular_reflectance": _rgb([1.0, 0.9, 0.8]), "specular_transmittance": _rgb([0.7, 0.8, 1.0])}
@@ -325,9 +322,8 @@ def test_mitsuba_roughdielectric(distribution, alpha_u, alpha_v, int_ior, ext_io
 
 @pytest.mark.mitsuba
 @pytest.mark.parametrize("distribution, alpha_u, alpha_v", [("beckmann", 0.3, 0.3), ("ggx", 0.1, 0.4)])
-def test_mitsuba_sampling_without_visible_normals(distribution, alpha_u, alpha_v):
+def test_mitsuba_sampling_without_visible_normals(distribution, alpha_u, alpha_v, mi):
     """sample_visible=false on roughconductor (gold) and roughplastic: same values, densities, samples."""
-    mi = _mitsuba()
     eta, k = CONDUCTOR_PRESETS["Au"]
     spec = {"type": "roughconductor", "distribution": distribution, "alpha_u": alpha_u, "alpha_v": alpha_v,
             "material": "Au", "sample_visible": False}
@@ -340,8 +336,7 @@ def test_mitsuba_sampling_without_visible_normals(distribution, alpha_u, alpha_v
 
 
 @pytest.mark.mitsuba
-def test_mitsuba_thindielectric():
-    mi = _mitsuba()
+def test_mitsuba_thindielectric(mi):
     spec = {"type": "thindielectric", "int_ior": 1.33, "specular_reflectance": _rgb([1.0, 0.9, 0.8]),
             "specular_transmittance": _rgb([0.7, 0.8, 1.0])}
     ours = ThinDielectric(1.33, 1.000277, [1.0, 0.9, 0.8], [0.7, 0.8, 1.0])
@@ -352,9 +347,8 @@ def test_mitsuba_thindielectric():
 
 
 @pytest.mark.mitsuba
-def test_mitsuba_conductor_presets_are_mitsubas_rgb_values():
+def test_mitsuba_conductor_presets_are_mitsubas_rgb_values(mi):
     """The committed table is what Mitsuba's scalar_rgb conductor plugin holds for every material."""
-    _mitsuba()
     from mitsuba_refs.conductor_presets import mitsuba_presets
     theirs = mitsuba_presets()
     assert set(theirs) == set(CONDUCTOR_PRESETS)
@@ -364,9 +358,8 @@ def test_mitsuba_conductor_presets_are_mitsubas_rgb_values():
 
 @pytest.mark.mitsuba
 @pytest.mark.parametrize("material", ["Au", "Cu", "Al", "Ag", "Cr", "a-C"])
-def test_mitsuba_conductor_materials(material):
+def test_mitsuba_conductor_materials(material, mi):
     """Smooth conductor weights at angles from normal to grazing, and the rough one's eval."""
-    mi = _mitsuba()
     eta, k = map(np.array, CONDUCTOR_PRESETS[material])
     smooth_theirs = _MitsubaBSDF(mi, {"type": "conductor", "material": material,
                                       "specular_reflectance": _rgb([1.0, 0.8, 0.9])})
@@ -380,8 +373,7 @@ def test_mitsuba_conductor_materials(material):
 
 
 @pytest.mark.mitsuba
-def test_mitsuba_conductor_explicit_eta_k():
-    mi = _mitsuba()
+def test_mitsuba_conductor_explicit_eta_k(mi):
     eta, k = [0.2, 0.9, 1.1], [3.9, 2.4, 2.2]
     theirs = _MitsubaBSDF(mi, {"type": "conductor", "eta": _rgb(eta), "k": _rgb(k)})
     wi = _f32(random_directions(200, 380, True))

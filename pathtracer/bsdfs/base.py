@@ -168,11 +168,17 @@ class BSDF:
         return self.eval(wi, wo), self.pdf(wi, wo, hemisphere=hemisphere)
 
 
-def zero_eval(wi: np.ndarray) -> np.ndarray:
-    """The (n, 3) zero array returned by ``eval`` of delta BSDFs."""
-    return np.zeros((wi.shape[0], 3))
+class DeltaBSDF(BSDF):
+    """A BSDF whose every lobe is a Dirac delta (mirror, smooth glass): ``eval`` and ``pdf``
+    are 0 for any pair of directions, and only :meth:`sample` finds its directions."""
 
+    has_smooth = False
+    is_delta = True
 
-def zero_pdf(wi: np.ndarray) -> np.ndarray:
-    """The (n,) zero array returned by ``pdf`` of delta BSDFs."""
-    return np.zeros(wi.shape[0])
+    def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """0 -> (n, 3): a delta lobe has no finite value."""
+        return np.zeros((wi.shape[0], 3))
+
+    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+        """0 -> (n,): a delta lobe has no finite density."""
+        return np.zeros(wi.shape[0])

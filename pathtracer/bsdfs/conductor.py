@@ -18,8 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import (BSDF, BSDFSample, as_colour, as_colour_or_texture, make_sample, zero_eval,
-                   zero_pdf)
+from .base import BSDF, BSDFSample, DeltaBSDF, as_colour, as_colour_or_texture, make_sample
 from .fresnel import fresnel_conductor, reflect
 
 
@@ -40,12 +39,10 @@ def conductor_reflectance(cos_theta: np.ndarray, eta_complex: np.ndarray,
     return fresnel_conductor(cos_theta[:, None], eta_complex[None, :]) * specular_reflectance
 
 
-class Conductor(BSDF):
+class Conductor(DeltaBSDF):
     """Perfect mirror tinted by ``specular_reflectance`` and the conductor Fresnel factor."""
 
     texture_params = ("specular_reflectance",)
-    has_smooth = False
-    is_delta = True
 
     def __init__(self, specular_reflectance=1.0, eta=0.0, k=1.0):
         self.specular_reflectance = as_colour_or_texture(specular_reflectance)
@@ -54,14 +51,6 @@ class Conductor(BSDF):
     def fresnel(self, cos_theta: np.ndarray) -> np.ndarray:
         """Conductor Fresnel factor times ``specular_reflectance`` -> (n, 3)."""
         return conductor_reflectance(cos_theta, self.eta_complex, self.specular_reflectance)
-
-    def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        """0: a delta lobe has no finite value."""
-        return zero_eval(wi)
-
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
-        """0: a delta lobe has no finite density."""
-        return zero_pdf(wi)
 
     def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
                hemisphere: str = "cosine") -> BSDFSample:

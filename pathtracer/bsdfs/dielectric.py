@@ -28,20 +28,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import (BSDF, BSDFSample, as_colour_or_texture, make_sample, zero_eval,
-                   zero_pdf)
+from .base import BSDF, BSDFSample, DeltaBSDF, as_colour_or_texture, make_sample
 from .fresnel import fresnel_dielectric, reflect, refract
 
 BK7_IOR = 1.5046
 AIR_IOR = 1.000277
 
 
-class Dielectric(BSDF):
+class Dielectric(DeltaBSDF):
     """Smooth glass-like interface between media of indices ``int_ior`` (inside) and ``ext_ior``."""
 
     texture_params = ("specular_reflectance", "specular_transmittance")
-    has_smooth = False
-    is_delta = True
 
     def __init__(self, int_ior: float = BK7_IOR, ext_ior: float = AIR_IOR,
                  specular_reflectance=1.0, specular_transmittance=1.0):
@@ -52,14 +49,6 @@ class Dielectric(BSDF):
         self.eta = self.int_ior / self.ext_ior
         self.specular_reflectance = as_colour_or_texture(specular_reflectance)
         self.specular_transmittance = as_colour_or_texture(specular_transmittance)
-
-    def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        """0: both lobes are Dirac deltas."""
-        return zero_eval(wi)
-
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
-        """0: both lobes are Dirac deltas."""
-        return zero_pdf(wi)
 
     def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
                hemisphere: str = "cosine") -> BSDFSample:

@@ -288,6 +288,16 @@ class MicrofacetDistribution:
 # Roughness-1 visible slope samplers
 # ----------------------------------------------------------------------
 
+def reflection_half_vector(wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Half vector of a reflection pair and the mask of pairs with both directions above the
+    surface (elsewhere the half vector is +z, a harmless placeholder) -> ((n, 3), (n,))."""
+    active = (wi[:, 2] > 0.0) & (wo[:, 2] > 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = _normalize(wi + wo)
+    active &= np.all(np.isfinite(h), axis=1)
+    return np.where(active[:, None], h, np.array([0.0, 0.0, 1.0])), active
+
+
 def _beckmann_slope_cdf(x: np.ndarray, cos_theta: np.ndarray, sin_theta: np.ndarray) -> np.ndarray:
     r"""Unnormalised CDF of the visible Beckmann slope :math:`\tilde x` (times :math:`\sin\theta`).
 

@@ -29,7 +29,7 @@ import numpy as np
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .conductor import complex_ior, conductor_reflectance
 from .fresnel import reflect_about
-from .microfacet import MicrofacetDistribution, _dot, _normalize
+from .microfacet import MicrofacetDistribution, _dot, reflection_half_vector
 
 
 class RoughConductor(BSDF):
@@ -69,17 +69,9 @@ class RoughConductor(BSDF):
         """Conductor Fresnel factor times ``specular_reflectance`` -> (n, 3)."""
         return conductor_reflectance(cos_theta, self.eta_complex, self.specular_reflectance)
 
-    def _half_vector(self, wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Half vector and the mask of pairs where both directions are above the surface."""
-        active = (wi[:, 2] > 0.0) & (wo[:, 2] > 0.0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            h = _normalize(wi + wo)
-        active &= np.all(np.isfinite(h), axis=1)
-        return np.where(active[:, None], h, np.array([0.0, 0.0, 1.0])), active
-
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         r""":math:`F\,D(h)\,G(w_i, w_o, h)\,R_s / (4\cos\theta_i)` -> (n, 3)."""
-        h, active = self._half_vector(wi, wo)
+        h, active = reflection_half_vector(wi, wo)
         D = self.distr.eval(h)
         G = self.distr.G(wi, wo, h)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -97,7 +89,7 @@ class RoughConductor(BSDF):
 
     def _pdf(self, wi: np.ndarray, wo: np.ndarray, smith_g1) -> np.ndarray:
         """Reflection pdf with the given masking function; 0 where micro- and macro-surface disagree."""
-        h, active = self._half_vector(wi, wo)
+        h, active = reflection_half_vector(wi, wo)
         active &= (_dot(wi, h) > 0.0) & (_dot(wo, h) > 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             if self.distr.sample_visible:

@@ -39,7 +39,7 @@ from .. import sampling
 from .base import BSDF, BSDFSample, as_colour, make_sample
 from .dielectric import AIR_IOR
 from .fresnel import fresnel_dielectric, reflect_about
-from .microfacet import MicrofacetDistribution, _dot, _normalize
+from .microfacet import MicrofacetDistribution, _dot, reflection_half_vector
 from .microfacet_albedo import coating_tables, interpolate
 from .plastic import POLYPROPYLENE_IOR, internal_scattering, specular_sampling_weight
 
@@ -79,17 +79,9 @@ class RoughPlastic(BSDF):
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(specular + diffuse > 0.0, specular / (specular + diffuse), 1.0)
 
-    def _half_vector(self, wi: np.ndarray, wo: np.ndarray):
-        """Half vector and the mask of pairs with both directions above the surface."""
-        active = (wi[:, 2] > 0.0) & (wo[:, 2] > 0.0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            h = _normalize(wi + wo)
-        active &= np.all(np.isfinite(h), axis=1)
-        return np.where(active[:, None], h, np.array([0.0, 0.0, 1.0])), active
-
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Glossy coating reflection plus the diffuse base -> (n, 3)."""
-        h, active = self._half_vector(wi, wo)
+        h, active = reflection_half_vector(wi, wo)
         cos_i = np.where(active, wi[:, 2], 1.0)
         F = fresnel_dielectric(_dot(wi, h), self.eta)[0]
         specular = F * self.distr.eval(h) * self.distr.G(wi, wo, h) / (4.0 * cos_i)
@@ -108,7 +100,7 @@ class RoughPlastic(BSDF):
         return self._pdf(wi, wo, self.distr.smith_g1_exact)
 
     def _pdf(self, wi: np.ndarray, wo: np.ndarray, smith_g1) -> np.ndarray:
-        h, active = self._half_vector(wi, wo)
+        h, active = reflection_half_vector(wi, wo)
         cos_i = np.where(active, wi[:, 2], 1.0)
         p_specular = self._specular_probability(wi)
         if self.distr.sample_visible:

@@ -19,17 +19,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample, zero_eval, zero_pdf
+from .base import BSDF, BSDFSample, DeltaBSDF, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR, BK7_IOR
 from .fresnel import fresnel_dielectric, reflect
 
 
-class ThinDielectric(BSDF):
+class ThinDielectric(DeltaBSDF):
     """Thin two-sided sheet of glass between media of index ``ext_ior``."""
 
     texture_params = ("specular_reflectance", "specular_transmittance")
-    has_smooth = False
-    is_delta = True
 
     def __init__(self, int_ior: float = BK7_IOR, ext_ior: float = AIR_IOR,
                  specular_reflectance=1.0, specular_transmittance=1.0):
@@ -43,14 +41,6 @@ class ThinDielectric(BSDF):
         r"""Reflectance :math:`r = 2R/(1 + R)` of the slab, all internal reflections summed -> (n,)."""
         R = fresnel_dielectric(np.abs(cos_theta_i), self.eta)[0]
         return 2.0 * R / (1.0 + R)
-
-    def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        """0: both lobes are Dirac deltas."""
-        return zero_eval(wi)
-
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
-        """0: both lobes are Dirac deltas."""
-        return zero_pdf(wi)
 
     def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
                hemisphere: str = "cosine") -> BSDFSample:
