@@ -91,11 +91,18 @@ def parse_xml(path):
                              f"{reason}") from None
 
 
-def included_files(scene_path):
-    """Files a scene XML refers to (``filename`` strings, ``<include>``),
-    resolved relative to the scene's folder, recursively for includes."""
+def included_files(scene_path, folders=None):
+    """Files a scene XML refers to (``filename`` strings, ``<include>``), recursively for
+    includes, found as the tracer's loader (and Mitsuba) finds them: an ``<include>`` next to
+    the including file first, any other file in the top-level file's ``<path>`` folders (the
+    last one first) and then the top-level file's folder. A file found nowhere is listed where
+    it was first looked for (:func:`scene_hash` reports it missing)."""
     scene_path = Path(scene_path)
     root = parse_xml(scene_path)
+    if folders is None:   # the top-level file: its <path>s serve every file it includes
+        paths = [(scene_path.parent / el.get("value", "")).resolve()
+                 for el in root if el.tag == "path" and "$" not in el.get("value", "$")]
+        folders = paths[::-1] + [scene_path.parent.resolve()]
     found = []
     for el in root.iter():
         name = None
@@ -105,10 +112,12 @@ def included_files(scene_path):
             name = el.get("filename")
         if not name or "$" in name:
             continue
-        path = (scene_path.parent / name).resolve()
+        where = [scene_path.parent] + folders if el.tag == "include" else folders
+        candidates = [(folder / name).resolve() for folder in where]
+        path = next((c for c in candidates if c.exists()), candidates[0])
         found.append(path)
         if el.tag == "include" and path.suffix == ".xml" and path.exists():
-            found.extend(included_files(path))
+            found.extend(included_files(path, folders))
     return found
 
 
