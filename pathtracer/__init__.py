@@ -10,6 +10,7 @@ smallpt, direct lighting), so that each can be checked against Mitsuba 3.
 >>> result.mean.shape, result.variance.shape
 ((64, 64, 3), (64, 64, 3))
 """
+from . import _console  # noqa: F401  (first: a Ctrl-C while the commands start)
 from .integrators import INTEGRATORS, Integrator, make_integrator
 from .render import RenderResult, render
 from .scene import SceneError, load_scene

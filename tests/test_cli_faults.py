@@ -346,3 +346,16 @@ def test_warnings_filters_are_restored_after_a_cli_call(tmp_path):
     before = warnings.showwarning
     assert main(["render", "cornell-box", *SMALL, "-o", str(tmp_path / "a.exr")]) == 0
     assert warnings.showwarning is before
+
+
+@pytest.mark.parametrize("command", ["pathtracer", "mitsuba-refs"])
+def test_interrupt_while_the_command_imports_is_one_line(command, tmp_path):
+    """Ctrl-C before ``main`` runs (NumPy, SciPy still importing): one line, no traceback,
+    and the process ends by SIGINT (status 130 in a shell)."""
+    code = (f"import sys; sys.argv[0] = {('/usr/bin/' + command)!r}\n"
+            "import pathtracer._console\n"
+            "raise KeyboardInterrupt")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=60)
+    assert done.stderr == f"{command}: interrupted\n"
+    assert done.returncode == -signal.SIGINT
