@@ -1,6 +1,7 @@
 """Emitters: radiance seen on hits, next-event sampling and its pdf.
 
-Mitsuba's conventions (DESIGN.md):
+Mitsuba's conventions (tests/test_emitters.py and tests/test_delta_lights.py compare them
+with Mitsuba's own emitters):
 
 * one emitter is chosen uniformly, with probability 1 / N_emitters;
 * area lights are one-sided: a point emits towards ``w`` only if

@@ -6,7 +6,7 @@ committed reference at a nominal alpha of 0.05. If the tests are calibrated,
 the number of rejections is Binomial(200, 0.05); the assertion accepts the
 central interval of that law with coverage 1 - 1e-6, so this test itself
 fails a correct tracer with probability < 1e-6. A test miscalibrated like the
-per-pixel z test of DESIGN.md (~70 % false rejections) is far outside it.
+per-pixel z test (~70 % false rejections, docs/statistics.md) is far outside it.
 
 Power: a 2 % global bias and a 3 % bias confined to a 16x16 region (at 1024
 spp, where a region's standard error is ~0.6 %) must be rejected at the

@@ -52,7 +52,8 @@ in the data and exactly unbiased, :math:`E\hat B=0`, for a correct estimator) an
 (:math:`\hat B = a^\top\bar y`, :math:`\mathrm{Var}=a^\top\hat\Sigma a`).  The floor
 sits where the two terms meet, :math:`N^* = \hat C/\hat B`; the RMS bias is
 :math:`\sqrt{\hat B}` (relative to ``image_mean`` when given).  The slope test alone is
-blind to a small bias (DESIGN.md: 5 % bias still gave slope -0.48): always pair this with
+blind to a small bias (docs/statistics.md, "Measured before the tests were written": a 5 %
+bias still gave slope -0.48): always pair this with
 :func:`mitsuba_refs.stats.mean.compare_means`.
 
 Correlated samples

@@ -5,7 +5,8 @@ geometry, BSDF, emitter and integrator modules only read it. Everything a
 wavefront needs per primitive lives in flat NumPy arrays so that a batch of
 hits can gather its data with one fancy-indexing operation.
 
-Conventions (Mitsuba 3's, see DESIGN.md):
+Conventions (Mitsuba 3's; tests/test_geometry.py and tests/test_scene_loading.py compare
+them with Mitsuba's own intersections and shapes):
 
 * Triangles of every mesh-like shape (``rectangle``, ``cube``, ``obj``,
   ``ply``) are concatenated into one triangle soup. ``tri_p[k]`` holds the
