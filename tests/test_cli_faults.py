@@ -245,6 +245,13 @@ def _group_members(pgid: int) -> list[int]:
     return members
 
 
+def restore_sigint():
+    """In the child before exec: SIGINT back to its default. A process that starts with SIGINT
+    ignored (pytest-xdist's workers ignore it, and children inherit that) keeps ignoring it,
+    and Ctrl-C would never reach the command under test."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start_render(tmp_path: Path):
     """A 2-process render that runs for many seconds, in its own process group; returns it
     once both workers are running."""
@@ -252,7 +259,7 @@ def _start_render(tmp_path: Path):
         [sys.executable, "-m", "pathtracer.cli", "render", "cornell-box", "-D", "width=64",
          "-D", "height=64", "--spp", "1024", "--processes", "2", "-o", str(tmp_path / "out.exr")],
         cwd=tmp_path, env=_environment(), start_new_session=True,
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        preexec_fn=restore_sigint, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
     while len(_group_members(process.pid)) < 3:
         assert process.poll() is None, process.communicate()

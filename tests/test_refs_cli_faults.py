@@ -31,6 +31,7 @@ from mitsuba_refs.cache import LOCK_NAME, check_finite, store, validate
 from mitsuba_refs.cli import main
 from mitsuba_refs.errors import RefsInputError, mitsuba_error_line
 from mitsuba_refs.render import Reference
+from tests.test_cli_faults import restore_sigint
 
 
 REPO = Path(__file__).resolve().parent.parent
@@ -480,7 +481,7 @@ def test_ctrl_c_gives_one_line_and_exit_130(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "mitsuba_refs.cli", "compare", "quad-light",
                              "--processes", "1", "--out", str(out)],
                             env=cli_env(COMMITTED), cwd=REPO, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=restore_sigint)
     deadline = time.monotonic() + 60
     while not _inside_main(proc.pid) and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.05)

@@ -138,12 +138,12 @@ def test_include_cycle_is_refused(tree):
 
 
 def test_errors_inside_included_files_name_that_file(tree):
-    write(tree / "scene" / "parts" / "bad.xml", scene_text('\n\n<bsdf type="plastic"/>'))
+    write(tree / "scene" / "parts" / "bad.xml", scene_text('\n\n<bsdf type="hair"/>'))
     path = write(tree / "scene" / "main.xml", scene_text('<include filename="parts/bad.xml"/>'))
     with pytest.raises(SceneError) as info:
         load_scene(path)
     assert str(info.value).startswith(
-        os.path.join("parts", "bad.xml") + ':4: <bsdf type="plastic">: unsupported BSDF')
+        os.path.join("parts", "bad.xml") + ':4: <bsdf type="hair">: unsupported BSDF')
 
 
 def test_missing_include_names_the_including_line(tree):

@@ -6,7 +6,7 @@ Expected hint: directly visible light / emission on the first hit.
 """
 import numpy as np
 
-from pathtracer.integrators import path
+from pathtracer.integrators import base, path
 
 from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
@@ -29,7 +29,8 @@ def _skip_first(emitted_radiance):
 class Mutant(path.PathIntegrator):
     def radiance(self, scene, rays, rng):
         from _mutate import patched
-        with patched(path, emitted_radiance=_skip_first(path.emitted_radiance)):
+        # Emission at a hit is computed in base.Integrator.emission, for every integrator.
+        with patched(base, emitted_radiance=_skip_first(base.emitted_radiance)):
             return super().radiance(scene, rays, rng)
 
 

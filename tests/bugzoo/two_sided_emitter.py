@@ -7,7 +7,7 @@ Expected hint: emitters are one-sided.
 """
 import numpy as np
 
-from pathtracer.integrators import path_bsdf
+from pathtracer.integrators import base, path_bsdf
 from pathtracer.integrators.base import subset_hit
 from pathtracer.vec import dot
 
@@ -28,4 +28,5 @@ def _two_sided(emitted_radiance):
     return buggy
 
 
-INTEGRATORS = registry(mutate(path_bsdf.PathBSDFIntegrator, path_bsdf, emitted_radiance=_two_sided))
+# Emission at a hit is computed in base.Integrator.emission, for every integrator.
+INTEGRATORS = registry(mutate(path_bsdf.PathBSDFIntegrator, base, emitted_radiance=_two_sided))
