@@ -40,9 +40,17 @@ FEATURE_CASES = [(scene, integrator) for scene, (integrators, _, _) in FEATURE_S
 #: take 30-55 s each (measured on 2 shared cores), over the suite's time budget.
 EMITTER_SCENES = ("envmap", "spot-directional")
 
+#: ``recursive`` (N branches per vertex, the slowest estimator) is held to the law on the
+#: Cornell box scenes only: the law is a property of an estimator's samples (independent, finite
+#: variance), and on veach-mis, mesh, smallpt, furnace and glass-cube its ladder cost 15-110 s
+#: of CPU each (measured 2026-11-30), a sixth of the suite's; the agreement tests still check
+#: its mean and variance on every scene.
+RECURSIVE_CONVERGENCE_SCENES = ("cornell-box", "cornell-caustics", "cornell-lights")
+
 CONVERGENCE_CASES = [(scene, integrator) for scene, integrator in AGREEMENT_CASES
                      if (scene, integrator) not in NOISELESS
-                     and (scene not in EMITTER_SCENES or integrator == "path")]
+                     and (scene not in EMITTER_SCENES or integrator == "path")
+                     and (integrator != "recursive" or scene in RECURSIVE_CONVERGENCE_SCENES)]
 
 
 def spp_for(integrator: str) -> int:
