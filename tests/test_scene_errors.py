@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 
 import pytest
+from pathlib import Path
 
 from pathtracer.scene import SceneError, load_scene
 
@@ -358,6 +359,23 @@ def test_unreadable_scene_is_a_scene_error(tmp_path, monkeypatch):
     monkeypatch.setattr(builtins, "open", deny)
     with pytest.raises(SceneError, match="locked.xml: cannot read the scene file: Permission denied"):
         load_scene(str(path))
+
+
+def test_unreadable_mesh_is_a_scene_error(tmp_path, monkeypatch):
+    import shutil
+    from pathtracer.scene import meshes
+    shutil.copy(Path(__file__).parent / "data" / "pyramid.obj", tmp_path / "pyramid.obj")
+    (tmp_path / "s.xml").write_text(
+        f'<scene version="3.0.0">{SENSOR}\n<shape type="obj">'
+        '<string name="filename" value="pyramid.obj"/></shape></scene>')
+
+    def deny(path, *args, **kwargs):     # chmod does not stop root: refuse the read itself
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(meshes, "read_obj", deny)
+    with pytest.raises(SceneError, match='s.xml:2: .*cannot read mesh file "pyramid.obj": '
+                                         "Permission denied"):
+        load_scene(str(tmp_path / "s.xml"))
 
 
 @pytest.mark.mitsuba

@@ -612,8 +612,8 @@ def _load_mesh(plugin: Plugin, props: Props, folders: list[str]) -> meshes.MeshD
     except meshes.MeshFormatError as e:
         raise plugin.error(str(e), props.line("filename")) from None
     except OSError as e:
-        raise plugin.error(f"cannot read mesh file \"{filename}\": {e.strerror or e}",
-                           props.line("filename")) from None
+        raise plugin.error(f"cannot read mesh file \"{os.path.basename(path)}\": "
+                           f"{e.strerror or e}", props.line("filename")) from None
 
 
 def _mesh_triangles(plugin, props, folders, m):
