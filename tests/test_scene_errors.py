@@ -2,9 +2,9 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import pytest
-from pathlib import Path
 
 from pathtracer.scene import SceneError, load_scene
 
