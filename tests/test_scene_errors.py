@@ -412,3 +412,16 @@ def test_mitsuba_refuses_and_accepts_the_same_values(tmp_path, mi):
     path = tmp_path / "edges.xml"
     path.write_text(edges)
     load_scene(str(path))
+
+
+def test_moment_integrator_renders_its_nested_integrator(tmp_path):
+    """Mitsuba's ``moment`` wraps an integrator to add second moments: the nested one renders."""
+    path = tmp_path / "m.xml"
+    nested = '<integrator type="path"><integer name="max_depth" value="3"/></integrator>'
+    path.write_text(f'<scene version="3.0.0"><integrator type="moment">{nested}</integrator>'
+                    f'{SENSOR}</scene>')
+    spec = load_scene(str(path)).integrator
+    assert spec.name == "path" and spec.params == {"max_depth": 3}
+    path.write_text(f'<scene version="3.0.0">\n<integrator type="moment"/>{SENSOR}</scene>')
+    with pytest.raises(SceneError, match="m.xml:2: .*exactly one nested <integrator>"):
+        load_scene(str(path))

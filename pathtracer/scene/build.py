@@ -976,6 +976,14 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
     """Name and parameters of the ``<integrator>`` (``path`` when absent)."""
     if plugin is None:
         return IntegratorSpec("path", {})
+    if plugin.type == "moment":
+        # Mitsuba's moment integrator renders its nested integrator and adds the second
+        # moment as an AOV (which the statistics here compute anyway): the nested one renders.
+        kids = _children(plugin, {"integrator": 1})
+        if not kids["integrator"] or plugin.props:
+            raise plugin.error("a moment integrator takes exactly one nested <integrator> "
+                               "and no properties")
+        return build_integrator(kids["integrator"][0])
     if plugin.type not in SUPPORTED["integrator"]:
         raise _unsupported(plugin, "integrator")
     if plugin.type == "direct":
