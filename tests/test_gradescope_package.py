@@ -76,7 +76,9 @@ def autograder_root():
         env = dict(os.environ, AUTOGRADER_ROOT=str(root), AUTOGRADER_PYTHON=sys.executable,
                    AUTOGRADER_STUDENT_USER=USER, AUTOGRADER_STUDENT_PYTHON=str(SYSTEM_PYTHON),
                    AUTOGRADER_STUDENT_SITE=str(deps))
-        for key in ("PYTHONPATH", "MITSUBA_REFS_CACHE"):
+        # Gradescope's environment has none of these; the caller's (a pytest plugin given in
+        # PYTEST_ADDOPTS, say) must not reach the grader's own pytest run.
+        for key in ("PYTHONPATH", "MITSUBA_REFS_CACHE", "PYTEST_ADDOPTS", "PYTEST_PLUGINS"):
             env.pop(key, None)
         setup = subprocess.run(["bash", str(root / "setup.sh")], env=env, capture_output=True,
                                text=True, timeout=300)
