@@ -147,10 +147,7 @@ def _identity(scene, params, integrator, spp, seed, options=None, resolution=Non
     path = resolve_scene(scene)
     params = {str(k): str(v) for k, v in (params or {}).items()}
     content = scene_hash(path)
-    try:
-        _, transport, settings = reference_settings(path, params, options, resolution)
-    except KeyError as error:
-        raise RefsInputError(error.args[0]) from None
+    _, transport, settings = reference_settings(path, params, options, resolution)
     ident = {
         "format": FORMAT_VERSION,
         "scene_hash": content,

@@ -40,8 +40,8 @@ def check_scene(scene, params):
     """Check a scene file and the parameters given for it without Mitsuba.
 
     The file must exist and be well-formed, its included files must exist,
-    every name in ``params`` must be a ``<default>`` of the file or an
-    integrator option, and every film must use a filter both renderers implement
+    every name in ``params`` must be declared by the file (``<default>`` or
+    ``$name``), and every film must use a filter both renderers implement
     (box, tent, gaussian).
 
     Returns
@@ -51,15 +51,13 @@ def check_scene(scene, params):
 
     Raises
     ------
-    RefsInputError
+    RefsInputError, pathtracer.SceneError
         Saying what is wrong, naming the file (and line where known).
     """
     path = scene_path(scene)
     parse_xml(path)
-    try:
-        split_params(path, {str(k): str(v) for k, v in (params or {}).items()})
-    except KeyError as error:
-        raise RefsInputError(f"-D: {error.args[0]}") from None
+    # A -D the file does not declare: the tracer loader's SceneError, naming file and line.
+    split_params(path, {str(k): str(v) for k, v in (params or {}).items()})
     scene_hash(path)
     try:
         check_film_filter(path)
