@@ -73,6 +73,11 @@ def _band_ratios(test, ref) -> tuple:
     return tuple(ratio)
 
 
+def _times(ratio: float) -> str:
+    """``x1.23``, or what a missing ratio means: the reference has no light there."""
+    return f"x{ratio:.2f}" if math.isfinite(ratio) else "dark in Mitsuba's"
+
+
 #: A depth counts as wrong (for explanations) when it disagrees by at least this much: the
 #: per-bounce references show a systematic ~1 % offset at max_depth = 2 (see the report).
 DEPTH_TOLERANCE = 0.02
@@ -283,8 +288,8 @@ def _sweep_hints(ev: Evidence) -> list:
     facts = _scene_facts(ev.check)
     n_lights = facts["emitters"]
     numbers = (f"(first wrong at max_depth={depth}; what that bounce adds is x{added:.2f} "
-               f"Mitsuba's, x{low:.2f} to x{high:.2f} over most 8x8 tiles; top third x{top:.2f}, "
-               f"bottom third x{bottom:.2f}; {ratios})")
+               f"Mitsuba's, x{low:.2f} to x{high:.2f} over most 8x8 tiles; top third {_times(top)}, "
+               f"bottom third {_times(bottom)}; {ratios})")
     even = math.isfinite(low) and high - low <= UNEVEN * max(added, 1e-9) * 2
     if depth == 1:
         if added < 0.5:

@@ -13,6 +13,7 @@ import glob
 import importlib.metadata
 import json
 import os
+import re
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -114,6 +115,8 @@ def test_mutant_loses_points_with_the_expected_hint(graded, path):
     assert not result.failure, result.report()          # a wrong image, not a crash
     text = " ".join(result.hints).lower()
     assert any(k.lower() in text for k in module.EXPECTED), result.report()
+    # Numbers a student can read: a band with no light in the reference is said in words.
+    assert not re.search(r"\bx?(nan|inf)\b", text), result.report()
     if getattr(module, "PARTIAL", False):
         assert 0 < result.score < result.max_score, result.report()
         assert result.parts[0].name == "mean" and result.parts[0].passed
