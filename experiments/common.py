@@ -40,11 +40,12 @@ RELMSE_EPS = 1e-2
 # command line
 
 def define(text: str) -> tuple[str, str]:
-    """argparse type of ``-D name=value``."""
-    name, sep, value = text.partition("=")
-    if not sep or not name:
-        raise argparse.ArgumentTypeError(f"expected name=value, got {text!r}")
-    return name, value
+    """argparse type of ``-D name=value`` (:func:`pathtracer.scene.defines.parse_define`)."""
+    from pathtracer.scene.defines import parse_define
+    try:
+        return parse_define(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def add_run_args(parser: argparse.ArgumentParser, out: str, workers: bool = True) -> None:
@@ -180,17 +181,6 @@ def error_metrics(mean, reference) -> dict:
 
 def luminance(image) -> np.ndarray:
     return np.asarray(image) @ np.array([0.2126, 0.7152, 0.0722])
-
-
-def tonemap(image, exposure=None):
-    from mitsuba_refs.diagnostics import tonemap as _tonemap
-    return _tonemap(image, exposure)
-
-
-def auto_exposure(image) -> float:
-    """Exposure that maps the 99th percentile of ``image`` to white."""
-    q = float(np.percentile(image[np.isfinite(image)], 99)) if np.size(image) else 1.0
-    return 1.0 / q if q > 0 else 1.0
 
 
 # ---------------------------------------------------------------------------------------

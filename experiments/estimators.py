@@ -31,6 +31,8 @@ import time
 
 import numpy as np
 
+from pathtracer.tonemap import auto_scale, tonemap
+
 from . import common
 
 PARTS = ("mis", "hemisphere", "roulette", "recursive")
@@ -92,7 +94,7 @@ def render(scene, integrator, spp, seed, workers, repeats=1, **options):
 
 
 def _axes_images(ax, image, exposure, title):
-    ax.imshow(common.tonemap(image, exposure), interpolation="nearest")
+    ax.imshow(tonemap(image, exposure), interpolation="nearest")
     ax.set_title(title, fontsize=9)
     ax.set_xticks([])
     ax.set_yticks([])
@@ -139,7 +141,7 @@ def part_mis(args, bar):
     for r in rows:
         r["efficiency_relative"] = r["efficiency"] / best
 
-    exposure = common.auto_exposure(results["path"].mean)
+    exposure = auto_scale(results["path"].mean)
     fig, axes = plt.subplots(2, 4, figsize=(19, 8.2))
     std = {n: np.sqrt(np.maximum(results[n].variance.mean(axis=2), 0)) for n, _ in configs}
     positive = np.concatenate([s[s > 0] for s in std.values()])
@@ -210,7 +212,7 @@ def part_hemisphere(args, bar):
             r["efficiency_relative"] = r["efficiency"] / pair[0]["efficiency"]
 
     fig, axes = plt.subplots(1, 4, figsize=(19, 4.6))
-    exposure = common.auto_exposure(results["path_bsdf", "cosine"].mean)
+    exposure = auto_scale(results["path_bsdf", "cosine"].mean)
     _axes_images(axes[0], results["path_bsdf", "cosine"].mean, exposure,
                  f"path_bsdf, cosine-weighted, {results['path_bsdf', 'cosine'].spp} spp")
     _axes_images(axes[1], results["path_bsdf", "uniform"].mean, exposure,

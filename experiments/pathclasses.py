@@ -28,6 +28,8 @@ import sys
 
 import numpy as np
 
+from pathtracer.tonemap import auto_scale, tonemap
+
 from . import common
 
 PARTITION = ("LE", "LDE", "LD.+E", "LS.*E", "LG.*E")
@@ -60,7 +62,7 @@ def plot_classes(result, named, partition, full, title, out):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from pathtracer.pathclasses import LECTURE_CLASSES
-    exposure = common.auto_exposure(full)
+    exposure = auto_scale(full)
     total = float(full.mean())
     panels = [(e, result[e]) for e in named] + [(None, None)] + [(e, result[e]) for e in partition]
     cols = max(len(named) + 1, len(partition) + 1)
@@ -72,23 +74,23 @@ def plot_classes(result, named, partition, full, title, out):
     for j, expression in enumerate(named):
         image = result[expression]
         ax = axes[0, j]
-        ax.imshow(common.tonemap(image, exposure), interpolation="nearest")
+        ax.imshow(tonemap(image, exposure), interpolation="nearest")
         share = 100 * float(image.mean()) / total if total > 0 else 0.0
         ax.set_title(f"{expression}\n{LECTURE_CLASSES.get(expression, '')}\n{share:.1f} % of the energy",
                      fontsize=9)
     ax = axes[0, len(named)]
-    ax.imshow(common.tonemap(full, exposure), interpolation="nearest")
+    ax.imshow(tonemap(full, exposure), interpolation="nearest")
     ax.set_title("full image (path, same seed)\n100 %", fontsize=9)
     summed = sum(result[e] for e in partition)
     error = float(np.max(np.abs(summed - full)))
     for j, expression in enumerate(partition):
         image = result[expression]
         ax = axes[1, j]
-        ax.imshow(common.tonemap(image, exposure), interpolation="nearest")
+        ax.imshow(tonemap(image, exposure), interpolation="nearest")
         share = 100 * float(image.mean()) / total if total > 0 else 0.0
         ax.set_title(f"{expression}\n{share:.1f} %", fontsize=9)
     ax = axes[1, len(partition)]
-    ax.imshow(common.tonemap(summed, exposure), interpolation="nearest")
+    ax.imshow(tonemap(summed, exposure), interpolation="nearest")
     ax.set_title(f"sum of the row\nmax |sum − full| = {error:.1e}", fontsize=9)
     axes[0, 0].set_ylabel("the lecture's classes", fontsize=10)
     axes[1, 0].set_ylabel("a partition\n(by the vertex next to L)", fontsize=10)
@@ -103,11 +105,11 @@ def plot_bounces(rows, title, out):
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(len(rows), 3, figsize=(12, 3.6 * len(rows)), squeeze=False)
     for i, row in enumerate(rows):
-        exposure = common.auto_exposure(row["mitsuba"]) if row["mitsuba"].max() > 0 else 1.0
+        exposure = auto_scale(row["mitsuba"]) if row["mitsuba"].max() > 0 else 1.0
         for j, (key, label) in enumerate((("ours", "ours (path classes)"),
                                           ("mitsuba", f"Mitsuba: {row['mitsuba_label']}"))):
             ax = axes[i, j]
-            ax.imshow(common.tonemap(np.maximum(row[key], 0), exposure), interpolation="nearest")
+            ax.imshow(tonemap(np.maximum(row[key], 0), exposure), interpolation="nearest")
             ax.set_title(f"{row['expression']}: {label}", fontsize=9)
             ax.set_xticks([])
             ax.set_yticks([])

@@ -20,6 +20,8 @@ import time
 
 import numpy as np
 
+from pathtracer.tonemap import auto_scale, tonemap
+
 from . import common
 
 DEFAULT_SPP = (1, 4, 16, 64, 256, 1024)
@@ -120,7 +122,7 @@ def plot(rows, levels, title, out, exposure):
                 if j == 0:
                     ax.text(0.05, 0.5, note, transform=ax.transAxes, fontsize=8, wrap=True)
             else:
-                ax.imshow(common.tonemap(images[j], exposure), interpolation="nearest")
+                ax.imshow(tonemap(images[j], exposure), interpolation="nearest")
                 ax.set_xlabel(f"{seconds[j]:.2f} s so far", fontsize=8)
             if i == 0:
                 ax.set_title(f"{n} path{'s' if n > 1 else ''}/pixel", fontsize=10)
@@ -163,7 +165,7 @@ def main(argv=None) -> int:
         print(f"note: {why}", file=sys.stderr)
     bar.close()
 
-    exposure = common.auto_exposure((mi_images or our_images)[-1])
+    exposure = auto_scale((mi_images or our_images)[-1])
     w, h = scene.camera.width, scene.camera.height
     title = (f"{args.scene} ({w}×{h} px) at increasing paths per pixel: noise halves with every 4× "
              f"(same exposure; times include all previous levels)")

@@ -69,17 +69,6 @@ def _default_integrators(scene):
     return config.REF_INTEGRATORS
 
 
-def parse_defines(defines):
-    """``["name=value", ...]`` (the ``-D`` options) as a dict; a one-line error otherwise."""
-    params = {}
-    for item in defines or []:
-        name, sep, value = item.partition("=")
-        if not sep or not name.strip():
-            raise RefsInputError(f"-D expects name=value, got {item!r}")
-        params[name.strip()] = value.strip()
-    return params
-
-
 def _resolution(text):
     from pathtracer.scene import parse_resolution
     try:
@@ -130,6 +119,7 @@ def cmd_build(args):
     check_spp(args.spp)
     if args.seed < 0:
         raise RefsInputError(f"--seed must be >= 0, got {args.seed}")
+    from pathtracer.scene.defines import parse_defines
     extra = parse_defines(args.defines)
     jobs = default_jobs(args.scenes or None, args.integrators, extra,
                         per_bounce=not args.no_per_bounce, resolution=args.resolution)

@@ -83,7 +83,7 @@ def add_compare(subparsers):
 def run_compare(args) -> int:
     """Handler of ``compare``; input errors propagate to :func:`mitsuba_refs.cli.main`
     (one line, exit status 2)."""
-    from .cli import parse_defines
+    from pathtracer.scene.defines import parse_defines
 
     params = parse_defines(args.defines)
     check_options(args)

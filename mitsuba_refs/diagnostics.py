@@ -14,25 +14,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 
-__all__ = ["tonemap", "plot_mean_comparison", "plot_convergence", "plot_variance_comparison"]
+from pathtracer.tonemap import auto_scale, tonemap  # noqa: E402
+
+__all__ = ["plot_mean_comparison", "plot_convergence", "plot_variance_comparison"]
 
 Z_CLIP = 10.0
-
-
-def tonemap(img, exposure: float | None = None) -> np.ndarray:
-    """Linear RGB -> displayable sRGB in [0, 1].  ``exposure`` scales before the sRGB curve;
-    by default the 99th percentile of the image maps to 1.  Use the same exposure for
-    images that are compared."""
-    x = np.asarray(img, dtype=np.float64)
-    if exposure is None:
-        exposure = _auto_exposure(x)
-    x = np.clip(x * exposure, 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
-
-
-def _auto_exposure(x) -> float:
-    q = float(np.percentile(np.asarray(x)[np.isfinite(x)], 99)) if np.size(x) else 1.0
-    return 1.0 / q if q > 0 else 1.0
 
 
 def _save(fig, path) -> str:
@@ -61,7 +47,7 @@ def plot_mean_comparison(path, mean_test, mean_ref, agreement, title: str = "") 
     if t.ndim == 2:
         t, r = t[..., None].repeat(3, 2), r[..., None].repeat(3, 2)
     h, w = t.shape[:2]
-    exp = _auto_exposure(r)
+    exp = auto_scale(r)
     fig, axes = plt.subplots(1, 4, figsize=(19, 4.6))
     fig.subplots_adjust(wspace=0.45)
     axes[0].imshow(tonemap(t, exp), interpolation="nearest")

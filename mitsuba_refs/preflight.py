@@ -10,7 +10,8 @@ import math
 import os
 from pathlib import Path
 
-from . import config
+from pathtracer.scene import builtin_scene_names
+
 from .cache import parse_xml, scene_hash
 from .errors import RefsInputError
 from .render import check_film_filter, resolve_scene, split_params
@@ -27,13 +28,15 @@ def scene_path(scene):
     if path.is_dir():
         raise RefsInputError(f"{scene}: is a folder, not a scene file")
     try:
-        return resolve_scene(scene)
+        found = resolve_scene(scene)
     except FileNotFoundError:
-        pass
-    if path.exists():
+        found = path if path.exists() else None    # "notes.txt" reads as a built-in name
+    if found is None:
+        builtin = ", ".join(builtin_scene_names())
+        raise RefsInputError(f"{scene}: no such file, and not a built-in scene ({builtin})")
+    if found.suffix != ".xml":
         raise RefsInputError(f"{scene}: a scene file must end in .xml")
-    builtin = ", ".join(config.BUILTIN_SCENES)
-    raise RefsInputError(f"{scene}: no such file, and not a built-in scene ({builtin})")
+    return found
 
 
 def check_scene(scene, params):

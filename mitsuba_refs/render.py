@@ -24,7 +24,6 @@ Integrator mapping (ours -> Mitsuba):
 
 import dataclasses
 import hashlib
-import importlib.resources
 import json
 import math
 import time
@@ -80,26 +79,15 @@ class Reference:
         return self.var / self.n
 
 
-def scenes_dir():
-    """Directory of the built-in scenes (``pathtracer/scenes``), located
-    without importing any of ``pathtracer``'s modules."""
-    try:
-        return Path(str(importlib.resources.files("pathtracer") / "scenes"))
-    except (ModuleNotFoundError, TypeError):
-        return Path(__file__).resolve().parent.parent / "pathtracer" / "scenes"
-
-
 def resolve_scene(scene):
-    """Return the path of ``scene``: a file path, or a built-in name
-    (``cornell-box`` -> ``pathtracer/scenes/cornell-box.xml``)."""
-    path = Path(scene)
-    if path.suffix == ".xml" and path.exists():
-        return path.resolve()
-    candidate = scenes_dir() / f"{scene}.xml"
-    if candidate.exists():
-        return candidate
-    raise FileNotFoundError(f"no scene file {scene!r} and no built-in scene "
-                            f"{candidate}")
+    """Return the file of ``scene``: a file path, or a built-in name
+    (``cornell-box`` -> ``pathtracer/scenes/cornell-box.xml``), by the tracer's rule
+    (:func:`pathtracer.scene.scene_file`); ``FileNotFoundError`` with its message otherwise."""
+    from pathtracer.scene import SceneError, scene_file
+    try:
+        return Path(scene_file(scene)).resolve()
+    except SceneError as error:
+        raise FileNotFoundError(str(error)) from None
 
 
 def scene_name(scene):

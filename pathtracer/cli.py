@@ -43,13 +43,6 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def _define(text: str) -> tuple[str, str]:
-    name, sep, value = text.partition("=")
-    if not sep or not name.strip():
-        raise argparse.ArgumentTypeError(f"expected name=value, got {text!r}")
-    return name.strip(), value
-
-
 def _integer(text: str, low: int, high: int | None, what: str) -> int:
     try:
         value = int(text)
@@ -111,7 +104,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("scene", help="Mitsuba 3 XML file or built-in scene name")
     render.add_argument("-o", "--output", required=True, type=Path,
                         help="output EXR path, ending in .exr (a PNG preview is written beside it)")
-    render.add_argument("-D", dest="defines", action="append", type=_define, default=[],
+    render.add_argument("-D", dest="defines", action="append", default=[],
                         metavar="NAME=VALUE", help="set a scene parameter (<default> override); repeatable")
     render.add_argument("--integrator", choices=sorted(INTEGRATORS),
                         help="integrator (default: the file's <integrator>, else path)")
@@ -146,9 +139,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     if args.command == "scenes":
-        import os
-        from .scene import BUILTIN_DIR
-        for name in sorted(f[:-4] for f in os.listdir(BUILTIN_DIR) if f.endswith(".xml")):
+        from .scene import builtin_scene_names
+        for name in builtin_scene_names():
             print(name)
         return 0
     return _render(args)
@@ -207,13 +199,14 @@ def _render_checked(args) -> int:
     from .io import output_paths, write_exr, write_png
     from .render import DEFAULT_BATCH, integrator_for
     from .scene import SceneError, load_scene
+    from .scene.defines import parse_defines
 
     options = dict(max_depth=args.max_depth, rr_depth=args.rr_depth, roulette=args.roulette,
                    rr_q=args.rr_q, hemisphere=args.hemisphere, branches=args.branches,
                    branch_depth=args.branch_depth)
     try:
         scene = load_scene(args.scene, resolution=args.resolution, sample_count=args.spp,
-                           **dict(args.defines))
+                           **parse_defines(args.defines))
         resources.check_spp(scene.spp)
         processes = args.processes or os.cpu_count() or 1
         resources.check_memory(scene.camera.width, scene.camera.height, processes, DEFAULT_BATCH)

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .render import RenderResult
+from .tonemap import to_8bit, tonemap
 
 #: Largest seed an EXR ``int`` attribute (signed 32-bit) holds; larger ones are stored as text.
 EXR_INT_MAX = 2 ** 31 - 1
@@ -164,20 +165,13 @@ def read_exr(path) -> RenderResult:
                         float(header.get("render_seconds", 0.0)), str(header.get("scene", "")))
 
 
-def tonemap(rgb: np.ndarray, exposure: float = 0.0) -> np.ndarray:
-    """Linear radiance to 8-bit sRGB: scale by 2^exposure, clamp, sRGB transfer curve."""
-    x = np.clip(np.nan_to_num(rgb * 2.0 ** exposure), 0.0, 1.0)
-    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
-    return (srgb * 255 + 0.5).astype(np.uint8)
-
-
 def write_png(path, rgb: np.ndarray, exposure: float = 0.0) -> Path:
-    """Write a tonemapped sRGB preview of a linear (H, W, 3) image, atomically."""
+    """Write a tonemapped sRGB preview of a linear (H, W, 3) image, atomically (``exposure`` in stops)."""
     from PIL import Image
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    image = Image.fromarray(tonemap(rgb, exposure))
+    image = Image.fromarray(to_8bit(tonemap(rgb, 2.0 ** exposure)))
     with atomic_path(path) as temporary:
         image.save(temporary, format="PNG")
     return path

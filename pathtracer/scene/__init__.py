@@ -11,7 +11,8 @@ from .types import (AreaEmitter, Camera, ConstantEmitter, IntegratorSpec,
 from .xml import parse_file
 
 __all__ = ["load_scene", "scene_settings", "parse_resolution", "SceneError", "Scene", "Camera", "AreaEmitter",
-           "PointEmitter", "ConstantEmitter", "IntegratorSpec", "builtin_scene_path"]
+           "PointEmitter", "ConstantEmitter", "IntegratorSpec", "builtin_scene_path", "builtin_scene_names",
+           "scene_file"]
 
 BUILTIN_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scenes")
 
@@ -19,6 +20,19 @@ BUILTIN_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__fil
 def builtin_scene_path(name: str) -> str:
     """Path of the built-in scene ``name`` (``pathtracer/scenes/<name>.xml``)."""
     return os.path.join(BUILTIN_DIR, name + ".xml")
+
+
+def builtin_scene_names() -> list[str]:
+    """Names of the built-in scenes: the ``.xml`` files of ``pathtracer/scenes``, sorted."""
+    if not os.path.isdir(BUILTIN_DIR):
+        return []
+    return sorted(f[:-4] for f in os.listdir(BUILTIN_DIR) if f.endswith(".xml"))
+
+
+def is_builtin_name(text: str | os.PathLike) -> bool:
+    """Whether ``text`` names a built-in scene rather than a file: no folder, no ``.xml``."""
+    text = os.fspath(text)
+    return "/" not in text and os.sep not in text and not text.endswith(".xml")
 
 
 def load_scene(path: str | os.PathLike, resolution: tuple[int, int] | None = None,
@@ -60,13 +74,16 @@ def load_scene(path: str | os.PathLike, resolution: tuple[int, int] | None = Non
 
 
 def scene_file(path: str | os.PathLike) -> str:
-    """The XML file of ``path``: a file path, or a built-in scene name."""
+    """The XML file of ``path``: a file path, or a built-in scene name (:func:`is_builtin_name`).
+
+    This is the one rule from a scene argument to its file; the reference side
+    (:func:`mitsuba_refs.render.resolve_scene`) uses it too.
+    """
     text = os.fspath(path)
-    if "/" not in text and os.sep not in text and not text.endswith(".xml"):
+    if is_builtin_name(text):
         file = builtin_scene_path(text)
         if not os.path.isfile(file):
-            names = sorted(f[:-4] for f in os.listdir(BUILTIN_DIR) if f.endswith(".xml")) \
-                if os.path.isdir(BUILTIN_DIR) else []
+            names = builtin_scene_names()
             close = difflib.get_close_matches(text, names, n=1)
             hint = f"did you mean \"{close[0]}\"? " if close else ""
             raise SceneError(f"no built-in scene \"{text}\" ({hint}built-in: {', '.join(names) or 'none'}; "
