@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from experiments.calibration import clopper_pearson
+from mitsuba_refs.stats import clopper_pearson
 
 from . import grading
 

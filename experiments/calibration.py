@@ -13,21 +13,12 @@ import argparse
 import json
 from pathlib import Path
 
-from scipy import stats
 from tqdm import tqdm
 
 from mitsuba_refs.cache import get_reference
 from mitsuba_refs.compare import (CONVERGENCE_REPLICAS, SAME_ESTIMATOR, check_convergence,
                                   default_params, reference_integrator, render_ours)
-from mitsuba_refs.stats import compare_means, compare_variances
-
-
-def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
-    """Exact binomial confidence interval for k successes in n trials."""
-    tail = (1 - level) / 2
-    low = stats.beta.ppf(tail, k, n - k + 1) if k > 0 else 0.0
-    high = stats.beta.ppf(1 - tail, k + 1, n - k) if k < n else 1.0
-    return float(low), float(high)
+from mitsuba_refs.stats import clopper_pearson, compare_means, compare_variances
 
 
 def main(argv=None) -> int:

@@ -20,10 +20,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from experiments.calibration import clopper_pearson
 from mitsuba_refs import compare
 from mitsuba_refs.rfilter import filter_metadata
-from mitsuba_refs.stats import compare_means, compare_variances
+from mitsuba_refs.stats import clopper_pearson, compare_means, compare_variances
 from mitsuba_refs.stats.correlation import pixel_correlation
 from mitsuba_refs.stats.simulate import make_scene
 from mitsuba_refs.stats.simulate_filtered import render_filtered

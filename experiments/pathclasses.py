@@ -133,7 +133,7 @@ def compare_bounces(args, bar):
     from mitsuba_refs.cache import ReferenceUnavailable, get_reference
     from mitsuba_refs.stats import compare_means
     from pathtracer import load_scene
-    from pathtracer.integrators.pathclass import render_classes
+    from pathtracer.render import render_classes
     params = common.scene_params(args.scene, args.defines)
     try:
         refs = [get_reference(args.scene, {**params, "max_depth": d}, "path") for d in (1, 2, 3)]
@@ -166,8 +166,8 @@ def compare_bounces(args, bar):
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     from pathtracer import load_scene, render
-    from pathtracer.integrators.pathclass import render_classes
     from pathtracer.pathclasses import compile_classes, is_partition
+    from pathtracer.render import render_classes
     out = common.out_dir(args.out)
     args.workers = args.workers or common.cpu_count()
     compile_classes(args.classes)          # fail early on a malformed expression

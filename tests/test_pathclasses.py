@@ -3,9 +3,10 @@ import numpy as np
 import pytest
 
 from pathtracer import load_scene, render
-from pathtracer.integrators.pathclass import PathClassIntegrator, render_classes
+from pathtracer.integrators.pathclass import PathClassIntegrator
 from pathtracer.pathclasses import (PathRegexError, bsdf_letter, compile_class, describe_letters,
                                     is_partition)
+from pathtracer.render import render_classes
 
 PARTITION = ["LE", "LDE", "LD.+E", "LS.*E", "LG.*E"]
 

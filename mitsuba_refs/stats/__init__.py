@@ -7,6 +7,7 @@
 * :func:`convergence_law`    -- does RMSE fall as N^-1/2? (slope, ratio, bias floor, correlation)
 * :func:`first_diverging_bounce` -- which max_depth breaks first
 * :func:`per_test_alpha`, :class:`ErrorBudget` -- the suite-wide false-failure budget
+* :func:`clopper_pearson`    -- the exact interval of a rejection rate measured in calibration runs
 
 See docs/statistics.md for the assumptions and the measured calibration.
 """
@@ -16,6 +17,7 @@ from .convergence import (MIN_EFFECTIVE_ROWS, ConvergenceResult, convergence_law
                           image_mse, rare_errors_dominate, reference_mse_floor)
 from .mean import VARIANCE_BOUND, MeanAgreement, compare_means, tile_z
 from .power import bias_power, detectable_bias, spp_for_bias
+from .rates import clopper_pearson
 from .variance import MAX_VARIANCE_RATIO, VarianceAgreement, compare_variances
 
 __all__ = [
@@ -25,5 +27,5 @@ __all__ = [
     "ConvergenceResult", "convergence_law", "effective_rows", "image_mse", "rare_errors_dominate",
     "reference_mse_floor", "MIN_EFFECTIVE_ROWS",
     "depth_name", "first_diverging_bounce",
-    "SUITE_ALPHA", "ErrorBudget", "per_test_alpha", "suite_false_failure",
+    "SUITE_ALPHA", "ErrorBudget", "per_test_alpha", "suite_false_failure", "clopper_pearson",
 ]

@@ -17,7 +17,7 @@ partition path space therefore sum to the ``path`` image up to float rounding.
 
 ``radiance`` (the integrator contract) returns the first class only, so
 ``render(scene, PathClassIntegrator("LS+DE"))`` renders the caustics alone;
-:func:`render_classes` renders all classes of one integrator in one pass.
+:func:`pathtracer.render.render_classes` renders all classes of one integrator in one pass.
 """
 from __future__ import annotations
 
@@ -25,7 +25,6 @@ import numpy as np
 
 from ..emitters import pdf_emitter_direction, sample_emitter
 from ..pathclasses import LETTER, _parse_glossy, bsdf_letters, compile_classes
-from ..render import _Job
 from ..sampling import power_heuristic
 from ..shading import eval_bsdf, has_smooth, sample_bsdf
 from .base import Integrator, spawn, subset_hit, trace
@@ -131,53 +130,3 @@ class PathClassIntegrator(Integrator):
             d = next_rays.d
             hit = trace(scene, next_rays)
         return L
-
-
-class _ClassJob(_Job):
-    """Renders one unit of all classes: (n, 3 K) values per camera ray."""
-
-    def estimate(self, rays, rng):
-        return self.integrator.radiance_classes(self.scene, rays, rng)
-
-
-def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int | None = 1,
-                   batch_size: int | None = None, progress: bool = False, glossy="G", **options):
-    """Render one image per path class in a single pass.
-
-    Random numbers are keyed exactly as in :func:`pathtracer.render`, so with
-    the same ``seed`` and options the classes are a split of the ``path`` image
-    (of its box-filtered image: the classes ignore the film's reconstruction filter).
-
-    Returns
-    -------
-    dict with ``classes`` (list of str), ``mean`` and ``variance``
-    ((n_classes, H, W, 3) each), ``spp``, ``seed``, ``seconds``.
-    """
-    import os
-    import time
-
-    from .. import geometry
-    from ..render import DEFAULT_BATCH, mean_and_variance, pixel_statistics, plan_units, run_units
-    from ..scene import load_scene
-    from ..scene.types import Scene
-
-    if not isinstance(scene, Scene):
-        scene = load_scene(scene)
-    integrator = PathClassIntegrator(classes, glossy=glossy, **options)
-    K = len(integrator.classes)
-    n_pixels = scene.camera.width * scene.camera.height
-    units = plan_units(n_pixels, int(spp), batch_size or max(1024, DEFAULT_BATCH // max(1, K // 2)))
-    processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
-    geometry.prepare(scene)
-    start = time.perf_counter()
-    stats = run_units(_ClassJob(scene, integrator, int(spp), int(seed)), units,
-                      pixel_statistics(n_pixels, 3 * K), processes, progress)
-    mean, variance = mean_and_variance(stats)
-    h, w = scene.camera.height, scene.camera.width
-
-    def per_class(a):
-        return a.reshape(h, w, K, 3).transpose(2, 0, 1, 3)
-
-    return dict(classes=integrator.expressions, mean=per_class(mean), variance=per_class(variance),
-                spp=int(spp), seed=int(seed), seconds=time.perf_counter() - start,
-                options=integrator.options())
