@@ -1,4 +1,4 @@
-"""How often does the grader take points from a correct submission?
+"""How often does the grader take points from a correct submission? Measured.
 
 Grades an implementation (default: the reference solution) again and again with every
 render seed shifted, and reports
@@ -95,6 +95,7 @@ def read_records(path: Path, impl: str, checks: list) -> list:
 
 
 def main(argv=None) -> int:
+    """Grade the implementation ``--seeds`` times and report how often it lost points; exit code."""
     parser = argparse.ArgumentParser(prog="python -m autograder.calibrate", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--impl", default="autograder.solution", help="implementation to grade")

@@ -177,6 +177,8 @@ ALPHA = budget().alpha(f"{CHECKS[0].id}/mean")
 
 @dataclass
 class Part:
+    """One scored part of a check (mean, variance or convergence): points won of the most, and why."""
+
     name: str
     points: float
     max_points: float
@@ -279,7 +281,7 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
                 max_depth = check.max_depth     # the check's depth unless the sweep sets one
             image = student.render(scene, run_as, params, spp, seed + seed_offset,
                                    max_depth=max_depth, camera=camera)
-            if seed == TEST_SEED and max_depth is None and spp == check.spp:
+            if main:
                 main_render["image"] = image
             return image
 

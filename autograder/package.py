@@ -118,7 +118,7 @@ def _files():
             yield path
             continue
         for file in sorted(path.rglob("*")):
-            if file.is_file() and not file.suffix in SKIP_SUFFIXES and \
+            if file.is_file() and file.suffix not in SKIP_SUFFIXES and \
                     not any(part in SKIP_PARTS for part in file.parts):
                 yield file
 
@@ -139,6 +139,7 @@ def build(out_zip) -> Path:
 
 
 def main(argv=None) -> int:
+    """Build the Gradescope upload (command line); exit code."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out_zip")
     args = parser.parse_args(argv)

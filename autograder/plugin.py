@@ -26,7 +26,6 @@ gets full points, a failing one its score so far (0 by default).
 from __future__ import annotations
 
 import os
-import time
 
 import pytest
 
@@ -36,6 +35,7 @@ _RESULTS = pytest.StashKey[Results]()
 
 
 def pytest_addoption(parser):
+    """Add the grader's options (``--impl``, ``--gradescope``, ...) to pytest."""
     group = parser.getgroup("autograder")
     group.addoption("--impl", default=None, metavar="PATH_OR_MODULE",
                     help="implementation to grade: module name, .py file or package folder "
@@ -50,6 +50,7 @@ def pytest_addoption(parser):
 
 
 def pytest_configure(config):
+    """Register the grader's markers and, with ``--gradescope``, the results file."""
     config.addinivalue_line("markers", "points(n): max score of a graded test")
     config.addinivalue_line("markers", "visibility(v): Gradescope visibility: visible, "
                                        "after_due_date, after_published or hidden")
@@ -87,16 +88,19 @@ class Grade:
 
 
 def points_of(item) -> float:
+    """Points a graded test is worth (its ``points`` marker)."""
     marker = item.get_closest_marker("points")
     return float(marker.args[0]) if marker and marker.args else 1.0
 
 
 def visibility_of(item) -> str:
+    """When Gradescope shows a test to the student (its ``visibility`` marker)."""
     marker = item.get_closest_marker("visibility")
     return str(marker.args[0]) if marker and marker.args else "visible"
 
 
 def test_name(item) -> str:
+    """The title of a graded test in Gradescope's results."""
     doc = getattr(item, "function", None) and item.function.__doc__
     title = doc.strip().splitlines()[0] if doc else item.name
     if "[" in item.name:
@@ -128,6 +132,7 @@ def trusted_implementation(request) -> bool:
 
 @pytest.fixture(scope="session")
 def pictures_dir(request, tmp_path_factory):
+    """Folder for the diagnostic pictures of the graded checks."""
     folder = request.config.getoption("--grading-pictures")
     results = request.config.getoption("--gradescope")
     if folder:
@@ -149,6 +154,7 @@ def pytest_collection_finish(session):
 
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_makereport(item, call):
+    """Record each graded test's score and output in the results file."""
     outcome = yield
     report = outcome.get_result()
     results = item.config.stash.get(_RESULTS, None)
@@ -182,6 +188,7 @@ def _failure_text(report) -> str:
 
 
 def pytest_sessionfinish(session, exitstatus):
+    """Write Gradescope's results file once every test has run."""
     results = session.config.stash.get(_RESULTS, None)
     if results is not None:
         results.write()

@@ -142,6 +142,7 @@ def format_table(rows) -> str:
 
 
 def main(argv=None) -> int:
+    """Print each check's smallest detectable bias at the grader's level (command line); exit code."""
     parser = argparse.ArgumentParser(prog="python -m autograder.power", description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, default=200, help="injected renders per check and sign")
     parser.add_argument("--renders", type=int, default=0,

@@ -89,7 +89,7 @@ _BUILT = {}
 
 
 def cached(flavour: str = "student", public: bool = True) -> Path:
-    """This process's runtime of ``flavour``, built on first use in a temporary folder
+    """The runtime of ``flavour`` for this process, built on first use in a temporary folder
     (removed at exit); see :func:`build` for ``public``."""
     key = (flavour, public)
     if key not in _BUILT:

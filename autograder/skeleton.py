@@ -121,6 +121,7 @@ def generate(out_dir, stubs: bool = True) -> Path:
 
 
 def main(argv=None) -> int:
+    """Write the student skeleton package (command line); exit code."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out_dir", help="folder to write the package 'student' into")
     args = parser.parse_args(argv)

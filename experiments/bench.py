@@ -232,6 +232,7 @@ def _spread(result: dict) -> str:
 
 
 def run(args) -> dict:
+    """Time every scene in the tracer and in Mitsuba; the report as a dict."""
     res = args.resolution
     report = dict(
         date=datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
@@ -380,6 +381,7 @@ def table(report: dict) -> str:
 
 
 def main(argv=None) -> int:
+    """Run the benchmark (command line) and write its report; exit code."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true",
                         help="tiny renders, one repeat, small memory run (a smoke test)")

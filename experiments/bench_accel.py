@@ -52,6 +52,7 @@ def rays_at(n: int, rng, src_r: float, dst_r: float, up=False):
 
 
 def bench(name, tri, o, d, rng, repeat=3):
+    """Time building ``name``'s BVH and tracing the rays ``o``, ``d`` through it; print the rates."""
     t0 = time.perf_counter()
     bvh = BVH(tri)
     build = time.perf_counter() - t0
@@ -76,6 +77,7 @@ def bench(name, tri, o, d, rng, repeat=3):
 
 
 def main():
+    """Benchmark the intersector on a height field and a bumpy sphere (command line)."""
     ap = argparse.ArgumentParser()
     ap.add_argument("--tris", type=int, default=100_000)
     ap.add_argument("--rays", type=int, default=65_536)

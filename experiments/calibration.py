@@ -1,4 +1,4 @@
-"""Calibration of the verdicts on real renders: how often is a correct tracer rejected?
+"""Calibration of the verdicts on real renders: how often a correct tracer is rejected.
 
 Renders the correct integrator with many independent seeds, applies the mean,
 variance and convergence tests at a nominal alpha, and reports the rejection
@@ -22,6 +22,7 @@ from mitsuba_refs.stats import clopper_pearson, compare_means, compare_variances
 
 
 def main(argv=None) -> int:
+    """Measure the verdicts' false-rejection rates on real renders (command line); exit code."""
     parser = argparse.ArgumentParser(prog="python -m experiments.calibration", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--scene", default="cornell-box")

@@ -71,6 +71,7 @@ def scene_params(scene: str, defines=()) -> dict:
 
 
 def cpu_count() -> int:
+    """Cores this process may run on."""
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:   # pragma: no cover - not Linux
@@ -88,6 +89,7 @@ def progress_bar(total: int, desc: str, enabled: bool = True):
 # files
 
 def out_dir(path) -> Path:
+    """``path`` as a folder that exists."""
     path = Path(path)
     path.mkdir(parents=True, exist_ok=True)
     return path
@@ -127,6 +129,7 @@ def _plain(value):
 
 
 def write_json(path, obj) -> str:
+    """Write ``obj`` (NumPy values included) as indented JSON; return the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(_plain(obj), indent=1) + "\n")
@@ -180,6 +183,7 @@ def error_metrics(mean, reference) -> dict:
 
 
 def luminance(image) -> np.ndarray:
+    """Rec. 709 luminance of an (..., 3) linear RGB image."""
     return np.asarray(image) @ np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -281,7 +285,7 @@ class _InlineExecutor:
         future.set_running_or_notify_cancel()
         try:
             future.set_result(fn(*args, **kwargs))
-        except BaseException as error:   # noqa: BLE001 - forwarded to the caller
+        except BaseException as error:   # forwarded to the caller
             future.set_exception(error)
         return future
 

@@ -35,6 +35,7 @@ AGREEMENT_SPP = 64
 
 
 def build_parser():
+    """The command line of the error-vs-spp experiment."""
     parser = argparse.ArgumentParser(
         prog="python -m experiments.convergence", description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -53,6 +54,7 @@ def build_parser():
 
 
 def make_tasks(scene, params, integrators, ladder, replicas, seed):
+    """One render per integrator, replica and ladder level, each with its own seed."""
     tasks = []
     for i, name in enumerate(integrators):
         for k in range(replicas):
@@ -108,6 +110,7 @@ def rare_path_caution(lowest_mses) -> float | None:
 
 
 def summary_rows(results, ladder):
+    """One table row per integrator: the convergence law's fit and the efficiency at the top level."""
     rows = []
     best = max((1.0 / (np.nanmedian(r["mse"][:, -1]) * np.nanmedian(r["seconds"][:, -1]))
                 for r in results.values()), default=1.0)
@@ -139,6 +142,7 @@ def summary_rows(results, ladder):
 
 
 def print_table(rows, file=sys.stdout):
+    """Print the summary rows as an aligned table."""
     head = (f"{'integrator':<11} {'RMSE slope [95% CI]':<26} {'RMSE(N)/RMSE(4N)':<20} "
             f"{'mean vs Mitsuba':<24} {'time':>7} {'efficiency':>10}  verdict")
     print(head, file=file)
@@ -161,6 +165,7 @@ def print_table(rows, file=sys.stdout):
 
 
 def plot(results, ladder, title, out):
+    """Draw RMSE against spp for every integrator; return the figure paths."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -226,6 +231,7 @@ def plot(results, ladder, title, out):
 
 
 def main(argv=None) -> int:
+    """Run the error-vs-spp experiment (command line); exit code."""
     args = build_parser().parse_args(argv)
     ladder = sorted(set(args.spp))
     if len(ladder) < 3 and args.replicas >= 2:

@@ -39,6 +39,7 @@ PARTS = ("mis", "hemisphere", "roulette", "recursive")
 
 
 def build_parser():
+    """The command line of the estimator comparisons."""
     parser = argparse.ArgumentParser(
         prog="python -m experiments.estimators", description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -343,7 +344,8 @@ def part_recursive(args, bar):
     ax.legend(fontsize=8)
 
     ax = axes[1]
-    done = [r for r in rows if r.get("rmse_equal_time") is not None and math.isfinite(r.get("rmse_equal_time", math.nan))]
+    done = [r for r in rows
+            if r.get("rmse_equal_time") is not None and math.isfinite(r.get("rmse_equal_time", math.nan))]
     labels = [r["config"] for r in done]
     values = [r["rmse_equal_time"] for r in done]
     colours = ["C0" if r["integrator"] == "path" else f"C{args.branches.index(r['branches']) + 1}" for r in done]
@@ -367,6 +369,7 @@ def part_recursive(args, bar):
 
 
 def main(argv=None) -> int:
+    """Run the estimator comparisons (command line); exit code."""
     args = build_parser().parse_args(argv)
     common.out_dir(args.out)
     args.workers = args.workers or common.cpu_count()

@@ -85,6 +85,7 @@ def convergence(kind: str, seeds: int, size: int, n_ref: int) -> None:
 
 
 def main(argv=None) -> None:
+    """Measure the filtered-film tests' false-rejection rates (command line)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("what", choices=("tests", "convergence"))
     parser.add_argument("--filters", nargs="+", default=["box", "tent", "gaussian"])

@@ -38,6 +38,7 @@ DEFAULT_CLASSES = ("LE", "LDE", "LDD+E", "LS+DE", "LS*E", "L(D|S)*E")
 
 
 def build_parser():
+    """The command line of the path-class experiment."""
     parser = argparse.ArgumentParser(
         prog="python -m experiments.pathclasses", description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -58,13 +59,13 @@ def build_parser():
 
 
 def plot_classes(result, named, partition, full, title, out):
+    """Draw the named classes and a partition of path space beside the full image."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from pathtracer.pathclasses import LECTURE_CLASSES
     exposure = auto_scale(full)
     total = float(full.mean())
-    panels = [(e, result[e]) for e in named] + [(None, None)] + [(e, result[e]) for e in partition]
     cols = max(len(named) + 1, len(partition) + 1)
     fig, axes = plt.subplots(2, cols, figsize=(2.9 * cols, 7.4), squeeze=False)
     for ax in axes.ravel():
@@ -102,6 +103,7 @@ def plot_classes(result, named, partition, full, title, out):
 
 
 def plot_bounces(rows, title, out):
+    """Draw each bounce class beside Mitsuba's difference of max_depth references."""
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(len(rows), 3, figsize=(12, 3.6 * len(rows)), squeeze=False)
     for i, row in enumerate(rows):
@@ -164,6 +166,7 @@ def compare_bounces(args, bar):
 
 
 def main(argv=None) -> int:
+    """Run the path-class experiment (command line); exit code."""
     args = build_parser().parse_args(argv)
     from pathtracer import load_scene, render
     from pathtracer.pathclasses import compile_classes, is_partition

@@ -94,6 +94,7 @@ def table(profiles: dict) -> str:
 
 
 def main(argv=None) -> int:
+    """Profile a render per scene and print where the time goes (command line); exit code."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scenes", default=",".join(label for label, *_ in CASES),
                         help="comma-separated benchmark scenes (default: all)")

@@ -28,6 +28,7 @@ DEFAULT_SPP = (1, 4, 16, 64, 256, 1024)
 
 
 def build_parser():
+    """The command line of the lecture's progression figure."""
     parser = argparse.ArgumentParser(
         prog="python -m experiments.progression", description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -71,8 +72,9 @@ def progressive(render_increment, levels, bar):
 
 
 def mitsuba_ready() -> tuple[bool, str]:
+    """Whether Mitsuba 3 can be imported, and why not."""
     try:
-        import mitsuba  # noqa: F401
+        import mitsuba  # noqa: F401  (only whether it imports)
     except ImportError:
         return False, "Mitsuba 3 is not installed (pip install -e '.[mitsuba]')"
     return True, ""
@@ -106,6 +108,7 @@ def mitsuba_renderer(scene, params, integrator, variant=None):
 
 
 def plot(rows, levels, title, out, exposure):
+    """Draw one row of images per renderer at every sample count; return the figure paths."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -134,6 +137,7 @@ def plot(rows, levels, title, out, exposure):
 
 
 def main(argv=None) -> int:
+    """Draw the lecture's progression figure (command line); exit code."""
     args = build_parser().parse_args(argv)
     from pathtracer import load_scene, render
     levels = sorted(set(args.spp))
@@ -157,7 +161,7 @@ def main(argv=None) -> int:
             mi_images, mi_seconds = progressive(lambda add, j: theirs(add, args.seed + j), levels, bar)
             rows.append((f"Mitsuba 3 {variant}\n({INTEGRATOR_MAP.get(args.integrator, args.integrator)})",
                          mi_images, mi_seconds, ""))
-        except Exception as error:   # noqa: BLE001 - report and draw ours alone
+        except Exception as error:   # report and draw ours alone
             why = f"Mitsuba failed: {error}"
             use_mitsuba = False
     if not use_mitsuba:

@@ -29,6 +29,7 @@ from . import common
 
 
 def build_parser():
+    """The command line of the parameter sweep."""
     parser = argparse.ArgumentParser(
         prog="python -m experiments.sweep", description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -46,6 +47,7 @@ def build_parser():
 
 
 def make_tasks(scenes, integrators, spps, seeds, base_seed, defines=(), options=None):
+    """One render per scene, integrator, spp and seed."""
     tasks = []
     for a, scene in enumerate(scenes):
         params = common.scene_params(scene, defines) if not scene.endswith(".xml") else dict(defines)
@@ -87,6 +89,7 @@ def run_sweep(tasks, out, *, workers=None, dask=None, pool=None, progress=True):
 
 
 def summarise(store, tasks):
+    """One row per finished task, with its metrics, from the result store."""
     rows = []
     for task in tasks:
         record = store.get(task)
@@ -108,6 +111,7 @@ def summarise(store, tasks):
 
 
 def plot(summary, rows, out):
+    """Draw RMSE against spp per scene; return the figure paths."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -148,6 +152,7 @@ def plot(summary, rows, out):
 
 
 def main(argv=None) -> int:
+    """Run the sweep (command line); exit code."""
     args = build_parser().parse_args(argv)
     options = {} if args.max_depth is None else {"max_depth": args.max_depth}
     tasks = make_tasks(args.scenes, args.integrators, sorted(set(args.spp)), args.seeds, args.seed,

@@ -402,7 +402,7 @@ def store(reference, scene, params, integrator, spp, seed, directory=None, optio
 def mitsuba_available():
     """True when ``import mitsuba`` works."""
     try:
-        import mitsuba  # noqa: F401
+        import mitsuba  # noqa: F401  (only whether it imports)
     except ImportError:
         return False
     return True

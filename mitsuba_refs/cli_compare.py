@@ -38,6 +38,7 @@ def _resolution(text: str) -> tuple[int, int]:
 
 
 def add_compare(subparsers):
+    """Add the ``compare`` subcommand to ``subparsers``; return its handler."""
     from pathtracer import INTEGRATORS
 
     p = subparsers.add_parser(

@@ -10,11 +10,11 @@ import os
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.colors import TwoSlopeNorm  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.colors import TwoSlopeNorm
 
-from pathtracer.tonemap import auto_scale, tonemap  # noqa: E402
+from pathtracer.tonemap import auto_scale, tonemap
 
 __all__ = ["plot_mean_comparison", "plot_convergence", "plot_variance_comparison"]
 

@@ -166,7 +166,7 @@ def _collapse(tree):
     child : (N, 4) int64
         >= 0: wide node id; < 0: leaf ``~child``.
     """
-    left, right, leaf = tree["left"], tree["right"], tree["leaf"]
+    left, right = tree["left"], tree["right"]
     front = np.array([0])  # binary ids of wide nodes being created
     if left[0] < 0:  # root is a leaf: one wide node holding it
         slots = np.array([[0, -1, -1, -1]])

@@ -92,6 +92,7 @@ def _resolution(text: str) -> tuple[int, int]:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``pathtracer`` command line (subcommands ``render`` and ``scenes``)."""
     parser = _Parser(prog="pathtracer", description=__doc__,
                      formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG)
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -137,6 +138,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    """Run one ``pathtracer`` command; its exit code (README, "Exit codes")."""
     args = build_parser().parse_args(argv)
     if args.command == "scenes":
         from .scene import builtin_scene_names

@@ -28,7 +28,7 @@ from .sampling import (square_to_uniform_cone, square_to_uniform_cone_pdf,
                        square_to_uniform_disk_concentric,
                        square_to_uniform_sphere, square_to_uniform_triangle)
 from .scene.types import Scene
-from .vec import cross, dot, norm, normalize, to_world
+from .vec import dot, norm, normalize, to_world
 
 
 @dataclass

@@ -146,7 +146,7 @@ def write_exr(path, result: RenderResult, dtype=np.float32) -> Path:
     for what, count in clamped.items():
         warnings.warn(PrecisionWarning(
             f"{path}: {count} {what} values exceed the EXR's {np.dtype(dtype).name} range and "
-            f"were stored as its largest value, {np.finfo(dtype).max:.3g} (header clamped_{what})"))
+            f"were stored as its largest value, {np.finfo(dtype).max:.3g} (header clamped_{what})"), stacklevel=2)
     return path
 
 

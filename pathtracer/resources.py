@@ -1,4 +1,4 @@
-"""Up-front resource checks: will a render fit in memory, and can its numbers be stored?
+"""Up-front resource checks: whether a render fits in memory and its numbers can be stored.
 
 A render that cannot finish should be refused before it starts, with what it needs, rather
 than die in an allocation (or crash writing its file) after the work is done.

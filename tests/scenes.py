@@ -4,7 +4,8 @@ Two pairs are left out of the Mitsuba comparisons, each for a measured reason
 that a test of its own documents:
 
 * ``furnace`` with ``path`` and ``direct``: Mitsuba 3.9.1's MIS estimators are
-  biased there (+0.157 %, z = 40 / +0.123 %, z = 341 in the committed references; its float32 sphere pdf switches between the
+  biased there (+0.157 %, z = 40 / +0.123 %, z = 341 in the committed references; its float32
+  sphere pdf switches between the
   cone and the area form for points on the sphere), so our unbiased images are
   checked against the closed form Le / (1 - rho) instead (test_analytic.py) and
   the reference's bias is asserted in test_mitsuba_known_bias.py (``recursive``

@@ -521,7 +521,8 @@ def _assert_close(ours, theirs, rtol=1e-4, floor=1e-6, what=""):
     scale = max(float(np.max(np.abs(theirs))), 1e-30)
     err = np.abs(ours - theirs) / np.maximum(np.abs(theirs), floor * scale)
     worst = np.unravel_index(np.argmax(err), err.shape)
-    assert err[worst] <= rtol, f"{what}: rel. error {err[worst]:.3g} at {worst}: ours {ours[worst]}, mitsuba {theirs[worst]}"
+    assert err[worst] <= rtol, \
+        f"{what}: rel. error {err[worst]:.3g} at {worst}: ours {ours[worst]}, mitsuba {theirs[worst]}"
 
 
 def _pairs(n: int, seed: int, bsdf=None):
@@ -535,7 +536,8 @@ def _pairs(n: int, seed: int, bsdf=None):
         wi = np.concatenate((wi, wi_s))
         wo = np.concatenate((wo, bsdf.sample(wi_s, rng.random(n), rng.random((n, 2))).wo))
     # A few grazing and normal directions.
-    wi[:8] = [direction(t, p) for t, p in [(0, 0), (89.5, 10), (88, 200), (60, 90), (0.1, 0), (45, 45), (80, 300), (30, 0)]]
+    wi[:8] = [direction(t, p) for t, p in [(0, 0), (89.5, 10), (88, 200), (60, 90), (0.1, 0), (45, 45),
+                                           (80, 300), (30, 0)]]
     return _f32(wi), _f32(wo)
 
 
@@ -544,7 +546,8 @@ ROUGH_CASES = [(d, a, a) for d in DISTRIBUTIONS for a in ALPHAS] + [
 
 
 def _rough_spec(distribution, alpha_u, alpha_v, colour, eta_k=None):
-    spec = {"type": "roughconductor", "distribution": distribution, "specular_reflectance": {"type": "rgb", "value": list(colour)}}
+    spec = {"type": "roughconductor", "distribution": distribution,
+            "specular_reflectance": {"type": "rgb", "value": list(colour)}}
     if alpha_u == alpha_v:
         spec["alpha"] = alpha_u
     else:
@@ -608,8 +611,9 @@ def test_mitsuba_roughconductor_sample(distribution, alpha_u, alpha_v, mi):
 def test_mitsuba_diffuse_and_twosided(mi):
     colour = [0.2, 0.5, 0.8]
     wi, wo = _pairs(800, 40)
-    for spec, ours in [({"type": "diffuse", "reflectance": {"type": "rgb", "value": colour}}, Diffuse(colour)),
-                       ({"type": "twosided", "material": {"type": "diffuse", "reflectance": {"type": "rgb", "value": colour}}},
+    diffuse = {"type": "diffuse", "reflectance": {"type": "rgb", "value": colour}}
+    for spec, ours in [(diffuse, Diffuse(colour)),
+                       ({"type": "twosided", "material": diffuse},
                         TwoSided(Diffuse(colour))),
                        ({"type": "twosided", "material": _rough_spec("ggx", 0.3, 0.3, colour)},
                         TwoSided(RoughConductor("ggx", 0.3, 0.3, colour))),

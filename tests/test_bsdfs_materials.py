@@ -155,7 +155,9 @@ def test_reciprocity(name):
     f_io = bsdf.eval(wi, wo) / np.abs(wo[:, 2:3])
     f_oi = bsdf.eval(wo, wi) / np.abs(wi[:, 2:3])
     if two_sided:
-        index = lambda v: np.where(v[:, 2] > 0, 1.0, bsdf.eta)[:, None]   # medium of each direction
+        def index(v):   # index of refraction of the medium each direction points into
+            return np.where(v[:, 2] > 0, 1.0, bsdf.eta)[:, None]
+
         f_io, f_oi = f_io / index(wi) ** 2, f_oi / index(wo) ** 2
     assert np.count_nonzero(f_io) > 1000
     np.testing.assert_allclose(f_io, f_oi, rtol=1e-8, atol=1e-12)
@@ -197,7 +199,8 @@ def test_plastic_diffuse_lobe_matches_the_internal_scattering_model():
     n = 400_000
     wo = random_directions(n, 346, True)
     estimate = bsdf.eval(tile(wi, n), wo)[:, 0].mean() * 2.0 * np.pi
-    expected = (1 - F_i) * (1 - fresnel_diffuse_reflectance(1.5)) / (1.5 ** 2 * (1 - fresnel_diffuse_reflectance(1 / 1.5)))
+    expected = ((1 - F_i) * (1 - fresnel_diffuse_reflectance(1.5))
+                / (1.5 ** 2 * (1 - fresnel_diffuse_reflectance(1 / 1.5))))
     assert abs(estimate - expected) < 5e-3
     assert abs(expected - (1 - F_i)) < 0.01 * (1 - F_i)
 

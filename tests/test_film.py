@@ -7,7 +7,6 @@ tabulate them (docs/scene-format.md).
 import numpy as np
 import pytest
 
-from mitsuba_refs.stats import compare_means
 from mitsuba_refs.stats.correlation import pixel_correlation
 from pathtracer import load_scene, render
 from pathtracer.film import ReconstructionFilter, effective_counts, lag_correlations, splat

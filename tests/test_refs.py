@@ -21,7 +21,7 @@ from scipy import stats
 
 from mitsuba_refs import config
 from mitsuba_refs.cache import (ReferenceUnavailable, get_reference,
-                                reference_paths, store, validate)
+                                store, validate)
 from mitsuba_refs.exr import read_reference_exr, write_reference_exr
 from mitsuba_refs.render import Reference, resolve_scene
 from mitsuba_refs.stats import compare_means

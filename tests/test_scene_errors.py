@@ -8,7 +8,8 @@ import pytest
 
 from pathtracer.scene import SceneError, load_scene
 
-FILM = '<film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="32"/><rfilter type="box"/></film>'
+FILM = ('<film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="32"/>'
+        '<rfilter type="box"/></film>')
 SENSOR = f'<sensor type="perspective"><float name="fov" value="40"/>{FILM}</sensor>'
 MARK = "<!--L-->"  # marks the line the error must point at
 
@@ -128,16 +129,19 @@ CASES = {
         f'<bsdf type="conductor">\n<string name="material" value="Unobtainium"/>{MARK}</bsdf>',
         '<bsdf type="conductor">', 'unknown conductor material "Unobtainium" (known: none, Ag'),
     "conductor eta and material": (
-        f'<bsdf type="roughconductor">\n<string name="material" value="Au"/>{MARK}\n<rgb name="eta" value="0.2"/></bsdf>',
+        f'<bsdf type="roughconductor">\n<string name="material" value="Au"/>{MARK}\n'
+        '<rgb name="eta" value="0.2"/></bsdf>',
         '<bsdf type="roughconductor">', 'give either eta/k or material="Au", not both'),
     "conductor k and material": (
         f'<bsdf type="conductor">\n<string name="material" value="Cu"/>\n<rgb name="k" value="2"/>{MARK}</bsdf>',
         '<bsdf type="conductor">', '"k" without "eta"'),
     "anisotropic roughplastic": (
-        f'<bsdf type="roughplastic">\n<float name="alpha_u" value="0.1"/>{MARK}\n<float name="alpha_v" value="0.2"/></bsdf>',
+        f'<bsdf type="roughplastic">\n<float name="alpha_u" value="0.1"/>{MARK}\n'
+        '<float name="alpha_v" value="0.2"/></bsdf>',
         '<bsdf type="roughplastic">', "only isotropic roughness"),
     "roughdielectric equal iors": (
-        f'<bsdf type="roughdielectric">\n<float name="int_ior" value="1.2"/>{MARK}\n<float name="ext_ior" value="1.2"/></bsdf>',
+        f'<bsdf type="roughdielectric">\n<float name="int_ior" value="1.2"/>{MARK}\n'
+        '<float name="ext_ior" value="1.2"/></bsdf>',
         '<bsdf type="roughdielectric">', "int_ior != ext_ior"),
     "negative roughness": (
         f'<bsdf type="roughdielectric">\n<float name="alpha" value="-0.1"/>{MARK}</bsdf>',
@@ -241,7 +245,7 @@ SENSOR_CASES = {
         "unsupported sensor"),
     "camera scale": (
         SENSOR.replace("</sensor>", f'\n<transform name="to_world"><scale value="2"/></transform>{MARK}</sensor>')
-        .replace("<sensor", f"<sensor"),
+        .replace("<sensor", "<sensor"),
         '<sensor type="perspective">', "scale factors"),
     "negative seed": (
         SENSOR.replace("</sensor>", f'<sampler type="independent">\n<integer name="seed" value="-1"/>{MARK}'
@@ -404,8 +408,8 @@ def test_mitsuba_refuses_and_accepts_the_same_values(tmp_path, mi):
         path.write_text(text)
         with pytest.raises(SceneError):
             load_scene(str(path))
-    edges = (f'<scene version="2.1.0"><integrator type="path"><integer name="max_depth" value="-1"/>'
-             f'</integrator>' + SENSOR.replace("</sensor>", '<sampler type="independent"><integer '
+    edges = ('<scene version="2.1.0"><integrator type="path"><integer name="max_depth" value="-1"/>'
+             '</integrator>' + SENSOR.replace("</sensor>", '<sampler type="independent"><integer '
              'name="seed" value="4294967295"/></sampler></sensor>')
              + '<bsdf type="diffuse"><rgb name="reflectance" value="0, 1, 0.5"/></bsdf></scene>')
     mi.load_string(edges)

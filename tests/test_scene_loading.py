@@ -218,8 +218,10 @@ def test_rectangle_and_cube_orientation(tmp_path):
 def test_disk_area_and_arrays(tmp_path):
     path = write_scene(tmp_path, """
         <shape type="disk"><boolean name="flip_normals" value="true"/>
-            <transform name="to_world"><scale x="2" y="3"/><rotate x="1" angle="40"/><translate z="1"/></transform></shape>
-        <shape type="disk"><transform name="to_world"><matrix value="1 1 0 0 0 1 0 0 0 0 1 0 0 0 0 1"/></transform></shape>""")
+            <transform name="to_world"><scale x="2" y="3"/><rotate x="1" angle="40"/><translate z="1"/>
+            </transform></shape>
+        <shape type="disk"><transform name="to_world">
+            <matrix value="1 1 0 0 0 1 0 0 0 0 1 0 0 0 0 1"/></transform></shape>""")
     s = load_scene(path)
     np.testing.assert_allclose(s.shape_area, [np.pi * 6, np.pi])  # shear keeps area
     assert list(s.disk_flip) == [True, False] and s.shape_kind == ["disk", "disk"]
@@ -341,7 +343,8 @@ def test_meshes_match_mitsuba(tmp_path, mi):
     ply_bin = tmp_path / "tetra_bin.ply"
     tetra = read_ply(os.path.join(DATA, "tetra.ply"))
     write_binary_ply(ply_bin, tetra.positions, tetra.faces)
-    xf = '<transform name="to_world"><scale x="2" y="0.5" z="1.5"/><rotate x="0.48" y="0.6" z="0.64" angle="35"/><translate x="0.3"/></transform>'
+    xf = ('<transform name="to_world"><scale x="2" y="0.5" z="1.5"/>'
+          '<rotate x="0.48" y="0.6" z="0.64" angle="35"/><translate x="0.3"/></transform>')
     body = f"""
         <shape type="obj" id="pyr"><string name="filename" value="{DATA}/pyramid.obj"/>{xf}</shape>
         <shape type="obj" id="trin"><string name="filename" value="{DATA}/tri_normals.obj"/>{xf}</shape>
@@ -390,7 +393,8 @@ def assert_same_faces(ours_p, ours_n, their_p, their_n):
 
 
 def test_cube_and_rectangle_match_mitsuba(tmp_path, mi):
-    xf = '<transform name="to_world"><scale x="1" y="2" z="3"/><rotate value="0.6 0 0.8" angle="20"/><translate y="1"/></transform>'
+    xf = ('<transform name="to_world"><scale x="1" y="2" z="3"/><rotate value="0.6 0 0.8" angle="20"/>'
+          '<translate y="1"/></transform>')
     path = write_scene(tmp_path, f"""
         <shape type="cube" id="cube">{xf}</shape>
         <shape type="rectangle" id="rect">{xf}</shape>""")
@@ -408,7 +412,8 @@ def test_disk_and_sphere_match_mitsuba(tmp_path, mi):
         <shape type="disk" id="disk"><transform name="to_world"><scale x="2" y="0.5"/>
             <matrix value="1 0.3 0 0 0 1 0.2 0 0 0 1 0 0 0 0 1"/><translate z="2"/></transform></shape>
         <shape type="sphere" id="sph"><float name="radius" value="0.5"/>
-            <transform name="to_world"><rotate y="1" angle="33"/><scale value="3"/><translate x="1"/></transform></shape>""")
+            <transform name="to_world"><rotate y="1" angle="33"/><scale value="3"/><translate x="1"/>
+            </transform></shape>""")
     ours = load_scene(path)
     theirs = {sh.id(): sh for sh in mi.load_file(path).shapes()}
     assert ours.shape_area[0] == pytest.approx(theirs["disk"].surface_area(), rel=1e-5)

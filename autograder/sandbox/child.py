@@ -44,8 +44,8 @@ def main(runtime: str, config_json: str) -> None:
     _limits(CONFIG["limits"])
     from . import wire
     import numpy  # noqa: F401  (loaded before the sandbox closes: it reads its libraries)
-    import pathtracer  # noqa: F401
-    from pathtracer import render  # noqa: F401
+    import pathtracer  # noqa: F401  (likewise loaded while files can still be read)
+    from pathtracer import render  # noqa: F401  (likewise)
     from pathtracer.accel import single_threaded_blas
     single_threaded_blas()     # reads /proc/self/maps to find BLAS: done before the hook
     sandbox = []
@@ -229,7 +229,7 @@ class Server:
             self.integrators, self.camera_rays = load_submission(config["submission"])
         except ContractError as error:
             self.load_error = f"your implementation breaks the contract: {error}"
-        except BaseException as error:  # noqa: BLE001 - whatever the import does is reported
+        except BaseException as error:  # whatever the import does is reported
             self.load_error = "importing your implementation failed:\n" + _traceback(error)
 
     # -- requests ------------------------------------------------------------------------
@@ -273,7 +273,7 @@ class Server:
         except RecursionError as error:
             return _error("exception", "RecursionError (recursion too deep: use a loop over "
                           "bounces)\n" + _traceback(error, 1200)), {}
-        except BaseException as error:  # noqa: BLE001 - SystemExit included: reported, not obeyed
+        except BaseException as error:  # SystemExit included: reported, not obeyed
             return _error("exception", "your code raised an exception:\n" + _traceback(error)), {}
 
     def scene(self, name: str, params: dict):

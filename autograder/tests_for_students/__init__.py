@@ -1,0 +1,1 @@
+"""The graded tests that Gradescope runs on a submission (see test_integrators.py)."""

@@ -24,7 +24,7 @@ def _params():
 
 @pytest.mark.parametrize("check", list(_params()))
 def test_check(check, implementation, trusted_implementation, pictures_dir, grade):
-    """Agreement with Mitsuba 3"""
+    """Agreement with Mitsuba 3."""
     result = run_check(check, implementation, out_dir=pictures_dir, history=_HISTORY,
                        trusted=trusted_implementation)
     _HISTORY[check.id] = result

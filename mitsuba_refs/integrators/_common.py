@@ -79,7 +79,7 @@ class LectureIntegrator:
                 if not skip:
                     return pi
             else:
-                skip = pi.is_valid() & (pi.shape.emitter() != None) & active  # noqa: E711
+                skip = pi.is_valid() & (pi.shape.emitter() != None) & active  # noqa: E711  (Dr.Jit compares per lane)
             si = pi.compute_surface_interaction(ray, mi.RayFlags.Minimal,
                                                 skip)
             pi_after = self.skip_area_emitters(scene, si.spawn_ray(ray.d),

@@ -48,7 +48,8 @@ Bias floor
 A biased estimator has :math:`E[\mathrm{MSE}] = C/N + B` with :math:`B` the mean squared
 bias.  Fit :math:`\bar y_l = C/N_l + B` by weighted least squares with the fixed weights
 :math:`N_l^2` (relative errors under the null model; fixed weights keep :math:`\hat B` linear
-in the data and exactly unbiased, :math:`E\hat B=0`, for a correct estimator) and test :math:`B>0` one-sided with the same replica covariance
+in the data and exactly unbiased, :math:`E\hat B=0`, for a correct estimator) and test :math:`B>0` one-sided
+with the same replica covariance
 (:math:`\hat B = a^\top\bar y`, :math:`\mathrm{Var}=a^\top\hat\Sigma a`).  The floor
 sits where the two terms meet, :math:`N^* = \hat C/\hat B`; the RMS bias is
 :math:`\sqrt{\hat B}` (relative to ``image_mean`` when given).  The slope test alone is
@@ -378,7 +379,8 @@ def convergence_law(spp, mse, ref_mse_floor: float | None = None, *, alpha: floa
         verdict = (f"bias floor: error stops falling at {where} (bias \u2248 {btxt}) "
                    f"(p={_fmt_p(p_family)}): {law}")
     elif slope < expected_slope:
-        verdict = f"error falls faster than N^-1/2 (stratified or correlated across levels?) (p={_fmt_p(p_family)}): {law}"
+        verdict = (f"error falls faster than N^-1/2 (stratified or correlated across levels?) "
+                   f"(p={_fmt_p(p_family)}): {law}")
     else:
         verdict = f"error falls slower than N^-1/2 (p={_fmt_p(p_family)}): {law}"
     if warnings:

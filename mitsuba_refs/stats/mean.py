@@ -433,7 +433,8 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
             region = where if where == "whole image" else region
         elif bounded_z is not None and scale_p["image, bounded variance"] < scale_p["image"]:
             parts.append(f"the whole-image means differ by far more than the noise of an estimator with "
-                         f"at most {max_var_ratio:g}x the reference's variance (max |z|={np.max(np.abs(bounded_z)):.1f}; "
+                         f"at most {max_var_ratio:g}x the reference's variance "
+                         f"(max |z|={np.max(np.abs(bounded_z)):.1f}; "
                          f"with the image's own variance {np.max(np.abs(image_z)):.1f})")
             region = "whole image"
         else:

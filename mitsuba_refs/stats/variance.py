@@ -1,4 +1,4 @@
-r"""Do two renderers that use the *same estimator* have the same per-sample variance?
+r"""Whether two renderers that use the *same estimator* have the same per-sample variance.
 
 Inputs per side: per-pixel unbiased per-sample variance :math:`v_p` (H, W, C) and the
 sample count :math:`n`.  Side ``a`` is the test, ``b`` the reference.

@@ -122,7 +122,7 @@ class BSDF:
         return any(isinstance(getattr(self, name), Texture) for name in self.texture_params)
 
     def at(self, uv: np.ndarray) -> "BSDF":
-        """This BSDF for a batch of hits with texture coordinates ``uv`` (n, 2).
+        """The same BSDF for a batch of hits with texture coordinates ``uv`` (n, 2).
 
         A shallow copy whose textured parameters are replaced by their (n, 3)
         values at the hits (constant parameters stay (3,) arrays; both

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BSDF, BSDFSample, DeltaBSDF, as_colour_or_texture, make_sample
+from .base import BSDFSample, DeltaBSDF, as_colour_or_texture, make_sample
 from .fresnel import fresnel_dielectric, reflect, refract
 
 BK7_IOR = 1.5046

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BSDF, BSDFSample, DeltaBSDF, as_colour_or_texture, make_sample
+from .base import BSDFSample, DeltaBSDF, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR, BK7_IOR
 from .fresnel import fresnel_dielectric, reflect
 

@@ -88,7 +88,8 @@ class SmallptIntegrator(Integrator):
                 p = colour[material].max(axis=1)
                 keep = np.flatnonzero(u_rr < p)
                 beta = beta[keep] / p[keep, None]
-                row, wi, hit, rng, material = row[keep], wi[keep], subset_hit(hit, keep), rng.subset(keep), material[keep]
+                row, wi, material = row[keep], wi[keep], material[keep]
+                hit, rng = subset_hit(hit, keep), rng.subset(keep)
             if not len(row):
                 break
 
@@ -106,7 +107,8 @@ class SmallptIntegrator(Integrator):
                 weight[refr] = np.where(take_r[:, None], lobes.weight_r / P[:, None],
                                         lobes.weight_t / (1 - P)[:, None])
             # ... and both lobes at shallow depth (splitting).
-            split = np.flatnonzero(refr & (depth <= self.split_depth)) if depth <= self.split_depth else np.zeros(0, int)
+            split = (np.flatnonzero(refr & (depth <= self.split_depth)) if depth <= self.split_depth
+                     else np.zeros(0, int))
             parts_row, parts_beta, parts_hit, parts_wo, parts_rng = [row], [beta * weight], [hit], [wo], [rng]
             if len(split):
                 lobes = dielectric_lobes(scene, subset_hit(hit, split), wi[split])

@@ -127,4 +127,4 @@ def parse_resolution(text: str) -> tuple[int, int]:
     return size
 
 
-from .settings import scene_settings  # noqa: E402  (uses scene_file above)
+from .settings import scene_settings  # noqa: E402  (it imports scene_file above)

@@ -39,6 +39,7 @@ def sky(width: int = WIDTH, height: int = HEIGHT) -> np.ndarray:
 
 
 def write(path) -> None:
+    """Write the sky environment map to ``path`` as an RGB EXR."""
     import OpenEXR
 
     image = sky()

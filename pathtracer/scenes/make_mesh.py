@@ -22,7 +22,6 @@ angle-weighted vertex normals themselves. ``LEVEL = 6`` gives
 Usage: ``python make_mesh.py [output.ply]``.
 """
 
-import struct
 import sys
 from pathlib import Path
 
@@ -112,6 +111,7 @@ def build(level=LEVEL):
 
 
 def main(argv=None):
+    """Write the bumpy-sphere PLY (to the path given, else beside this script)."""
     argv = sys.argv[1:] if argv is None else argv
     out = Path(argv[0]) if argv else Path(__file__).with_name("mesh-bumpy-sphere.ply")
     vertices, faces = build()

@@ -31,6 +31,7 @@ def texels() -> np.ndarray:
 
 
 def main(path: str) -> None:
+    """Write the grid texture PNG to ``path``."""
     Image.fromarray(texels()).save(path, optimize=False)
 
 

@@ -9,7 +9,7 @@ import numpy as np
 from pathtracer.integrators import base, path
 
 from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
+from _mutate import registry
 
 BUG = "Le not added when the camera ray hits a light"
 CHECK = "path-cornell-box"

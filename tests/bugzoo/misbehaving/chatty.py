@@ -1,5 +1,4 @@
 """Misbehaving submission: chatty."""
-import sys
 
 from _base import camera_rays, registry  # noqa: F401  (the reference camera)
 

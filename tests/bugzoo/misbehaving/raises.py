@@ -1,5 +1,4 @@
 """Misbehaving submission: raises."""
-import numpy as np
 
 from _base import camera_rays, registry  # noqa: F401  (the reference camera)
 
