@@ -1,6 +1,7 @@
 """The command lines: outputs, headers, and one-line errors with exit code 2."""
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -64,3 +65,40 @@ def test_mitsuba_refs_compare_exit_codes(tmp_path):
     from mitsuba_refs.cli import main as refs_main
     assert refs_main(["compare", "no-such-scene"]) == 2
     assert refs_main(["compare", "cornell-box", "-D", "oops"]) == 2
+
+
+def test_one_rule_for_defines_across_the_command_lines():
+    """pathtracer, mitsuba-refs and the experiments split -D the same way (one parser)."""
+    import argparse
+
+    from experiments.common import define
+    from pathtracer.scene.defines import parse_define, parse_defines
+    assert parse_define(" width = 64 ") == ("width", "64")
+    assert parse_define("expr=a=b") == ("expr", "a=b") and parse_define("name=") == ("name", "")
+    assert parse_defines(["spp=4", "spp=8", "seed=1"]) == {"spp": "8", "seed": "1"}
+    assert parse_defines(None) == {}
+    for bad in ("width", "=3", " =3"):
+        with pytest.raises(ValueError, match="-D expects name=value"):
+            parse_define(bad)
+        with pytest.raises(argparse.ArgumentTypeError, match="-D expects name=value"):
+            define(bad)
+
+
+def test_scene_names_resolve_to_the_same_file_on_both_sides(tmp_path, monkeypatch):
+    """A built-in name, a path with or without .xml: the tracer and mitsuba_refs agree."""
+    from mitsuba_refs.config import BUILTIN_SCENES, FEATURE_SCENES, OWN_TEST_SCENES
+    from mitsuba_refs.render import resolve_scene
+    from pathtracer.scene import builtin_scene_names, scene_file
+    scene = tmp_path / "sub" / "mine"
+    scene.parent.mkdir()
+    scene.write_text("<scene version='3.0.0'/>")
+    (tmp_path / "cornell-box").write_text("not the built-in scene")
+    monkeypatch.chdir(tmp_path)
+    for name in ("cornell-box", "sub/mine", str(scene)):
+        assert resolve_scene(name) == Path(scene_file(name)).resolve()
+    assert resolve_scene("cornell-box").parent.name == "scenes"
+    with pytest.raises(FileNotFoundError, match='did you mean "cornell-box"'):
+        resolve_scene("cornell-bx")
+    names = builtin_scene_names()
+    assert set(BUILTIN_SCENES) == set(names) - set(FEATURE_SCENES) - set(OWN_TEST_SCENES)
+    assert {"cornell-box", "furnace", "smallpt"} <= set(BUILTIN_SCENES) and "materials" not in BUILTIN_SCENES
