@@ -1,4 +1,4 @@
-"""What every integrator shares: the contract, options, tracing and roulette.
+"""What every integrator shares: the contract, options, tracing, roulette and shadow rays.
 
 The contract (also what a student implements)::
 
@@ -11,16 +11,23 @@ a :class:`pathtracer.rng.RandomStream` with one independent stream per ray.
 The result is one Monte Carlo sample of the radiance arriving along each ray;
 the renderer averages the samples of a pixel and estimates their variance.
 Geometry, BSDFs, emitters and sampling are shared modules: an integrator only
-composes them.
+composes them. The batch of paths itself (which paths are alive, their
+throughputs and random streams) is a :class:`~pathtracer.integrators.wavefront.Paths`,
+started by :meth:`Integrator.camera_paths`; the steps every estimator of the
+lecture shares are methods here: :meth:`~Integrator.emission`,
+:meth:`~Integrator.sample_direct` (a shadow ray, pbrt-v4's ``SampleLd``) and
+:meth:`~Integrator.russian_roulette`.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .. import geometry
-from ..emitters import emitted_radiance, hit_emitter
 from ..camera import Rays
+from ..emitters import emitted_radiance, hit_emitter, sample_emitter
 from ..scene.types import Scene
+from ..shading import eval_bsdf, has_smooth
+# trace, spawn, subset_hit and replace_hits lived here first: submissions import them from here.
+from .wavefront import Paths, replace_hits, spawn, subset_hit, trace
 
 #: Hard cap on the number of bounces when ``max_depth`` is infinite, so that a
 #: path inside a closed, white furnace without roulette still ends. Its bias is
@@ -90,6 +97,16 @@ class Integrator:
 
     # -- shared steps ---------------------------------------------------------
 
+    def camera_paths(self, scene: Scene, rays: Rays, rng) -> Paths:
+        """The paths of a batch of camera rays, at their first hits.
+
+        With ``max_depth`` = 0 (no segment allowed) no ray is traced and no path is
+        alive: the radiance is zero.
+        """
+        if self.max_depth == 0:
+            return Paths(rays, rng)
+        return Paths(rays, rng, self.trace_camera(scene, rays))
+
     def trace_camera(self, scene: Scene, rays: Rays):
         """First intersection of camera rays, skipping area emitters if hidden."""
         hit = trace(scene, rays)
@@ -124,16 +141,48 @@ class Integrator:
         survive = u < q_continue
         return survive, beta / np.where(q_continue > 0, q_continue, 1.0)[:, None]
 
+    def russian_roulette(self, paths: Paths) -> None:
+        """End the paths that lose the roulette (see :meth:`roulette_survivors`), and
+        those that carry no throughput; survivors divide by their survival probability."""
+        carries_light = paths.beta.max(axis=1) > 0
+        survive, paths.beta = self.roulette_survivors(paths.beta, paths.eta, paths.depth,
+                                                      paths.rng.next_1d())
+        paths.keep(survive & carries_light)
 
-def trace(scene: Scene, rays: Rays):
-    """Closest hit of every ray."""
-    return geometry.intersect(scene, rays.o, rays.d, rays.tmax)
+    def sample_direct(self, scene: Scene, paths: Paths, beta=None, mis_weight=None,
+                      emitter: int | None = None) -> np.ndarray:
+        """A shadow ray from every path's hit: its contribution ``beta f Le / p_light * w``.
 
+        Next-event estimation, pbrt-v4's ``SampleLd``: pick a light (uniformly, or
+        ``emitter``) and a point on it, test visibility, evaluate the BSDF towards it.
+        Paths at BSDFs without a smooth lobe (mirror, glass) get zero: a Dirac BSDF
+        cannot scatter towards a sampled point.
 
-def spawn(hit, wo: np.ndarray) -> Rays:
-    """Rays leaving the hits along ``wo``, offset against self-intersection."""
-    o = geometry.spawn_ray(hit.p, hit.n, wo)
-    return Rays(o, wo, np.full(len(wo), np.inf))
+        Parameters
+        ----------
+        beta : (m, 3) array, optional
+            Throughput to multiply by (default ``paths.beta``).
+        mis_weight : callable, optional
+            ``mis_weight(pdf_light, pdf_bsdf)``, the light sample's MIS weight against
+            BSDF sampling (e.g. :func:`pathtracer.sampling.power_heuristic`); a Dirac
+            light always has weight 1. Without it the weight is 1 (no MIS).
+        emitter : int, optional
+            Sample this emitter instead of choosing one.
+
+        Returns
+        -------
+        (m, 3) array of contributions, to add to the paths' radiance.
+        """
+        beta = paths.beta if beta is None else beta
+        light = sample_emitter(scene, paths.hit, paths.rng.next_1d(), paths.rng.next_2d(),
+                               emitter=emitter)
+        f, pdf_bsdf = eval_bsdf(scene, paths.hit, paths.wi, light.wo, self.hemisphere)
+        contribution = beta * f * light.weight
+        if mis_weight is not None:
+            w_light = np.where(light.delta, 1.0, mis_weight(light.pdf, pdf_bsdf))
+            contribution = contribution * w_light[:, None]
+        usable = has_smooth(scene, paths.hit) & (light.pdf > 0)
+        return np.where(usable[:, None], contribution, 0.0)
 
 
 def skip_emitters(scene: Scene, rays: Rays, hit):
@@ -146,25 +195,3 @@ def skip_emitters(scene: Scene, rays: Rays, hit):
         again = spawn(subset_hit(hit, rows), rays.d[rows])
         hit = replace_hits(hit, rows, trace(scene, again))
     return hit
-
-
-def subset_hit(hit, rows):
-    """The hits ``rows`` of a batch (works on any dataclass of arrays).
-
-    ``rows`` are integer indices (``np.take`` along axis 0 is several times
-    faster than fancy indexing of (n, 3) arrays) or a boolean mask.
-    """
-    rows = np.asarray(rows)
-    if rows.dtype == bool:
-        rows = np.flatnonzero(rows)
-    return type(hit)(**{k: np.take(v, rows, axis=0) for k, v in vars(hit).items()})
-
-
-def replace_hits(hit, rows, new):
-    """A copy of ``hit`` with rows ``rows`` overwritten by ``new``."""
-    out = {}
-    for k, v in vars(hit).items():
-        v = v.copy()
-        v[rows] = getattr(new, k)
-        out[k] = v
-    return type(hit)(**out)

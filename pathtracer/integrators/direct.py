@@ -33,9 +33,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
+from ..emitters import emitted_radiance, pdf_emitter_direction
 from ..sampling import power_heuristic
-from ..shading import eval_bsdf, has_smooth, sample_bsdf
+from ..shading import sample_bsdf
 from .base import Integrator, spawn, subset_hit, trace
 
 
@@ -76,41 +76,38 @@ class DirectIntegrator(Integrator):
                     bsdf_samples=self.bsdf_samples)
 
     def radiance(self, scene, rays, rng):
-        n = len(rays)
-        L = np.zeros((n, 3))
-        if self.max_depth == 0:
-            return L
-        hit = self.trace_camera(scene, rays)
-        wi = -rays.d
-        if not self.hide_emitters:
-            L += emitted_radiance(scene, hit, wi)
-        if self.max_depth == 1:
-            return L
-        row = np.flatnonzero(hit.valid)
-        hit, wi, rng = subset_hit(hit, row), wi[row], rng.subset(row)
-        for _ in range(self.emitter_samples):
-            L[row] += self.light_sample(scene, hit, wi, rng)
-        for _ in range(self.bsdf_samples):
-            rows, contribution = self.bsdf_sample(scene, hit, wi, rng)
-            L[row[rows]] += contribution
-        return L
+        paths = self.camera_paths(scene, rays, rng)
+        if not paths:                                       # max_depth = 0
+            return paths.L
 
-    def light_sample(self, scene, hit, wi, rng) -> np.ndarray:
-        """One MIS-weighted light sample's contribution at every hit -> (n, 3)."""
-        light = sample_emitter(scene, hit, rng.next_1d(), rng.next_2d())
-        f_light, pdf_bsdf = eval_bsdf(scene, hit, wi, light.wo, self.hemisphere)
+        # ---- Le: a directly visible emitter ----
+        paths.add_radiance(self.emission(scene, paths.hit, paths.wi, paths.depth))
+
+        # ---- Rays that escaped end, and all of them if max_depth = 1 ----
+        paths.keep(paths.hit.valid & (paths.depth + 1 < self.depth_limit))
+        if not paths:
+            return paths.L
+
+        # ---- N shadow rays, then M BSDF samples, each MIS-weighted ----
+        for _ in range(self.emitter_samples):
+            paths.add_radiance(self.sample_direct(scene, paths, mis_weight=self.light_weight))
+        for _ in range(self.bsdf_samples):
+            reached, contribution = self.bsdf_sample(scene, paths)
+            paths.add_radiance(contribution, rows=reached)
+        return paths.L
+
+    def light_weight(self, pdf_light, pdf_bsdf) -> np.ndarray:
+        """MIS weight of one of the N light samples (w_light / N above)."""
         # Scaling both densities by the sample counts is exact for N = M = 1
         # (x 0.5 is a power of two), keeping the single-sample images bit-identical.
         total = self.emitter_samples + self.bsdf_samples
-        mis = power_heuristic(light.pdf * (self.emitter_samples / total),
-                              pdf_bsdf * (self.bsdf_samples / total)) / self.emitter_samples
-        w_light = np.where(light.delta, 1.0, mis)
-        use = has_smooth(scene, hit) & (light.pdf > 0)
-        return np.where(use[:, None], f_light * light.weight * w_light[:, None], 0.0)
+        return power_heuristic(pdf_light * (self.emitter_samples / total),
+                               pdf_bsdf * (self.bsdf_samples / total)) / self.emitter_samples
 
-    def bsdf_sample(self, scene, hit, wi, rng) -> tuple[np.ndarray, np.ndarray]:
-        """One MIS-weighted BSDF sample: the hits whose sample reached a light
-        (indices into ``hit``) and their contributions."""
+    def bsdf_sample(self, scene, paths) -> tuple[np.ndarray, np.ndarray]:
+        """One MIS-weighted BSDF sample: the paths whose sample reached a light
+        (indices into ``paths``) and their contributions."""
+        hit, wi, rng = paths.hit, paths.wi, paths.rng
         bs = sample_bsdf(scene, hit, wi, rng.next_1d(), rng.next_2d(), self.hemisphere)
         ok = np.flatnonzero(np.any(bs.weight > 0, axis=1))
         next_rays = spawn(subset_hit(hit, ok), bs.wo[ok])

@@ -21,10 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters import pdf_emitter_direction, sample_emitter
+from ..emitters import pdf_emitter_direction
 from ..sampling import power_heuristic
-from ..shading import eval_bsdf, has_smooth, sample_bsdf
-from .base import Integrator, spawn, subset_hit, trace
+from ..shading import sample_bsdf
+from .base import Integrator
 
 
 class PathIntegrator(Integrator):
@@ -33,50 +33,32 @@ class PathIntegrator(Integrator):
     name = "path"
 
     def radiance(self, scene, rays, rng):
-        n = len(rays)
-        L = np.zeros((n, 3))
-        if self.max_depth == 0:
-            return L
-        row = np.arange(n)                      # result row of each live path
-        beta, eta = np.ones((n, 3)), np.ones(n)
-        prev_p = rays.o.copy()                  # previous vertex, for the light pdf
-        prev_pdf, prev_delta = np.ones(n), np.ones(n, dtype=bool)
-        d = rays.d
-        hit = self.trace_camera(scene, rays)
-        depth = 0
-        while len(row):
-            wi = -d
-            # Emission found by BSDF sampling, weighted against light sampling.
-            Le = self.emission(scene, hit, wi, depth)
-            pdf_light = np.where(prev_delta, 0.0, pdf_emitter_direction(scene, prev_p, hit, d))
-            L[row] += beta * Le * power_heuristic(prev_pdf, pdf_light)[:, None]
+        paths = self.camera_paths(scene, rays, rng)
+        paths.declare(prev_p=rays.o,       # the previous vertex (for the light pdf of a hit)
+                      prev_pdf=1.0,        # pdf of the BSDF sample that left it
+                      prev_delta=True)     # was that sample Dirac? (the camera counts as one)
+        while paths:
+            # ---- Emission found by BSDF sampling, weighted against light sampling ----
+            Le = self.emission(scene, paths.hit, paths.wi, paths.depth)
+            pdf_light = np.where(paths.prev_delta, 0.0, pdf_emitter_direction(
+                scene, paths.prev_p, paths.hit, -paths.wi))
+            paths.add_radiance(paths.beta * Le * power_heuristic(paths.prev_pdf, pdf_light)[:, None])
 
-            live = np.flatnonzero(hit.valid & (depth + 1 < self.depth_limit))
-            row, beta, eta, wi = row[live], beta[live], eta[live], wi[live]
-            hit, rng = subset_hit(hit, live), rng.subset(live)
-            if not len(row):
+            # ---- Paths that escaped, or whose next segment max_depth forbids, end ----
+            paths.keep(paths.hit.valid & (paths.depth + 1 < self.depth_limit))
+            if not paths:
                 break
 
-            # Shadow ray towards a sampled light, weighted against BSDF sampling.
-            light = sample_emitter(scene, hit, rng.next_1d(), rng.next_2d())
-            f_light, pdf_bsdf = eval_bsdf(scene, hit, wi, light.wo, self.hemisphere)
-            w_light = np.where(light.delta, 1.0, power_heuristic(light.pdf, pdf_bsdf))
-            use = has_smooth(scene, hit) & (light.pdf > 0)
-            L[row] += np.where(use[:, None], beta * f_light * light.weight * w_light[:, None], 0.0)
+            # ---- Direct light: a shadow ray, weighted against BSDF sampling ----
+            paths.add_radiance(self.sample_direct(scene, paths, mis_weight=power_heuristic))
 
-            # Continue the path by sampling the BSDF.
-            bs = sample_bsdf(scene, hit, wi, rng.next_1d(), rng.next_2d(), self.hemisphere)
-            beta, eta = beta * bs.weight, eta * bs.eta
-            prev_p, prev_pdf, prev_delta = hit.p, bs.pdf, bs.delta
-            depth += 1
+            # ---- BSDF sample: the next direction ----
+            bs = sample_bsdf(scene, paths.hit, paths.wi, paths.rng.next_1d(), paths.rng.next_2d(),
+                             self.hemisphere)
+            paths.scatter(bs.wo, bs.weight, bs.eta)
+            paths.prev_p, paths.prev_pdf, paths.prev_delta = paths.hit.p, bs.pdf, bs.delta
 
-            throughput_max = beta.max(axis=1)
-            survive, beta = self.roulette_survivors(beta, eta, depth, rng.next_1d())
-            keep = np.flatnonzero(survive & (throughput_max > 0))
-            row, beta, eta = row[keep], beta[keep], eta[keep]
-            prev_p, prev_pdf, prev_delta = prev_p[keep], prev_pdf[keep], prev_delta[keep]
-            rng = rng.subset(keep)
-            next_rays = spawn(subset_hit(hit, keep), bs.wo[keep])
-            d = next_rays.d
-            hit = trace(scene, next_rays)
-        return L
+            # ---- Russian roulette, then the next hit ----
+            self.russian_roulette(paths)
+            paths.next_hit(scene)
+        return paths.L

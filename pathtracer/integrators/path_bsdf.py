@@ -12,10 +12,8 @@ rays, so small lights are found only by chance), Russian roulette to stop::
 """
 from __future__ import annotations
 
-import numpy as np
-
 from ..shading import sample_bsdf
-from .base import Integrator, spawn, subset_hit, trace
+from .base import Integrator
 
 
 class PathBSDFIntegrator(Integrator):
@@ -24,33 +22,22 @@ class PathBSDFIntegrator(Integrator):
     name = "path_bsdf"
 
     def radiance(self, scene, rays, rng):
-        n = len(rays)
-        L = np.zeros((n, 3))
-        if self.max_depth == 0:
-            return L
-        row, beta, eta = np.arange(n), np.ones((n, 3)), np.ones(n)
-        d = rays.d
-        hit = self.trace_camera(scene, rays)
-        depth = 0
-        while len(row):
-            wi = -d
-            L[row] += beta * self.emission(scene, hit, wi, depth)
+        paths = self.camera_paths(scene, rays, rng)
+        while paths:
+            # ---- Emission wherever a path lands ----
+            paths.add_radiance(paths.beta * self.emission(scene, paths.hit, paths.wi, paths.depth))
 
-            live = np.flatnonzero(hit.valid & (depth + 1 < self.depth_limit))
-            row, beta, eta, wi = row[live], beta[live], eta[live], wi[live]
-            hit, rng = subset_hit(hit, live), rng.subset(live)
-            if not len(row):
+            # ---- Paths that escaped, or whose next segment max_depth forbids, end ----
+            paths.keep(paths.hit.valid & (paths.depth + 1 < self.depth_limit))
+            if not paths:
                 break
 
-            bs = sample_bsdf(scene, hit, wi, rng.next_1d(), rng.next_2d(), self.hemisphere)
-            beta, eta = beta * bs.weight, eta * bs.eta
-            depth += 1
+            # ---- BSDF sample: the next direction ----
+            bs = sample_bsdf(scene, paths.hit, paths.wi, paths.rng.next_1d(), paths.rng.next_2d(),
+                             self.hemisphere)
+            paths.scatter(bs.wo, bs.weight, bs.eta)
 
-            throughput_max = beta.max(axis=1)
-            survive, beta = self.roulette_survivors(beta, eta, depth, rng.next_1d())
-            keep = np.flatnonzero(survive & (throughput_max > 0))
-            row, beta, eta, rng = row[keep], beta[keep], eta[keep], rng.subset(keep)
-            next_rays = spawn(subset_hit(hit, keep), bs.wo[keep])
-            d = next_rays.d
-            hit = trace(scene, next_rays)
-        return L
+            # ---- Russian roulette, then the next hit ----
+            self.russian_roulette(paths)
+            paths.next_hit(scene)
+        return paths.L

@@ -25,9 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters import sample_emitter
-from ..shading import eval_bsdf, has_smooth, sample_bsdf
-from .base import Integrator, spawn, subset_hit, trace
+from ..shading import sample_bsdf
+from .base import Integrator
 
 
 class PathNEEIntegrator(Integrator):
@@ -36,44 +35,28 @@ class PathNEEIntegrator(Integrator):
     name = "path_nee"
 
     def radiance(self, scene, rays, rng):
-        n = len(rays)
-        L = np.zeros((n, 3))
-        if self.max_depth == 0:
-            return L
-        row, beta, eta = np.arange(n), np.ones((n, 3)), np.ones(n)
-        last_specular = np.ones(n, dtype=bool)      # the camera counts as specular
-        d = rays.d
-        hit = self.trace_camera(scene, rays)
-        depth = 0
-        while len(row):
-            wi = -d
-            Le = self.emission(scene, hit, wi, depth)
-            L[row] += np.where(last_specular[:, None], beta * Le, 0.0)
+        paths = self.camera_paths(scene, rays, rng)
+        paths.declare(last_specular=True)     # was the last bounce Dirac? (the camera counts)
+        while paths:
+            # ---- Le, only where no shadow ray counted it: after the camera or a Dirac bounce ----
+            Le = self.emission(scene, paths.hit, paths.wi, paths.depth)
+            paths.add_radiance(np.where(paths.last_specular[:, None], paths.beta * Le, 0.0))
 
-            live = np.flatnonzero(hit.valid & (depth + 1 < self.depth_limit))
-            row, beta, eta, wi = row[live], beta[live], eta[live], wi[live]
-            hit, rng = subset_hit(hit, live), rng.subset(live)
-            if not len(row):
+            # ---- Paths that escaped, or whose next segment max_depth forbids, end ----
+            paths.keep(paths.hit.valid & (paths.depth + 1 < self.depth_limit))
+            if not paths:
                 break
 
-            # Direct illumination: one shadow ray to a uniformly chosen light.
-            light = sample_emitter(scene, hit, rng.next_1d(), rng.next_2d())
-            f_light, _ = eval_bsdf(scene, hit, wi, light.wo, self.hemisphere)
-            smooth = has_smooth(scene, hit)
-            L[row] += np.where((smooth & (light.pdf > 0))[:, None], beta * f_light * light.weight, 0.0)
+            # ---- Direct illumination: one shadow ray to a uniformly chosen light ----
+            paths.add_radiance(self.sample_direct(scene, paths))
 
-            # Indirect illumination: continue along a sampled direction.
-            bs = sample_bsdf(scene, hit, wi, rng.next_1d(), rng.next_2d(), self.hemisphere)
-            beta, eta = beta * bs.weight, eta * bs.eta
-            last_specular = bs.delta
-            depth += 1
+            # ---- Indirect illumination: continue along a sampled direction ----
+            bs = sample_bsdf(scene, paths.hit, paths.wi, paths.rng.next_1d(), paths.rng.next_2d(),
+                             self.hemisphere)
+            paths.scatter(bs.wo, bs.weight, bs.eta)
+            paths.last_specular = bs.delta
 
-            throughput_max = beta.max(axis=1)
-            survive, beta = self.roulette_survivors(beta, eta, depth, rng.next_1d())
-            keep = np.flatnonzero(survive & (throughput_max > 0))
-            row, beta, eta, rng = row[keep], beta[keep], eta[keep], rng.subset(keep)
-            last_specular = last_specular[keep]
-            next_rays = spawn(subset_hit(hit, keep), bs.wo[keep])
-            d = next_rays.d
-            hit = trace(scene, next_rays)
-        return L
+            # ---- Russian roulette, then the next hit ----
+            self.russian_roulette(paths)
+            paths.next_hit(scene)
+        return paths.L

@@ -23,11 +23,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters import pdf_emitter_direction, sample_emitter
+from ..emitters import pdf_emitter_direction
 from ..pathclasses import LETTER, _parse_glossy, bsdf_letters, compile_classes
 from ..sampling import power_heuristic
-from ..shading import eval_bsdf, has_smooth, sample_bsdf
-from .base import Integrator, spawn, subset_hit, trace
+from ..shading import sample_bsdf
+from .base import Integrator
 
 _L, _E = LETTER["L"], LETTER["E"]
 
@@ -68,65 +68,51 @@ class PathClassIntegrator(Integrator):
 
     def radiance_classes(self, scene, rays, rng):
         """One radiance sample per ray and class -> (n, n_classes, 3)."""
-        n = len(rays)
         K = len(self.classes)
-        L = np.zeros((n, K, 3))
-        if self.max_depth == 0:
-            return L
+        L = np.zeros((len(rays), K, 3))
         letters = bsdf_letters(scene, self.glossy)
         deltas = [c.delta for c in self.classes]
         accepts = [c.accept for c in self.classes]
-        # state after the eye, one column per class
-        state = np.tile(np.array([c.delta[c.start, _E] for c in self.classes], dtype=np.int32), (n, 1))
 
-        def add(rows, states, value):
-            """Add ``value`` (m, 3) to the classes accepting ``states`` + L."""
+        def add_radiance(paths, value):
+            """Add ``value`` (m, 3) to the classes that accept the paths' states + L."""
             for k in range(K):
-                ok = accepts[k][deltas[k][states[:, k], _L]]
+                ok = accepts[k][deltas[k][paths.state[:, k], _L]]
                 if ok.any():
-                    L[rows, k] += np.where(ok[:, None], value, 0.0)
+                    L[paths.row, k] += np.where(ok[:, None], value, 0.0)
 
-        row = np.arange(n)
-        beta, eta = np.ones((n, 3)), np.ones(n)
-        prev_p = rays.o.copy()
-        prev_pdf, prev_delta = np.ones(n), np.ones(n, dtype=bool)
-        d = rays.d
-        hit = self.trace_camera(scene, rays)
-        depth = 0
-        while len(row):
-            wi = -d
-            Le = self.emission(scene, hit, wi, depth)
-            pdf_light = np.where(prev_delta, 0.0, pdf_emitter_direction(scene, prev_p, hit, d))
-            add(row, state, beta * Le * power_heuristic(prev_pdf, pdf_light)[:, None])
+        paths = self.camera_paths(scene, rays, rng)
+        eye = np.array([c.delta[c.start, _E] for c in self.classes], dtype=np.int32)
+        paths.declare(state=np.tile(eye, (len(rays), 1)),   # each class's DFA state after E
+                      prev_p=rays.o,       # the previous vertex (for the light pdf of a hit)
+                      prev_pdf=1.0,        # pdf of the BSDF sample that left it
+                      prev_delta=True)     # was that sample Dirac? (the camera counts as one)
+        while paths:
+            # ---- Emission found by BSDF sampling, weighted against light sampling ----
+            Le = self.emission(scene, paths.hit, paths.wi, paths.depth)
+            pdf_light = np.where(paths.prev_delta, 0.0, pdf_emitter_direction(
+                scene, paths.prev_p, paths.hit, -paths.wi))
+            add_radiance(paths, paths.beta * Le * power_heuristic(paths.prev_pdf, pdf_light)[:, None])
 
-            live = np.flatnonzero(hit.valid & (depth + 1 < self.depth_limit))
-            row, beta, eta, wi, state = row[live], beta[live], eta[live], wi[live], state[live]
-            hit, rng = subset_hit(hit, live), rng.subset(live)
-            if not len(row):
+            # ---- Paths that escaped, or whose next segment max_depth forbids, end ----
+            paths.keep(paths.hit.valid & (paths.depth + 1 < self.depth_limit))
+            if not paths:
                 break
 
-            # this vertex's letter, appended to every class's automaton
-            letter = letters[scene.shape_bsdf[hit.shape]]
-            state = np.stack([deltas[k][state[:, k], letter] for k in range(K)], axis=1)
+            # ---- This vertex's letter, appended to every class's automaton ----
+            letter = letters[scene.shape_bsdf[paths.hit.shape]]
+            paths.state = np.stack([deltas[k][paths.state[:, k], letter] for k in range(K)], axis=1)
 
-            light = sample_emitter(scene, hit, rng.next_1d(), rng.next_2d())
-            f_light, pdf_bsdf = eval_bsdf(scene, hit, wi, light.wo, self.hemisphere)
-            w_light = np.where(light.delta, 1.0, power_heuristic(light.pdf, pdf_bsdf))
-            use = has_smooth(scene, hit) & (light.pdf > 0)
-            add(row, state, np.where(use[:, None], beta * f_light * light.weight * w_light[:, None], 0.0))
+            # ---- Direct light: a shadow ray, weighted against BSDF sampling ----
+            add_radiance(paths, self.sample_direct(scene, paths, mis_weight=power_heuristic))
 
-            bs = sample_bsdf(scene, hit, wi, rng.next_1d(), rng.next_2d(), self.hemisphere)
-            beta, eta = beta * bs.weight, eta * bs.eta
-            prev_p, prev_pdf, prev_delta = hit.p, bs.pdf, bs.delta
-            depth += 1
+            # ---- BSDF sample: the next direction ----
+            bs = sample_bsdf(scene, paths.hit, paths.wi, paths.rng.next_1d(), paths.rng.next_2d(),
+                             self.hemisphere)
+            paths.scatter(bs.wo, bs.weight, bs.eta)
+            paths.prev_p, paths.prev_pdf, paths.prev_delta = paths.hit.p, bs.pdf, bs.delta
 
-            throughput_max = beta.max(axis=1)
-            survive, beta = self.roulette_survivors(beta, eta, depth, rng.next_1d())
-            keep = np.flatnonzero(survive & (throughput_max > 0))
-            row, beta, eta, state = row[keep], beta[keep], eta[keep], state[keep]
-            prev_p, prev_pdf, prev_delta = prev_p[keep], prev_pdf[keep], prev_delta[keep]
-            rng = rng.subset(keep)
-            next_rays = spawn(subset_hit(hit, keep), bs.wo[keep])
-            d = next_rays.d
-            hit = trace(scene, next_rays)
+            # ---- Russian roulette, then the next hit ----
+            self.russian_roulette(paths)
+            paths.next_hit(scene)
         return L

@@ -24,9 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters import sample_emitter
-from ..shading import eval_bsdf, has_smooth, sample_bsdf
-from .base import Integrator, spawn, subset_hit, trace
+from ..shading import sample_bsdf
+from .base import Integrator
 
 
 class RecursiveIntegrator(Integrator):
@@ -53,56 +52,36 @@ class RecursiveIntegrator(Integrator):
         return dict(super().options(), branches=self.branches, branch_depth=self.branch_depth)
 
     def radiance(self, scene, rays, rng):
-        n = len(rays)
-        L = np.zeros((n, 3))
-        if self.max_depth == 0:
-            return L
-        row, beta, eta = np.arange(n), np.ones((n, 3)), np.ones(n)
-        share = np.ones(n)                          # product of the 1/N of every split
-        last_specular = np.ones(n, dtype=bool)
-        d = rays.d
-        hit = self.trace_camera(scene, rays)
-        depth = 0
-        while len(row):
-            wi = -d
-            # Le counts only when the last bounce was specular (or from the camera).
-            Le = self.emission(scene, hit, wi, depth)
-            np.add.at(L, row, np.where(last_specular[:, None], share[:, None] * beta * Le, 0.0))
+        paths = self.camera_paths(scene, rays, rng)
+        paths.declare(share=1.0,              # the product of the 1/N of every split above
+                      last_specular=True)     # was the last bounce Dirac? (the camera counts)
+        while paths:
+            # ---- Le, only if the last bounce was specular (or from the camera) ----
+            Le = self.emission(scene, paths.hit, paths.wi, paths.depth)
+            paths.add_radiance(np.where(paths.last_specular[:, None],
+                                        paths.share[:, None] * paths.beta * Le, 0.0))
 
-            live = np.flatnonzero(hit.valid & (depth + 1 < self.depth_limit))
-            row, beta, eta, wi = row[live], beta[live], eta[live], wi[live]
-            share = share[live]
-            hit, rng = subset_hit(hit, live), rng.subset(live)
-            if not len(row):
+            # ---- Paths that escaped, or whose next segment max_depth forbids, end ----
+            paths.keep(paths.hit.valid & (paths.depth + 1 < self.depth_limit))
+            if not paths:
                 break
 
-            # Ld: one shadow ray to every light.
-            smooth = has_smooth(scene, hit)
+            # ---- Ld: one shadow ray to every light ----
             for emitter in range(scene.num_emitters):
-                light = sample_emitter(scene, hit, rng.next_1d(), rng.next_2d(), emitter=emitter)
-                f_light, _ = eval_bsdf(scene, hit, wi, light.wo, self.hemisphere)
-                contribution = share[:, None] * beta * f_light * light.weight
-                np.add.at(L, row, np.where((smooth & (light.pdf > 0))[:, None], contribution, 0.0))
+                paths.add_radiance(self.sample_direct(
+                    scene, paths, beta=paths.share[:, None] * paths.beta, emitter=emitter))
 
-            # Li: N indirect rays, each weighted 1/N.
-            copies = self.branches if depth < self.branch_depth else 1
+            # ---- Li: N indirect rays, each weighted 1/N ----
+            copies = self.branches if paths.depth < self.branch_depth else 1
             if copies > 1:
-                parent = np.repeat(np.arange(len(row)), copies)
-                row, beta, eta, wi = row[parent], beta[parent], eta[parent], wi[parent]
-                share = share[parent] / copies
-                hit, rng = subset_hit(hit, parent), rng.branch(copies)
-            bs = sample_bsdf(scene, hit, wi, rng.next_1d(), rng.next_2d(), self.hemisphere)
-            beta, eta = beta * bs.weight, eta * bs.eta
-            last_specular = bs.delta
-            depth += 1
+                paths.split(copies)
+                paths.share = paths.share / copies
+            bs = sample_bsdf(scene, paths.hit, paths.wi, paths.rng.next_1d(), paths.rng.next_2d(),
+                             self.hemisphere)
+            paths.scatter(bs.wo, bs.weight, bs.eta)
+            paths.last_specular = bs.delta
 
-            throughput_max = beta.max(axis=1)
-            survive, beta = self.roulette_survivors(beta, eta, depth, rng.next_1d())
-            keep = np.flatnonzero(survive & (throughput_max > 0))
-            row, beta, eta, rng = row[keep], beta[keep], eta[keep], rng.subset(keep)
-            share = share[keep]
-            last_specular = last_specular[keep]
-            next_rays = spawn(subset_hit(hit, keep), bs.wo[keep])
-            d = next_rays.d
-            hit = trace(scene, next_rays)
-        return L
+            # ---- Russian roulette, then the next hit ----
+            self.russian_roulette(paths)
+            paths.next_hit(scene)
+        return paths.L

@@ -23,10 +23,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs import Dielectric
-from ..rng import RandomStream
 from ..shading import bsdf_index, dielectric_lobes, sample_bsdf
 from ..textures import Texture
-from .base import Integrator, spawn, subset_hit, trace
+from .base import Integrator, subset_hit
 
 
 def surface_colour(bsdf) -> np.ndarray:
@@ -65,77 +64,55 @@ class SmallptIntegrator(Integrator):
         return dict(super().options(), split_depth=self.split_depth)
 
     def radiance(self, scene, rays, rng):
-        n = len(rays)
-        L = np.zeros((n, 3))
-        if self.max_depth == 0:
-            return L
         colour = np.array([surface_colour(b) for b in scene.bsdfs])
         glass = np.array([isinstance(getattr(b, "nested", b), Dielectric) for b in scene.bsdfs])
-        row, beta = np.arange(n), np.ones((n, 3))
-        d = rays.d
-        hit = self.trace_camera(scene, rays)
-        depth = 0
-        while len(row):
-            wi = -d
-            np.add.at(L, row, beta * self.emission(scene, hit, wi, depth))     # obj.e
+        paths = self.camera_paths(scene, rays, rng)
+        while paths:
+            # ---- obj.e ----
+            paths.add_radiance(paths.beta * self.emission(scene, paths.hit, paths.wi, paths.depth))
 
-            live = np.flatnonzero(hit.valid & (depth + 1 < self.depth_limit))
-            row, beta, wi, hit, rng = row[live], beta[live], wi[live], subset_hit(hit, live), rng.subset(live)
-            depth += 1
-            material = bsdf_index(scene, hit)
-            u_rr = rng.next_1d()
-            if self.roulette != "off" and depth > self.rr_depth:         # R.R.
+            # ---- Paths that escaped, or whose next segment max_depth forbids, end ----
+            paths.keep(paths.hit.valid & (paths.depth + 1 < self.depth_limit))
+            depth = paths.depth + 1                 # smallpt's ++depth: this hit's number
+            material = bsdf_index(scene, paths.hit)
+
+            # ---- R.R.: continue with p = max(f), f /= p ----
+            u_rr = paths.rng.next_1d()
+            if self.roulette != "off" and depth > self.rr_depth:
                 p = colour[material].max(axis=1)
-                keep = np.flatnonzero(u_rr < p)
-                beta = beta[keep] / p[keep, None]
-                row, wi, material = row[keep], wi[keep], material[keep]
-                hit, rng = subset_hit(hit, keep), rng.subset(keep)
-            if not len(row):
+                survivors = paths.keep(u_rr < p)
+                paths.beta = paths.beta / p[survivors, None]
+                material = material[survivors]
+            if not paths:
                 break
 
-            # DIFF / SPEC / any other BSDF: its own sampling routine.
-            u1, u2, u_lobe = rng.next_1d(), rng.next_2d(), rng.next_1d()
-            bs = sample_bsdf(scene, hit, wi, u1, u2, self.hemisphere)
+            # ---- DIFF / SPEC / any other BSDF: its own sampling routine ----
+            u1, u2, u_lobe = paths.rng.next_1d(), paths.rng.next_2d(), paths.rng.next_1d()
+            bs = sample_bsdf(scene, paths.hit, paths.wi, u1, u2, self.hemisphere)
             wo, weight = bs.wo, bs.weight
-            # REFR: Beason's lobe choice P = .25 + .5 Re below the split depth ...
+
+            # ---- REFR: Beason's lobe choice P = .25 + .5 Re ... ----
             refr = glass[material]
             if refr.any():
-                lobes = dielectric_lobes(scene, subset_hit(hit, np.flatnonzero(refr)), wi[refr])
+                lobes = dielectric_lobes(scene, subset_hit(paths.hit, refr), paths.wi[refr])
                 P = 0.25 + 0.5 * lobes.F
                 take_r = u_lobe[refr] < P
                 wo[refr] = np.where(take_r[:, None], lobes.wo_r, lobes.wo_t)
                 weight[refr] = np.where(take_r[:, None], lobes.weight_r / P[:, None],
                                         lobes.weight_t / (1 - P)[:, None])
-            # ... and both lobes at shallow depth (splitting).
-            split = (np.flatnonzero(refr & (depth <= self.split_depth)) if depth <= self.split_depth
-                     else np.zeros(0, int))
-            parts_row, parts_beta, parts_hit, parts_wo, parts_rng = [row], [beta * weight], [hit], [wo], [rng]
+
+            # ---- ... and both lobes at shallow depth: radiance(refl) Re + radiance(refr) Tr ----
+            split = np.flatnonzero(refr) if depth <= self.split_depth else []
             if len(split):
-                lobes = dielectric_lobes(scene, subset_hit(hit, split), wi[split])
-                whole = np.setdiff1d(np.arange(len(row)), split)
-                parts_row, parts_beta = [row[whole]], [beta[whole] * weight[whole]]
-                parts_hit, parts_wo, parts_rng = [subset_hit(hit, whole)], [wo[whole]], [rng.subset(whole)]
-                children = rng.subset(split).branch(2)
-                pair = np.repeat(split, 2)
-                parts_row.append(row[pair])
-                parts_beta.append(beta[pair] * np.stack((lobes.weight_r, lobes.weight_t), axis=1).reshape(-1, 3))
-                parts_hit.append(subset_hit(hit, pair))
-                parts_wo.append(np.stack((lobes.wo_r, lobes.wo_t), axis=1).reshape(-1, 3))
-                parts_rng.append(children)
-            row, beta = np.concatenate(parts_row), np.concatenate(parts_beta)
-            wo = np.concatenate(parts_wo)
-            hit = _concatenate_hits(parts_hit)
-            rng = RandomStream.concatenate(parts_rng)
+                lobes = dielectric_lobes(scene, subset_hit(paths.hit, split), paths.wi[split])
+                parent = paths.split(2, split)              # children last: (refl, refr) pairs
+                wo, weight = wo[parent], weight[parent]
+                children = slice(len(parent) - 2 * len(split), None)
+                wo[children] = np.stack((lobes.wo_r, lobes.wo_t), axis=1).reshape(-1, 3)
+                weight[children] = np.stack((lobes.weight_r, lobes.weight_t), axis=1).reshape(-1, 3)
+            paths.scatter(wo, weight)
 
-            keep = np.flatnonzero(beta.max(axis=1) > 0)
-            row, beta, rng = row[keep], beta[keep], rng.subset(keep)
-            next_rays = spawn(subset_hit(hit, keep), wo[keep])
-            d = next_rays.d
-            hit = trace(scene, next_rays)
-        return L
-
-
-def _concatenate_hits(hits):
-    if len(hits) == 1:
-        return hits[0]
-    return type(hits[0])(**{k: np.concatenate([getattr(h, k) for h in hits]) for k in vars(hits[0])})
+            # ---- Paths that carry no light end; the next hit ----
+            paths.keep(paths.beta.max(axis=1) > 0)
+            paths.next_hit(scene)
+        return paths.L

@@ -1,0 +1,186 @@
+"""The wavefront: a batch of paths traced in lock-step, and the helpers on hit batches.
+
+An integrator evaluates its estimator for a whole batch of camera rays at once. Every
+path of the batch is one row of a set of arrays (its result row, throughput, ...); a path
+that ends is removed from all of them together, so that each vertex costs work only for
+the paths still alive. :class:`Paths` owns those arrays and that bookkeeping, so that an
+integrator's ``radiance`` says only what its estimator does at a vertex::
+
+    paths = self.camera_paths(scene, rays, rng)     # every camera ray at its first hit
+    while paths:
+        paths.add_radiance(paths.beta * Le)         # L += beta * Le
+        paths.keep(mask)                            # the paths where mask holds go on
+        paths.scatter(bs.wo, bs.weight, bs.eta)     # beta *= f cos / p
+        paths.next_hit(scene)                       # trace the scattered rays
+    return paths.L
+
+The random stream of a path travels with it, so a path sees the same numbers whichever
+other paths share its batch (:mod:`pathtracer.rng`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import geometry
+from ..camera import Rays
+from ..rng import RandomStream
+
+
+class Paths:
+    """The live paths of one batch of camera rays.
+
+    Per-path arrays (one row per live path, in this order):
+
+    ``row``   the camera ray (row of :attr:`L`) the path adds its radiance to
+    ``beta``  (m, 3) throughput: the path's f cos / p products (and 1/q of roulette)
+    ``eta``   (m,) product of the relative indices of refraction crossed (for roulette)
+    ``wi``    (m, 3) unit direction from the hit back along the ray that reached it
+    ``wo``    (m, 3) the scattered direction, once :meth:`scatter` has chosen it
+    ``hit``   the intersection of each path's current ray (:mod:`pathtracer.geometry`)
+    ``rng``   the paths' random streams (:class:`pathtracer.rng.RandomStream`)
+
+    plus every array an integrator adds with :meth:`declare`. ``depth`` counts the
+    segments before the current hit (0 on the camera ray's hit); ``L`` (n, 3) holds
+    every camera ray's radiance sample, live or not.
+
+    Parameters
+    ----------
+    rays : Rays
+        The camera rays (n of them).
+    rng : RandomStream
+        One stream per camera ray.
+    hit : hit batch or None
+        Their first hits; None makes a batch without live paths (``max_depth`` = 0).
+    """
+
+    def __init__(self, rays: Rays, rng: RandomStream, hit=None):
+        n = len(rays)
+        self.L = np.zeros((n, 3))
+        live = n if hit is not None else 0
+        self.row = np.arange(live)
+        self.beta = np.ones((live, 3))
+        self.eta = np.ones(live)
+        self.wi = -rays.d if hit is not None else np.zeros((0, 3))
+        self.wo = None
+        self.hit = hit
+        self.rng = rng if hit is not None else rng.subset(self.row)
+        self.depth = 0
+        self._fields = ["row", "beta", "eta", "wi", "wo"]
+        self._rows_unique = True     # False once a path has split: rows of L repeat
+
+    def __len__(self) -> int:
+        return len(self.row)
+
+    def __bool__(self) -> bool:
+        return len(self.row) > 0
+
+    def declare(self, **fields) -> None:
+        """Add per-path arrays that :meth:`keep` and :meth:`split` carry along.
+
+        Each value is a scalar (the same start value for every path) or an array with one
+        row per camera ray (``len(L)``); call it before the paths' first :meth:`keep`.
+        """
+        for name, value in fields.items():
+            if np.ndim(value) == 0:
+                value = np.full(len(self), value)
+            else:
+                value = np.asarray(value)[self.row]
+            setattr(self, name, value)
+            self._fields.append(name)
+
+    def add_radiance(self, value: np.ndarray, rows=None) -> None:
+        """``L += value`` for every live path (or for the live paths ``rows``)."""
+        target = self.row if rows is None else self.row[rows]
+        if self._rows_unique:
+            self.L[target] += value
+        else:
+            np.add.at(self.L, target, value)
+
+    def keep(self, mask: np.ndarray):
+        """Keep the paths where ``mask`` holds, with every array and random stream.
+
+        Returns what indexes the kept rows of any other per-path array.
+        """
+        if mask.all():
+            return slice(None)
+        rows = np.flatnonzero(mask)
+        self._take(rows)
+        self.rng = self.rng.subset(rows)
+        return rows
+
+    def split(self, copies: int, rows=None) -> np.ndarray:
+        """Replace paths ``rows`` (default: all) by ``copies`` children each.
+
+        The paths not split come first, in their order, then the children of every split
+        path together (path-major). A child gets its parent's arrays and an independent
+        random stream (:meth:`pathtracer.rng.RandomStream.branch`); each adds to its
+        parent's row of :attr:`L`. Returns the parent index of every new path.
+        """
+        everything = rows is None or len(rows) == len(self)
+        rows = np.arange(len(self)) if rows is None else np.asarray(rows)
+        whole = np.zeros(0, int) if everything else np.flatnonzero(
+            ~np.isin(np.arange(len(self)), rows))
+        parent = np.concatenate((whole, np.repeat(rows, copies)))
+        if everything:
+            self.rng = self.rng.branch(copies)
+        else:
+            self.rng = RandomStream.concatenate([self.rng.subset(whole),
+                                                 self.rng.subset(rows).branch(copies)])
+        self._take(parent)
+        self._rows_unique = False
+        return parent
+
+    def scatter(self, wo: np.ndarray, weight: np.ndarray, eta=None) -> None:
+        """Continue every path along ``wo``: ``beta *= weight`` (f cos / p), ``eta *= eta``."""
+        self.wo = wo
+        self.beta = self.beta * weight
+        if eta is not None:
+            self.eta = self.eta * eta
+        self.depth += 1
+
+    def next_hit(self, scene) -> None:
+        """Trace every path's scattered ray to its next hit."""
+        rays = spawn(self.hit, self.wo)
+        self.hit = trace(scene, rays)
+        self.wi = -rays.d
+        self.wo = None
+
+    def _take(self, rows) -> None:
+        for name in self._fields:
+            value = getattr(self, name)
+            if value is not None:
+                setattr(self, name, np.take(value, rows, axis=0))
+        self.hit = subset_hit(self.hit, rows)
+
+
+def trace(scene, rays: Rays):
+    """Closest hit of every ray."""
+    return geometry.intersect(scene, rays.o, rays.d, rays.tmax)
+
+
+def spawn(hit, wo: np.ndarray) -> Rays:
+    """Rays leaving the hits along ``wo``, offset against self-intersection."""
+    o = geometry.spawn_ray(hit.p, hit.n, wo)
+    return Rays(o, wo, np.full(len(wo), np.inf))
+
+
+def subset_hit(hit, rows):
+    """The hits ``rows`` of a batch (works on any dataclass of arrays).
+
+    ``rows`` are integer indices (``np.take`` along axis 0 is several times
+    faster than fancy indexing of (n, 3) arrays) or a boolean mask.
+    """
+    rows = np.asarray(rows)
+    if rows.dtype == bool:
+        rows = np.flatnonzero(rows)
+    return type(hit)(**{k: np.take(v, rows, axis=0) for k, v in vars(hit).items()})
+
+
+def replace_hits(hit, rows, new):
+    """A copy of ``hit`` with rows ``rows`` overwritten by ``new``."""
+    out = {}
+    for k, v in vars(hit).items():
+        v = v.copy()
+        v[rows] = getattr(new, k)
+        out[k] = v
+    return type(hit)(**out)
