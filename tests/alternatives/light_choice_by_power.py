@@ -9,7 +9,7 @@ same probabilities divide; the variance moves (brighter lights get more shadow r
 import numpy as np
 
 from pathtracer.emitters import EmitterSample, hit_emitter
-from pathtracer.integrators import direct, path, path_nee
+from pathtracer.integrators import base, direct, path, path_nee
 from pathtracer.integrators.base import subset_hit
 
 from _common import camera_rays  # noqa: F401  (the reference camera)
@@ -62,20 +62,23 @@ def _pdf(pdf_emitter_direction):
     return by_power
 
 
-def _by_power(base, module):
-    class ByPower(base):
+def _by_power(reference, module):
+    """``reference`` with lights chosen by power: in its shadow rays (sampled in
+    base.Integrator.sample_direct) and in the light pdf its ``module`` evaluates, if any."""
+    class ByPower(reference):
         def radiance(self, scene, rays, rng):
-            saved = {name: getattr(module, name) for name in ("sample_emitter", "pdf_emitter_direction")
-                     if hasattr(module, name)}
-            module.sample_emitter = _sample(saved["sample_emitter"])
-            if "pdf_emitter_direction" in saved:
-                module.pdf_emitter_direction = _pdf(saved["pdf_emitter_direction"])
+            saved_sample = base.sample_emitter
+            saved_pdf = getattr(module, "pdf_emitter_direction", None)
+            base.sample_emitter = _sample(saved_sample)
+            if saved_pdf is not None:
+                module.pdf_emitter_direction = _pdf(saved_pdf)
             try:
                 return super().radiance(scene, rays, rng)
             finally:
-                for name, value in saved.items():
-                    setattr(module, name, value)
-    ByPower.__name__ = f"ByPower{base.__name__}"
+                base.sample_emitter = saved_sample
+                if saved_pdf is not None:
+                    module.pdf_emitter_direction = saved_pdf
+    ByPower.__name__ = f"ByPower{reference.__name__}"
     return ByPower
 
 

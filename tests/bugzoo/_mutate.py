@@ -4,8 +4,11 @@ Every mutant is an implementation in the student's contract (``INTEGRATORS``, op
 ``camera_rays``): the reference solution with exactly one integrator (or the camera) broken.
 Many bugs live in a helper an integrator calls (its BSDF sampling, its light pdf, ...); such a
 mutant subclasses the reference integrator and runs the reference ``radiance`` with that one
-helper replaced by a buggy version *inside the integrator's module* (the grader runs each
-submission in its own process, so nothing else sees the change). Control-flow bugs override a
+helper replaced by a buggy version *inside the module that calls it*: the integrator's own
+module, or for the steps every integrator shares, ``integrators/base.py`` (emission, shadow
+rays) and ``integrators/wavefront.py`` (the next ray of a path). The replacement lasts only
+while that integrator's ``radiance`` runs, and the grader runs each submission in its own
+process, so nothing else sees the change. Control-flow bugs override a
 method or copy the loop with one line changed.
 
 Module attributes every mutant defines:

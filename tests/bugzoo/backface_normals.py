@@ -9,7 +9,7 @@ import numpy as np
 
 from pathtracer.camera import Rays
 from pathtracer.geometry import RAY_EPSILON, max_abs
-from pathtracer.integrators import path_bsdf
+from pathtracer.integrators import path_bsdf, wavefront
 
 from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
@@ -26,4 +26,5 @@ def _unflipped(spawn):
     return buggy
 
 
-INTEGRATORS = registry(mutate(path_bsdf.PathBSDFIntegrator, path_bsdf, spawn=_unflipped))
+# The paths' next rays are spawned in wavefront.Paths.next_hit.
+INTEGRATORS = registry(mutate(path_bsdf.PathBSDFIntegrator, wavefront, spawn=_unflipped))

@@ -6,7 +6,7 @@ Expected hint: darker by a factor near pi, an extra 1/pi.
 """
 import numpy as np
 
-from pathtracer.integrators import path_nee
+from pathtracer.integrators import base, path_nee
 
 from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
@@ -23,4 +23,5 @@ def _extra_pi(eval_bsdf):
     return buggy
 
 
-INTEGRATORS = registry(mutate(path_nee.PathNEEIntegrator, path_nee, eval_bsdf=_extra_pi))
+# The shadow ray's BSDF value is evaluated in base.Integrator.sample_direct.
+INTEGRATORS = registry(mutate(path_nee.PathNEEIntegrator, base, eval_bsdf=_extra_pi))

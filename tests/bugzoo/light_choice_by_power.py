@@ -9,7 +9,7 @@ Expected hint: the probability of choosing each light must be the one divided by
 """
 import numpy as np
 
-from pathtracer.integrators import direct
+from pathtracer.integrators import base, direct
 
 from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
@@ -57,4 +57,5 @@ def _empty(like, n):
                          np.zeros(n, dtype=bool))
 
 
-INTEGRATORS = registry(mutate(direct.DirectIntegrator, direct, sample_emitter=_by_power))
+# Shadow rays are sampled in base.Integrator.sample_direct.
+INTEGRATORS = registry(mutate(direct.DirectIntegrator, base, sample_emitter=_by_power))

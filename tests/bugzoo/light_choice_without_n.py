@@ -6,7 +6,7 @@ With one light nothing changes; with the two lights of cornell-lights every shad
 counts half of what it should: direct light (bounce 2) is x0.5, the image darker.
 Expected hint: the 1/N of choosing one of the N lights.
 """
-from pathtracer.integrators import path_nee
+from pathtracer.integrators import base, path_nee
 
 from _lightpdf import scale_sample
 from _mutate import camera_rays  # noqa: F401  (the reference camera)
@@ -25,4 +25,5 @@ def _without_choice(sample_emitter):
     return buggy
 
 
-INTEGRATORS = registry(mutate(path_nee.PathNEEIntegrator, path_nee, sample_emitter=_without_choice))
+# Shadow rays are sampled in base.Integrator.sample_direct.
+INTEGRATORS = registry(mutate(path_nee.PathNEEIntegrator, base, sample_emitter=_without_choice))

@@ -5,7 +5,7 @@ weight and in the MIS weight of BSDF samples alike).
 Direct light (bounce 2) is too bright, most where the light is seen at a grazing angle.
 Expected hint: light-sampling pdf (cosine at the light).
 """
-from pathtracer.integrators import path
+from pathtracer.integrators import base, path
 
 from _lightpdf import hit_cosine, light_cosine, scale_sample
 from _mutate import camera_rays  # noqa: F401  (the reference camera)
@@ -29,5 +29,7 @@ def _pdf(pdf_emitter_direction):
     return buggy
 
 
-INTEGRATORS = registry(mutate(path.PathIntegrator, path, sample_emitter=_sample,
-                              pdf_emitter_direction=_pdf))
+# Shadow rays are sampled in base.Integrator.sample_direct, the light pdf of BSDF-sampled
+# hits is evaluated in path.py.
+INTEGRATORS = registry(mutate(mutate(path.PathIntegrator, path, pdf_emitter_direction=_pdf),
+                              base, sample_emitter=_sample))

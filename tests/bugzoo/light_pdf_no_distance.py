@@ -5,7 +5,7 @@ in the MIS weight of BSDF samples alike).
 Direct light (bounce 2) is wrong, brighter where the light is far.
 Expected hint: light-sampling pdf (distance squared).
 """
-from pathtracer.integrators import direct
+from pathtracer.integrators import base, direct
 
 from _lightpdf import hit_distance2, scale_sample
 from _mutate import camera_rays  # noqa: F401  (the reference camera)
@@ -29,5 +29,7 @@ def _pdf(pdf_emitter_direction):
     return buggy
 
 
-INTEGRATORS = registry(mutate(direct.DirectIntegrator, direct, sample_emitter=_sample,
-                              pdf_emitter_direction=_pdf))
+# Shadow rays are sampled in base.Integrator.sample_direct, the light pdf of BSDF-sampled
+# hits is evaluated in direct.py.
+INTEGRATORS = registry(mutate(mutate(direct.DirectIntegrator, direct, pdf_emitter_direction=_pdf),
+                              base, sample_emitter=_sample))

@@ -8,7 +8,7 @@ Expected hint: shadow rays blocked by self-intersection.
 import numpy as np
 
 from pathtracer import geometry
-from pathtracer.integrators import path_nee
+from pathtracer.integrators import base, path_nee
 
 from _mutate import camera_rays  # noqa: F401  (the reference camera)
 from _mutate import mutate, registry
@@ -30,4 +30,5 @@ def _no_offset(sample_emitter):
     return buggy
 
 
-INTEGRATORS = registry(mutate(path_nee.PathNEEIntegrator, path_nee, sample_emitter=_no_offset))
+# Shadow rays are sampled in base.Integrator.sample_direct.
+INTEGRATORS = registry(mutate(path_nee.PathNEEIntegrator, base, sample_emitter=_no_offset))
