@@ -17,6 +17,18 @@ package directory) that exposes
     The constructor takes the options of :class:`pathtracer.Integrator` (``max_depth``,
     ``rr_depth``, ...), so a subclass normally only writes ``radiance``.
 
+    The base class also holds the batch bookkeeping, so that ``radiance`` contains only the
+    lecture's steps: ``self.camera_paths(scene, rays, rng)`` starts a
+    :class:`pathtracer.integrators.wavefront.Paths` (every ray's result row, throughput
+    ``beta``, ``eta``, random stream ``rng`` and hit; ``declare`` adds an integrator's own
+    arrays), ``paths.keep(mask)`` ends the other paths with all their arrays,
+    ``paths.scatter(wo, weight, eta)`` and ``paths.next_hit(scene)`` continue them,
+    ``paths.add_radiance(value)`` adds to the result, and ``self.emission``,
+    ``self.sample_direct`` (a shadow ray) and ``self.russian_roulette`` are shared steps.
+    Their use is optional: a ``radiance`` that keeps its own arrays with the older helpers
+    (``trace``, ``spawn``, ``subset_hit`` of :mod:`pathtracer.integrators.base`,
+    ``rng.subset``/``rng.branch``) is graded the same way.
+
     Without ``INTEGRATORS`` the module and, for a package, its direct submodules are searched
     for :class:`~pathtracer.Integrator` subclasses; each one's ``name`` is its key.
 

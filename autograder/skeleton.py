@@ -43,8 +43,24 @@ INIT = '''"""Your implementation: fill in every function that raises NotImplemen
 Grade it locally with
     pytest autograder/tests_for_students --impl path/to/student
 (from the project's source folder). Import only pathtracer's building blocks (geometry,
-shading, emitters, sampling, the base class), NumPy and SciPy: a submission that imports
-the reference integrators, the reference camera or the grader is refused.
+shading, emitters, sampling, the base class, the path state), NumPy and SciPy: a
+submission that imports the reference integrators, the reference camera or the grader is
+refused.
+
+A radiance traces all its rays at once; the base class keeps the bookkeeping of which paths
+are still alive (pathtracer/integrators/wavefront.py), so you write only the slide's steps:
+
+    def radiance(self, scene, rays, rng):
+        paths = self.camera_paths(scene, rays, rng)     # every camera ray at its first hit
+        while paths:
+            # emission at the hits               paths.add_radiance(...)
+            # paths that escaped or may not      paths.keep(mask)
+            #   scatter again end                if not paths: break
+            # direct light (a shadow ray)        self.sample_direct(scene, paths, ...)
+            # the next direction                 bs = sample_bsdf(...); paths.scatter(...)
+            # Russian roulette                   self.russian_roulette(paths)
+            # the next hit                       paths.next_hit(scene)
+        return paths.L
 """
 from pathtracer.integrators.base import Integrator
 

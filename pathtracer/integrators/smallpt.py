@@ -91,28 +91,32 @@ class SmallptIntegrator(Integrator):
             bs = sample_bsdf(scene, paths.hit, paths.wi, u1, u2, self.hemisphere)
             wo, weight = bs.wo, bs.weight
 
-            # ---- REFR: Beason's lobe choice P = .25 + .5 Re ... ----
-            refr = glass[material]
-            if refr.any():
+            # ---- REFR: Re = Fresnel, Tr = 1 - Re ----
+            refr = np.flatnonzero(glass[material])
+            if len(refr):
                 lobes = dielectric_lobes(scene, subset_hit(paths.hit, refr), paths.wi[refr])
+            if len(refr) and depth > self.split_depth:
+                # deep: one lobe, reflection with probability P = .25 + .5 Re
                 P = 0.25 + 0.5 * lobes.F
                 take_r = u_lobe[refr] < P
                 wo[refr] = np.where(take_r[:, None], lobes.wo_r, lobes.wo_t)
                 weight[refr] = np.where(take_r[:, None], lobes.weight_r / P[:, None],
                                         lobes.weight_t / (1 - P)[:, None])
-
-            # ---- ... and both lobes at shallow depth: radiance(refl) Re + radiance(refr) Tr ----
-            split = np.flatnonzero(refr) if depth <= self.split_depth else []
-            if len(split):
-                lobes = dielectric_lobes(scene, subset_hit(paths.hit, split), paths.wi[split])
-                parent = paths.split(2, split)              # children last: (refl, refr) pairs
+            elif len(refr):
+                # shallow: both lobes, radiance(refl) Re + radiance(refr) Tr (splitting)
+                parent = paths.split(2, refr)        # the children come last, in (refl, refr) pairs
                 wo, weight = wo[parent], weight[parent]
-                children = slice(len(parent) - 2 * len(split), None)
-                wo[children] = np.stack((lobes.wo_r, lobes.wo_t), axis=1).reshape(-1, 3)
-                weight[children] = np.stack((lobes.weight_r, lobes.weight_t), axis=1).reshape(-1, 3)
+                children = len(parent) - 2 * len(refr)
+                wo[children:] = _pairs(lobes.wo_r, lobes.wo_t)
+                weight[children:] = _pairs(lobes.weight_r, lobes.weight_t)
             paths.scatter(wo, weight)
 
             # ---- Paths that carry no light end; the next hit ----
             paths.keep(paths.beta.max(axis=1) > 0)
             paths.next_hit(scene)
         return paths.L
+
+
+def _pairs(first: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """Rows first[0], second[0], first[1], second[1], ... (the children of a split)."""
+    return np.stack((first, second), axis=1).reshape(-1, first.shape[1])
