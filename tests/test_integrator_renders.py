@@ -25,7 +25,8 @@ import pytest
 
 from pathtracer import load_scene, render
 from pathtracer.integrators import INTEGRATORS
-from pathtracer.integrators.pathclass import PathClassIntegrator, render_classes
+from pathtracer.integrators.pathclass import PathClassIntegrator
+from pathtracer.render import render_classes
 
 DATA = Path(__file__).resolve().parent / "data" / "integrator_renders.npz"
 SEED = 7
