@@ -78,7 +78,7 @@ class Paths:
         """Add per-path arrays that :meth:`keep` and :meth:`split` carry along.
 
         Each value is a scalar (the same start value for every path) or an array with one
-        row per camera ray (``len(L)``); call it before the paths' first :meth:`keep`.
+        row per camera ray (``len(L)``), of which every path takes its own row.
         """
         for name, value in fields.items():
             if np.ndim(value) == 0:
