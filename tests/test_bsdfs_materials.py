@@ -387,3 +387,19 @@ def test_mitsuba_conductor_explicit_eta_k(mi):
     ref = only_eta.sample(wi, u, np.zeros((200, 2)))
     _assert_close(Conductor(1.0, 1.5, 1.0).sample(wi, u, np.zeros((200, 2))).weight, ref["weight"],
                   rtol=1e-5, what="conductor with eta only")
+
+
+@pytest.mark.statistical(assertions=1)
+def test_smallpt_renders_every_material_as_path_does():
+    """smallpt's roulette reads each object's colour (``obj.c``): on plastic, rough and thin
+    dielectrics and conductors it must find one (thindielectric's ``reflectance`` is a method,
+    which crashed it) and keep path's expectation."""
+    from mitsuba_refs.stats import compare_means
+    from pathtracer import load_scene, render
+    from tests.budget import ALPHA
+    scene = load_scene("materials", width=16, height=16)
+    smallpt = render(scene, "smallpt", spp=64, seed=3, processes=1)
+    path = render(scene, "path", spp=256, seed=4, processes=1)
+    agreement = compare_means(smallpt.mean, smallpt.variance, smallpt.spp,
+                              path.mean, path.variance, path.spp, alpha=ALPHA)
+    assert agreement.agree, agreement.verdict

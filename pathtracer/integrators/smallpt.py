@@ -20,6 +20,8 @@ are left out: they belong to his film, not to the estimator.
 """
 from __future__ import annotations
 
+import inspect
+
 import numpy as np
 
 from ..bsdfs import Dielectric
@@ -35,8 +37,8 @@ def surface_colour(bsdf) -> np.ndarray:
     """
     bsdf = getattr(bsdf, "nested", bsdf)
     for name in ("reflectance", "specular_reflectance"):
-        if hasattr(bsdf, name):
-            value = getattr(bsdf, name)
+        value = getattr(bsdf, name, None)
+        if value is not None and not inspect.ismethod(value):   # thindielectric's is a method
             if isinstance(value, Texture):
                 return value.max_value()
             return np.asarray(value, dtype=float)
