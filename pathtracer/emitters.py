@@ -24,11 +24,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import geometry
-from .sampling import (square_to_uniform_cone, square_to_uniform_cone_pdf,
+from .sampling import (square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf,
+                       square_to_uniform_cone, square_to_uniform_cone_pdf,
                        square_to_uniform_disk_concentric,
                        square_to_uniform_sphere, square_to_uniform_triangle)
 from .scene.types import Scene
-from .vec import dot, norm, normalize, to_world
+from .vec import dot, norm, normalize, to_local, to_world
 
 
 @dataclass
@@ -311,3 +312,179 @@ def _sample_sphere(scene, shape, ref_p, u):
     pdf = np.where(outside, _cone_pdf(cos_max),
                    dist2 / (np.maximum(cos_light, 1e-300) * scene.shape_area[shape]))
     return point, (-outward if flip else outward), pdf
+
+
+# ----------------------------------------------------------------------
+# Rays leaving the lights: the first vertex of light paths (light tracing, BDPT)
+
+#: Emitters a light path can start on (the others are refused by :func:`check_light_paths`).
+LIGHT_PATH_EMITTERS = ("area", "point", "spot")
+
+
+def check_light_paths(scene: Scene) -> None:
+    """Raise ``ValueError`` naming the first emitter light paths cannot start on.
+
+    Environment and directional lights emit from infinitely far away: a light path
+    would have to start on a disk covering the scene, which is not implemented yet.
+    """
+    for light in scene.emitters:
+        if light.kind not in LIGHT_PATH_EMITTERS:
+            raise ValueError(f"light tracing does not support {light.kind} emitters yet "
+                             f"(supported: {', '.join(LIGHT_PATH_EMITTERS)})")
+
+
+@dataclass
+class EmitterPosition:
+    """Points sampled on the lights.
+
+    Attributes
+    ----------
+    p : (n, 3) the points (the light's position for point and spot lights).
+    n : (n, 3) unit normal of the emitting side (0 for point and spot lights).
+    emitter : (n,) int index into ``scene.emitters``.
+    pdf : (n,) area density, including the 1 / N_emitters choice (1 / N for Dirac lights).
+    delta : (n,) True for point and spot lights (Dirac in position).
+    """
+
+    p: np.ndarray
+    n: np.ndarray
+    emitter: np.ndarray
+    pdf: np.ndarray
+    delta: np.ndarray
+
+
+@dataclass
+class EmitterRay:
+    """Rays leaving the lights, with their densities (Mitsuba's ``sample_emitter_ray``).
+
+    Attributes
+    ----------
+    position : EmitterPosition where the rays start.
+    d : (n, 3) unit directions.
+    pdf_dir : (n,) solid-angle density of ``d`` given the position.
+    weight : (n, 3) ``Le cos / (pdf * pdf_dir)`` for area lights, ``I falloff /
+        (pdf * pdf_dir)`` for point and spot lights: the power the path carries.
+    """
+
+    position: EmitterPosition
+    d: np.ndarray
+    pdf_dir: np.ndarray
+    weight: np.ndarray
+
+
+def choose_emitter(scene: Scene, u_choice: np.ndarray) -> np.ndarray:
+    """Uniform choice of one emitter per sample -> (n,) indices (probability 1 / N)."""
+    count = scene.num_emitters
+    return np.minimum((u_choice * count).astype(np.int64), count - 1)
+
+
+def sample_emitter_position(scene: Scene, u_choice: np.ndarray,
+                            u: np.ndarray) -> EmitterPosition:
+    """A uniformly chosen light and a point on it, uniform in area.
+
+    Meshes pick a triangle proportionally to area, disks a concentric-mapped point,
+    spheres a uniform point on the whole sphere (``pdf = 1 / (N area)``); point and
+    spot lights return their position (``pdf = 1 / N``, Dirac).
+    """
+    check_light_paths(scene)
+    count = len(u_choice)
+    which = choose_emitter(scene, u_choice)
+    out = EmitterPosition(np.zeros((count, 3)), np.zeros((count, 3)), which,
+                          np.zeros(count), np.zeros(count, dtype=bool))
+    for e in np.unique(which):
+        rows = np.flatnonzero(which == e)
+        light = scene.emitters[e]
+        if light.kind in ("point", "spot"):
+            out.p[rows], out.pdf[rows], out.delta[rows] = light.position, 1.0, True
+            continue
+        out.p[rows], out.n[rows] = _uniform_area_point(scene, light.shape, u[rows])
+        out.pdf[rows] = 1.0 / scene.shape_area[light.shape]
+    out.pdf /= scene.num_emitters
+    return out
+
+
+def _uniform_area_point(scene: Scene, shape: int, u: np.ndarray):
+    """A uniform point on a shape and its normal (the emitting side)."""
+    kind = scene.shape_kind[shape]
+    if kind == "disk":
+        return _sample_disk(scene, shape, u)
+    if kind != "sphere":
+        return _sample_mesh(scene, shape, u)
+    k = scene.shape_prim[shape, 0]
+    outward = square_to_uniform_sphere(u)
+    point = scene.sphere_center[k] + scene.sphere_radius[k] * outward
+    return point, (-outward if scene.sphere_flip[k] else outward)
+
+
+def sample_emitter_ray(scene: Scene, u_choice: np.ndarray, u_pos: np.ndarray,
+                       u_dir: np.ndarray) -> EmitterRay:
+    """Rays leaving uniformly chosen lights (the first segment of light paths).
+
+    Area lights: a uniform point, then a cosine-weighted direction on the emitting
+    side (``pdf_dir = cos / pi``, weight ``N Le area pi``); point lights: a uniform
+    direction (``1 / 4 pi``, weight ``N 4 pi I``); spot lights: a uniform direction in
+    the cutoff cone (weight ``N I falloff / pdf_cone``). As Mitsuba's emitters do.
+    """
+    position = sample_emitter_position(scene, u_choice, u_pos)
+    count = len(u_choice)
+    d, pdf_dir, weight = np.zeros((count, 3)), np.zeros(count), np.zeros((count, 3))
+    for e in np.unique(position.emitter):
+        rows = np.flatnonzero(position.emitter == e)
+        light = scene.emitters[e]
+        if light.kind == "area":
+            d[rows] = to_world(square_to_cosine_hemisphere(u_dir[rows]), position.n[rows])
+            pdf_dir[rows] = square_to_cosine_hemisphere_pdf(to_local(d[rows], position.n[rows]))
+            weight[rows] = light.radiance * np.pi
+        elif light.kind == "point":
+            d[rows] = square_to_uniform_sphere(u_dir[rows])
+            pdf_dir[rows] = 1.0 / (4.0 * np.pi)
+            weight[rows] = light.intensity * (4.0 * np.pi)
+        else:
+            d[rows], pdf_dir[rows] = _spot_direction(light, u_dir[rows])
+            weight[rows] = light.intensity * (light.falloff(d[rows]) / pdf_dir[rows])[:, None]
+    # Area lights: Le cos / (pdf_pos pdf_dir) = Le pi / pdf_pos; Dirac ones: / (1 / N).
+    weight /= position.pdf[:, None]
+    return EmitterRay(position, d, pdf_dir, weight)
+
+
+def _spot_direction(light, u: np.ndarray):
+    """Uniform direction in a spot light's cutoff cone (world space) and its density."""
+    cos_cutoff = np.cos(light.cutoff_angle)
+    local = square_to_uniform_cone(u, cos_cutoff)
+    d = normalize(local @ np.linalg.inv(light.to_local).T)
+    return d, square_to_uniform_cone_pdf(local, cos_cutoff)
+
+
+def pdf_emitter_ray(scene: Scene, position: EmitterPosition, d: np.ndarray) -> np.ndarray:
+    """Solid-angle density with which :func:`sample_emitter_ray` picks ``d`` at ``position``."""
+    pdf = np.zeros(len(d))
+    for e in np.unique(position.emitter):
+        rows = np.flatnonzero(position.emitter == e)
+        light = scene.emitters[e]
+        if light.kind == "area":
+            pdf[rows] = np.maximum(dot(d[rows], position.n[rows]), 0.0) / np.pi
+        elif light.kind == "point":
+            pdf[rows] = 1.0 / (4.0 * np.pi)
+        else:
+            local = normalize(d[rows] @ light.to_local.T)
+            pdf[rows] = square_to_uniform_cone_pdf(local, np.cos(light.cutoff_angle))
+    return pdf
+
+
+def emitted_towards(scene: Scene, position: EmitterPosition, d: np.ndarray) -> np.ndarray:
+    """Radiance (area lights) or intensity (point, spot) leaving ``position`` along ``d``.
+
+    Area lights emit on the side their normal faces only, as for :func:`emitted_radiance`.
+    """
+    out = np.zeros((len(d), 3))
+    for e in np.unique(position.emitter):
+        rows = np.flatnonzero(position.emitter == e)
+        light = scene.emitters[e]
+        if light.kind == "area":
+            front = dot(d[rows], position.n[rows]) > 0
+            out[rows] = np.where(front[:, None], light.radiance, 0.0)
+        elif light.kind == "point":
+            out[rows] = light.intensity
+        else:
+            out[rows] = light.intensity * light.falloff(d[rows])[:, None]
+    return out

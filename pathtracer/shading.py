@@ -66,7 +66,7 @@ def is_delta(scene: Scene, hit) -> np.ndarray:
 
 
 def eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray,
-              hemisphere: str = "cosine") -> tuple[np.ndarray, np.ndarray]:
+              hemisphere: str = "cosine", adjoint: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """BSDF value f cos(theta_o) and sampling pdf for world directions.
 
     Parameters
@@ -75,6 +75,10 @@ def eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray,
     wo : (n, 3) unit direction towards the next vertex (e.g. the light).
     hemisphere : {'cosine', 'uniform'}
         Diffuse sampling strategy whose pdf is returned.
+    adjoint : bool
+        Importance transport (paths from the lights: ``wi`` towards the light side,
+        ``wo`` towards the camera side), Mitsuba's ``TransportMode::Importance``: a
+        refraction carries no ``1/eta'^2`` radiance scaling (:func:`importance_scale`).
     """
     value = np.zeros((len(wi), 3))
     pdf = np.zeros(len(wi))
@@ -82,13 +86,32 @@ def eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray,
         n = hit.sh_n[rows]
         wi_local, wo_local = to_local(wi[rows], n), to_local(wo[rows], n)
         value[rows] = bsdf.eval(wi_local, wo_local)
+        if adjoint and bsdf.refracts:
+            value[rows] *= importance_scale(bsdf, wi_local, wo_local)[:, None]
         pdf[rows] = bsdf.pdf(wi_local, wo_local, hemisphere=hemisphere)
     return value, pdf
 
 
+def importance_scale(bsdf, wi_local: np.ndarray, wo_local: np.ndarray) -> np.ndarray:
+    """``eta'^2`` on refraction (``wi``, ``wo`` on opposite sides), 1 on reflection (n,).
+
+    The radiance a BSDF returns is scaled by ``1/eta'^2`` when it refracts (``eta' =
+    eta`` entering, ``1/eta`` leaving, seen from ``wi``): radiance is compressed into the
+    smaller solid angle of the denser side. Importance is not, so the adjoint BSDF
+    undoes the factor.
+    """
+    crossing = wi_local[:, 2] * wo_local[:, 2] < 0
+    eta_seen = np.where(wi_local[:, 2] > 0, bsdf.eta, 1.0 / bsdf.eta)
+    return np.where(crossing, eta_seen * eta_seen, 1.0)
+
+
 def sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-                hemisphere: str = "cosine") -> ScatterSample:
-    """Sample a continuation direction at every hit (see :class:`ScatterSample`)."""
+                hemisphere: str = "cosine", adjoint: bool = False) -> ScatterSample:
+    """Sample a continuation direction at every hit (see :class:`ScatterSample`).
+
+    ``adjoint``: importance transport (see :func:`eval_bsdf`); the weight of a refraction
+    is multiplied by ``bs.eta^2`` = ``eta'^2``, which undoes the radiance scaling.
+    """
     count = len(wi)
     out = ScatterSample(np.zeros((count, 3)), np.zeros((count, 3)), np.zeros(count),
                         np.zeros(count, dtype=bool), np.ones(count))
@@ -100,6 +123,8 @@ def sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarra
         out.pdf[rows] = np.where(bs.valid, bs.pdf, 0.0)
         out.delta[rows] = bs.delta
         out.eta[rows] = np.where(bs.valid, bs.eta, 1.0)
+    if adjoint:
+        out.weight *= (out.eta * out.eta)[:, None]
     return out
 
 

@@ -113,6 +113,10 @@ class BSDF:
 
     has_smooth: bool = False
     is_delta: bool = False
+    #: Transmits into a medium of another index ``eta`` (its transmission carries the
+    #: 1/eta'^2 radiance scaling, which importance transport drops: see
+    #: :func:`pathtracer.shading.eval_bsdf`).
+    refracts: bool = False
     #: Attributes that may hold a :class:`~pathtracer.textures.Texture`.
     texture_params: tuple = ()
 

@@ -39,6 +39,7 @@ class Dielectric(DeltaBSDF):
     """Smooth glass-like interface between media of indices ``int_ior`` (inside) and ``ext_ior``."""
 
     texture_params = ("specular_reflectance", "specular_transmittance")
+    refracts = True
 
     def __init__(self, int_ior: float = BK7_IOR, ext_ior: float = AIR_IOR,
                  specular_reflectance=1.0, specular_transmittance=1.0):

@@ -49,6 +49,7 @@ class RoughDielectric(BSDF):
     """Microfacet interface between media of indices ``int_ior`` (inside) and ``ext_ior``."""
 
     texture_params = ("specular_reflectance", "specular_transmittance")
+    refracts = True
     has_smooth = True
     is_delta = False
 

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from .base import Integrator
 from .direct import DirectIntegrator
+from .light import LightIntegrator
 from .path import PathIntegrator
 from .path_bsdf import PathBSDFIntegrator
 from .path_nee import PathNEEIntegrator
@@ -11,7 +12,7 @@ from .smallpt import SmallptIntegrator
 
 INTEGRATORS = {cls.name: cls for cls in (
     PathIntegrator, PathBSDFIntegrator, PathNEEIntegrator, RecursiveIntegrator,
-    SmallptIntegrator, DirectIntegrator)}
+    SmallptIntegrator, DirectIntegrator, LightIntegrator)}
 
 
 def make_integrator(name: str, **options) -> Integrator:
