@@ -41,7 +41,7 @@ CONVERGENCE_REPLICAS = config.CONVERGENCE_REPLICAS
 #: (stats.rare_errors_dominate), up to this many times the first count.
 CONVERGENCE_MAX_GROWTH = 16
 #: Our integrators whose Mitsuba reference runs the same estimator (variance comparable).
-SAME_ESTIMATOR = ("path", "path_bsdf", "path_nee", "direct")
+SAME_ESTIMATOR = ("path", "path_bsdf", "path_nee", "direct", "light")
 #: Mean-only integrators are compared with the Mitsuba estimator closest to theirs.
 #: The tile test pools both sides' variances; against a much smoother estimator, a
 #: tile where rare light hits happened not to occur (estimated variance 0) would look

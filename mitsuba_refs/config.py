@@ -48,6 +48,8 @@ REF_SPP_FACTOR = 64
 REF_SPP = REF_SPP_FACTOR * TEST_MAX_SPP  # 4096
 
 PASS_SPP = 1024
+#: Independent renders of a particle-tracer (``light``) reference: 64 of 64 spp.
+REF_REPLICAS = 64
 SEED_STRIDE = 4096
 REF_SEED = 1
 

@@ -17,9 +17,15 @@ Integrator mapping (ours -> Mitsuba):
 ``path_bsdf``   ``lecture_path_bsdf`` (:mod:`.integrators.path_bsdf`)
 ``path_nee``    ``lecture_path_nee`` (:mod:`.integrators.path_nee`)
 ``direct``      ``direct`` with ``emitter_samples = bsdf_samples = 1``
+``light``       ``ptracer`` (particle tracer), rendered as independent
+                replicas (:func:`_render_replicas`)
 ``recursive``,  ``path``: same expectation, a different estimator, so
 ``smallpt``     only the mean of such a reference is meaningful
 ==============  =====================================================
+
+A particle tracer's samples do not belong to pixels, so its per-pixel variance
+comes from ``config.REF_REPLICAS`` independent renders with different seeds, as
+the tracer's own light renders do (:func:`pathtracer.render.render_splats`).
 """
 
 import dataclasses
@@ -43,6 +49,7 @@ INTEGRATOR_MAP = {
     "direct": "direct",
     "recursive": "path",
     "smallpt": "path",
+    "light": "ptracer",
 }
 
 #: integrators whose reference variance is *not* that of our estimator
@@ -358,7 +365,12 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     width, height = settings.resolution
     nested = integrator_dict(integrator, transport)
     stream = stream_id(integrator, params, options, resolution)
-    if rfilter.kind != "box":
+    if nested["type"] == "ptracer":
+        if rfilter.kind != "box":
+            raise ValueError(f"{path}: the light tracer's references need a box filter, "
+                             f"the film has {rfilter.kind}")
+        method = "replicas"
+    elif rfilter.kind != "box":
         # Camera copies side by side would splat samples across each other's borders.
         if method == "batch":
             raise ValueError(f"{path}: the batch method needs a box filter, the film has "
@@ -370,6 +382,8 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         from .batch import render_moments
         m1, var, n, calls, per_call, seeds = render_moments(
             scene, mi.load_dict(nested), spp, seed, stream, log=log)
+    elif method == "replicas":
+        m1, var, n, per_call, seeds = _render_replicas(scene, nested, spp, seed, stream, log)
     elif method == "moments":
         m1, m2, n, per_call, seeds = _render_with_wrapper(
             scene, nested, spp, seed, stream, pass_spp, log)
@@ -398,6 +412,8 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         "mitsuba_version": mi.__version__,
         "render_seconds": round(elapsed, 3),
     }
+    if method == "replicas":
+        metadata["replicas"] = len(seeds)
     if options:
         metadata["options"] = {k: str(v) for k, v in sorted(options.items())}
     if resolution is not None:
@@ -427,3 +443,31 @@ def _render_with_wrapper(scene, nested, spp, seed, stream, pass_spp, log):
             log(f"  pass {k + 1}/{n_passes}: {n_k} spp, seed {s}")
     m1, m2, n = moments.combine(passes)
     return m1, m2, n, pass_spp, seeds
+
+
+def _render_replicas(scene, nested, spp, seed, stream, log):
+    """The ``replicas`` method (particle tracer): ``K`` independent renders of ``spp / K``.
+
+    ``K`` is the largest divisor of ``spp`` up to ``config.REF_REPLICAS``. Returns the
+    mean image, the per-pixel variance across replicas times ``spp / K`` (the variance
+    of one light path per pixel: ``var / spp`` is the variance of the mean), ``spp``,
+    ``spp / K`` and the replicas' seeds (:func:`pass_seeds`).
+    """
+    import mitsuba as mi
+    from pathtracer.render import replica_count
+    film = scene.sensors()[0].film()
+    width, height = (int(v) for v in film.crop_size())
+    replicas = replica_count(spp, config.REF_REPLICAS)
+    per_replica = spp // replicas
+    integ = mi.load_dict(nested)
+    seeds = pass_seeds(seed, replicas, width, height, stream)
+    images = []
+    for k, s in enumerate(seeds):
+        image = np.array(mi.render(scene, integrator=integ, spp=per_replica, seed=s),
+                         dtype=np.float64)[..., :3]
+        images.append(image)
+        if log and (k + 1) % 16 == 0:
+            log(f"  replica {k + 1}/{replicas}: {per_replica} spp")
+    images = np.stack(images)
+    variance = images.var(axis=0, ddof=1) * per_replica if replicas > 1 else np.zeros_like(images[0])
+    return images.mean(axis=0), variance, spp, per_replica, seeds
