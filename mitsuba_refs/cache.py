@@ -96,7 +96,8 @@ def included_files(scene_path, folders=None):
     includes, found as the tracer's loader (and Mitsuba) finds them: an ``<include>`` next to
     the including file first, any other file in the top-level file's ``<path>`` folders (the
     last one first) and then the top-level file's folder. A file found nowhere is listed where
-    it was first looked for (:func:`scene_hash` reports it missing)."""
+    it was first looked for (:func:`scene_hash` reports it missing). A name with a ``$param``
+    lists every existing file it could name (its includes are not followed)."""
     scene_path = Path(scene_path)
     root = parse_xml(scene_path)
     if folders is None:   # the top-level file: its <path>s serve every file it includes
@@ -110,9 +111,14 @@ def included_files(scene_path, folders=None):
             name = el.get("value")
         elif el.tag == "include":
             name = el.get("filename")
-        if not name or "$" in name:
+        if not name:
             continue
         where = [scene_path.parent] + folders if el.tag == "include" else folders
+        if "$" in name:
+            # A parameter chooses the file: hash every file it could name.
+            pattern = re.sub(r"\$\w+", "*", name)
+            found.extend(sorted({c.resolve() for folder in where for c in folder.glob(pattern)}))
+            continue
         candidates = [(folder / name).resolve() for folder in where]
         path = next((c for c in candidates if c.exists()), candidates[0])
         found.append(path)

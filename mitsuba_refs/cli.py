@@ -66,6 +66,8 @@ def _default_integrators(scene):
     """The estimators a scene gets references for unless ``--integrators`` says otherwise."""
     if scene in config.FEATURE_SCENES:
         return config.FEATURE_SCENES[scene][0]
+    if scene in config.LIGHT_SCENES:
+        return config.REF_INTEGRATORS + ("light",)
     return config.REF_INTEGRATORS
 
 

@@ -59,7 +59,11 @@ REF_SEED = 1
 #: name -> (our integrators with a reference, width, height)
 FEATURE_SCENES = {
     "materials": (("path", "path_bsdf", "path_nee"), 32, 32),
+    "caustics": (("path", "light"), 32, 32),
 }
+#: Built-in scenes with a committed ``light`` (Mitsuba ``ptracer``) reference besides
+#: REF_INTEGRATORS' (a particle tracer cannot start on environment or directional lights).
+LIGHT_SCENES = ("cornell-box",)
 
 #: Built-in scenes with agreement tests of their own (tests/test_agreement.py) and the
 #: references those need, built by hand: ``textured`` (``path`` at 32 x 32) and

@@ -21,6 +21,8 @@ pytestmark = pytest.mark.statistical(assertions=1)
 ALL = sorted(INTEGRATORS)
 #: Integrators that only sample BSDFs: a point light is a Dirac delta they can never hit.
 BSDF_ONLY = ("path_bsdf", "smallpt")
+#: Light paths cannot start on an environment yet (the light tracer refuses it: test_light.py).
+WITH_ENVIRONMENT = [i for i in ALL if i != "light"]
 
 
 def footprint_average(scene, radiance_at, sub=4):
@@ -94,7 +96,7 @@ def test_point_light_is_invisible_to_bsdf_sampling(integrator):
     assert np.all(result.mean == 0)
 
 
-@pytest.mark.parametrize("integrator", ALL)
+@pytest.mark.parametrize("integrator", WITH_ENVIRONMENT)
 def test_diffuse_sphere_under_constant_sky(integrator):
     rho, sky = 0.5, 1.0
     scene = load_scene("sky-sphere", width=32, height=32, albedo=rho, radiance=sky)
