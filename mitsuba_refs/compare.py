@@ -42,6 +42,9 @@ CONVERGENCE_REPLICAS = config.CONVERGENCE_REPLICAS
 CONVERGENCE_MAX_GROWTH = 16
 #: Our integrators whose Mitsuba reference runs the same estimator (variance comparable).
 SAME_ESTIMATOR = ("path", "path_bsdf", "path_nee", "direct", "light")
+#: Integrators whose paths splat into many pixels: pixels are correlated across the image,
+#: so the mean test leaves out its whole-image components (docs/statistics.md, section 8).
+SPLATTING = ("light",)
 #: Mean-only integrators are compared with the Mitsuba estimator closest to theirs.
 #: The tile test pools both sides' variances; against a much smoother estimator, a
 #: tile where rare light hits happened not to occur (estimated variance 0) would look
@@ -238,7 +241,8 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     result = Comparison(scene, name, params, spp,
                         compare_means(mean, variance, spp, reference.mean, reference.var,
                                       reference.n, alpha=alpha, max_var_ratio=bound,
-                                      pixel_correlation=correlation))
+                                      pixel_correlation=correlation,
+                                      image_components=name not in SPLATTING))
     result.rendered = rendered_settings(reference.metadata)
     both_noiseless = not np.any(variance) and not np.any(reference.var)
     if name in SAME_ESTIMATOR and not both_noiseless:
@@ -409,7 +413,8 @@ def localise_bounce(scene, integrator, name, params, spp, alpha, processes, rend
                                 processes=processes, max_depth=depth)
         results[depth] = compare_means(mean, variance, spp, reference.mean, reference.var,
                                        reference.n, alpha=alpha,
-                                       pixel_correlation=reference_correlation(reference))
+                                       pixel_correlation=reference_correlation(reference),
+                                       image_components=name not in SPLATTING)
     return results
 
 

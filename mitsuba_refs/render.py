@@ -471,3 +471,4 @@ def _render_replicas(scene, nested, spp, seed, stream, log):
     images = np.stack(images)
     variance = images.var(axis=0, ddof=1) * per_replica if replicas > 1 else np.zeros_like(images[0])
     return images.mean(axis=0), variance, spp, per_replica, seeds
+

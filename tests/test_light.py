@@ -211,3 +211,13 @@ def test_cli_renders_light_and_refuses_in_one_line(tmp_path, capsys):
                  "--integrator", "light", "-o", str(tmp_path / "env.exr")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "does not support envmap" in err
+
+
+def test_mitsuba_ptracer_in_a_file_renders_with_light(tmp_path):
+    path = tmp_path / "ptracer.xml"
+    path.write_text(SCENE.format(light=LIGHTS["area"]).replace(
+        "<scene version=\"3.0.0\">", "<scene version=\"3.0.0\"><integrator type=\"ptracer\">"
+        "<integer name=\"max_depth\" value=\"3\"/></integrator>"))
+    scene = load_scene(str(path))
+    assert (scene.integrator.name, scene.integrator.params) == ("light", {"max_depth": 3})
+    assert render(scene, spp=2, seed=1, processes=1).integrator == "light"

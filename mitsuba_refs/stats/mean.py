@@ -264,7 +264,8 @@ def _fmt_pct(x: float) -> str:
 def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alpha: float,
                   ci_level: float = 0.95, rel_floor: float = 1e-5,
                   max_var_ratio: float | None = None,
-                  pixel_correlation: PixelCorrelation | None = None) -> MeanAgreement:
+                  pixel_correlation: PixelCorrelation | None = None,
+                  image_components: bool = True) -> MeanAgreement:
     r"""Test whether two renders (a = test, b = reference) have the same expected image.
 
     Parameters
@@ -297,6 +298,11 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
         (:func:`mitsuba_refs.stats.correlation.pixel_correlation`); None: independent
         pixels (box filter).  With a tent or gaussian filter ``var / n`` is each pixel's
         covariance row sum, and a tile's variance is the share of it inside the tile.
+    image_components : bool
+        False leaves out the whole-image components (own and bounded variance): for
+        renders whose pixels are correlated across the image, where summed pixel variances
+        misjudge the image mean's (a light path splats into every pixel its vertices
+        project to; docs/statistics.md section 8). The tiles then decide alone.
 
     Returns
     -------
@@ -356,7 +362,9 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
     se = np.sqrt(sa ** 2 + sb ** 2 + (rel_floor * np.maximum(np.abs(A), np.abs(B))) ** 2)
     with np.errstate(divide="ignore", invalid="ignore"):
         image_z = np.where(se > 0, (A - B) / se, np.where(A == B, 0.0, np.sign(A - B) * np.inf))
-    scale_p["image"] = p_max_abs(float(np.max(np.abs(image_z))), R) if np.any(image_z != 0) else 1.0
+    if image_components:
+        scale_p["image"] = (p_max_abs(float(np.max(np.abs(image_z))), R)
+                            if np.any(image_z != 0) else 1.0)
 
     # ---- whole image, the test's variance bounded by max_var_ratio x the reference's ------
     # The components above divide by the test side's own variance, so a heavy-tailed wrong
@@ -365,7 +373,7 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
     # max_var_ratio times the reference's per-sample variances (16.7M samples at 4096 spp:
     # a precise estimate), so the z grows with the bias whatever the test's variance.
     bounded_z = None
-    if max_var_ratio is not None:
+    if max_var_ratio is not None and image_components:
         sab = np.sqrt(max_var_ratio * (np.maximum(vb, 0) / na).sum(axis=(0, 1))) / npx
         seb = np.sqrt(sab ** 2 + sb ** 2 + (rel_floor * np.maximum(np.abs(A), np.abs(B))) ** 2)
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -34,7 +34,8 @@ SUPPORTED = {
              "thindielectric", "roughdielectric", "plastic", "roughplastic"),
     "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
     "sensor": ("perspective",),
-    "integrator": ("path", "direct", "recursive", "path_bsdf", "path_nee", "smallpt"),
+    "integrator": ("path", "direct", "ptracer", "recursive", "path_bsdf", "path_nee", "smallpt",
+                   "light"),
     "texture": ("bitmap", "checkerboard"),
 }
 # BSDFs that only make sense in Mitsuba's polarised variants: refused with the reason.
@@ -53,7 +54,10 @@ TEXTURED_PARAMS = ("reflectance", "specular_reflectance", "specular_transmittanc
 INTEGRATOR_PARAMS = {
     "path": {"max_depth", "rr_depth", "hide_emitters"},
     "direct": {"emitter_samples", "bsdf_samples", "shading_samples", "hide_emitters"},
+    "ptracer": {"max_depth", "rr_depth", "hide_emitters"},
 }
+#: Mitsuba integrators rendered by this tracer's integrator of another name.
+INTEGRATOR_ALIASES = {"ptracer": "light"}
 # Types of the integrator parameters with a Mitsuba meaning (any integrator).
 INTEGRATOR_PARAM_TAGS = {"max_depth": "integer", "rr_depth": "integer",
                          "hide_emitters": "boolean", "emitter_samples": "integer",
@@ -1005,7 +1009,7 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
             raise plugin.error(f"max_depth must be -1 (unlimited) or >= 0, as in Mitsuba, got "
                                f"{prop.value}", prop.line)
         params[name] = prop.value
-    return IntegratorSpec(plugin.type, params)
+    return IntegratorSpec(INTEGRATOR_ALIASES.get(plugin.type, plugin.type), params)
 
 
 def _check_direct_samples(plugin: Plugin) -> None:
