@@ -55,3 +55,34 @@ def test_image_orientation():
     left = camera.to_world[:3, 0]
     assert np.dot(top - centre, up) > 0
     assert np.dot(right - centre, left) < 0
+
+
+@pytest.mark.parametrize("axis,fov,width,height,near", CASES[:3])
+def test_camera_connection_matches_mitsuba_sample_direction(tmp_path, axis, fov, width, height,
+                                                            near, mi):
+    """connect_to_camera (the light tracer's splat: pixel, direction, importance We / d^2)
+    against the sensor's own ``sample_direction`` for points inside and outside the view."""
+    from pathtracer.camera import connect_to_camera
+    path = tmp_path / "camera.xml"
+    path.write_text(SENSOR_XML.format(fov=fov, axis=axis, near=near, width=width, height=height))
+    camera = load_scene(str(path)).camera
+    sensor = mi.load_file(str(path)).sensors()[0]
+    rng = np.random.default_rng(4)
+    count = 300
+    pixel = rng.integers(0, width * height, count)
+    rays = camera_rays(camera, pixel, rng.random((count, 2)))
+    points = rays.o + rays.d * rng.uniform(0.5, 4.0, count)[:, None]
+    points[::10] += rng.normal(0.0, 3.0, (len(points[::10]), 3))     # some outside the view
+    ours = connect_to_camera(camera, points)
+    for k in range(count):
+        it = mi.Interaction3f()
+        it.p = mi.Point3f(*points[k])
+        ds, weight = sensor.sample_direction(it, mi.Point2f(0.5, 0.5))
+        if ds.pdf == 0:
+            assert ours.pixel[k] == -1 and ours.importance[k] == 0
+            continue
+        uv = np.array(ds.uv)
+        assert ours.pixel[k] == int(uv[1]) * width + int(uv[0])
+        np.testing.assert_allclose(ours.film[k], uv, atol=1e-4)
+        np.testing.assert_allclose(ours.wi[k], np.array(ds.d), atol=1e-5)
+        assert ours.importance[k] == pytest.approx(float(np.array(weight)[0]), rel=1e-4)

@@ -221,3 +221,19 @@ def test_mitsuba_ptracer_in_a_file_renders_with_light(tmp_path):
     scene = load_scene(str(path))
     assert (scene.integrator.name, scene.integrator.params) == ("light", {"max_depth": 3})
     assert render(scene, spp=2, seed=1, processes=1).integrator == "light"
+
+
+@pytest.mark.statistical(assertions=1)
+def test_path_tracing_misses_the_point_light_caustic_that_light_tracing_finds():
+    """The caustics experiment's verdict: against Mitsuba's ptracer reference, path tracing
+    with shadow rays converges to an image without the caustic (a shadow ray cannot pass
+    the glass), and the mean test says so."""
+    from mitsuba_refs.cache import get_reference
+    from mitsuba_refs.stats import compare_means
+    from tests.budget import ALPHA
+    params = {"width": 32, "height": 32, "light": "point"}
+    reference = get_reference("caustics", params, "light", render=False)
+    ours = render(load_scene("caustics", **params), "path", spp=64, seed=21, processes=1)
+    verdict = compare_means(ours.mean, ours.variance, ours.spp, reference.mean, reference.var,
+                            reference.n, alpha=ALPHA)
+    assert not verdict.agree, verdict.verdict
