@@ -34,7 +34,9 @@ SEED = 7
 #: Scenes of the integrator x scene matrix: glass + mirror, two lights, a point light, an
 #: environment, rough conductors and plastic, and smallpt's room (glass split, roulette).
 SCENES = ("cornell-caustics", "cornell-lights", "point-light", "envmap", "materials", "smallpt")
-ALL = tuple(sorted(INTEGRATORS)) + ("pathclass",)
+#: The camera-path integrators the path-state rewrite touched; ``light`` (light paths,
+#: splatted, refusing environment lights) has its own tests (tests/test_light.py).
+ALL = tuple(sorted(set(INTEGRATORS) - {"light"})) + ("pathclass",)
 
 
 def _cases() -> dict:

@@ -34,7 +34,8 @@ from ..emitters import (emitted_towards, sample_emitter_position, sample_emitter
 from ..geometry import spawn_ray
 from ..shading import eval_bsdf, sample_bsdf
 from ..vec import dot
-from .base import Integrator, subset_hit, trace
+from .base import Integrator
+from .wavefront import Paths, trace
 
 
 class LightIntegrator(Integrator):
@@ -75,26 +76,25 @@ class LightIntegrator(Integrator):
         if self.depth_limit < 2:
             return _concatenate(splats)
         ray = sample_emitter_ray(scene, rng.next_1d(), rng.next_2d(), rng.next_2d())
-        beta, eta, d = ray.weight, np.ones(len(rng)), ray.d
-        hit, depth = trace(scene, leaving(ray.position.p, ray.position.n, d)), 1
-        while True:
-            live = np.flatnonzero(hit.valid)
-            hit, beta, eta, d, rng = subset_hit(hit, live), beta[live], eta[live], d[live], rng.subset(live)
-            if not len(live):
+        first = leaving(ray.position.p, ray.position.n, ray.d)
+        paths = Paths(first, rng, trace(scene, first))
+        paths.beta = ray.weight               # Le cos / (p_light p_pos p_dir)
+        while paths:
+            # ---- Light paths that escaped end; the others splat their vertex ----
+            paths.keep(paths.hit.valid)
+            if not paths:
                 break
-            wi = -d
-            splats.append(self.connect(scene, hit, wi, beta))
-            if depth + 1 >= self.depth_limit:
+            splats.append(self.connect(scene, paths.hit, paths.wi, paths.beta))
+            # ---- The next vertex's path to the camera would have depth + 3 segments ----
+            if paths.depth + 2 >= self.depth_limit:
                 break
-            # Continue by sampling the adjoint BSDF, then Russian roulette.
-            bs = sample_bsdf(scene, hit, wi, rng.next_1d(), rng.next_2d(), self.hemisphere,
-                             adjoint=True)
-            beta = beta * bs.weight * shading_correction(hit, wi, bs.wo)[:, None]
-            eta = eta * bs.eta
-            survive, beta = self.roulette_survivors(beta, eta, depth, rng.next_1d())
-            keep = np.flatnonzero(survive & (beta.max(axis=1) > 0))
-            hit, beta, eta, rng, d = subset_hit(hit, keep), beta[keep], eta[keep], rng.subset(keep), bs.wo[keep]
-            hit, depth = trace(scene, leaving(hit.p, hit.n, d)), depth + 1
+            # ---- Continue by sampling the adjoint BSDF, then Russian roulette ----
+            bs = sample_bsdf(scene, paths.hit, paths.wi, paths.rng.next_1d(),
+                             paths.rng.next_2d(), self.hemisphere, adjoint=True)
+            correction = shading_correction(paths.hit, paths.wi, bs.wo)
+            paths.scatter(bs.wo, bs.weight * correction[:, None], bs.eta)
+            self.russian_roulette(paths)
+            paths.next_hit(scene)
         return _concatenate(splats)
 
     def connect(self, scene, hit, wi, beta) -> tuple[np.ndarray, np.ndarray]:
