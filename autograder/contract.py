@@ -61,15 +61,16 @@ DEFAULT_IMPLEMENTATION = "autograder.solution"
 
 #: Modules of the reference solution and of the grader a submission must not import.
 SOLUTION_MODULES = tuple(f"pathtracer.integrators.{name}" for name in (
-    "path", "path_bsdf", "path_nee", "direct", "recursive", "smallpt", "pathclass"))
+    "path", "path_bsdf", "path_nee", "direct", "recursive", "smallpt", "pathclass", "light"))
 GRADER_PACKAGES = ("autograder", "mitsuba_refs", "mitsuba", "drjit")
 #: Names that are the reference solution wherever they are imported from.
 SOLUTION_NAMES = {
     "pathtracer": {"INTEGRATORS", "make_integrator"},
     "pathtracer.integrators": {"INTEGRATORS", "make_integrator", "PathIntegrator",
                                "PathBSDFIntegrator", "PathNEEIntegrator", "DirectIntegrator",
-                               "RecursiveIntegrator", "SmallptIntegrator", "path", "path_bsdf",
-                               "path_nee", "direct", "recursive", "smallpt", "pathclass"},
+                               "RecursiveIntegrator", "SmallptIntegrator", "LightIntegrator", "path",
+                               "path_bsdf", "path_nee", "direct", "recursive", "smallpt",
+                               "pathclass", "light"},
     "pathtracer.camera": {"camera_rays"},
 }
 #: Most source a submission may have (files, bytes) before the grader stops reading.

@@ -19,6 +19,7 @@ private (references, the solution, the grader, results) is elsewhere.
 """
 from __future__ import annotations
 
+import ast
 import os
 import shutil
 import tempfile
@@ -33,6 +34,9 @@ SANDBOX = Path(__file__).resolve().parent / "sandbox"
 SANDBOX_FILES = ("__init__.py", "child.py", "wire.py", "seccomp.py")
 #: Solution code that is not a stub target of the skeleton: left out of the student runtime.
 PRIVATE_MODULES = ("integrators/pathclass.py", "cli.py")
+#: Integrators the course does not grade (yet): the registry imports them, so the student
+#: runtime keeps each class, with its name and options, but not its algorithm.
+UNGRADED_MODULES = ("integrators/light.py",)
 FLAVOURS = ("student", "solution")
 
 SOLUTION_INIT = '''"""The reference solution in the student contract (solution runtime only)."""
@@ -64,6 +68,9 @@ def build(dest, flavour: str = "student", public: bool = True) -> Path:
             module.write_text(stub_source(module.read_text(), name, slide))
         for relative in PRIVATE_MODULES:
             (tracer / relative).unlink()
+        for relative in UNGRADED_MODULES:
+            module = tracer / relative
+            module.write_text(ungraded_source(module.read_text()))
     else:
         (dest / "solution").mkdir()
         (dest / "solution" / "__init__.py").write_text(SOLUTION_INIT)
@@ -74,6 +81,27 @@ def build(dest, flavour: str = "student", public: bool = True) -> Path:
     if not public:
         os.chmod(dest, 0o700)
     return dest
+
+
+def ungraded_source(source: str) -> str:
+    """A module with each integrator class of ``source`` reduced to a stub that says why.
+
+    The class keeps its ``name`` (the registry is built from it) and its base classes;
+    everything else of the module (the algorithm, its helpers) is left out.
+    """
+    tree = ast.parse(source)
+    classes = [node for node in tree.body if isinstance(node, ast.ClassDef)]
+    lines = ['"""Not part of the student runtime: an integrator the course does not grade."""',
+             "from .base import Integrator", ""]
+    for node in classes:
+        name = next((stmt.value.value for stmt in node.body if isinstance(stmt, ast.Assign)
+                     and any(getattr(t, "id", None) == "name" for t in stmt.targets)
+                     and isinstance(stmt.value, ast.Constant)), None)
+        lines += ["", f"class {node.name}(Integrator):",
+                  f"    name = {name!r}", "",
+                  "    def radiance(self, scene, rays, rng):",
+                  f"        raise NotImplementedError(\"{name}: not part of the graded course\")", ""]
+    return "\n".join(lines)
 
 
 def _world_readable(root: Path) -> None:

@@ -266,6 +266,17 @@ def test_student_runtime_has_no_solution(tmp_path):
                                                   and isinstance(stmt.value, ast.Constant))]
             assert len(code) == 1 and isinstance(code[0], ast.Raise), relative
     assert not (folder / "pathtracer" / "integrators" / "pathclass.py").exists()
+    # Ungraded integrators keep their class and name, not their algorithm.
+    from autograder.runtime import UNGRADED_MODULES
+    from pathtracer import INTEGRATORS
+    for relative in UNGRADED_MODULES:
+        stub = (folder / "pathtracer" / relative).read_text()
+        assert "connect" not in stub and "sample_bsdf" not in stub, relative
+    probe = ("import sys; sys.path.insert(0, sys.argv[1]); "
+             "from pathtracer.integrators import INTEGRATORS; print(sorted(INTEGRATORS))")
+    listed = subprocess.run([sys.executable, "-c", probe, str(folder)], capture_output=True,
+                            text=True, check=True, cwd=tmp_path).stdout
+    assert listed.strip() == str(sorted(INTEGRATORS))
     names = {p.name for p in folder.rglob("*")}
     references = {p.name for p in (ROOT / "mitsuba_refs" / "references").iterdir()}
     assert not names & references
