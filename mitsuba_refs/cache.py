@@ -52,7 +52,7 @@ from . import config
 from .errors import (CacheNotWritable, ReferenceUnavailable, RefsInputError,
                      is_mitsuba_error, mitsuba_error_line)
 from .exr import pixel_checksum, read_reference_exr, write_reference_exr
-from .render import (MEAN_ONLY, Reference, integrator_dict, reference_settings,
+from .render import (INTEGRATOR_MAP, MEAN_ONLY, Reference, integrator_dict, reference_settings,
                      resolve_scene)
 
 FORMAT_VERSION = 1
@@ -141,8 +141,11 @@ def scene_hash(scene):
 
 def canonical_integrator(integrator):
     """Our integrator name under which the reference is stored
-    (``recursive`` and ``smallpt`` share ``path``'s references)."""
-    return "path" if integrator in MEAN_ONLY else integrator
+    (``recursive`` and ``smallpt`` share ``path``'s references, ``volpath_phase``
+    those of ``volpath``)."""
+    if integrator in MEAN_ONLY:
+        return INTEGRATOR_MAP.get(integrator, "path")
+    return integrator
 
 
 def _identity(scene, params, integrator, spp, seed, options=None, resolution=None):

@@ -41,7 +41,7 @@ CONVERGENCE_REPLICAS = config.CONVERGENCE_REPLICAS
 #: (stats.rare_errors_dominate), up to this many times the first count.
 CONVERGENCE_MAX_GROWTH = 16
 #: Our integrators whose Mitsuba reference runs the same estimator (variance comparable).
-SAME_ESTIMATOR = ("path", "path_bsdf", "path_nee", "direct", "light")
+SAME_ESTIMATOR = ("path", "path_bsdf", "path_nee", "direct", "light", "volpath")
 #: Integrators whose paths splat into many pixels: pixels are correlated across the image,
 #: so the mean test leaves out its whole-image components (docs/statistics.md, section 8).
 SPLATTING = ("light",)
@@ -49,7 +49,7 @@ SPLATTING = ("light",)
 #: The tile test pools both sides' variances; against a much smoother estimator, a
 #: tile where rare light hits happened not to occur (estimated variance 0) would look
 #: significant. smallpt samples BSDFs only, recursive uses shadow rays without MIS.
-CLOSEST_ESTIMATOR = {"smallpt": "path_bsdf", "recursive": "path_nee"}
+CLOSEST_ESTIMATOR = {"smallpt": "path_bsdf", "recursive": "path_nee", "volpath_phase": "volpath"}
 #: Each replica image is split into INTERLEAVE x INTERLEAVE interleaved sub-lattices
 #: (pixel (i, j) -> lattice (i mod s, j mod s)). Pixels are independent, so the
 #: sub-lattices are independent pseudo-replicas that all see the whole image: the

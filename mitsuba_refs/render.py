@@ -21,6 +21,9 @@ Integrator mapping (ours -> Mitsuba):
                 replicas (:func:`_render_replicas`)
 ``recursive``,  ``path``: same expectation, a different estimator, so
 ``smallpt``     only the mean of such a reference is meaningful
+``volpath``     ``volpath`` (media: free flight, shadow rays through null
+                boundaries, MIS)
+``volpath_phase`` ``volpath``: same expectation, mean only
 ==============  =====================================================
 
 A particle tracer's samples do not belong to pixels, so its per-pixel variance
@@ -50,10 +53,12 @@ INTEGRATOR_MAP = {
     "recursive": "path",
     "smallpt": "path",
     "light": "ptracer",
+    "volpath": "volpath",
+    "volpath_phase": "volpath",
 }
 
 #: integrators whose reference variance is *not* that of our estimator
-MEAN_ONLY = ("recursive", "smallpt")
+MEAN_ONLY = ("recursive", "smallpt", "volpath_phase")
 
 #: parameters that belong to the integrator, not to the XML defaults
 INTEGRATOR_PARAMS = ("max_depth", "rr_depth", "hide_emitters")

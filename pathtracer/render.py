@@ -39,6 +39,7 @@ from .film import effective_counts, splat
 from .camera import camera_rays
 from .emitters import check_light_paths
 from .integrators import Integrator, make_integrator
+from .media import has_media
 from .rng import RandomStream, sample_keys
 from .scene.types import Scene
 
@@ -111,8 +112,14 @@ def integrator_for(scene: Scene, integrator=None, **options) -> Integrator:
     params.update(transport_options(spec))
     params.update({k: v for k, v in options.items() if v is not None})
     if isinstance(integrator, Integrator):
-        return _with_options(integrator, params)
-    return make_integrator(integrator or spec.name, **params)
+        chosen = _with_options(integrator, params)
+    else:
+        chosen = make_integrator(integrator or spec.name, **params)
+    if has_media(scene) and not getattr(chosen, "handles_media", False):
+        raise ValueError(f"{scene.source} has participating media or null boundaries, which "
+                         f"integrator {chosen.name!r} does not render: use volpath or "
+                         "volpath_phase")
+    return chosen
 
 
 def _with_options(integrator: Integrator, options: dict) -> Integrator:

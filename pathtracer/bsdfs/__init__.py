@@ -8,6 +8,7 @@ from .dielectric import Dielectric
 from .diffuse import Diffuse
 from .fresnel import fresnel_conductor, fresnel_dielectric, fresnel_schlick, reflect, refract
 from .microfacet import MicrofacetDistribution
+from .null import NullBSDF
 from .plastic import Plastic
 from .roughconductor import RoughConductor
 from .roughdielectric import RoughDielectric
@@ -16,7 +17,7 @@ from .thindielectric import ThinDielectric
 from .twosided import TwoSided
 
 __all__ = [
-    "BSDF", "BSDFSample", "Conductor", "Dielectric", "Diffuse", "MicrofacetDistribution",
+    "BSDF", "BSDFSample", "Conductor", "Dielectric", "Diffuse", "MicrofacetDistribution", "NullBSDF",
     "Plastic", "RoughConductor", "RoughDielectric", "RoughPlastic", "ThinDielectric", "TwoSided",
     "fresnel_conductor", "fresnel_dielectric", "fresnel_schlick", "reflect", "refract",
 ]

@@ -9,10 +9,13 @@ from .path_bsdf import PathBSDFIntegrator
 from .path_nee import PathNEEIntegrator
 from .recursive import RecursiveIntegrator
 from .smallpt import SmallptIntegrator
+from .volpath import VolPathIntegrator
+from .volpath_phase import VolPathPhaseIntegrator
 
 INTEGRATORS = {cls.name: cls for cls in (
     PathIntegrator, PathBSDFIntegrator, PathNEEIntegrator, RecursiveIntegrator,
-    SmallptIntegrator, DirectIntegrator, LightIntegrator)}
+    SmallptIntegrator, DirectIntegrator, LightIntegrator, VolPathIntegrator,
+    VolPathPhaseIntegrator)}
 
 
 def make_integrator(name: str, **options) -> Integrator:

@@ -31,12 +31,23 @@ IOR_BY_NAME = {
 SUPPORTED = {
     "shape": ("rectangle", "cube", "disk", "sphere", "obj", "ply", "serialized"),
     "bsdf": ("diffuse", "twosided", "conductor", "roughconductor", "dielectric",
-             "thindielectric", "roughdielectric", "plastic", "roughplastic"),
+             "thindielectric", "roughdielectric", "plastic", "roughplastic", "null"),
     "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
     "sensor": ("perspective",),
     "integrator": ("path", "direct", "ptracer", "recursive", "path_bsdf", "path_nee", "smallpt",
-                   "light"),
+                   "light", "volpath", "volpath_phase"),
     "texture": ("bitmap", "checkerboard"),
+    "medium": ("homogeneous",),
+    "phase": ("isotropic", "hg"),
+}
+# Media and phase functions of Mitsuba 3 refused, with the reason.
+NOT_IMPLEMENTED_MEDIA = {
+    "heterogeneous": "heterogeneous (grid volume) media are not implemented: only homogeneous",
+    "rayleigh": "the Rayleigh phase function exists only in Mitsuba's spectral variants",
+    "sggx": "the SGGX microflake phase function is not implemented (isotropic and hg are)",
+    "blendphase": "blended phase functions are not implemented (isotropic and hg are)",
+    "tabphase": "tabulated phase functions are not implemented (isotropic and hg are)",
+    "volpathmis": "the spectral-MIS volumetric path tracer is not implemented; use volpath",
 }
 # BSDFs that only make sense in Mitsuba's polarised variants: refused with the reason.
 VARIANT_ONLY_BSDFS = {
@@ -53,6 +64,7 @@ TEXTURED_PARAMS = ("reflectance", "specular_reflectance", "specular_transmittanc
 # Integrator parameters we validate; the project's own integrators take any.
 INTEGRATOR_PARAMS = {
     "path": {"max_depth", "rr_depth", "hide_emitters"},
+    "volpath": {"max_depth", "rr_depth", "hide_emitters"},
     "direct": {"emitter_samples", "bsdf_samples", "shading_samples", "hide_emitters"},
     "ptracer": {"max_depth", "rr_depth", "hide_emitters"},
 }
@@ -260,6 +272,9 @@ def _children(plugin: Plugin, allowed: dict[str, int]) -> dict[str, list[Plugin]
 
 
 def _unsupported(plugin: Plugin, what: str) -> Exception:
+    if plugin.type in NOT_IMPLEMENTED_MEDIA:
+        return plugin.error(f"{what} \"{plugin.type}\" is not supported: "
+                            f"{NOT_IMPLEMENTED_MEDIA[plugin.type]}")
     if plugin.type in VARIANT_ONLY:
         return plugin.error(f"{what} \"{plugin.type}\" is not supported: it is "
                             f"{VARIANT_ONLY[plugin.type]}")
@@ -432,6 +447,8 @@ def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | Non
                                       sample_visible)
     elif kind in ("plastic", "roughplastic"):
         result = _build_plastic(props, bsdfs)
+    elif kind == "null":
+        result = bsdfs.NullBSDF()
     elif kind in VARIANT_ONLY_BSDFS:
         raise plugin.error(f"BSDF \"{kind}\" {VARIANT_ONLY_BSDFS[kind]}")
     else:
@@ -656,7 +673,7 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
     ``folders`` are where mesh files are looked up (:func:`search_folders`).
     """
     props = Props(plugin)
-    kids = _children(plugin, {"bsdf": 1, "emitter": 1})
+    kids = _children(plugin, {"bsdf": 1, "emitter": 1, "medium": 2})
     m = props.transform("to_world")
     flip = props.bool("flip_normals", False)
     kind = plugin.type
@@ -930,7 +947,7 @@ def build_sensor(plugin: Plugin, resolution: tuple[int, int] | None = None,
     if plugin.type != "perspective":
         raise _unsupported(plugin, "sensor")
     props = Props(plugin)
-    kids = _children(plugin, {"film": 1, "sampler": 1})
+    kids = _children(plugin, {"film": 1, "sampler": 1, "medium": 1})
     if kids["film"]:
         width, height, rfilter = _film(kids["film"][0])
     else:   # Mitsuba's default film
@@ -1089,8 +1106,12 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     resolution, spp : optional
         Film (width, height) and sample count replacing the file's (:func:`build_sensor`).
     """
+    from .build_media import MediaTable
+
     kids = _children(root, {"shape": 10**9, "bsdf": 10**9, "emitter": 10**9,
-                            "sensor": 1, "integrator": 1, "texture": 10**9})
+                            "sensor": 1, "integrator": 1, "texture": 10**9, "medium": 10**9})
+    media = MediaTable()
+    shape_media = []
     geo = _Geometry()
     bsdf_objects, bsdf_index, textures = [], {}, {}
     emitters, environment = [], None
@@ -1115,10 +1136,13 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         build_texture(plugin, folders, textures)
     for plugin in kids["bsdf"]:
         bsdf_id(plugin)
+    for plugin in kids["medium"]:
+        media.index(plugin)
     for shape_id, plugin in enumerate(kids["shape"]):
         if plugin.type not in SUPPORTED["shape"]:
             raise _unsupported(plugin, "shape")
         bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, folders)
+        shape_media.append(media.shape_media(plugin))
         shape_bsdf.append(bsdf_id(bsdf_plugin, emitter=emitter_plugin is not None))
         if emitter_plugin is not None:
             _attach(emitter_plugin, plugin, attached)
@@ -1140,6 +1164,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     if not kids["sensor"]:
         raise root.error("no <sensor>: add <sensor type=\"perspective\"> with a film")
     camera, spp, seed = build_sensor(kids["sensor"][0], resolution, spp)
+    camera_medium = media.sensor_medium(kids["sensor"][0])
     integrator = build_integrator(kids["integrator"][0] if kids["integrator"] else None)
 
     tri_p = np.concatenate(geo.tri_p) if geo.tri_p else np.zeros((0, 3, 3))
@@ -1167,4 +1192,13 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         shape_tri_cdf=geo.cdf, shape_name=geo.name,
         bsdfs=bsdf_objects, emitters=emitters, environment=environment,
         camera=camera, spp=spp, seed=seed, integrator=integrator,
-        source=source, bbox=_bbox(geo, tri_p))
+        source=source, bbox=_bbox(geo, tri_p), **_media_fields(media, shape_media, camera_medium))
+
+
+def _media_fields(media, shape_media: list, camera_medium: int) -> dict:
+    """The :class:`Scene` fields of participating media (none: the defaults)."""
+    if not media.media:
+        return {}
+    sides = np.array(shape_media, dtype=np.int32).reshape(-1, 2)
+    return dict(media=media.media, shape_interior=sides[:, 0].copy(),
+                shape_exterior=sides[:, 1].copy(), camera_medium=camera_medium)

@@ -202,6 +202,13 @@ class Scene:
         Path (or built-in name) of the scene file.
     bbox : (2, 3) float64
         World bounding box of all finite geometry.
+    media : list
+        Participating media (:class:`pathtracer.media.HomogeneousMedium`).
+    shape_interior, shape_exterior : (N,) int32 or None
+        Index into ``media`` of the medium inside / outside each shape, -1 for
+        none (vacuum); None when the scene has no media.
+    camera_medium : int
+        Index into ``media`` of the medium around the camera, -1 for vacuum.
     """
 
     tri_p: np.ndarray
@@ -233,6 +240,10 @@ class Scene:
     tri_uv: np.ndarray | None = None
     sphere_to_local: np.ndarray | None = None
     bbox: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))
+    media: list = field(default_factory=list)
+    shape_interior: np.ndarray | None = None
+    shape_exterior: np.ndarray | None = None
+    camera_medium: int = -1
     # Built lazily by pathtracer.geometry (BVH over tri_p).
     _accel: Any = None
 

@@ -26,12 +26,11 @@ from .errors import SceneError
 
 # Elements that instantiate a plugin (they carry a ``type`` attribute).
 PLUGIN_TAGS = {"shape", "bsdf", "emitter", "sensor", "film", "sampler",
-               "rfilter", "integrator", "texture"}
+               "rfilter", "integrator", "texture", "medium", "phase"}
 # Valid Mitsuba elements this tracer refuses, with the reason shown to the user.
 REFUSED_TAGS = {
-    "medium": "participating media are not supported",
-    "phase": "participating media are not supported",
-    "volume": "participating media are not supported",
+    "volume": "<volume> (grid or spatially varying medium data) is not supported: only "
+              "homogeneous media with constant sigma_t and albedo are",
     "alias": "<alias> is not supported",
 }
 # Allowed attributes of each property element (besides ``name``).

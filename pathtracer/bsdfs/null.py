@@ -1,0 +1,30 @@
+"""Mitsuba's ``null`` BSDF: an invisible, index-matched boundary.
+
+A ray crossing it continues in the same direction with unchanged throughput,
+``wo = -wi``: the surface only marks where a participating medium begins or
+ends. It has no smooth lobe (no next-event estimation on it) and a shadow ray
+passes through it with transmission 1 (``null_transmission``), which is what
+lets shadow rays leave a medium enclosed by a null boundary. Volumetric
+integrators also do not count the crossing as a scattering event (the path's
+depth, its last scattering vertex and its MIS pdf stay those of the previous
+real event).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import DeltaBSDF, make_sample
+
+
+class NullBSDF(DeltaBSDF):
+    """Pass-through boundary (Mitsuba's ``null``)."""
+
+    is_null = True
+    #: Throughput of a shadow ray crossing the surface (0 for every other BSDF).
+    null_transmission = 1.0
+
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
+               hemisphere: str = "cosine"):
+        """``wo = -wi`` with weight 1 and probability 1 (a Dirac event)."""
+        n = wi.shape[0]
+        return make_sample(-wi, np.ones((n, 3)), np.ones(n), True, 1.0, np.ones(n, dtype=bool))

@@ -1,0 +1,116 @@
+r"""Volumetric path tracing with shadow rays through media and MIS (Mitsuba's ``volpath``).
+
+``volpath_phase`` plus next-event estimation at every scattering event, in
+the medium and on surfaces, combined with phase / BSDF sampling by the power
+heuristic. A shadow ray's visibility becomes a transmittance: it is estimated
+by the same free-flight sampling (0 if a collision falls before the light,
+:math:`T / T_c` otherwise), passes through ``null`` (index-matched)
+boundaries, updating the medium it is in, and is blocked by any other surface,
+a dielectric with :math:`\eta = 1.00001` included: that is why a medium behind
+such a boundary is lit only by the paths that find the light on their own.
+
+At a scattering point x (in a medium: f = phase p, on a surface: f = BSDF f cos),
+reached with throughput beta::
+
+    (x_l, p_light) ~ uniform emitter, then a point on it
+    L += beta * f(x -> x_l) * Le * Tr(x, x_l) / p_light * w_light
+                         w_light = p_light^2 / (p_light^2 + p_f^2)   (1 for point lights)
+    w ~ f;  beta *= f / p_f                                 (volpath_phase's step)
+
+and when the path hits an emitter with the direction sampled at its last
+scattering event x_j (null crossings in between do not count)::
+
+    L += beta * Le * w_f,    w_f = p_f^2 / (p_f^2 + p_light(x_j -> x)^2)
+
+with w_f = 1 on the camera segment and after a Dirac bounce (or a scatter in a
+medium with ``sample_emitters`` false). Only BSDFs with a smooth lobe get a
+shadow ray. The free-flight weights and roulette are those of
+:mod:`pathtracer.integrators.volpath_phase`; per-pixel variance matches
+Mitsuba's ``volpath`` as well as the mean (same estimator).
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from ..emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
+from ..media import (next_medium, phase_eval, phase_sample, samples_emitters,
+                     shadow_transmittance)
+from ..sampling import power_heuristic
+from ..shading import eval_bsdf, has_smooth
+from .base import subset_hit
+from .volume import SLOT_DIRECTION, SLOT_LIGHT, SLOT_SHADOW, VolumeIntegrator, move
+
+
+class VolPathIntegrator(VolumeIntegrator):
+    """Volumetric path tracing with NEE through media and MIS, Mitsuba's ``volpath``."""
+
+    name = "volpath"
+
+    def in_medium(self, scene, paths, rows, t, segment, L):
+        """Scatter inside the medium: a shadow ray (phase MIS), then sample the phase function."""
+        x = paths.o[rows] + t[:, None] * paths.d[rows]
+        wi, medium = -paths.d[rows], paths.medium[rows]
+        paths.depth[rows] += 1
+        alive = paths.depth[rows] < self.depth_limit
+        nee = alive & samples_emitters(scene, medium)
+        self.shadow_ray(scene, paths, rows[nee], x[nee], np.zeros_like(x[nee]), medium[nee],
+                        lambda wo: phase_eval(scene, medium[nee], wi[nee], wo), segment, L)
+        wo, pdf = phase_sample(scene, medium, wi, self.uniform(paths, segment, SLOT_DIRECTION, 2)[rows])
+        paths.last_p[rows], paths.last_pdf[rows] = x, pdf
+        paths.specular[rows] = ~samples_emitters(scene, medium)
+        move(paths, rows, x, np.zeros_like(x), wo)
+        return alive & (pdf > 0)
+
+    def on_surface(self, scene, paths, rows, hit, segment, L):
+        """Emission found (MIS against the light sample of the last scattering event), a
+        shadow ray (BSDF MIS) on smooth BSDFs, then continue by BSDF sampling."""
+        d = paths.d[rows]
+        Le = self.visible_emission(paths.depth[rows], emitted_radiance(scene, hit, -d))
+        lit = np.flatnonzero(np.any(Le > 0, axis=1))
+        if len(lit):
+            r = rows[lit]
+            pdf_light = pdf_emitter_direction(scene, paths.last_p[r], subset_hit(hit, lit), d[lit])
+            full = (paths.depth[r] == 0) | paths.specular[r]
+            w = np.where(full, 1.0, power_heuristic(paths.last_pdf[r], pdf_light))
+            L[paths.row[r]] += paths.beta[r] * Le[lit] * w[:, None]
+        smooth = np.flatnonzero(hit.valid & (paths.depth[rows] + 1 < self.depth_limit))
+        smooth = smooth[has_smooth(scene, subset_hit(hit, smooth))]
+        if len(smooth):
+            h, r = subset_hit(hit, smooth), rows[smooth]
+            wi = -paths.d[r]
+            self.shadow_ray(scene, paths, r, h.p, h.n,
+                            lambda wo: next_medium(scene, h, paths.medium[r], wo),
+                            lambda wo: eval_bsdf(scene, h, wi, wo, self.hemisphere), segment, L,
+                            bsdf=True)
+        return self.bounce(scene, paths, rows, hit, segment)
+
+    def shadow_ray(self, scene, paths, rows, x, n, medium, f_pdf, segment, L, bsdf=False):
+        """Next-event estimation from points ``x`` of paths ``rows``, MIS with ``f_pdf``.
+
+        ``medium``: the medium the shadow ray starts in, an array or (on surfaces) a
+        function of its direction; ``f_pdf(wo)``: the phase value (= its pdf), or the
+        BSDF's ``(f cos, pdf)`` when ``bsdf``.
+        """
+        if not len(rows):
+            return
+        u = self.uniform(paths, segment, SLOT_LIGHT)[rows]
+        u2 = self.uniform(paths, segment, SLOT_LIGHT + 1, 2)[rows]
+        light = sample_emitter(scene, SimpleNamespace(p=x), u, u2, test_visibility=False)
+        f, pdf_f = f_pdf(light.wo) if bsdf else (None, None)
+        if not bsdf:
+            pdf_f = f_pdf(light.wo)
+            f = pdf_f[:, None] * np.ones(3)
+        contribution = paths.beta[rows] * f * light.weight
+        live = np.flatnonzero((light.pdf > 0) & np.any(contribution > 0, axis=1))
+        if not len(live):
+            return
+        start = medium(light.wo) if callable(medium) else medium
+        stream = paths.rng.subset(rows[live])
+        Tr = shadow_transmittance(scene, x[live], n[live], light.wo[live], light.dist[live],
+                                  start[live], paths.channel[rows[live]], stream,
+                                  self.counter(segment, SLOT_SHADOW))
+        w = np.where(light.delta[live], 1.0, power_heuristic(light.pdf[live], pdf_f[live]))
+        L[paths.row[rows[live]]] += contribution[live] * Tr * w[:, None]
+
