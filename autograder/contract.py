@@ -61,7 +61,9 @@ DEFAULT_IMPLEMENTATION = "autograder.solution"
 
 #: Modules of the reference solution and of the grader a submission must not import.
 SOLUTION_MODULES = tuple(f"pathtracer.integrators.{name}" for name in (
-    "path", "path_bsdf", "path_nee", "direct", "recursive", "smallpt", "pathclass", "light"))
+    "path", "path_bsdf", "path_nee", "direct", "recursive", "smallpt", "pathclass", "light",
+    # The volumetric tracers render surfaces too (MIS path tracing in vacuum).
+    "volpath", "volpath_phase", "volume"))
 GRADER_PACKAGES = ("autograder", "mitsuba_refs", "mitsuba", "drjit")
 #: Names that are the reference solution wherever they are imported from.
 SOLUTION_NAMES = {
@@ -70,7 +72,8 @@ SOLUTION_NAMES = {
                                "PathBSDFIntegrator", "PathNEEIntegrator", "DirectIntegrator",
                                "RecursiveIntegrator", "SmallptIntegrator", "LightIntegrator", "path",
                                "path_bsdf", "path_nee", "direct", "recursive", "smallpt",
-                               "pathclass", "light"},
+                               "pathclass", "light", "VolPathIntegrator",
+                               "VolPathPhaseIntegrator", "volpath", "volpath_phase", "volume"},
     "pathtracer.camera": {"camera_rays"},
 }
 #: Most source a submission may have (files, bytes) before the grader stops reading.

@@ -57,9 +57,15 @@ REF_SEED = 1
 #: references for a few estimators at a small film so that their own agreement tests
 #: take seconds. They are not in BUILTIN_SCENES, whose every suite runs every integrator.
 #: name -> (our integrators with a reference, width, height)
+#: The lecture's participating-media sequence ("A Simple Example Scene", steps 1-4: a medium
+#: behind a null boundary, + a dielectric boundary eta = 1.00001, + glossy materials, + a
+#: light facing the ceiling), with ``volpath`` references (``volpath_phase`` shares them).
+MEDIA_SCENES = tuple(f"lecture-media-{step}" for step in (1, 2, 3, 4))
+
 FEATURE_SCENES = {
     "materials": (("path", "path_bsdf", "path_nee"), 32, 32),
     "caustics": (("path", "light"), 32, 32),
+    **{scene: (("volpath",), 32, 32) for scene in MEDIA_SCENES},
 }
 #: Built-in scenes with a committed ``light`` (Mitsuba ``ptracer``) reference besides
 #: REF_INTEGRATORS' (a particle tracer cannot start on environment or directional lights).

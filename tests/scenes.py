@@ -14,7 +14,7 @@ that a test of its own documents:
 * ``point-light`` with ``smallpt``: BSDF sampling alone can never reach a Dirac
   light, so the image is black by construction (test_analytic.py asserts it).
 """
-from mitsuba_refs.config import BUILTIN_SCENES, FEATURE_SCENES, LIGHT_SCENES
+from mitsuba_refs.config import BUILTIN_SCENES, FEATURE_SCENES, LIGHT_SCENES, MEDIA_SCENES
 from pathtracer import INTEGRATORS
 
 #: The light tracer is compared with Mitsuba's ``ptracer`` where a reference is committed
@@ -34,12 +34,18 @@ EXCLUDED = {**LIGHT_EXCLUDED,
 #: invisible to BSDF sampling on Mitsuba too): the variance test has nothing to test.
 NOISELESS = {("point-light", "path_bsdf")}
 
-AGREEMENT_CASES = [(scene, integrator) for scene in BUILTIN_SCENES for integrator in sorted(INTEGRATORS)
+#: The surface integrators; the volumetric ones (volpath, volpath_phase) are checked on the
+#: media scenes, at their own sample counts, in test_media.py.
+SURFACE_INTEGRATORS = sorted(name for name, cls in INTEGRATORS.items()
+                             if not getattr(cls, "handles_media", False))
+
+AGREEMENT_CASES = [(scene, integrator) for scene in BUILTIN_SCENES for integrator in SURFACE_INTEGRATORS
                    if (scene, integrator) not in EXCLUDED]
 
-#: Feature scenes (mitsuba_refs.config.FEATURE_SCENES) with each estimator they have a reference for.
+#: Feature scenes (mitsuba_refs.config.FEATURE_SCENES) with each estimator they have a reference
+#: for (the media scenes: test_media.py).
 FEATURE_CASES = [(scene, integrator) for scene, (integrators, _, _) in FEATURE_SCENES.items()
-                 for integrator in integrators]
+                 for integrator in integrators if scene not in MEDIA_SCENES]
 
 
 #: Small scenes that exist to test emitters (envmap, spot, directional). The convergence law

@@ -54,7 +54,7 @@ class VolPathIntegrator(VolumeIntegrator):
         wi, medium = -paths.d[rows], paths.medium[rows]
         paths.depth[rows] += 1
         alive = paths.depth[rows] < self.depth_limit
-        nee = alive & samples_emitters(scene, medium)
+        nee = alive & samples_emitters(scene, medium) & np.any(paths.beta[rows] > 0, axis=1)
         self.shadow_ray(scene, paths, rows[nee], x[nee], np.zeros_like(x[nee]), medium[nee],
                         lambda wo: phase_eval(scene, medium[nee], wi[nee], wo), segment, L)
         wo, pdf = phase_sample(scene, medium, wi, self.uniform(paths, segment, SLOT_DIRECTION, 2)[rows])
@@ -75,7 +75,8 @@ class VolPathIntegrator(VolumeIntegrator):
             full = (paths.depth[r] == 0) | paths.specular[r]
             w = np.where(full, 1.0, power_heuristic(paths.last_pdf[r], pdf_light))
             L[paths.row[r]] += paths.beta[r] * Le[lit] * w[:, None]
-        smooth = np.flatnonzero(hit.valid & (paths.depth[rows] + 1 < self.depth_limit))
+        smooth = np.flatnonzero(hit.valid & (paths.depth[rows] + 1 < self.depth_limit)
+                                & np.any(paths.beta[rows] > 0, axis=1))
         smooth = smooth[has_smooth(scene, subset_hit(hit, smooth))]
         if len(smooth):
             h, r = subset_hit(hit, smooth), rows[smooth]
