@@ -145,6 +145,17 @@ def check_box_filter(path):
                              f"references need <rfilter type=\"box\"/>")
 
 
+def sensor_has_medium(path):
+    """True when a sensor of the scene file holds a ``<medium>`` (nested or by ``<ref>``).
+
+    Mitsuba's ``batch`` sensor (the batch method's camera copies) does not pass its
+    copies' medium on, so camera rays would start in vacuum: such scenes use the
+    ``moments`` method.
+    """
+    return any(child.tag in ("medium", "ref") for sensor in _elements(path, "sensor")
+               for child in sensor)
+
+
 #: Film reconstruction filters both renderers implement (mitsuba_refs.rfilter).
 SUPPORTED_FILTERS = ("box", "tent", "gaussian")
 
@@ -380,6 +391,11 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         if method == "batch":
             raise ValueError(f"{path}: the batch method needs a box filter, the film has "
                              f"{rfilter.kind}")
+        method = "moments"
+    if sensor_has_medium(path):
+        if method == "batch":
+            raise ValueError(f"{path}: the batch method cannot render a camera inside a "
+                             "medium (Mitsuba's batch sensor drops the medium)")
         method = "moments"
     method = method or default_method(chosen)
     t0 = time.time()
