@@ -10,7 +10,9 @@ an interactive renderer would, so the total work is that of the last level.
 
 Writes progression.png/.svg (same exposure everywhere), progression.csv
 (seconds and mean brightness per level and renderer) and progression.npz
-(the images). Run: ``python -m experiments.progression [--scene cornell-box]``
+(the images). Run: ``python -m experiments.progression [--scene cornell-box]``.
+``--lecture-media`` draws the lecture's participating-media sequence instead
+(:mod:`experiments.lecture_media`).
 """
 from __future__ import annotations
 
@@ -41,6 +43,10 @@ def build_parser():
                         help="film size in pixels (default: 80 80; -D width=... overrides)")
     parser.add_argument("--seed", type=int, default=7000, help="base seed (default: %(default)s)")
     parser.add_argument("--no-mitsuba", action="store_true", help="render our tracer only")
+    parser.add_argument("--lecture-media", action="store_true",
+                        help="instead: the lecture's four participating-media scenes at equal spp "
+                             "(64 unless --spp gives one value), volpath_phase and volpath, with "
+                             "their RMSE against the Mitsuba references (experiments/lecture_media.py)")
     parser.add_argument("--variant", default=None, help="Mitsuba variant (default: probed)")
     common.add_run_args(parser, "out/progression")
     return parser
@@ -139,6 +145,11 @@ def plot(rows, levels, title, out, exposure):
 def main(argv=None) -> int:
     """Draw the lecture's progression figure (command line); exit code."""
     args = build_parser().parse_args(argv)
+    if args.lecture_media:
+        from . import lecture_media
+        spp = args.spp[0] if len(args.spp) == 1 else 64
+        lecture_media.run(spp, args.seed, args.out or "out/lecture-media", args.workers)
+        return 0
     from pathtracer import load_scene, render
     levels = sorted(set(args.spp))
     out = common.out_dir(args.out)
