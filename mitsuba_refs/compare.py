@@ -63,6 +63,9 @@ BLOCKS = 4
 #: Seeds of our renders: far from each other and from the references' seeds.
 TEST_SEED = 1000
 CONVERGENCE_SEED = 2000
+#: Mitsuba estimator of the per-bounce references: ``path``, but ``volpath`` for the
+#: volumetric integrators (``path`` ignores media).
+BOUNCE_REFERENCE = {"volpath": "volpath", "volpath_phase": "volpath"}
 #: Depths for per-bounce localisation; ``direct`` stops at 2 by construction.
 BOUNCE_DEPTHS = config.PER_BOUNCE_DEPTHS
 
@@ -407,8 +410,8 @@ def localise_bounce(scene, integrator, name, params, spp, alpha, processes, rend
             depth_params = {**params, "max_depth": depth}
         else:
             depth_params, overrides["max_depth"] = params, depth
-        reference = get_reference(scene, depth_params, "path", log=log, options=overrides or None,
-                                  resolution=resolution)
+        reference = get_reference(scene, depth_params, BOUNCE_REFERENCE.get(name, "path"), log=log,
+                                  options=overrides or None, resolution=resolution)
         mean, variance = render(scene, integrator, params, spp, TEST_SEED + depth,
                                 processes=processes, max_depth=depth)
         results[depth] = compare_means(mean, variance, spp, reference.mean, reference.var,

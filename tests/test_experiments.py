@@ -49,6 +49,18 @@ def test_progression_without_mitsuba(tmp_path):
     assert images["ours_4"].shape == (16, 16, 3)
 
 
+def test_progression_lecture_media(tmp_path):
+    """The four media steps at 1 spp: the figure, and an RMSE per panel against the
+    committed references."""
+    import csv
+    out = tmp_path / "media"
+    assert progression.main(["--lecture-media", "--out", str(out), "--spp", "1",
+                             "--workers", "1", "--no-progress"]) == 0
+    _outputs(out, "lecture-media.png", "lecture-media.svg", "lecture-media.csv")
+    rows = list(csv.DictReader(open(out / "lecture-media.csv")))
+    assert len(rows) == 8 and all(float(r["rmse"]) > 0 for r in rows)
+
+
 def test_progressive_mean_is_the_weighted_mean():
     images, _ = progression.progressive(lambda add, j: np.full((1, 1, 3), float(j)), [1, 4, 16],
                                         common.progress_bar(3, "t", False))
