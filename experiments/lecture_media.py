@@ -21,6 +21,8 @@ import time
 
 import numpy as np
 
+from pathtracer.tonemap import auto_scale, tonemap
+
 from . import common
 
 STEPS = {
@@ -69,7 +71,7 @@ def plot(panels, table, spp, out) -> list[str]:
     fig, axes = plt.subplots(len(rows), len(STEPS), figsize=(2.4 * len(STEPS), 2.5 * len(rows) + 0.5),
                              squeeze=False)
     reference = panels[("lecture-media-1", "reference")]
-    exposure = common.auto_exposure(reference if reference is not None
+    exposure = auto_scale(reference if reference is not None
                                     else panels[("lecture-media-1", "volpath")])
     for j, scene_name in enumerate(STEPS):
         for i, row in enumerate(rows):
@@ -80,7 +82,7 @@ def plot(panels, table, spp, out) -> list[str]:
             if image is None:
                 ax.set_facecolor("0.92")
             else:
-                ax.imshow(common.tonemap(image, exposure), interpolation="nearest")
+                ax.imshow(tonemap(image, exposure), interpolation="nearest")
             if row != "reference":
                 ax.set_xlabel(f"RMSE {rmse[(scene_name, row)]:.3f}", fontsize=9)
             if i == 0:

@@ -53,15 +53,15 @@ REF_REPLICAS = 64
 SEED_STRIDE = 4096
 REF_SEED = 1
 
-#: Built-in scenes that exercise one feature (e.g. the BSDFs of users' scenes), with
-#: references for a few estimators at a small film so that their own agreement tests
-#: take seconds. They are not in BUILTIN_SCENES, whose every suite runs every integrator.
-#: name -> (our integrators with a reference, width, height)
 #: The lecture's participating-media sequence ("A Simple Example Scene", steps 1-4: a medium
 #: behind a null boundary, + a dielectric boundary eta = 1.00001, + glossy materials, + a
 #: light facing the ceiling), with ``volpath`` references (``volpath_phase`` shares them).
 MEDIA_SCENES = tuple(f"lecture-media-{step}" for step in (1, 2, 3, 4))
 
+#: Built-in scenes that exercise one feature (e.g. the BSDFs of users' scenes), with
+#: references for a few estimators at a small film so that their own agreement tests
+#: take seconds. They are not in BUILTIN_SCENES, whose every suite runs every integrator.
+#: name -> (our integrators with a reference, width, height)
 FEATURE_SCENES = {
     "materials": (("path", "path_bsdf", "path_nee"), 32, 32),
     "caustics": (("path", "light"), 32, 32),
