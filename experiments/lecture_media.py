@@ -19,8 +19,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
-
 from pathtracer.tonemap import auto_scale, tonemap
 
 from . import common
@@ -63,6 +61,7 @@ def run(spp: int, seed: int, out, workers=None) -> list[dict]:
 
 
 def plot(panels, table, spp, out) -> list[str]:
+    """The figure: one column per step, rows volpath_phase, volpath and the reference."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -96,6 +95,8 @@ def plot(panels, table, spp, out) -> list[str]:
     return common.save_figure(fig, out, "lecture-media")
 
 
-if __name__ == "__main__":   # pragma: no cover - use python -m experiments.progression --lecture-media
+if __name__ == "__main__":
     import sys
-    sys.exit(run(64, 7000, "out/lecture-media") and 0)
+
+    from . import progression
+    sys.exit(progression.main(["--lecture-media", *sys.argv[1:]]))

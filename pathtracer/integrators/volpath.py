@@ -55,8 +55,8 @@ class VolPathIntegrator(VolumeIntegrator):
         paths.depth[rows] += 1
         alive = paths.depth[rows] < self.depth_limit
         nee = alive & samples_emitters(scene, medium) & np.any(paths.beta[rows] > 0, axis=1)
-        self.shadow_ray(scene, paths, rows[nee], x[nee], np.zeros_like(x[nee]), medium[nee],
-                        lambda wo: phase_eval(scene, medium[nee], wi[nee], wo), segment, L)
+        self.shadow_ray(scene, paths, rows[nee], x[nee], np.zeros_like(x[nee]),
+                        lambda wo: medium[nee], phase_f_pdf(scene, medium[nee], wi[nee]), segment, L)
         wo, pdf = phase_sample(scene, medium, wi, self.uniform(paths, segment, SLOT_DIRECTION, 2)[rows])
         paths.last_p[rows], paths.last_pdf[rows] = x, pdf
         paths.specular[rows] = ~samples_emitters(scene, medium)
@@ -83,31 +83,28 @@ class VolPathIntegrator(VolumeIntegrator):
             wi = -paths.d[r]
             self.shadow_ray(scene, paths, r, h.p, h.n,
                             lambda wo: next_medium(scene, h, paths.medium[r], wo),
-                            lambda wo: eval_bsdf(scene, h, wi, wo, self.hemisphere), segment, L,
-                            bsdf=True)
+                            lambda wo: eval_bsdf(scene, h, wi, wo, self.hemisphere), segment, L)
         return self.bounce(scene, paths, rows, hit, segment)
 
-    def shadow_ray(self, scene, paths, rows, x, n, medium, f_pdf, segment, L, bsdf=False):
-        """Next-event estimation from points ``x`` of paths ``rows``, MIS with ``f_pdf``.
+    def shadow_ray(self, scene, paths, rows, x, n, start_medium, f_pdf, segment, L):
+        """Next-event estimation from points ``x`` (normals ``n``, zero inside a medium) of
+        paths ``rows``, weighted against sampling ``f`` by the power heuristic.
 
-        ``medium``: the medium the shadow ray starts in, an array or (on surfaces) a
-        function of its direction; ``f_pdf(wo)``: the phase value (= its pdf), or the
-        BSDF's ``(f cos, pdf)`` when ``bsdf``.
+        ``start_medium(wo)``: the medium a shadow ray along ``wo`` starts in (on a medium
+        boundary it depends on the side); ``f_pdf(wo)``: ``(f, pdf)``, the BSDF's
+        ``f cos`` or the phase function's value, and the density of sampling ``wo``.
         """
         if not len(rows):
             return
         u = self.uniform(paths, segment, SLOT_LIGHT)[rows]
         u2 = self.uniform(paths, segment, SLOT_LIGHT + 1, 2)[rows]
         light = sample_emitter(scene, SimpleNamespace(p=x), u, u2, test_visibility=False)
-        f, pdf_f = f_pdf(light.wo) if bsdf else (None, None)
-        if not bsdf:
-            pdf_f = f_pdf(light.wo)
-            f = pdf_f[:, None] * np.ones(3)
+        f, pdf_f = f_pdf(light.wo)
         contribution = paths.beta[rows] * f * light.weight
         live = np.flatnonzero((light.pdf > 0) & np.any(contribution > 0, axis=1))
         if not len(live):
             return
-        start = medium(light.wo) if callable(medium) else medium
+        start = start_medium(light.wo)
         stream = paths.rng.subset(rows[live])
         Tr = shadow_transmittance(scene, x[live], n[live], light.wo[live], light.dist[live],
                                   start[live], paths.channel[rows[live]], stream,
@@ -115,3 +112,11 @@ class VolPathIntegrator(VolumeIntegrator):
         w = np.where(light.delta[live], 1.0, power_heuristic(light.pdf[live], pdf_f[live]))
         L[paths.row[rows[live]]] += contribution[live] * Tr * w[:, None]
 
+
+def phase_f_pdf(scene, medium, wi):
+    """``(f, pdf)`` of the media's phase functions as a function of ``wo``: the phase
+    function is its own sampling density, so ``f`` is ``pdf`` in every channel."""
+    def f_pdf(wo):
+        p = phase_eval(scene, medium, wi, wo)
+        return p[:, None] * np.ones(3), p
+    return f_pdf
