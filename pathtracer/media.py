@@ -36,7 +36,9 @@ is drawn in the current medium; if it falls before the end of the segment the
 estimate is 0 (a homogeneous medium has no null collisions), else it is
 :math:`T / T_c` (delta tracking with the same weights, Mitsuba's estimator, so
 that the variance agrees too). Surfaces on the way let the shadow ray through
-only if their BSDF is ``null`` (:attr:`NullBSDF.null_transmission`).
+only through a null lobe: fully through a ``null`` BSDF, with
+:math:`(1 - r)` times its transmittance through a ``thindielectric``
+(:func:`null_transmission`, Mitsuba's ``eval_null_transmission``).
 
 Medium tracking
 ---------------
@@ -177,16 +179,31 @@ def samples_emitters(scene: Scene, medium: np.ndarray) -> np.ndarray:
     return table[medium]
 
 
-def null_transmission(scene: Scene, hit) -> np.ndarray:
-    """Throughput (n,) of a straight crossing of each (valid) hit: 1 on ``null`` BSDFs, else 0."""
-    table = np.array([getattr(b, "null_transmission", 0.0) for b in scene.bsdfs])
-    return table[scene.shape_bsdf[hit.shape]]
+def null_transmission(scene: Scene, hit, d: np.ndarray) -> np.ndarray:
+    """What shadow rays along ``d`` keep crossing the (valid) hits -> (n, 3).
+
+    1 through ``null`` BSDFs, ``(1 - r)`` times the transmittance through a
+    ``thindielectric`` (Mitsuba's ``eval_null_transmission``), 0 through any other.
+    """
+    out = np.zeros((len(d), 3))
+    ids = scene.shape_bsdf[hit.shape]
+    for b in np.unique(ids):
+        bsdf = scene.bsdfs[b]
+        if not getattr(bsdf, "null_lobe", False):
+            continue
+        rows = np.flatnonzero(ids == b)
+        if bsdf.textured:
+            bsdf = bsdf.at(geometry.texture_uv(scene, hit, rows))
+        out[rows] = bsdf.eval_null_transmission(dot(hit.sh_n[rows], d[rows]))
+    return out
 
 
-def is_null(scene: Scene, hit) -> np.ndarray:
-    """True (n,) where the hit's BSDF is ``null`` (not a scattering event)."""
-    table = np.array([getattr(b, "is_null", False) for b in scene.bsdfs], dtype=bool)
-    return table[scene.shape_bsdf[hit.shape]]
+def null_event(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+    """True (n,) where the sampled ``wo`` crossed the surface through a null lobe (a
+    ``null`` BSDF, a ``thindielectric``'s straight transmission): not a scattering event."""
+    table = np.array([getattr(b, "null_lobe", False) for b in scene.bsdfs], dtype=bool)
+    crossed = dot(hit.sh_n, wi) * dot(hit.sh_n, wo) < 0
+    return table[scene.shape_bsdf[hit.shape]] & crossed
 
 
 def next_medium(scene: Scene, hit, medium: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -242,7 +259,7 @@ def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndar
         through = hit.valid & ~flight.scattered
         if through.any():
             live = np.flatnonzero(through)
-            result[rows[live]] *= null_transmission(scene, _take(hit, live))[:, None]
+            result[rows[live]] *= null_transmission(scene, _take(hit, live), d[live])
         keep = np.flatnonzero(through & np.any(result[rows] > 0, axis=1))
         if not len(keep):
             return result

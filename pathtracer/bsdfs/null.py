@@ -3,7 +3,7 @@
 A ray crossing it continues in the same direction with unchanged throughput,
 ``wo = -wi``: the surface only marks where a participating medium begins or
 ends. It has no smooth lobe (no next-event estimation on it) and a shadow ray
-passes through it with transmission 1 (``null_transmission``), which is what
+passes through it with transmission 1 (``eval_null_transmission``), which is what
 lets shadow rays leave a medium enclosed by a null boundary. Volumetric
 integrators also do not count the crossing as a scattering event (the path's
 depth, its last scattering vertex and its MIS pdf stay those of the previous
@@ -20,8 +20,12 @@ class NullBSDF(DeltaBSDF):
     """Pass-through boundary (Mitsuba's ``null``)."""
 
     is_null = True
-    #: Throughput of a shadow ray crossing the surface (0 for every other BSDF).
-    null_transmission = 1.0
+    #: Its one lobe is a null event (see :attr:`ThinDielectric.null_lobe`).
+    null_lobe = True
+
+    def eval_null_transmission(self, cos_theta_i: np.ndarray) -> np.ndarray:
+        """A shadow ray crossing it keeps everything -> (n, 3) ones."""
+        return np.ones((len(cos_theta_i), 3))
 
     def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
                hemisphere: str = "cosine"):

@@ -42,6 +42,14 @@ class ThinDielectric(DeltaBSDF):
         R = fresnel_dielectric(np.abs(cos_theta_i), self.eta)[0]
         return 2.0 * R / (1.0 + R)
 
+    #: The straight-through lobe is a null event in Mitsuba (``BSDFFlags::Null``): volumetric
+    #: integrators do not count it as a bounce, and shadow rays cross the pane.
+    null_lobe = True
+
+    def eval_null_transmission(self, cos_theta_i: np.ndarray) -> np.ndarray:
+        """What a shadow ray keeps crossing the pane, ``(1 - r) specular_transmittance`` -> (n, 3)."""
+        return (1.0 - self.reflectance(cos_theta_i))[:, None] * self.specular_transmittance
+
     def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
                hemisphere: str = "cosine") -> BSDFSample:
         """Reflect if ``u1 <= r``, else pass straight through (``wo = -wi``)."""

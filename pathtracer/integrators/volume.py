@@ -22,7 +22,7 @@ import numpy as np
 
 from ..camera import Rays
 from ..geometry import offset_p
-from ..media import camera_medium, choose_channel, is_null, next_medium, sample_free_flight
+from ..media import camera_medium, choose_channel, next_medium, null_event, sample_free_flight
 from ..shading import sample_bsdf
 from .base import Integrator, replace_hits, skip_emitters, subset_hit, trace
 
@@ -138,15 +138,16 @@ class VolumeIntegrator(Integrator):
         """Continue paths ``rows`` at their surface hits by sampling the BSDF -> which go on.
 
         Updates throughput and eta, and the medium on the other side (medium tracking). A
-        ``null`` crossing keeps the depth, the last scattering vertex, its pdf and the
-        specular flag (it is not a scattering event); any other BSDF updates them.
+        null crossing (a ``null`` BSDF, a ``thindielectric``'s straight transmission) keeps
+        the depth, the last scattering vertex, its pdf and the specular flag (it is not a
+        scattering event, as in Mitsuba); any other sampled lobe updates them.
         """
         valid = hit.valid.copy()
         on = np.flatnonzero(valid)
         rows, hit = rows[on], subset_hit(hit, on)
         bs = sample_bsdf(scene, hit, -paths.d[rows], self.uniform(paths, segment, SLOT_LOBE)[rows],
                          self.uniform(paths, segment, SLOT_DIRECTION, 2)[rows], self.hemisphere)
-        real = ~is_null(scene, hit)
+        real = ~null_event(scene, hit, -paths.d[rows], bs.wo)
         paths.beta[rows] *= bs.weight
         paths.eta[rows] *= bs.eta
         paths.depth[rows] += real
