@@ -327,3 +327,24 @@ def test_image_does_not_depend_on_batching(integrator):
     other = render(scene, integrator, spp=2, seed=5, processes=1, batch_size=37)
     np.testing.assert_array_equal(one.mean, other.mean)
     np.testing.assert_array_equal(one.variance, other.variance)
+
+
+def test_shadow_rays_cross_null_and_thin_dielectric_but_not_glass(tmp_path):
+    """Mitsuba's eval_null_transmission: 1 through null, (1 - r) through a thin pane
+    (r = 2R / (1 + R), R = 0.04 at normal incidence for eta 1.5), 0 through a dielectric."""
+    panes = "".join(f"""
+    <shape type="rectangle">
+        <transform name="to_world"><translate value="{x}, 0, 0"/></transform>
+        {bsdf}
+    </shape>""" for x, bsdf in ((0, '<bsdf type="null"/>'),
+                                (3, '<bsdf type="thindielectric"><float name="int_ior" value="1.5"/>'
+                                    '<float name="ext_ior" value="1"/></bsdf>'),
+                                (6, '<bsdf type="dielectric"/>')))
+    scene = write_scene(tmp_path, panes)
+    start = np.array([[0.0, 0, 1], [3, 0, 1], [6, 0, 1], [3, 0, 1]])
+    wo = np.tile([0.0, 0, -1], (4, 1))
+    dist = np.array([2.0, 2.0, 2.0, 0.5])     # the last one stops before the pane
+    T = shadow_transmittance(scene, start, np.zeros((4, 3)), wo, dist, np.full(4, -1),
+                             np.zeros(4, np.int64), RandomStream(sample_keys(1, np.arange(4))), 0)
+    r = 2 * 0.04 / 1.04
+    np.testing.assert_allclose(T, [[1] * 3, [1 - r] * 3, [0] * 3, [1] * 3], rtol=1e-12)
