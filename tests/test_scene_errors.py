@@ -37,7 +37,7 @@ CASES = {
     "unknown emitter": (
         f'<emitter type="projector"/>{MARK}', '<emitter type="projector">', "unsupported emitter"),
     "unknown integrator": (
-        f'<integrator type="ptracer"/>{MARK}', '<integrator type="ptracer">', "unsupported integrator"),
+        f'<integrator type="aov"/>{MARK}', '<integrator type="aov">', "unsupported integrator"),
     "integrator parameter": (
         f'<integrator type="path">\n<float name="max_depth" value="3"/>{MARK}</integrator>',
         '<integrator type="path">', 'must be an <integer>'),
