@@ -98,6 +98,8 @@ def ungraded_source(source: str) -> str:
         name = next((stmt.value.value for stmt in node.body if isinstance(stmt, ast.Assign)
                      and any(getattr(t, "id", None) == "name" for t in stmt.targets)
                      and isinstance(stmt.value, ast.Constant)), None)
+        if not isinstance(name, str):           # not a registered integrator: left out
+            continue
         lines += ["", f"class {node.name}(Integrator):",
                   f"    name = {name!r}", "",
                   "    def radiance(self, scene, rays, rng):",
