@@ -1,21 +1,23 @@
 """Evaluate and sample the BSDFs at a batch of hits, in world space.
 
 Each hit's BSDF is ``scene.bsdfs[scene.shape_bsdf[hit.shape]]``. Hits are
-grouped by BSDF so that every BSDF object works on one contiguous batch in its
-local shading frame (z = shading normal); directions go in and out of that
+grouped by BSDF (BSDFs that differ only in constant colours share a group) so
+that every BSDF object works on one contiguous batch in its local shading
+frame (z = shading normal); directions go in and out of that
 frame here, so integrators never see local coordinates. A BSDF with a
 texture is bound to its hits' texture coordinates first (:meth:`BSDF.at
 <pathtracer.bsdfs.base.BSDF.at>`); constant BSDFs are used as they are.
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
 
 from .geometry import texture_uv
 from .scene.types import Scene
-from .vec import to_local, to_world
+from .vec import frame, to_local, to_world
 
 
 @dataclass
@@ -44,13 +46,70 @@ def bsdf_index(scene: Scene, hit) -> np.ndarray:
 
 
 def _groups(scene: Scene, hit):
-    """(BSDF, rows) per BSDF present in the batch; a textured BSDF comes bound to its rows' uv."""
+    """(BSDF, rows) per group of hits that one BSDF object can evaluate.
+
+    BSDFs of one class whose parameters differ only in constant colours (the
+    walls of a room: diffuse white, red, green) form one group, evaluated by a
+    copy whose colours are per-row (n, 3) arrays: one pass over the hits
+    instead of one per BSDF, and the same numbers (a (3,) colour and its rows
+    broadcast alike). A textured BSDF comes bound to its rows' uv. ``rows`` is
+    ``slice(None)`` when the group holds every hit (no gathers, no scatters).
+    """
     ids = bsdf_index(scene, hit)
-    for b in np.unique(ids):
-        bsdf, rows = scene.bsdfs[b], np.flatnonzero(ids == b)
-        if bsdf.textured:
-            bsdf = bsdf.at(texture_uv(scene, hit, rows))
+    present = np.unique(ids)
+    groups: dict = {}
+    for b in present.tolist():
+        groups.setdefault(_merge_key(scene.bsdfs[b], b), []).append(b)
+    for members in groups.values():
+        if len(members) == len(present):
+            rows = slice(None)
+        elif len(members) == 1:
+            rows = np.flatnonzero(ids == members[0])
+        else:
+            rows = np.flatnonzero(np.isin(ids, members))
+        bsdf = scene.bsdfs[members[0]]
+        if len(members) > 1:
+            bsdf = _merged(scene, members, ids[rows])
+        elif bsdf.textured:
+            bsdf = bsdf.at(texture_uv(scene, hit, np.arange(len(ids))[rows]))
         yield bsdf, rows
+
+
+_PLAIN = (bool, int, float, complex, str, type(None))
+
+
+def _merge_key(bsdf, index: int):
+    """Hashable key equal for BSDFs that one merged copy can stand for (see :func:`_groups`).
+
+    The class and every attribute except the colour parameters; a BSDF with a
+    texture or an attribute that is not a plain value or array keeps its own group.
+    """
+    if bsdf.textured:
+        return ("own", index)
+    items = []
+    for name, value in sorted(vars(bsdf).items()):
+        if name in bsdf.texture_params:
+            continue
+        if isinstance(value, np.ndarray):
+            items.append((name, value.dtype.str, value.shape, value.tobytes()))
+        elif isinstance(value, _PLAIN):
+            items.append((name, value))
+        else:
+            return ("own", index)
+    return (type(bsdf), tuple(items))
+
+
+def _merged(scene: Scene, members: list, ids: np.ndarray):
+    """A copy of ``scene.bsdfs[members[0]]`` whose colours are the rows' own, (n, 3)."""
+    first = scene.bsdfs[members[0]]
+    bound = copy.copy(first)
+    slot = np.zeros(len(scene.bsdfs), np.int64)
+    slot[members] = np.arange(len(members))
+    which = slot[ids]
+    for name in first.texture_params:
+        table = np.stack([np.broadcast_to(getattr(scene.bsdfs[b], name), (3,)) for b in members])
+        setattr(bound, name, np.take(table, which, axis=0))
+    return bound
 
 
 def has_smooth(scene: Scene, hit) -> np.ndarray:
@@ -84,7 +143,8 @@ def eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray,
     pdf = np.zeros(len(wi))
     for bsdf, rows in _groups(scene, hit):
         n = hit.sh_n[rows]
-        wi_local, wo_local = to_local(wi[rows], n), to_local(wo[rows], n)
+        columns = frame(n)
+        wi_local, wo_local = to_local(wi[rows], n, columns), to_local(wo[rows], n, columns)
         value[rows] = bsdf.eval(wi_local, wo_local)
         if adjoint and bsdf.refracts:
             value[rows] *= importance_scale(bsdf, wi_local, wo_local)[:, None]
@@ -117,8 +177,9 @@ def sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarra
                         np.zeros(count, dtype=bool), np.ones(count))
     for bsdf, rows in _groups(scene, hit):
         n = hit.sh_n[rows]
-        bs = bsdf.sample(to_local(wi[rows], n), u1[rows], u2[rows], hemisphere=hemisphere)
-        out.wo[rows] = to_world(bs.wo, n)
+        columns = frame(n)
+        bs = bsdf.sample(to_local(wi[rows], n, columns), u1[rows], u2[rows], hemisphere=hemisphere)
+        out.wo[rows] = to_world(bs.wo, n, columns)
         out.weight[rows] = np.where(bs.valid[:, None], bs.weight, 0.0)
         out.pdf[rows] = np.where(bs.valid, bs.pdf, 0.0)
         out.delta[rows] = bs.delta
@@ -154,8 +215,9 @@ def dielectric_lobes(scene: Scene, hit, wi: np.ndarray) -> DielectricLobes:
                           np.zeros((count, 3)), np.zeros((count, 3)))
     for bsdf, rows in _groups(scene, hit):
         n = hit.sh_n[rows]
-        F, wo_r, weight_r, wo_t, weight_t = bsdf.lobes(to_local(wi[rows], n))
+        columns = frame(n)
+        F, wo_r, weight_r, wo_t, weight_t = bsdf.lobes(to_local(wi[rows], n, columns))
         out.F[rows] = F
-        out.wo_r[rows], out.weight_r[rows] = to_world(wo_r, n), weight_r
-        out.wo_t[rows], out.weight_t[rows] = to_world(wo_t, n), weight_t
+        out.wo_r[rows], out.weight_r[rows] = to_world(wo_r, n, columns), weight_r
+        out.wo_t[rows], out.weight_t[rows] = to_world(wo_t, n, columns), weight_t
     return out

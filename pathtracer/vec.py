@@ -54,12 +54,19 @@ def coordinate_system(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.stack(s, axis=1), np.stack(t, axis=1)
 
 
-def to_local(v: np.ndarray, n: np.ndarray) -> np.ndarray:
+def frame(n: np.ndarray):
+    """The frame (s, t, n) around unit normals ``n`` as component columns, for
+    :func:`to_local` / :func:`to_world` of several vectors at the same points."""
+    return _frame_columns(n)
+
+
+def to_local(v: np.ndarray, n: np.ndarray, columns=None) -> np.ndarray:
     """Express world vectors ``v`` in the frame (s, t, n) built around ``n``.
 
     Written out per component (no (n, 3) tangent arrays are built).
+    ``columns``: :func:`frame` of ``n``, when already computed.
     """
-    (nx, ny, nz), (s0, s1, s2), (t0, t1, t2) = _frame_columns(n)
+    (nx, ny, nz), (s0, s1, s2), (t0, t1, t2) = _frame_columns(n) if columns is None else columns
     vx, vy, vz = v[:, 0], v[:, 1], v[:, 2]
     out = np.empty((len(v), 3))
     out[:, 0] = vx * s0 + vy * s1 + vz * s2
@@ -68,9 +75,9 @@ def to_local(v: np.ndarray, n: np.ndarray) -> np.ndarray:
     return out
 
 
-def to_world(v: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`to_local`."""
-    (nx, ny, nz), (s0, s1, s2), (t0, t1, t2) = _frame_columns(n)
+def to_world(v: np.ndarray, n: np.ndarray, columns=None) -> np.ndarray:
+    """Inverse of :func:`to_local` (``columns``: :func:`frame` of ``n``, when already computed)."""
+    (nx, ny, nz), (s0, s1, s2), (t0, t1, t2) = _frame_columns(n) if columns is None else columns
     x, y, z = v[:, 0], v[:, 1], v[:, 2]
     out = np.empty((len(v), 3))
     out[:, 0] = x * s0 + y * t0 + z * nx
