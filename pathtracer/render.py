@@ -35,6 +35,7 @@ import multiprocessing
 import numpy as np
 
 from . import geometry, workers
+from .allocator import keep_freed_memory
 from .film import effective_counts, splat
 from .camera import camera_rays
 from .emitters import check_light_paths
@@ -176,6 +177,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
     if progress is None:
         progress = sys.stderr.isatty() and n_pixels * spp >= 1 << 20
     geometry.prepare(scene)   # build the BVH once, before workers fork
+    keep_freed_memory()       # before the fork too: the workers inherit it
     if getattr(integrator, "splats", False):
         return render_splats(scene, integrator, spp, seed, processes, batch_size, progress)
 
