@@ -693,7 +693,15 @@ class SmallMesh:
             sl = slice(s, s + SMALL_CHUNK)
             key[sl] = self._closest_keys(o[:, sl], d[:, sl])
         rows = np.flatnonzero(key < np.uint32(0x7F800000))  # a finite, positive t
-        if len(rows):
+        if len(rows) == n:   # every ray has a candidate (a closed room): no gathers
+            cand = (key & np.uint32((1 << self._bits) - 1)).astype(np.int64)
+            tt, u, v = self._refit(o, d, cand)
+            ok = (tt > 0.0) & (tt < tmax)
+            if ok.all():
+                return tt, cand, u, v
+            rows = np.flatnonzero(ok)
+            t[rows], prim[rows], b1[rows], b2[rows] = tt[rows], cand[rows], u[rows], v[rows]
+        elif len(rows):
             cand = (key[rows] & np.uint32((1 << self._bits) - 1)).astype(np.int64)
             tt, u, v = self._refit(np.take(o, rows, axis=1), np.take(d, rows, axis=1), cand)
             ok = (tt > 0.0) & (tt < tmax[rows])

@@ -100,9 +100,13 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
     d = np.asarray(d, np.float64)
     n = len(o)
     tmax = np.broadcast_to(np.inf if tmax is None else np.asarray(tmax, np.float64), (n,))
-    t, tri, b1, b2 = prepare(scene).intersect(o, d, tmax)
-    kind = np.where(tri >= 0, 0, -1)  # 0 triangle, 1 sphere, 2 disk
-    prim = tri.copy()
+    t, prim, b1, b2 = prepare(scene).intersect(o, d, tmax)
+    if not len(scene.sphere_radius) and not len(scene.disk_shape) and n and prim.min() >= 0:
+        # Every ray hit a triangle (a closed room): the records are built whole, no scatters.
+        p, nrm, sh_n, shape, uv = _triangle_records(scene, prim, b1, b2)
+        return Hit(valid=np.ones(n, bool), t=t, p=p, n=nrm, sh_n=sh_n, shape=shape,
+                   prim=prim, uv=uv)
+    kind = np.where(prim >= 0, 0, -1)  # 0 triangle, 1 sphere, 2 disk
     t = np.where(kind >= 0, t, tmax)  # the far end for the analytic shapes
     for i in range(len(scene.sphere_radius)):
         ts = _sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, t)
@@ -270,21 +274,32 @@ def triangle_tables(scene) -> TriangleTables:
     return tables
 
 
-def _fill_triangles(scene, hit, sel, b1, b2):
-    k = hit.prim[sel]
+def _triangle_records(scene, k, b1, b2):
+    """Hit point, geometric and shading normal, shape and uv of hits on triangles ``k``.
+
+    Gathers are ``np.take`` along axis 0 (several times faster than fancy
+    indexing of (T, 3) tables); the point is ``p0 + b1 e1 + b2 e2`` in that order.
+    """
     tab = triangle_tables(scene)
-    hit.p[sel] = tab.p0[k] + b1[:, None] * tab.e1[k] + b2[:, None] * tab.e2[k]
-    hit.n[sel] = tab.n[k]
-    sh_n = tab.flat_n[k]
+    p = np.take(tab.p0, k, axis=0)
+    p += b1[:, None] * np.take(tab.e1, k, axis=0)
+    p += b2[:, None] * np.take(tab.e2, k, axis=0)
+    nrm = np.take(tab.n, k, axis=0)
+    sh_n = np.take(tab.flat_n, k, axis=0)
     if tab.any_smooth:
-        rows = np.flatnonzero(tab.smooth[k])
+        rows = np.flatnonzero(np.take(tab.smooth, k))
         if len(rows):
             kr, u, v = k[rows], b1[rows, None], b2[rows, None]
             nv = scene.tri_n[kr]
             sh_n[rows] = normalize((1.0 - u - v) * nv[:, 0] + u * nv[:, 1] + v * nv[:, 2])
-    hit.sh_n[sel] = sh_n
-    hit.shape[sel] = scene.tri_shape[k]
-    hit.uv[sel, 0], hit.uv[sel, 1] = b1, b2
+    uv = np.empty((len(k), 2))
+    uv[:, 0], uv[:, 1] = b1, b2
+    return p, nrm, sh_n, np.take(scene.tri_shape, k).astype(np.int32, copy=False), uv
+
+
+def _fill_triangles(scene, hit, sel, b1, b2):
+    p, nrm, sh_n, shape, uv = _triangle_records(scene, hit.prim[sel], b1, b2)
+    hit.p[sel], hit.n[sel], hit.sh_n[sel], hit.shape[sel], hit.uv[sel] = p, nrm, sh_n, shape, uv
 
 
 def _fill_spheres(scene, hit, sel, o, d):
