@@ -177,8 +177,12 @@ def sample_emitter(scene: Scene, hit, u_choice: np.ndarray, u: np.ndarray,
         sample.weight *= n_emitters
     if test_visibility:
         live = np.flatnonzero(np.any(sample.weight > 0, axis=1))
-        blocked = shadowed(scene, hit.p[live], hit.n[live], sample.wo[live], sample.dist[live])
-        sample.weight[live[blocked]] = 0.0
+        if len(live) == count:   # no gathers when every sample needs its shadow ray
+            sample.weight[shadowed(scene, hit.p, hit.n, sample.wo, sample.dist)] = 0.0
+        else:
+            blocked = shadowed(scene, np.take(hit.p, live, axis=0), np.take(hit.n, live, axis=0),
+                               np.take(sample.wo, live, axis=0), np.take(sample.dist, live))
+            sample.weight[live[blocked]] = 0.0
     return sample
 
 
@@ -186,6 +190,10 @@ def shadowed(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
              dist: np.ndarray) -> np.ndarray:
     """True where the segment from ``p`` (normal ``n``) along ``wo`` for ``dist`` is blocked."""
     finite = np.isfinite(dist)
+    if finite.all():   # lights at finite distance only: no gathers
+        target = p + wo * dist[:, None]
+        o, d, tmax = geometry.spawn_ray_to(p, n, target)
+        return geometry.occluded(scene, o, d, tmax)
     blocked = np.zeros(len(dist), dtype=bool)
     if finite.any():
         target = p[finite] + wo[finite] * dist[finite, None]
@@ -265,9 +273,11 @@ def _sample_mesh(scene, shape, u):
     b = square_to_uniform_triangle(np.stack((u_x, u[:, 1]), axis=1))
     tables = geometry.triangle_tables(scene)
     b1, b2 = b[:, 0:1], b[:, 1:2]
-    point = tables.p0[tri] + b1 * tables.e1[tri] + b2 * tables.e2[tri]
+    point = np.take(tables.p0, tri, axis=0)   # p0 + b1 e1 + b2 e2, gathered with np.take
+    point += b1 * np.take(tables.e1, tri, axis=0)
+    point += b2 * np.take(tables.e2, tri, axis=0)
     if not tables.smooth[begin:begin + len(cdf)].any():   # flat lights: one normal each
-        return point, tables.flat_n[tri]
+        return point, np.take(tables.flat_n, tri, axis=0)
     n0, n1, n2 = scene.tri_n[tri, 0], scene.tri_n[tri, 1], scene.tri_n[tri, 2]
     normal = normalize((1 - b1 - b2) * n0 + b1 * n1 + b2 * n2)
     return point, normal

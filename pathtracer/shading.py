@@ -139,17 +139,35 @@ def eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray,
         ``wo`` towards the camera side), Mitsuba's ``TransportMode::Importance``: a
         refraction carries no ``1/eta'^2`` radiance scaling (:func:`importance_scale`).
     """
+    groups = list(_groups(scene, hit))
+    if len(groups) == 1 and isinstance(groups[0][1], slice):   # one group: no scatters
+        bsdf, _ = groups[0]
+        wi_local, wo_local = _local_pair(hit.sh_n, wi, wo)
+        value = _own(bsdf.eval(wi_local, wo_local), np.float64)
+        if adjoint and bsdf.refracts:
+            value *= importance_scale(bsdf, wi_local, wo_local)[:, None]
+        return value, _own(bsdf.pdf(wi_local, wo_local, hemisphere=hemisphere), np.float64)
     value = np.zeros((len(wi), 3))
     pdf = np.zeros(len(wi))
-    for bsdf, rows in _groups(scene, hit):
-        n = hit.sh_n[rows]
-        columns = frame(n)
-        wi_local, wo_local = to_local(wi[rows], n, columns), to_local(wo[rows], n, columns)
+    for bsdf, rows in groups:
+        wi_local, wo_local = _local_pair(hit.sh_n[rows], wi[rows], wo[rows])
         value[rows] = bsdf.eval(wi_local, wo_local)
         if adjoint and bsdf.refracts:
             value[rows] *= importance_scale(bsdf, wi_local, wo_local)[:, None]
         pdf[rows] = bsdf.pdf(wi_local, wo_local, hemisphere=hemisphere)
     return value, pdf
+
+
+def _local_pair(n, a, b):
+    """Two sets of world vectors in the shading frames around ``n`` (the frame built once)."""
+    columns = frame(n)
+    return to_local(a, n, columns), to_local(b, n, columns)
+
+
+def _own(values, dtype) -> np.ndarray:
+    """``values`` as a writeable array of ``dtype`` (what the scattering path returns)."""
+    out = np.asarray(values, dtype=dtype)
+    return out if out.flags.writeable and out.base is None else out.copy()
 
 
 def importance_scale(bsdf, wi_local: np.ndarray, wo_local: np.ndarray) -> np.ndarray:
@@ -172,18 +190,30 @@ def sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarra
     ``adjoint``: importance transport (see :func:`eval_bsdf`); the weight of a refraction
     is multiplied by ``bs.eta^2`` = ``eta'^2``, which undoes the radiance scaling.
     """
-    count = len(wi)
-    out = ScatterSample(np.zeros((count, 3)), np.zeros((count, 3)), np.zeros(count),
-                        np.zeros(count, dtype=bool), np.ones(count))
-    for bsdf, rows in _groups(scene, hit):
-        n = hit.sh_n[rows]
+    groups = list(_groups(scene, hit))
+    if len(groups) == 1 and isinstance(groups[0][1], slice):   # one group: no scatters
+        bsdf, _ = groups[0]
+        n = hit.sh_n
         columns = frame(n)
-        bs = bsdf.sample(to_local(wi[rows], n, columns), u1[rows], u2[rows], hemisphere=hemisphere)
-        out.wo[rows] = to_world(bs.wo, n, columns)
-        out.weight[rows] = np.where(bs.valid[:, None], bs.weight, 0.0)
-        out.pdf[rows] = np.where(bs.valid, bs.pdf, 0.0)
-        out.delta[rows] = bs.delta
-        out.eta[rows] = np.where(bs.valid, bs.eta, 1.0)
+        bs = bsdf.sample(to_local(wi, n, columns), u1, u2, hemisphere=hemisphere)
+        out = ScatterSample(to_world(bs.wo, n, columns),
+                            np.where(bs.valid[:, None], bs.weight, 0.0),
+                            np.where(bs.valid, bs.pdf, 0.0).astype(np.float64, copy=False),
+                            _own(bs.delta, bool), np.where(bs.valid, bs.eta, 1.0))
+    else:
+        count = len(wi)
+        out = ScatterSample(np.zeros((count, 3)), np.zeros((count, 3)), np.zeros(count),
+                            np.zeros(count, dtype=bool), np.ones(count))
+        for bsdf, rows in groups:
+            n = hit.sh_n[rows]
+            columns = frame(n)
+            bs = bsdf.sample(to_local(wi[rows], n, columns), u1[rows], u2[rows],
+                             hemisphere=hemisphere)
+            out.wo[rows] = to_world(bs.wo, n, columns)
+            out.weight[rows] = np.where(bs.valid[:, None], bs.weight, 0.0)
+            out.pdf[rows] = np.where(bs.valid, bs.pdf, 0.0)
+            out.delta[rows] = bs.delta
+            out.eta[rows] = np.where(bs.valid, bs.eta, 1.0)
     if adjoint:
         out.weight *= (out.eta * out.eta)[:, None]
     return out
