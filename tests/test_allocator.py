@@ -1,0 +1,12 @@
+"""The allocator setting that keeps freed array memory in the heap (pathtracer.allocator)."""
+import sys
+
+import pytest
+
+from pathtracer.allocator import keep_freed_memory
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
+def test_keep_freed_memory_applies_once_per_process():
+    assert keep_freed_memory() is True
+    assert keep_freed_memory() is True   # idempotent: later renders call it again
