@@ -11,7 +11,6 @@ the process keeps its peak heap size instead (bounded batches keep that small).
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import sys
 
 _M_TRIM_THRESHOLD = -1
@@ -34,8 +33,9 @@ def keep_freed_memory() -> bool:
     if not sys.platform.startswith("linux"):
         return False
     try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        mallopt = libc.mallopt
+        # The process's own symbols (libc is loaded): no library search, which would start
+        # ``ldconfig`` and is refused inside the autograder's sandbox.
+        mallopt = ctypes.CDLL(None).mallopt
     except (OSError, AttributeError):   # musl and others: no mallopt, nothing to tune
         return False
     mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
