@@ -24,7 +24,6 @@ import numpy as np
 import pytest
 
 from pathtracer import load_scene, render
-from pathtracer.integrators import INTEGRATORS
 from pathtracer.integrators.pathclass import PathClassIntegrator
 from pathtracer.render import render_classes
 
@@ -34,9 +33,10 @@ SEED = 7
 #: Scenes of the integrator x scene matrix: glass + mirror, two lights, a point light, an
 #: environment, rough conductors and plastic, and smallpt's room (glass split, roulette).
 SCENES = ("cornell-caustics", "cornell-lights", "point-light", "envmap", "materials", "smallpt")
-#: The camera-path integrators the path-state rewrite touched; ``light`` (light paths,
-#: splatted, refusing environment lights) has its own tests (tests/test_light.py).
-ALL = tuple(sorted(set(INTEGRATORS) - {"light"})) + ("pathclass",)
+#: The camera-path surface integrators the path-state rewrite touched. ``light`` (light
+#: paths, splatted) and the volumetric integrators have their own tests (tests/test_light.py,
+#: tests/test_media.py).
+ALL = ("direct", "path", "path_bsdf", "path_nee", "recursive", "smallpt", "pathclass")
 
 
 def _cases() -> dict:
@@ -44,8 +44,7 @@ def _cases() -> dict:
     cases = {}
     for scene in SCENES:
         for name in ALL:
-            if (scene, name) != ("materials", "smallpt"):     # smallpt: no thin dielectric
-                cases[f"{scene}/{name}"] = (scene, name, {}, (12, 12), 4)
+            cases[f"{scene}/{name}"] = (scene, name, {}, (12, 12), 4)
     variants = [dict(max_depth=d) for d in (0, 1, 2, 3)] + [
         dict(hide_emitters=True), dict(roulette="constant", rr_depth=1),
         dict(roulette="off", max_depth=6), dict(hemisphere="uniform"), dict(rr_depth=1)]
