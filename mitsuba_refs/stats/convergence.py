@@ -94,6 +94,8 @@ __all__ = ["ConvergenceResult", "convergence_law", "effective_rows", "image_mse"
 
 #: Effective renders (:func:`effective_rows`) the lowest level needs for a calibrated t test.
 MIN_EFFECTIVE_ROWS = 30
+#: Below this many effective rows of a paired table the verdict says the slope is rough.
+FEW_ROWS = 4
 
 
 def image_mse(test_mean, ref_mean, ref_var, ref_n) -> float:
@@ -241,6 +243,7 @@ class _LevelMeans:
             raise ValueError("mse contains NaN or inf")
         self.ybar = np.array([level.mean() for level in self.levels])
         self.sizes = np.array(sizes, dtype=np.float64)
+        self.effective = math.nan     # fewest effective rows of a level (paired tables)
 
     def keep(self, mask) -> None:
         """Drop the levels where ``mask`` is False."""
@@ -269,8 +272,8 @@ class _LevelMeans:
         se = math.sqrt((k - 1) / k * float(np.sum((slopes - slopes.mean()) ** 2)))
         # Rows that carry little of a level's mean add little information: the degrees of
         # freedom follow the fewest effective rows of any level (Kish), at least 1.
-        rows = min(effective_rows(level) for level in self.paired.T)
-        return se, float(min(k - 1, max(1.0, rows - 1.0)))
+        self.effective = min(effective_rows(level) for level in self.paired.T)
+        return se, float(min(k - 1, max(1.0, self.effective - 1.0)))
 
     def se_df(self, weights) -> tuple[float, float]:
         """Standard error and degrees of freedom of ``weights @ ybar``."""
@@ -379,6 +382,10 @@ def convergence_law(spp, mse, ref_mse_floor: float | None = None, *, alpha: floa
     slope_p = _t_test(slope, expected_slope, se, df, two_sided=True)
     tq = float(sps.t.ppf(0.5 + ci_level / 2, df))
     slope_ci = (slope - tq * se, slope + tq * se)
+    if data.paired is not None and data.effective < FEW_ROWS:
+        warnings.append(f"one level's error rests on ~{data.effective:.0f} of {len(data.paired)} "
+                        "rows (e.g. a light smaller than a pixel in one image block): the slope "
+                        "is known only roughly and the test has little power")
     ratio = _pow4(-slope / 2)
     ratio_ci = (_pow4(-slope_ci[1] / 2), _pow4(-slope_ci[0] / 2))
 
