@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from .accel import BVH, LEAF_SIZE, _build_binary, _collapse, _depth
+from .accel import BVH
 
 #: Largest allowed distance between the pieces and the true B-spline tube, relative to
 #: the diagonal of the curve's bounding box.
@@ -207,6 +207,10 @@ def piece_hits(o, d, tmax, piece):
 class CurveShape(BVH):
     """One ``bsplinecurve`` or ``linearcurve`` shape: its pieces in a wide BVH.
 
+    The tree and its traversal are :class:`pathtracer.accel.BVH`'s (``intersect`` and
+    ``occluded`` return ``t, piece, s, 0`` in place of ``t, triangle, b1, b2``); only the
+    leaf test differs.
+
     Parameters
     ----------
     curves : list of (k, 4) arrays
@@ -283,24 +287,12 @@ class CurveShape(BVH):
 
     # -- BVH over the pieces (the triangle BVH's traversal, a piece leaf test) ----
     def _init_tree(self, lo, hi):
+        """The BVH's attributes, over piece bounds instead of triangles."""
         n = len(lo)
         self.num_triangles = n            # the traversal's name for "primitives"
         self.brute_force = n <= 8
-        self._chunk = 8192
-        if self.brute_force:
-            rows = np.arange(n)[None, :]
-        else:
-            tree = _build_binary(lo, hi, LEAF_SIZE)
-            rows = tree["leaf_tris"]
-            box, child = _collapse(tree)
-            b32 = box.astype(np.float32)
-            lo32, hi32 = b32[:, :3], b32[:, 3:]
-            lo32[...] = np.where(lo32 > box[:, :3], np.nextafter(lo32, -np.inf), lo32)
-            hi32[...] = np.where(hi32 < box[:, 3:], np.nextafter(hi32, np.inf), hi32)
-            self._box = np.ascontiguousarray(b32.reshape(len(child), -1).T)
-            self._child = np.ascontiguousarray(child.T)
-            self._scene_max = float(np.abs(np.concatenate([lo, hi])).max())
-            self._stack_size = 3 * _depth(child) + 2
+        self._chunk = 8192                # a piece test makes ~30 temporaries per pair
+        rows = np.arange(n)[None, :] if self.brute_force else self._build_tree(lo, hi)
         self._leaf_prim = np.ascontiguousarray(rows.T)       # (slots, leaves), -1 padding
         self._leaf_k = rows.shape[1]
 
