@@ -276,29 +276,33 @@ class BVH:
         if self.brute_force:
             rows = np.arange(T)[None, :]
         else:
-            lo, hi = tri_p.min(axis=1), tri_p.max(axis=1)
-            tree = _build_binary(lo, hi, LEAF_SIZE)
-            rows = tree["leaf_tris"]
-            box, child = _collapse(tree)
-            self.num_nodes = len(child)
-            # float32 boxes rounded outwards; the slab rounding is covered by
-            # the per-ray dilation of _ray9. Row 4 * c + j: coordinate c
-            # (lo x, y, z, hi x, y, z) of child slot j.
-            b32 = box.astype(np.float32)
-            lo32, hi32 = b32[:, :3], b32[:, 3:]  # views
-            lo32[...] = np.where(lo32 > box[:, :3], np.nextafter(lo32, -np.inf), lo32)
-            hi32[...] = np.where(hi32 < box[:, 3:], np.nextafter(hi32, np.inf), hi32)
-            self._box = np.ascontiguousarray(b32.reshape(len(child), -1).T)
-            self._child = np.ascontiguousarray(child.T)
-            self._scene_max = float(np.abs(tri_p).max())
-            # Each visit pops one entry and pushes at most WIDTH.
-            self._stack_size = (WIDTH - 1) * _depth(child) + 2
+            rows = self._build_tree(tri_p.min(axis=1), tri_p.max(axis=1))
         # Leaf triangles: row k * c + j holds component c of slot j.
         data = _tri_data(tri_p)
         tri = np.where(rows[..., None] >= 0, data[np.maximum(rows, 0)], np.nan)
         self._leaf_tri = np.ascontiguousarray(tri.transpose(2, 1, 0).reshape(-1, len(rows)))
         self._leaf_prim = np.ascontiguousarray(rows.T)
         self._leaf_k = rows.shape[1]
+
+    def _build_tree(self, lo, hi) -> np.ndarray:
+        """Build the wide tree over primitive bounds ``lo``, ``hi`` (P, 3); returns the
+        (leaves, LEAF_SIZE) primitive ids of the leaves (-1 padding)."""
+        tree = _build_binary(lo, hi, LEAF_SIZE)
+        box, child = _collapse(tree)
+        self.num_nodes = len(child)
+        # float32 boxes rounded outwards; the slab rounding is covered by
+        # the per-ray dilation of _ray9. Row 4 * c + j: coordinate c
+        # (lo x, y, z, hi x, y, z) of child slot j.
+        b32 = box.astype(np.float32)
+        lo32, hi32 = b32[:, :3], b32[:, 3:]  # views
+        lo32[...] = np.where(lo32 > box[:, :3], np.nextafter(lo32, -np.inf), lo32)
+        hi32[...] = np.where(hi32 < box[:, 3:], np.nextafter(hi32, np.inf), hi32)
+        self._box = np.ascontiguousarray(b32.reshape(len(child), -1).T)
+        self._child = np.ascontiguousarray(child.T)
+        self._scene_max = float(max(np.abs(lo).max(), np.abs(hi).max()))
+        # Each visit pops one entry and pushes at most WIDTH.
+        self._stack_size = (WIDTH - 1) * _depth(child) + 2
+        return tree["leaf_tris"]
 
     # ------------------------------------------------------------------
     def intersect(self, o, d, tmax=None):

@@ -2,7 +2,8 @@
 
 Triangles go through the BVH of :mod:`pathtracer.accel` (built once per
 scene, cached in ``scene._accel``); spheres and disks are few, so they are
-intersected analytically one shape at a time, each over all rays.
+intersected analytically one shape at a time, each over all rays; each curve
+shape has its own tree of pieces (:mod:`pathtracer.curves`).
 
 Ray spawning follows Mitsuba 3 (``Interaction::offset_p``, ``spawn_ray``,
 ``spawn_ray_to`` in include/mitsuba/render/interaction.h): there is no
@@ -47,12 +48,12 @@ class Hit:
     shape : (n,) int32
         Shape id, -1 on a miss.
     prim : (n,) int64
-        Triangle index into ``tri_*``, or sphere / disk index into
-        ``sphere_*`` / ``disk_*``; -1 on a miss.
+        Triangle index into ``tri_*``, or sphere / disk / curve index into
+        ``sphere_*`` / ``disk_*`` / ``curves``; -1 on a miss.
     uv : (n, 2) float64
         Primitive coordinates. Triangles: barycentrics (b1, b2) of p1 and p2.
         Spheres: ``(phi / 2pi, theta / pi)`` around the world z axis. Disks:
-        local (x, y) on the unit disk. Textures use :func:`texture_uv`
+        local (x, y) on the unit disk. Curves: Mitsuba's surface uv. Textures use :func:`texture_uv`
         (Mitsuba's surface uv), computed from these.
     """
 
@@ -116,6 +117,12 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
         td = _disk_t(scene.disk_to_local[i], o, d, t)
         closer = td < t
         t[closer], kind[closer], prim[closer] = td[closer], 2, i
+    curve_hits = []
+    for i, curve in enumerate(scene.curves):
+        tc, piece, s, _ = curve.intersect(o, d, t)
+        closer = tc < t
+        t[closer], kind[closer], prim[closer] = tc[closer], 3, i
+        curve_hits.append((piece, s))
 
     t[kind < 0] = np.inf
     hit = Hit(valid=kind >= 0, t=t, p=np.zeros((n, 3)), n=np.zeros((n, 3)),
@@ -130,6 +137,10 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
     sel = np.flatnonzero(kind == 2)
     if len(sel):
         _fill_disks(scene, hit, sel, o[sel], d[sel])
+    for i, (piece, s) in enumerate(curve_hits):
+        sel = np.flatnonzero((kind == 3) & (prim == i))
+        if len(sel):
+            _fill_curve(scene.curves[i], hit, sel, o[sel], d[sel], piece[sel], s[sel])
     return hit
 
 
@@ -143,6 +154,8 @@ def occluded(scene, o: np.ndarray, d: np.ndarray, tmax) -> np.ndarray:
         occ |= _sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, tmax) < tmax
     for i in range(len(scene.disk_shape)):
         occ |= _disk_t(scene.disk_to_local[i], o, d, tmax) < tmax
+    for curve in scene.curves:
+        occ |= curve.occluded(o, d, tmax)
     return occ
 
 
@@ -337,6 +350,17 @@ def _fill_disks(scene, hit, sel, o, d):
     hit.shape[sel] = scene.disk_shape[i]
 
 
+def _fill_curve(curve, hit, sel, o, d, piece, s):
+    # The hit point stays on the ray: it lies within the pieces' tolerance of the tube.
+    p = o + hit.t[sel, None] * d
+    nrm, uv = curve.surface(p, piece, s)
+    hit.p[sel] = p
+    hit.n[sel] = nrm
+    hit.sh_n[sel] = nrm
+    hit.shape[sel] = curve.shape
+    hit.uv[sel] = uv
+
+
 # ----------------------------------------------------------------------
 # Texture coordinates
 
@@ -351,6 +375,8 @@ def texture_uv(scene, hit, rows: np.ndarray) -> np.ndarray:
       in the sphere's object frame (``scene.sphere_to_local``; the world axes
       when that is None), phi in [0, 2pi).
     * Disks: ``(r, phi / 2pi)`` of the local point, phi in [0, 2pi).
+    * Curves: Mitsuba's ``(angle around the centre line / 2pi, v along the file's
+      segments)``, computed at the hit (:mod:`pathtracer.curves`).
 
     Computed only where a texture needs it, so untextured scenes never pay.
     """
@@ -376,6 +402,9 @@ def texture_uv(scene, hit, rows: np.ndarray) -> np.ndarray:
             local = np.einsum("kij,kj->ki", scene.sphere_to_local[i], local)
         out[sph, 0] = _unit_angle(np.arctan2(local[:, 1], local[:, 0]))
         out[sph, 1] = np.arccos(np.clip(local[:, 2], -1.0, 1.0)) / np.pi
+    crv = np.flatnonzero(kind == "curve")
+    if len(crv):
+        out[crv] = hit.uv[rows[crv]]
     dsk = np.flatnonzero(kind == "disk")
     if len(dsk):
         local = hit.uv[rows[dsk]]

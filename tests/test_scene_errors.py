@@ -62,9 +62,12 @@ CASES = {
     "projective integrator": (
         f'<integrator type="prb_projective"/>{MARK}', '<integrator type="prb_projective">',
         "differentiable"),
-    "curve shape": (
-        f'<shape type="bsplinecurve">{MARK}</shape>', '<shape type="bsplinecurve">',
+    "shape not implemented": (
+        f'<shape type="cylinder">{MARK}</shape>', '<shape type="cylinder">',
         "not implemented in this tracer"),
+    "curve without its file": (
+        f'<shape type="bsplinecurve">{MARK}</shape>', '<shape type="bsplinecurve">',
+        "missing <string name=\"filename\">"),
     "direct samples both ways": (
         f'<integrator type="direct">\n<integer name="shading_samples" value="2"/>{MARK}'
         '<integer name="bsdf_samples" value="2"/></integrator>', '<integrator type="direct">',

@@ -29,7 +29,8 @@ IOR_BY_NAME = {
     "pet": 1.5750, "diamond": 2.419,
 }
 SUPPORTED = {
-    "shape": ("rectangle", "cube", "disk", "sphere", "obj", "ply", "serialized"),
+    "shape": ("rectangle", "cube", "disk", "sphere", "obj", "ply", "serialized", "bsplinecurve",
+              "linearcurve"),
     "bsdf": ("diffuse", "twosided", "conductor", "roughconductor", "dielectric",
              "thindielectric", "roughdielectric", "plastic", "roughplastic", "null"),
     "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
@@ -99,8 +100,6 @@ VARIANT_ONLY = {
 # Shapes that are valid in RGB variants but not implemented here (like Nori's
 # stubs, the message says so rather than pretending the type is unknown).
 NOT_IMPLEMENTED_SHAPES = {
-    "bsplinecurve": "B-spline curves (ray-curve intersection)",
-    "linearcurve": "linear curves (ray-cylinder-segment intersection)",
     "sdfgrid": "signed-distance-field grids",
     "ellipsoids": "ellipsoid point clouds",
     "ellipsoidsmesh": "ellipsoid point clouds",
@@ -509,7 +508,7 @@ class _Geometry:
     def __init__(self):
         self.tri_p, self.tri_n, self.tri_uv, self.tri_shape = [], [], [], []
         self.ntri = 0
-        self.spheres, self.disks = [], []
+        self.spheres, self.disks, self.curves = [], [], []
         self.kind, self.prim, self.area, self.cdf, self.name = [], [], [], [], []
 
     def add_mesh(self, shape_id: int, p: np.ndarray, n: np.ndarray, uv: np.ndarray) -> None:
@@ -713,6 +712,8 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
         geo.prim.append((len(geo.spheres) - 1, len(geo.spheres)))
         geo.area.append(4.0 * np.pi * s2)
         geo.cdf.append(None)
+    elif kind in ("bsplinecurve", "linearcurve"):
+        _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids)
     elif kind == "disk":
         transform.check_affine(m)
         if props.normal_matrix("to_world") is not None:
@@ -731,6 +732,37 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
     geo.name.append(_shape_label(plugin))
     return (kids["bsdf"][0] if kids["bsdf"] else None,
             kids["emitter"][0] if kids["emitter"] else None)
+
+
+def _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids):
+    """A ``bsplinecurve`` or ``linearcurve``: control points read and moved to world space."""
+    from ..curves import CurveFileError, CurveShape, read_control_points
+    if flip:
+        raise plugin.error("flip_normals is not supported on curves (Mitsuba only ever "
+                           "hits their outside)", props.line("flip_normals"))
+    if kids["emitter"]:
+        raise kids["emitter"][0].error("an area emitter on a curve is not supported (this "
+                                       "tracer cannot sample points on curves)")
+    transform.check_affine(m)
+    path = find_file(plugin, props, "filename", folders)
+    bspline = plugin.type == "bsplinecurve"
+    try:
+        curves = read_control_points(path, 4 if bspline else 2)
+    except CurveFileError as e:
+        raise plugin.error(f"{os.path.basename(path)}: {e}", props.line("filename")) from None
+    except OSError as e:
+        raise plugin.error(f"cannot read curve file \"{os.path.basename(path)}\": "
+                           f"{e.strerror or e}", props.line("filename")) from None
+    world = [np.column_stack([transform.apply_points(m, c[:, :3]), c[:, 3]]) for c in curves]
+    if any(np.any(c[:, 3] < 0) for c in world):
+        raise plugin.error(f"{os.path.basename(path)}: a control point has a negative radius",
+                           props.line("filename"))
+    shape = CurveShape(world, "bspline" if bspline else "linear", shape_id)
+    geo.curves.append(shape)
+    geo.kind.append("curve")
+    geo.prim.append((len(geo.curves) - 1, len(geo.curves)))
+    geo.area.append(shape.area())
+    geo.cdf.append(None)
 
 
 # -- emitters, sensor, integrator -----------------------------------------
@@ -1061,6 +1093,10 @@ def _bbox(geo: _Geometry, tri_p: np.ndarray) -> np.ndarray:
         extent = np.sqrt(m[:3, 0] ** 2 + m[:3, 1] ** 2)
         lo.append(m[:3, 3] - extent)
         hi.append(m[:3, 3] + extent)
+    for curve in geo.curves:
+        curve_lo, curve_hi = curve.bounds()
+        lo.append(curve_lo)
+        hi.append(curve_hi)
     if not lo:
         return np.zeros((2, 3))
     return np.array([np.min(lo, axis=0), np.max(hi, axis=0)])
@@ -1184,6 +1220,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         disk_to_local=np.array([np.linalg.inv(d[0]) for d in dsk]).reshape(-1, 4, 4),
         disk_flip=np.array([d[1] for d in dsk], dtype=bool),
         disk_shape=np.array([d[2] for d in dsk], dtype=np.int32),
+        curves=geo.curves,
         shape_kind=geo.kind,
         shape_prim=np.array(geo.prim, dtype=np.int64).reshape(-1, 2),
         shape_bsdf=np.array(shape_bsdf, dtype=np.int32),

@@ -168,11 +168,13 @@ class Scene:
     disk_to_local : (D, 4, 4) float64
     disk_flip : (D,) bool
     disk_shape : (D,) int32
+    curves : list of pathtracer.curves.CurveShape
+        The ``bsplinecurve`` / ``linearcurve`` shapes.
     shape_kind : list of str
-        ``'mesh'``, ``'sphere'`` or ``'disk'`` per shape.
+        ``'mesh'``, ``'sphere'``, ``'disk'`` or ``'curve'`` per shape.
     shape_prim : (N, 2) int64
         For a mesh, the half-open triangle range ``[begin, end)`` in ``tri_*``;
-        for a sphere or disk, ``[index, index + 1)`` in its own arrays.
+        for a sphere, disk or curve, ``[index, index + 1)`` in its own arrays.
     shape_bsdf : (N,) int32
         Index into ``bsdfs`` per shape.
     shape_emitter : (N,) int32
@@ -239,6 +241,7 @@ class Scene:
     source: str = "<memory>"
     tri_uv: np.ndarray | None = None
     sphere_to_local: np.ndarray | None = None
+    curves: list = field(default_factory=list)
     bbox: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))
     media: list = field(default_factory=list)
     shape_interior: np.ndarray | None = None
