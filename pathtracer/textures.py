@@ -27,6 +27,9 @@ from __future__ import annotations
 import numpy as np
 
 FILTER_TYPES = ("bilinear", "nearest")
+# Rec. 709 luminance weights, Mitsuba's ``luminance()``: how an RGB texture becomes one
+# number (``eval_1``: a roughness, a blend weight, an opacity) and a bitmap's ``mean``.
+LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
 WRAP_MODES = ("repeat", "mirror", "clamp")
 
 
@@ -73,6 +76,15 @@ class Texture:
         """(3,) upper bound of every channel over the surface (for roulette heuristics)."""
         raise NotImplementedError
 
+    def eval_1(self, uv: np.ndarray) -> np.ndarray:
+        """One value per hit (n,), Mitsuba's ``eval_1``: the luminance of :meth:`eval`
+        (for a grey texture, its value)."""
+        return self.eval(uv) @ LUMINANCE
+
+    def mean(self) -> float:
+        """Mitsuba's ``Texture::mean()``: the number BSDFs pick lobes by (see subclasses)."""
+        raise NotImplementedError
+
 
 def _finite_uv(uv):
     """(n, 2) float64 coordinates with non-finite rows set to 0, and the mask of those
@@ -99,6 +111,14 @@ class ConstantTexture(Texture):
     def max_value(self) -> np.ndarray:
         """The value itself."""
         return self.value.copy()
+
+    def eval_1(self, uv: np.ndarray) -> np.ndarray:
+        """The channel mean everywhere (Mitsuba's ``srgb``/``uniform`` ``eval_1`` is their mean)."""
+        return np.full(len(uv), self.mean())
+
+    def mean(self) -> float:
+        """Mean of the three channels, as Mitsuba's constant colours report it."""
+        return float(np.mean(self.value))
 
 
 def _as_texture(value) -> Texture:
@@ -139,6 +159,28 @@ class Checkerboard(Texture):
     def max_value(self) -> np.ndarray:
         """Channel-wise maximum of the two colours."""
         return np.maximum(self.color0.max_value(), self.color1.max_value())
+
+    def eval_1(self, uv: np.ndarray) -> np.ndarray:
+        """``eval_1`` of ``color0`` or ``color1`` per cell (n,).
+
+        Mitsuba 3.9.1's ``eval_1`` picks the cells the other way round from its ``eval``
+        (``color0`` where exactly one fractional part is above 1/2); a roughness, blend
+        weight or opacity from a checkerboard follows that, so we do the same.
+        """
+        uv, undefined = _finite_uv(uv)
+        t = self.transform_uv(uv)
+        upper = (t - np.floor(t)) > 0.5
+        first = upper[:, 0] != upper[:, 1]
+        out = np.empty(len(uv))
+        out[first] = self.color0.eval_1(uv[first])
+        out[~first] = self.color1.eval_1(uv[~first])
+        if undefined is not None:
+            out[undefined] = 0.0
+        return out
+
+    def mean(self) -> float:
+        """Half the sum of the two colours' means (the cells cover equal areas)."""
+        return 0.5 * (self.color0.mean() + self.color1.mean())
 
 
 def wrap_index(i: np.ndarray, size: int, mode: str) -> np.ndarray:
@@ -213,3 +255,7 @@ class BitmapTexture(Texture):
     def max_value(self) -> np.ndarray:
         """Channel-wise maximum texel (bilinear weights are convex, so it bounds every lookup)."""
         return self.texels.max(axis=0).astype(np.float64)
+
+    def mean(self) -> float:
+        """Mean texel luminance, as Mitsuba's RGB variants compute a bitmap's mean."""
+        return float(np.mean(self.texels.astype(np.float64) @ LUMINANCE))

@@ -3,10 +3,12 @@
 See :mod:`pathtracer.bsdfs.base` for the conventions shared by every BSDF.
 """
 from .base import BSDF, BSDFSample
+from .blend import BlendBSDF
 from .conductor import Conductor
 from .dielectric import Dielectric
 from .diffuse import Diffuse
 from .fresnel import fresnel_conductor, fresnel_dielectric, fresnel_schlick, reflect, refract
+from .mask import MaskBSDF
 from .microfacet import MicrofacetDistribution
 from .null import NullBSDF
 from .plastic import Plastic
@@ -17,7 +19,8 @@ from .thindielectric import ThinDielectric
 from .twosided import TwoSided
 
 __all__ = [
-    "BSDF", "BSDFSample", "Conductor", "Dielectric", "Diffuse", "MicrofacetDistribution", "NullBSDF",
+    "BSDF", "BSDFSample", "BlendBSDF", "Conductor", "Dielectric", "Diffuse", "MicrofacetDistribution", "MaskBSDF",
+    "NullBSDF",
     "Plastic", "RoughConductor", "RoughDielectric", "RoughPlastic", "ThinDielectric", "TwoSided",
     "fresnel_conductor", "fresnel_dielectric", "fresnel_schlick", "reflect", "refract",
 ]

@@ -119,11 +119,15 @@ class BSDF:
     refracts: bool = False
     #: Attributes that may hold a :class:`~pathtracer.textures.Texture`.
     texture_params: tuple = ()
+    #: Attributes that may hold a texture read as one number per hit (Mitsuba's
+    #: ``eval_1``: roughness, blend weight, opacity).
+    scalar_texture_params: tuple = ()
 
     @property
     def textured(self) -> bool:
         """Some parameter varies over the surface: call :meth:`at` before evaluating."""
-        return any(isinstance(getattr(self, name), Texture) for name in self.texture_params)
+        return any(isinstance(getattr(self, name), Texture)
+                   for name in self.texture_params + self.scalar_texture_params)
 
     def at(self, uv: np.ndarray) -> "BSDF":
         """The same BSDF for a batch of hits with texture coordinates ``uv`` (n, 2).
@@ -138,7 +142,16 @@ class BSDF:
             value = getattr(self, name)
             if isinstance(value, Texture):
                 setattr(bound, name, value.eval(uv))
+        for name in self.scalar_texture_params:
+            value = getattr(self, name)
+            if isinstance(value, Texture):
+                setattr(bound, name, value.eval_1(uv))
+        bound.bind_derived()
         return bound
+
+    def bind_derived(self) -> None:
+        """Recompute state derived from textured parameters once :meth:`at` has replaced
+        them by their values at the hits (a microfacet distribution, a lobe weight)."""
 
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         r"""BSDF times foreshortening, :math:`f(w_i, w_o)\,|\cos\theta_o|` -> (n, 3)."""

@@ -59,6 +59,35 @@ _NEWTON_MAX_ITERATIONS = 60
 _NEWTON_TOLERANCE = 1e-13
 
 
+def _clamp_alpha(alpha):
+    """A roughness clamped below at 1e-4: a float, or an array for per-row (textured) values."""
+    if np.ndim(alpha) == 0:
+        return max(float(alpha), ALPHA_MIN)
+    return np.maximum(np.asarray(alpha, dtype=np.float64), ALPHA_MIN)
+
+
+def textured_distribution(bsdf, distribution: str, alpha_u, alpha_v, sample_visible: bool):
+    """The :class:`MicrofacetDistribution` of a rough BSDF, or None when a roughness is a
+    texture (the BSDF then builds it per batch of hits in ``bind_derived``).
+
+    Sets ``bsdf.distribution``, ``bsdf.alpha_u``, ``bsdf.alpha_v`` (clamped floats, or the
+    textures) and ``bsdf.sample_visible``.
+    """
+    from ..textures import Texture
+
+    alpha_v = alpha_u if alpha_v is None else alpha_v
+    if isinstance(alpha_u, Texture) or isinstance(alpha_v, Texture):
+        distr = None
+        check = MicrofacetDistribution(distribution, 0.1, 0.1, sample_visible)
+        bsdf.alpha_u = alpha_u if isinstance(alpha_u, Texture) else _clamp_alpha(alpha_u)
+        bsdf.alpha_v = alpha_v if isinstance(alpha_v, Texture) else _clamp_alpha(alpha_v)
+    else:
+        distr = check = MicrofacetDistribution(distribution, alpha_u, alpha_v, sample_visible)
+        bsdf.alpha_u, bsdf.alpha_v = distr.alpha_u, distr.alpha_v
+    bsdf.distribution, bsdf.sample_visible = check.distribution, check.sample_visible
+    return distr
+
+
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise dot product of two (n, 3) arrays."""
     return np.einsum("ij,ij->i", a, b)
@@ -75,8 +104,9 @@ class MicrofacetDistribution:
     Parameters
     ----------
     distribution : {"beckmann", "ggx"}
-    alpha_u, alpha_v : float
-        Roughness along local x and y (clamped below at 1e-4 as in Mitsuba).
+    alpha_u, alpha_v : float or (n,) ndarray
+        Roughness along local x and y (clamped below at 1e-4 as in Mitsuba); one value
+        per query row when a texture gives it.
     sample_visible : bool
         :meth:`sample` draws visible normals (default, Mitsuba's too) or normals
         distributed as :math:`D(m)\cos\theta_m` (:meth:`sample_all`).
@@ -89,8 +119,8 @@ class MicrofacetDistribution:
             raise ValueError(f'invalid microfacet distribution "{distribution}": '
                              'must be "beckmann" or "ggx"')
         self.distribution = distribution
-        self.alpha_u = max(float(alpha_u), ALPHA_MIN)
-        self.alpha_v = max(float(alpha_u if alpha_v is None else alpha_v), ALPHA_MIN)
+        self.alpha_u = _clamp_alpha(alpha_u)
+        self.alpha_v = _clamp_alpha(alpha_u if alpha_v is None else alpha_v)
         self.sample_visible = bool(sample_visible)
 
     def scaled(self, factor: np.ndarray) -> "MicrofacetDistribution":
@@ -254,7 +284,9 @@ class MicrofacetDistribution:
         pdf : (n,) ndarray
             :meth:`pdf` of ``m`` (Mitsuba's convention, see the module docstring).
         """
-        wi_p = _normalize(wi * np.array([self.alpha_u, self.alpha_v, 1.0]))
+        stretch = np.ones_like(wi)
+        stretch[:, 0], stretch[:, 1] = self.alpha_u, self.alpha_v
+        wi_p = _normalize(wi * stretch)
         sin_theta = np.hypot(wi_p[:, 0], wi_p[:, 1])
         on_axis = sin_theta <= 1e-12
         safe_sin = np.where(on_axis, 1.0, sin_theta)

@@ -34,7 +34,8 @@ from __future__ import annotations
 import numpy as np
 
 from .. import sampling
-from .base import BSDF, BSDFSample, as_colour, make_sample
+from ..textures import Texture
+from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR
 from .fresnel import fresnel_diffuse_reflectance, fresnel_dielectric, reflect
 
@@ -42,9 +43,18 @@ POLYPROPYLENE_IOR = 1.49
 
 
 def specular_sampling_weight(diffuse_reflectance, specular_reflectance) -> float:
-    r""":math:`w = \bar s / (\bar d + \bar s)` from the channel means (Mitsuba's lobe-selection weight)."""
-    s_mean = float(np.mean(specular_reflectance))
-    return s_mean / (float(np.mean(diffuse_reflectance)) + s_mean)
+    r""":math:`w = \bar s / (\bar d + \bar s)` from the channel means (Mitsuba's lobe-selection weight).
+
+    A texture counts with its :meth:`~pathtracer.textures.Texture.mean` (a bitmap's mean
+    luminance), as Mitsuba computes the weight once for the whole surface.
+    """
+    s_mean = _mean(specular_reflectance)
+    return s_mean / (_mean(diffuse_reflectance) + s_mean)
+
+
+def _mean(value) -> float:
+    """Mitsuba's ``mean()`` of a colour or a texture."""
+    return float(value.mean()) if isinstance(value, Texture) else float(np.mean(value))
 
 
 def specular_probability(F_i: np.ndarray, weight: float) -> np.ndarray:
@@ -64,8 +74,12 @@ def internal_scattering(diffuse_reflectance: np.ndarray, internal_reflectance: f
 
 
 class Plastic(BSDF):
-    """Diffuse base under a smooth dielectric coating of index ``int_ior`` in ``ext_ior``."""
+    """Diffuse base under a smooth dielectric coating of index ``int_ior`` in ``ext_ior``.
 
+    ``diffuse_reflectance`` and ``specular_reflectance`` may be textures.
+    """
+
+    texture_params = ("diffuse_reflectance", "specular_reflectance")
     has_smooth = True
     is_delta = False
 
@@ -75,12 +89,19 @@ class Plastic(BSDF):
         if int_ior < 0 or ext_ior < 0:
             raise ValueError("The interior and exterior indices of refraction must be positive")
         self.eta = float(int_ior) / float(ext_ior)
-        self.diffuse_reflectance = as_colour(diffuse_reflectance)
-        self.specular_reflectance = as_colour(specular_reflectance)
+        self.diffuse_reflectance = as_colour_or_texture(diffuse_reflectance)
+        self.specular_reflectance = as_colour_or_texture(specular_reflectance)
         self.nonlinear = bool(nonlinear)
         self.internal_reflectance = fresnel_diffuse_reflectance(1.0 / self.eta)
         self.specular_weight = specular_sampling_weight(self.diffuse_reflectance,
                                                         self.specular_reflectance)
+        self.bind_derived()
+
+    def bind_derived(self) -> None:
+        """The base's scattered albedo over :math:`\eta^2`, per hit when textured."""
+        if isinstance(self.diffuse_reflectance, Texture):
+            self._diffuse = None
+            return
         self._diffuse = internal_scattering(self.diffuse_reflectance, self.internal_reflectance,
                                             self.nonlinear) / (self.eta * self.eta)
 

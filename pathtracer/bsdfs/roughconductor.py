@@ -29,7 +29,8 @@ import numpy as np
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .conductor import complex_ior, conductor_reflectance
 from .fresnel import reflect_about
-from .microfacet import MicrofacetDistribution, _dot, reflection_half_vector
+from .microfacet import (MicrofacetDistribution, _dot, reflection_half_vector,
+                         textured_distribution)
 
 
 class RoughConductor(BSDF):
@@ -38,8 +39,9 @@ class RoughConductor(BSDF):
     Parameters
     ----------
     distribution : {"beckmann", "ggx"}
-    alpha_u, alpha_v : float
-        Roughness along the local tangent and bitangent (Mitsuba default 0.1).
+    alpha_u, alpha_v : float or Texture
+        Roughness along the local tangent and bitangent (Mitsuba default 0.1); a texture
+        gives it per hit (its ``eval_1``, as in Mitsuba).
     specular_reflectance : (3,) array_like
         Colour multiplying the reflection.
     eta, k : (3,) array_like, optional
@@ -52,18 +54,22 @@ class RoughConductor(BSDF):
     """
 
     texture_params = ("specular_reflectance",)
+    scalar_texture_params = ("alpha_u", "alpha_v")
     has_smooth = True
     is_delta = False
 
     def __init__(self, distribution: str = "beckmann", alpha_u: float = 0.1,
                  alpha_v: float | None = None, specular_reflectance=1.0,
                  eta=0.0, k=1.0, sample_visible: bool = True):
-        self.distr = MicrofacetDistribution(distribution, alpha_u, alpha_v, sample_visible)
-        self.distribution = self.distr.distribution
-        self.alpha_u = self.distr.alpha_u
-        self.alpha_v = self.distr.alpha_v
+        self.distr = textured_distribution(self, distribution, alpha_u, alpha_v, sample_visible)
         self.specular_reflectance = as_colour_or_texture(specular_reflectance)
         self.eta_complex = complex_ior(eta, k)
+
+    def bind_derived(self) -> None:
+        """The distribution of the hits' roughness (when a texture gives it)."""
+        if self.distr is None:
+            self.distr = MicrofacetDistribution(self.distribution, self.alpha_u, self.alpha_v,
+                                                self.sample_visible)
 
     def fresnel(self, cos_theta: np.ndarray) -> np.ndarray:
         """Conductor Fresnel factor times ``specular_reflectance`` -> (n, 3)."""

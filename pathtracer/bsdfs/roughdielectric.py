@@ -37,7 +37,7 @@ import numpy as np
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR, BK7_IOR
 from .fresnel import fresnel_dielectric, reflect_about, refract_about
-from .microfacet import MicrofacetDistribution, _dot, _normalize
+from .microfacet import MicrofacetDistribution, _dot, _normalize, textured_distribution
 
 
 def _mulsign_z(v: np.ndarray, sign_of: np.ndarray) -> np.ndarray:
@@ -50,6 +50,7 @@ class RoughDielectric(BSDF):
 
     texture_params = ("specular_reflectance", "specular_transmittance")
     refracts = True
+    scalar_texture_params = ("alpha_u", "alpha_v")
     has_smooth = True
     is_delta = False
 
@@ -59,12 +60,15 @@ class RoughDielectric(BSDF):
                  specular_transmittance=1.0):
         if int_ior < 0 or ext_ior < 0 or int_ior == ext_ior:
             raise ValueError("The interior and exterior indices of refraction must be positive and differ")
-        self.distr = MicrofacetDistribution(distribution, alpha_u, alpha_v)
-        self.distribution = self.distr.distribution
-        self.alpha_u, self.alpha_v = self.distr.alpha_u, self.distr.alpha_v
+        self.distr = textured_distribution(self, distribution, alpha_u, alpha_v, True)
         self.eta = float(int_ior) / float(ext_ior)
         self.specular_reflectance = as_colour_or_texture(specular_reflectance)
         self.specular_transmittance = as_colour_or_texture(specular_transmittance)
+
+    def bind_derived(self) -> None:
+        """The distribution of the hits' roughness (when a texture gives it)."""
+        if self.distr is None:
+            self.distr = MicrofacetDistribution(self.distribution, self.alpha_u, self.alpha_v)
 
     def _geometry(self, wi: np.ndarray, wo: np.ndarray):
         """Reflection mask, relative index :math:`\\eta'`, generalised half vector (upper side)."""

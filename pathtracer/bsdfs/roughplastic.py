@@ -36,7 +36,8 @@ from __future__ import annotations
 import numpy as np
 
 from .. import sampling
-from .base import BSDF, BSDFSample, as_colour, make_sample
+from ..textures import Texture
+from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR
 from .fresnel import fresnel_dielectric, reflect_about
 from .microfacet import MicrofacetDistribution, _dot, reflection_half_vector
@@ -45,8 +46,13 @@ from .plastic import POLYPROPYLENE_IOR, internal_scattering, specular_sampling_w
 
 
 class RoughPlastic(BSDF):
-    """Diffuse base under a rough dielectric coating (Beckmann or GGX, isotropic)."""
+    """Diffuse base under a rough dielectric coating (Beckmann or GGX, isotropic).
 
+    ``diffuse_reflectance`` and ``specular_reflectance`` may be textures (``alpha`` may not:
+    the coating tables depend on it, and Mitsuba takes a number too).
+    """
+
+    texture_params = ("diffuse_reflectance", "specular_reflectance")
     has_smooth = True
     is_delta = False
 
@@ -61,13 +67,20 @@ class RoughPlastic(BSDF):
         self.distribution = self.distr.distribution
         self.alpha_u = self.alpha_v = self.distr.alpha_u
         self.eta = float(int_ior) / float(ext_ior)
-        self.diffuse_reflectance = as_colour(diffuse_reflectance)
-        self.specular_reflectance = as_colour(specular_reflectance)
+        self.diffuse_reflectance = as_colour_or_texture(diffuse_reflectance)
+        self.specular_reflectance = as_colour_or_texture(specular_reflectance)
         self.nonlinear = bool(nonlinear)
         self.specular_weight = specular_sampling_weight(self.diffuse_reflectance,
                                                         self.specular_reflectance)
         self.transmittance, self.internal_reflectance = coating_tables(
             self.distribution, self.alpha_u, self.eta)
+        self.bind_derived()
+
+    def bind_derived(self) -> None:
+        """The base's scattered albedo over :math:`\eta^2`, per hit when textured."""
+        if isinstance(self.diffuse_reflectance, Texture):
+            self._diffuse = None
+            return
         self._diffuse = internal_scattering(self.diffuse_reflectance, self.internal_reflectance,
                                             self.nonlinear) / (self.eta * self.eta)
 

@@ -32,7 +32,8 @@ SUPPORTED = {
     "shape": ("rectangle", "cube", "disk", "sphere", "obj", "ply", "serialized", "bsplinecurve",
               "linearcurve"),
     "bsdf": ("diffuse", "twosided", "conductor", "roughconductor", "dielectric",
-             "thindielectric", "roughdielectric", "plastic", "roughplastic", "null"),
+             "thindielectric", "roughdielectric", "plastic", "roughplastic", "null", "blendbsdf",
+             "mask"),
     "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
     "sensor": ("perspective",),
     "integrator": ("path", "direct", "ptracer", "recursive", "path_bsdf", "path_nee", "smallpt",
@@ -61,7 +62,7 @@ VARIANT_ONLY_BSDFS = {
 }
 # BSDF parameters that take a <texture> (and the checkerboard's colours).
 TEXTURED_PARAMS = ("reflectance", "specular_reflectance", "specular_transmittance",
-                   "color0", "color1")
+                   "diffuse_reflectance", "alpha", "alpha_u", "alpha_v", "color0", "color1")
 # Integrator parameters we validate; the project's own integrators take any.
 INTEGRATOR_PARAMS = {
     "path": {"max_depth", "rr_depth", "hide_emitters"},
@@ -120,6 +121,10 @@ class Props:
     def __init__(self, plugin: Plugin):
         self.plugin = plugin
         self.used: set[str] = set()
+        # Where texture files are looked up and the textures built so far (set by the
+        # BSDF builder, for parameters that take textures).
+        self.folders: list[str] = ["."]
+        self.texture_cache: dict = {}
         # Nested <texture> children by parameter name (read by reflectance_or_texture).
         self.textures: dict[str, Plugin] = {}
         for name, child in plugin.named_children():
@@ -149,6 +154,12 @@ class Props:
 
     def line(self, name: str) -> int:
         return self.plugin.props[name].line
+
+    def line_of(self, name: str) -> int:
+        """The line of a property or of the nested texture that gives it."""
+        if name in self.textures:
+            return self.textures[name].line
+        return self.line(name)
 
     def color(self, name: str, default: float, kind: str | None = None) -> np.ndarray:
         """An RGB colour from ``<rgb>``, ``<float>`` or ``<spectrum>``.
@@ -237,10 +248,10 @@ class Props:
         self.used.update(names)
 
     def _no_texture(self, name: str):
-        if self.plugin.type in ("plastic", "roughplastic"):
+        if self.plugin.type == "roughplastic" and name == "alpha":
             raise self.textures[name].error(
-                f"a texture for \"{name}\" is not supported on {self.plugin.type} (Mitsuba "
-                "picks its lobes by the texture's mean, which this tracer does not compute)")
+                "roughplastic takes a number for \"alpha\", not a texture (its coating "
+                "tables depend on it; Mitsuba refuses a texture too)")
         raise self.textures[name].error(
             f"a texture for \"{name}\" is not supported (this tracer takes textures for: "
             f"{', '.join(TEXTURED_PARAMS)})")
@@ -350,21 +361,33 @@ def _microfacet(props: Props, anisotropic: bool = True) -> tuple[str, float, flo
                            "then widens the sampled roughness but leaves D/D_widened out of the "
                            "sample weight, a biased estimator this tracer does not reproduce",
                            props.line("sample_visible"))
-    if props.has("alpha") and (props.has("alpha_u") or props.has("alpha_v")):
+    given = {name for name in ("alpha", "alpha_u", "alpha_v")
+             if props.has(name) or name in props.textures}
+    if "alpha" in given and given & {"alpha_u", "alpha_v"}:
         raise plugin.error("give either alpha or alpha_u/alpha_v, not both",
-                           props.line("alpha"))
-    if props.has("alpha_u") != props.has("alpha_v"):
-        name = "alpha_u" if props.has("alpha_u") else "alpha_v"
-        raise plugin.error("give both alpha_u and alpha_v", props.line(name))
-    if props.has("alpha_u") and not anisotropic:
+                           props.line_of("alpha"))
+    if ("alpha_u" in given) != ("alpha_v" in given):
+        name = "alpha_u" if "alpha_u" in given else "alpha_v"
+        raise plugin.error("give both alpha_u and alpha_v", props.line_of(name))
+    if "alpha_u" in given and not anisotropic:
         raise plugin.error(f"{plugin.type} supports only isotropic roughness (alpha), as in "
-                           "Mitsuba", props.line("alpha_u"))
-    alpha = props.float("alpha", 0.1)
-    alpha_u, alpha_v = props.float("alpha_u", alpha), props.float("alpha_v", alpha)
-    for name, value in (("alpha", alpha), ("alpha_u", alpha_u), ("alpha_v", alpha_v)):
-        if props.has(name) and not value >= 0.0:
-            raise plugin.error(f"\"{name}\" must be >= 0", props.line(name))
+                           "Mitsuba", props.line_of("alpha_u"))
+    alpha = _roughness(props, "alpha", 0.1, anisotropic)
+    alpha_u = _roughness(props, "alpha_u", alpha, anisotropic)
+    alpha_v = _roughness(props, "alpha_v", alpha, anisotropic)
     return distribution, alpha_u, alpha_v, sample_visible
+
+
+def _roughness(props: Props, name: str, default, textured: bool):
+    """A roughness: a number (>= 0), or, where Mitsuba takes one (``roughconductor``,
+    ``roughdielectric``), a nested texture read per hit with ``eval_1``."""
+    if textured and name in props.textures:
+        props.used.add(name)
+        return build_texture(props.textures[name], props.folders, props.texture_cache)
+    value = props.float(name, default)
+    if props.has(name) and not value >= 0.0:
+        raise props.plugin.error(f"\"{name}\" must be >= 0", props.line(name))
+    return value
 
 
 def _distinct_iors(props: Props, default_int: str) -> tuple[float, float]:
@@ -376,17 +399,16 @@ def _distinct_iors(props: Props, default_int: str) -> tuple[float, float]:
     return int_ior, ext_ior
 
 
-def _build_plastic(props: Props, bsdfs):
+def _build_plastic(props: Props, bsdfs, colour):
     """``plastic`` / ``roughplastic``: shared parameters, then the smooth or rough model."""
     rough = props.plugin.type == "roughplastic"
     if rough:
         int_ior, ext_ior = _distinct_iors(props, "polypropylene")
     else:
         int_ior, ext_ior = _ior(props, "int_ior", "polypropylene"), _ior(props, "ext_ior", "air")
-    # Textures are refused here (Props.reflectance): Mitsuba's lobe-selection weight
-    # uses a texture's mean, which the tracer's textures do not provide yet.
-    common = dict(diffuse_reflectance=props.reflectance("diffuse_reflectance", 0.5),
-                  specular_reflectance=props.reflectance("specular_reflectance", 1.0),
+    # A texture's mean (Texture.mean) sets the lobe-selection weight, as in Mitsuba.
+    common = dict(diffuse_reflectance=colour("diffuse_reflectance", 0.5),
+                  specular_reflectance=colour("specular_reflectance", 1.0),
                   int_ior=int_ior, ext_ior=ext_ior, nonlinear=props.bool("nonlinear", False))
     if not rough:
         return bsdfs.Plastic(**common)
@@ -410,14 +432,12 @@ def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | Non
 
     textures = {} if textures is None else textures
     props = Props(plugin)
+    props.folders, props.texture_cache = folders, textures
     kind = plugin.type
-    if kind == "twosided":
-        nested = _children(plugin, {"bsdf": 1})["bsdf"]
-        if len(nested) != 1:
-            raise plugin.error("twosided needs exactly one nested <bsdf> "
-                               "(different front/back materials are not supported)")
+    if kind in COMPOSITE_BSDFS:
+        result = _build_composite(props, bsdfs)
         props.finish()
-        return bsdfs.TwoSided(build_bsdf(nested[0], folders, textures))
+        return result
     _children(plugin, {"texture": 10**9})
 
     def colour(name, default):
@@ -445,7 +465,7 @@ def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | Non
                                       colour("specular_reflectance", 1.0), eta, k,
                                       sample_visible)
     elif kind in ("plastic", "roughplastic"):
-        result = _build_plastic(props, bsdfs)
+        result = _build_plastic(props, bsdfs, colour)
     elif kind == "null":
         result = bsdfs.NullBSDF()
     elif kind in VARIANT_ONLY_BSDFS:
@@ -454,6 +474,40 @@ def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | Non
         raise _unsupported(plugin, "BSDF")
     props.finish()
     return result
+
+
+# BSDFs built of nested BSDFs: how many they take, and their scalar texture parameter.
+COMPOSITE_BSDFS = {"twosided": ((1, 2), None, None), "blendbsdf": ((2, 2), "weight", None),
+                   "mask": ((1, 1), "opacity", 0.5)}
+
+
+def _build_composite(props: Props, bsdfs):
+    """``twosided`` (one BSDF for both sides, or front and back), ``blendbsdf``
+    (two BSDFs and a ``weight``) and ``mask`` (one BSDF and an ``opacity``)."""
+    plugin = props.plugin
+    (least, most), scalar, default = COMPOSITE_BSDFS[plugin.type]
+    nested = _children(plugin, {"bsdf": most, "texture": 1 if scalar else 0})["bsdf"]
+    if len(nested) < least:
+        raise plugin.error(f"{plugin.type} needs {'exactly' if least == most else 'at least'} "
+                           f"{least} nested <bsdf>, got {len(nested)}")
+    inner = [build_bsdf(child, props.folders, props.texture_cache) for child in nested]
+    if plugin.type == "twosided":
+        return bsdfs.TwoSided(*inner)
+    value = _scalar_or_texture(props, scalar, default)
+    if plugin.type == "blendbsdf":
+        return bsdfs.BlendBSDF(inner[0], inner[1], value)
+    return bsdfs.MaskBSDF(inner[0], value)
+
+
+def _scalar_or_texture(props: Props, name: str, default):
+    """A number or a nested texture read per hit with ``eval_1`` (Mitsuba clips both to
+    [0, 1] for a blend weight or an opacity); ``default`` None means required."""
+    if name in props.textures:
+        props.used.add(name)
+        return build_texture(props.textures[name], props.folders, props.texture_cache)
+    if default is None and not props.has(name):
+        raise props.plugin.error(f"missing \"{name}\" (a <float> or a <texture>)")
+    return props.float(name, default)
 
 
 # -- textures ----------------------------------------------------------------
