@@ -168,6 +168,9 @@ def _identity(scene, params, integrator, spp, seed, options=None, resolution=Non
     }
     if resolution is not None:
         ident["resolution"] = list(settings.resolution)
+    if settings.sampler != "independent":
+        # Rendered with an independent sampler instead (render.independent_samplers).
+        ident["sampler"] = f"independent (file: {settings.sampler})"
     return ident
 
 

@@ -289,6 +289,7 @@ def load_mitsuba_scene(path, scene_kw, resolution=None):
         if len(films) != 1:
             raise ValueError(f"{path}: --resolution needs exactly one <film>, found {len(films)}")
         films[0].props["width"], films[0].props["height"] = (int(v) for v in resolution)
+    independent_samplers(state)
     mi.parser.transform_all(config, state)
     resolver = mi.file_resolver()
     saved = [resolver[i] for i in range(len(resolver))]
@@ -299,6 +300,21 @@ def load_mitsuba_scene(path, scene_kw, resolution=None):
         resolver.clear()
         for folder in saved:
             resolver.append(folder)
+
+
+def independent_samplers(state):
+    """Make every ``<sampler>`` of a parsed scene ``independent`` (its ``sample_count`` and
+    ``seed`` kept): the tracer samples independently whatever the file says, and the
+    statistics assume i.i.d. samples, which stratified, multijitter, orthogonal and
+    ldsampler patterns are not (their per-pixel variance is lower)."""
+    import mitsuba as mi
+    for node in state.nodes:
+        if node.type != mi.ObjectType.Sampler or node.props.plugin_name() == "independent":
+            continue
+        node.props.set_plugin_name("independent")
+        for name in list(node.props.keys()):
+            if name not in ("sample_count", "seed"):
+                del node.props[name]
 
 
 def check_framing(path, mi_scene, settings):

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .accel import BVH, SMALL_MAX, SmallMesh, SplitMesh, small_shapes
+from .cylinder import cylinder_surface, cylinder_t
 from .vec import dot, max_abs, normalize
 
 RAY_EPSILON = 1500 * 2.0 ** -24  # Mitsuba's math::RayEpsilon for float32 (8.94e-5)
@@ -53,7 +54,8 @@ class Hit:
     uv : (n, 2) float64
         Primitive coordinates. Triangles: barycentrics (b1, b2) of p1 and p2.
         Spheres: ``(phi / 2pi, theta / pi)`` around the world z axis. Disks:
-        local (x, y) on the unit disk. Curves: Mitsuba's surface uv. Textures use :func:`texture_uv`
+        local (x, y) on the unit disk. Curves: Mitsuba's surface uv. Cylinders: ``(phi / 2pi, z)``
+        in the unit tube's frame. Textures use :func:`texture_uv`
         (Mitsuba's surface uv), computed from these.
     """
 
@@ -107,7 +109,7 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
         p, nrm, sh_n, shape, uv = _triangle_records(scene, prim, b1, b2)
         return Hit(valid=np.ones(n, bool), t=t, p=p, n=nrm, sh_n=sh_n, shape=shape,
                    prim=prim, uv=uv)
-    kind = np.where(prim >= 0, 0, -1)  # 0 triangle, 1 sphere, 2 disk
+    kind = np.where(prim >= 0, 0, -1)  # 0 triangle, 1 sphere, 2 disk, 3 curve, 4 cylinder
     t = np.where(kind >= 0, t, tmax)  # the far end for the analytic shapes
     for i in range(len(scene.sphere_radius)):
         ts = _sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, t)
@@ -123,6 +125,10 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
         closer = tc < t
         t[closer], kind[closer], prim[closer] = tc[closer], 3, i
         curve_hits.append((piece, s))
+    for i in range(len(scene.cylinder_shape)):
+        tc = cylinder_t(scene.cylinder_to_local[i], o, d, tmax)
+        closer = tc < t
+        t[closer], kind[closer], prim[closer] = tc[closer], 4, i
 
     t[kind < 0] = np.inf
     hit = Hit(valid=kind >= 0, t=t, p=np.zeros((n, 3)), n=np.zeros((n, 3)),
@@ -141,6 +147,9 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
         sel = np.flatnonzero((kind == 3) & (prim == i))
         if len(sel):
             _fill_curve(scene.curves[i], hit, sel, o[sel], d[sel], piece[sel], s[sel])
+    sel = np.flatnonzero(kind == 4)
+    if len(sel):
+        _fill_cylinders(scene, hit, sel, o[sel], d[sel])
     return hit
 
 
@@ -156,6 +165,8 @@ def occluded(scene, o: np.ndarray, d: np.ndarray, tmax) -> np.ndarray:
         occ |= _disk_t(scene.disk_to_local[i], o, d, tmax) < tmax
     for curve in scene.curves:
         occ |= curve.occluded(o, d, tmax)
+    for i in range(len(scene.cylinder_shape)):
+        occ |= cylinder_t(scene.cylinder_to_local[i], o, d, tmax) < tmax
     return occ
 
 
@@ -359,6 +370,13 @@ def _fill_curve(curve, hit, sel, o, d, piece, s):
     hit.sh_n[sel] = nrm
     hit.shape[sel] = curve.shape
     hit.uv[sel] = uv
+def _fill_cylinders(scene, hit, sel, o, d):
+    i = hit.prim[sel]
+    p, n, uv = cylinder_surface(scene.cylinder_to_world[i], scene.cylinder_to_local[i],
+                                scene.cylinder_flip[i], o + hit.t[sel, None] * d)
+    hit.p[sel], hit.n[sel], hit.sh_n[sel] = p, n, n
+    hit.uv[sel] = uv
+    hit.shape[sel] = scene.cylinder_shape[i]
 
 
 # ----------------------------------------------------------------------
@@ -377,6 +395,7 @@ def texture_uv(scene, hit, rows: np.ndarray) -> np.ndarray:
     * Disks: ``(r, phi / 2pi)`` of the local point, phi in [0, 2pi).
     * Curves: Mitsuba's ``(angle around the centre line / 2pi, v along the file's
       segments)``, computed at the hit (:mod:`pathtracer.curves`).
+    * Cylinders: ``(phi / 2pi, z)`` in the unit tube's frame (:mod:`pathtracer.cylinder`).
 
     Computed only where a texture needs it, so untextured scenes never pay.
     """
@@ -405,6 +424,9 @@ def texture_uv(scene, hit, rows: np.ndarray) -> np.ndarray:
     crv = np.flatnonzero(kind == "curve")
     if len(crv):
         out[crv] = hit.uv[rows[crv]]
+    cyl = np.flatnonzero(kind == "cylinder")
+    if len(cyl):
+        out[cyl] = hit.uv[rows[cyl]]   # (phi / 2pi, z), as filled in at the hit
     dsk = np.flatnonzero(kind == "disk")
     if len(dsk):
         local = hit.uv[rows[dsk]]

@@ -90,8 +90,11 @@ CASES = {
         f'<bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"/>{MARK}</bsdf>',
         '<texture type="mesh_attribute">', "unsupported texture (supported: bitmap, checkerboard)"),
     "texture for a scalar parameter": (
-        f'<bsdf type="roughconductor">\n<texture type="checkerboard" name="alpha"/>{MARK}</bsdf>',
-        '<texture type="checkerboard">', 'a texture for "alpha" is not supported'),
+        f'<bsdf type="roughplastic">\n<texture type="checkerboard" name="alpha"/>{MARK}</bsdf>',
+        '<texture type="checkerboard">', 'roughplastic takes a number for "alpha"'),
+    "texture for int_ior": (
+        f'<bsdf type="plastic">\n<texture type="checkerboard" name="int_ior"/>{MARK}</bsdf>',
+        '<texture type="checkerboard">', 'a texture for "int_ior" is not supported'),
     "checkerboard colour above 1": (
         f'<bsdf type="diffuse"><texture type="checkerboard" name="reflectance">\n'
         f'<rgb name="color0" value="1.5, 0.2, 0.2"/>{MARK}</texture></bsdf>',
@@ -206,9 +209,15 @@ CASES = {
     "max_depth below -1 in a project integrator": (
         f'<integrator type="path_nee">\n<integer name="max_depth" value="-7"/>{MARK}</integrator>',
         '<integrator type="path_nee">', "max_depth must be -1 (unlimited) or >= 0"),
-    "twosided with two bsdfs": (
-        f'<bsdf type="twosided">{MARK}<bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>',
-        '<bsdf type="diffuse">', "at most 1"),
+    "twosided with three bsdfs": (
+        f'<bsdf type="twosided"><bsdf type="diffuse"/><bsdf type="diffuse"/>{MARK}<bsdf type="diffuse"/></bsdf>',
+        '<bsdf type="diffuse">', "at most 2"),
+    "blendbsdf without weight": (
+        f'<bsdf type="blendbsdf">{MARK}<bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>',
+        '<bsdf type="blendbsdf">', 'missing "weight"'),
+    "blendbsdf with one bsdf": (
+        f'<bsdf type="blendbsdf">{MARK}<float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf>',
+        '<bsdf type="blendbsdf">', "needs exactly 2 nested <bsdf>"),
 }
 
 
@@ -241,8 +250,8 @@ SENSOR_CASES = {
         SENSOR.replace('<rfilter type="box"/>', f'<rfilter type="box"/>\n<integer name="crop_width" value="8"/>{MARK}'),
         '<film type="hdrfilm">', 'crop_width is not supported'),
     "sampler": (
-        SENSOR.replace("</sensor>", f'\n<sampler type="stratified"/>{MARK}</sensor>'),
-        '<sampler type="stratified">', "i.i.d."),
+        SENSOR.replace("</sensor>", f'\n<sampler type="halton"/>{MARK}</sensor>'),
+        '<sampler type="halton">', "unsupported sampler (supported: independent, stratified"),
     "thinlens": (
         SENSOR.replace('"perspective">', f'"thinlens">{MARK}'), '<sensor type="thinlens">',
         "unsupported sensor"),

@@ -98,7 +98,7 @@ class Plastic(BSDF):
         self.bind_derived()
 
     def bind_derived(self) -> None:
-        """The base's scattered albedo over :math:`\eta^2`, per hit when textured."""
+        """The base's scattered albedo divided by eta squared, per hit when textured."""
         if isinstance(self.diffuse_reflectance, Texture):
             self._diffuse = None
             return

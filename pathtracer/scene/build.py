@@ -11,7 +11,7 @@ import warnings
 
 import numpy as np
 
-from . import meshes, spectra, transform
+from . import instances, meshes, spectra, transform
 from ..film import FILTER_PARAMS, ReconstructionFilter
 from .types import (AreaEmitter, Camera, ConstantEmitter, DirectionalEmitter,
                     IntegratorSpec, PointEmitter, Scene, SpotEmitter)
@@ -29,8 +29,8 @@ IOR_BY_NAME = {
     "pet": 1.5750, "diamond": 2.419,
 }
 SUPPORTED = {
-    "shape": ("rectangle", "cube", "disk", "sphere", "obj", "ply", "serialized", "bsplinecurve",
-              "linearcurve"),
+    "shape": ("rectangle", "cube", "disk", "sphere", "cylinder", "obj", "ply", "serialized",
+              "bsplinecurve", "linearcurve", "shapegroup", "instance"),
     "bsdf": ("diffuse", "twosided", "conductor", "roughconductor", "dielectric",
              "thindielectric", "roughdielectric", "plastic", "roughplastic", "null", "blendbsdf",
              "mask"),
@@ -104,9 +104,6 @@ NOT_IMPLEMENTED_SHAPES = {
     "sdfgrid": "signed-distance-field grids",
     "ellipsoids": "ellipsoid point clouds",
     "ellipsoidsmesh": "ellipsoid point clouds",
-    "cylinder": "analytic cylinders",
-    "instance": "instancing",
-    "shapegroup": "instancing",
     "merge": "shape merging",
 }
 FLOAT_TAGS = ("float", "integer")
@@ -562,7 +559,7 @@ class _Geometry:
     def __init__(self):
         self.tri_p, self.tri_n, self.tri_uv, self.tri_shape = [], [], [], []
         self.ntri = 0
-        self.spheres, self.disks, self.curves = [], [], []
+        self.spheres, self.disks, self.curves, self.cylinders = [], [], [], []
         self.kind, self.prim, self.area, self.cdf, self.name = [], [], [], [], []
 
     def add_mesh(self, shape_id: int, p: np.ndarray, n: np.ndarray, uv: np.ndarray) -> None:
@@ -720,14 +717,19 @@ def _mesh_triangles(plugin, props, folders, m):
 _BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
 
 
-def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str]):
+def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str],
+                parent: np.ndarray | None = None):
     """Add one shape's primitives to ``geo``; returns its nested bsdf and emitter plugins.
 
-    ``folders`` are where mesh files are looked up (:func:`search_folders`).
+    ``folders`` are where mesh files are looked up (:func:`search_folders`). ``parent``
+    is the ``to_world`` of the ``instance`` the shape is drawn by, applied after the
+    shape's own (:mod:`pathtracer.scene.instances`).
     """
     props = Props(plugin)
     kids = _children(plugin, {"bsdf": 1, "emitter": 1, "medium": 2})
     m = props.transform("to_world")
+    if parent is not None:
+        m = parent @ m
     flip = props.bool("flip_normals", False)
     kind = plugin.type
     if kind in ("rectangle", "cube", "obj", "ply", "serialized"):
@@ -780,6 +782,8 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
         # The unit disk maps to an ellipse of area pi |u x v| (u, v = images of x, y).
         geo.area.append(np.pi * np.linalg.norm(np.cross(m[:3, 0], m[:3, 1])))
         geo.cdf.append(None)
+    elif kind == "cylinder":
+        _add_cylinder(plugin, props, geo, shape_id, m, flip, kids["emitter"])
     else:
         raise _unsupported(plugin, "shape")
     props.finish()
@@ -816,6 +820,32 @@ def _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids):
     geo.kind.append("curve")
     geo.prim.append((len(geo.curves) - 1, len(geo.curves)))
     geo.area.append(shape.area())
+    geo.cdf.append(None)
+
+
+def _add_cylinder(plugin, props, geo, shape_id, m, flip, emitters) -> None:
+    """Mitsuba's analytic ``cylinder`` (:mod:`pathtracer.cylinder`): ``p0`` (0, 0, 0),
+    ``p1`` (0, 0, 1), ``radius`` (1), open at both ends."""
+    from pathtracer.cylinder import cylinder_matrix
+
+    if emitters:
+        raise emitters[0].error("an area emitter on a cylinder is not supported (this tracer "
+                                "samples area lights on meshes, spheres and disks only)")
+    p0, p1 = props.point("p0", np.zeros(3)), props.point("p1", np.array([0.0, 0.0, 1.0]))
+    radius = props.float("radius", 1.0)
+    if not radius > 0 or not np.linalg.norm(p1 - p0) > 0:
+        raise plugin.error("a cylinder needs radius > 0 and p0 != p1")
+    transform.check_affine(m)
+    full = cylinder_matrix(m, p0, p1, radius)
+    if np.linalg.det(full[:3, :3]) <= 0:
+        raise plugin.error("a mirroring to_world is not supported on a cylinder (Mitsuba flips "
+                           "its normals by a rule this tracer does not reproduce)",
+                           props.line("to_world"))
+    geo.cylinders.append((full, flip, shape_id))
+    geo.kind.append("cylinder")
+    geo.prim.append((len(geo.cylinders) - 1, len(geo.cylinders)))
+    # Mitsuba: 2 pi r l, r and l the lengths of the images of local x and z.
+    geo.area.append(2.0 * np.pi * np.linalg.norm(full[:3, 0]) * np.linalg.norm(full[:3, 2]))
     geo.cdf.append(None)
 
 
@@ -1004,14 +1034,22 @@ def _film(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
     return width, height, rfilter
 
 
+# Mitsuba's samplers and their parameters besides sample_count and seed. Every one draws
+# uniform samples whose expectation is the same image; the tracer uses independent ones.
+SAMPLER_PARAMS = {"independent": (), "stratified": ("jitter",), "multijitter": ("jitter",),
+                  "orthogonal": ("jitter", "strength"), "ldsampler": ()}
+_warned_samplers: set = set()
+
+
 def _sampler(plugin: Plugin) -> tuple[int, int]:
     if plugin.type in VARIANT_ONLY:
         raise _unsupported(plugin, "sampler")
-    if plugin.type != "independent":
-        raise plugin.error("unsupported sampler: only \"independent\" gives the i.i.d. samples "
-                           "the statistical comparison assumes")
+    if plugin.type not in SAMPLER_PARAMS:
+        raise plugin.error(f"unsupported sampler (supported: {', '.join(SAMPLER_PARAMS)})")
     props = Props(plugin)
     _children(plugin, {})
+    props.ignore(*SAMPLER_PARAMS[plugin.type])
+    _warn_sampler(plugin)
     spp, seed = props.int("sample_count", 4), props.int("seed", 0)
     if spp <= 0:
         raise plugin.error("sample_count must be positive", props.line("sample_count"))
@@ -1020,6 +1058,19 @@ def _sampler(plugin: Plugin) -> tuple[int, int]:
                            f"in Mitsuba), got {seed}", props.line("seed"))
     props.finish()
     return spp, seed
+
+
+def _warn_sampler(plugin: Plugin) -> None:
+    """Say once per sampler type that the tracer samples independently (and so does the
+    reference): stratified patterns would lower Mitsuba's per-pixel variance."""
+    if plugin.type == "independent" or plugin.type in _warned_samplers:
+        return
+    _warned_samplers.add(plugin.type)
+    warnings.warn(f"{plugin.file}:{plugin.line}: <sampler type=\"{plugin.type}\">: rendered with "
+                  "independent samples (same expected image); mitsuba-refs renders its reference "
+                  f"with an independent sampler too, because {plugin.type} sampling has a lower "
+                  "per-pixel variance than the comparison's independent-sample statistics assume",
+                  stacklevel=4)
 
 
 def build_sensor(plugin: Plugin, resolution: tuple[int, int] | None = None,
@@ -1151,6 +1202,11 @@ def _bbox(geo: _Geometry, tri_p: np.ndarray) -> np.ndarray:
         curve_lo, curve_hi = curve.bounds()
         lo.append(curve_lo)
         hi.append(curve_hi)
+    for m, _, _ in geo.cylinders:
+        corners = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (0, 1)])
+        world = corners @ m.T
+        lo.append(world[:, :3].min(0))
+        hi.append(world[:, :3].max(0))
     if not lo:
         return np.zeros((2, 3))
     return np.array([np.min(lo, axis=0), np.max(hi, axis=0)])
@@ -1199,9 +1255,12 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     from .build_media import MediaTable
 
     kids = _children(root, {"shape": 10**9, "bsdf": 10**9, "emitter": 10**9,
-                            "sensor": 1, "integrator": 1, "texture": 10**9, "medium": 10**9})
+                            "sensor": 1, "integrator": 1, "texture": 10**9, "medium": 10**9,
+                            "sampler": 10**9})
     media = MediaTable()
     shape_media = []
+    for plugin in kids["sampler"]:   # top-level samplers: referenced by a sensor, or unused
+        _sampler(plugin)
     geo = _Geometry()
     bsdf_objects, bsdf_index, textures = [], {}, {}
     emitters, environment = [], None
@@ -1228,10 +1287,11 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         bsdf_id(plugin)
     for plugin in kids["medium"]:
         media.index(plugin)
-    for shape_id, plugin in enumerate(kids["shape"]):
+    for plugin, parent in instances.flatten(kids["shape"]):
         if plugin.type not in SUPPORTED["shape"]:
             raise _unsupported(plugin, "shape")
-        bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, folders)
+        shape_id = len(shape_bsdf)
+        bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, folders, parent)
         shape_media.append(media.shape_media(plugin))
         shape_bsdf.append(bsdf_id(bsdf_plugin, emitter=emitter_plugin is not None))
         if emitter_plugin is not None:
@@ -1275,6 +1335,10 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         disk_flip=np.array([d[1] for d in dsk], dtype=bool),
         disk_shape=np.array([d[2] for d in dsk], dtype=np.int32),
         curves=geo.curves,
+        cylinder_to_world=np.array([c[0] for c in geo.cylinders]).reshape(-1, 4, 4),
+        cylinder_to_local=np.array([np.linalg.inv(c[0]) for c in geo.cylinders]).reshape(-1, 4, 4),
+        cylinder_flip=np.array([c[1] for c in geo.cylinders], dtype=bool),
+        cylinder_shape=np.array([c[2] for c in geo.cylinders], dtype=np.int32),
         shape_kind=geo.kind,
         shape_prim=np.array(geo.prim, dtype=np.int64).reshape(-1, 2),
         shape_bsdf=np.array(shape_bsdf, dtype=np.int32),

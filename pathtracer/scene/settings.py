@@ -29,12 +29,16 @@ class SceneSettings:
         The camera, with the (possibly overridden) film size.
     spp, seed : int
         The sampler's (possibly overridden) ``sample_count`` and ``seed``.
+    sampler : str
+        The file's sampler type (``independent`` when absent). The tracer samples
+        independently whatever it is, and so does the Mitsuba reference.
     """
 
     integrator: IntegratorSpec
     camera: Camera
     spp: int
     seed: int
+    sampler: str = "independent"
 
     @property
     def resolution(self) -> tuple[int, int]:
@@ -63,5 +67,6 @@ def scene_settings(path: str | os.PathLike, resolution: tuple[int, int] | None =
     integrators = by_kind.get("integrator", [])
     if len(integrators) > 1:
         raise root.error("at most one <integrator>")
+    samplers = [c.type for c in sensors[0].children if c.kind == "sampler"]
     return SceneSettings(build_integrator(integrators[0] if integrators else None),
-                         camera, spp, seed)
+                         camera, spp, seed, samplers[0] if samplers else "independent")

@@ -171,7 +171,7 @@ class Scene:
     curves : list of pathtracer.curves.CurveShape
         The ``bsplinecurve`` / ``linearcurve`` shapes.
     shape_kind : list of str
-        ``'mesh'``, ``'sphere'``, ``'disk'`` or ``'curve'`` per shape.
+        ``'mesh'``, ``'sphere'``, ``'disk'``, ``'curve'`` or ``'cylinder'`` per shape.
     shape_prim : (N, 2) int64
         For a mesh, the half-open triangle range ``[begin, end)`` in ``tri_*``;
         for a sphere, disk or curve, ``[index, index + 1)`` in its own arrays.
@@ -247,6 +247,12 @@ class Scene:
     shape_interior: np.ndarray | None = None
     shape_exterior: np.ndarray | None = None
     camera_medium: int = -1
+    # Analytic cylinders (pathtracer.cylinder): object-to-world maps of the unit tube,
+    # their inverses, flip_normals and shape ids.
+    cylinder_to_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))
+    cylinder_to_local: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))
+    cylinder_flip: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    cylinder_shape: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     # Built lazily by pathtracer.geometry (BVH over tri_p).
     _accel: Any = None
 
