@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .geometry import texture_uv
+from .tangents import local_geometry
 from .scene.types import Scene
 from .vec import frame, to_local, to_world
 
@@ -70,9 +71,18 @@ def _groups(scene: Scene, hit):
         bsdf = scene.bsdfs[members[0]]
         if len(members) > 1:
             bsdf = _merged(scene, members, ids[rows])
-        elif bsdf.textured:
-            bsdf = bsdf.at(texture_uv(scene, hit, np.arange(len(ids))[rows]))
+        else:
+            bsdf = _bound(scene, hit, bsdf, np.arange(len(ids))[rows])
         yield bsdf, rows
+
+
+def _bound(scene: Scene, hit, bsdf, rows: np.ndarray):
+    """``bsdf`` ready for the hits ``rows``: bound to their uv (and, for normal and bump
+    maps, their differential geometry) if textured. Plain BSDFs are returned as they are."""
+    if not bsdf.textured:
+        return bsdf
+    geometry = local_geometry(scene, hit, rows) if bsdf.needs_geometry else None
+    return bsdf.at(texture_uv(scene, hit, rows), geometry)
 
 
 _PLAIN = (bool, int, float, complex, str, type(None))

@@ -256,6 +256,32 @@ class BitmapTexture(Texture):
         """Channel-wise maximum texel (bilinear weights are convex, so it bounds every lookup)."""
         return self.texels.max(axis=0).astype(np.float64)
 
+    def eval_1_grad(self, uv: np.ndarray) -> np.ndarray:
+        """Gradient (n, 2) of :meth:`eval_1` with respect to the surface ``uv``, as Mitsuba's
+        ``eval_1_grad``: the derivative of the bilinear interpolation of the four texels'
+        luminances (0 for ``nearest`` filtering), through ``to_uv`` by its transpose."""
+        uv, undefined = _finite_uv(uv)
+        if self.filter_type == "nearest":
+            return np.zeros((len(uv), 2))
+        t = self.transform_uv(uv)
+        x, y = t[:, 0] * self.width - 0.5, t[:, 1] * self.height - 0.5
+        x0, y0 = np.floor(x), np.floor(y)
+        wx1, wy1 = x - x0, y - y0
+        wx0, wy0 = 1.0 - wx1, 1.0 - wy1
+        x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
+
+        def lum(dx, dy):
+            return self._fetch(x0 + dx, y0 + dy).astype(np.float64) @ LUMINANCE
+
+        f00, f10, f01, f11 = lum(0, 0), lum(1, 0), lum(0, 1), lum(1, 1)
+        d_x = wy0 * (f10 - f00) + wy1 * (f11 - f01)
+        d_y = wx0 * (f01 - f00) + wx1 * (f11 - f10)
+        grad = np.stack((d_x, d_y), axis=1) @ self.uv_linear   # transpose applied to (d_x, d_y)
+        grad *= np.array([self.width, self.height], dtype=np.float64)
+        if undefined is not None:
+            grad[undefined] = 0.0
+        return grad
+
     def mean(self) -> float:
         """Mean texel luminance, as Mitsuba's RGB variants compute a bitmap's mean."""
         return float(np.mean(self.texels.astype(np.float64) @ LUMINANCE))

@@ -9,6 +9,7 @@ from .dielectric import Dielectric
 from .diffuse import Diffuse
 from .fresnel import fresnel_conductor, fresnel_dielectric, fresnel_schlick, reflect, refract
 from .mask import MaskBSDF
+from .perturbed import BumpMap, NormalMap
 from .microfacet import MicrofacetDistribution
 from .null import NullBSDF
 from .plastic import Plastic
@@ -19,8 +20,8 @@ from .thindielectric import ThinDielectric
 from .twosided import TwoSided
 
 __all__ = [
-    "BSDF", "BSDFSample", "BlendBSDF", "Conductor", "Dielectric", "Diffuse", "MicrofacetDistribution", "MaskBSDF",
-    "NullBSDF",
-    "Plastic", "RoughConductor", "RoughDielectric", "RoughPlastic", "ThinDielectric", "TwoSided",
+    "BSDF", "BSDFSample", "BlendBSDF", "BumpMap", "Conductor", "Dielectric", "Diffuse", "MaskBSDF",
+    "MicrofacetDistribution", "NormalMap", "NullBSDF", "Plastic", "RoughConductor", "RoughDielectric",
+    "RoughPlastic", "ThinDielectric", "TwoSided",
     "fresnel_conductor", "fresnel_dielectric", "fresnel_schlick", "reflect", "refract",
 ]

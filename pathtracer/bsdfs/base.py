@@ -129,13 +129,18 @@ class BSDF:
         return any(isinstance(getattr(self, name), Texture)
                    for name in self.texture_params + self.scalar_texture_params)
 
-    def at(self, uv: np.ndarray) -> "BSDF":
+    #: Needs the hits' differential geometry in :meth:`at` (shading-normal perturbation).
+    needs_geometry: bool = False
+
+    def at(self, uv: np.ndarray, geometry=None) -> "BSDF":
         """The same BSDF for a batch of hits with texture coordinates ``uv`` (n, 2).
 
         A shallow copy whose textured parameters are replaced by their (n, 3)
         values at the hits (constant parameters stay (3,) arrays; both
         broadcast the same way in ``eval`` and ``sample``). Rows of the batch
-        given to the copy must be those of ``uv``.
+        given to the copy must be those of ``uv``. ``geometry``
+        (:class:`pathtracer.tangents.LocalGeometry` of the same rows) is given when
+        :attr:`needs_geometry`; plain BSDFs ignore it.
         """
         bound = copy.copy(self)
         for name in self.texture_params:

@@ -40,12 +40,17 @@ class BlendBSDF(BSDF):
         """The weight or a blended BSDF varies over the surface."""
         return isinstance(self.weight, Texture) or any(b.textured for b in self.bsdfs)
 
-    def at(self, uv: np.ndarray) -> "BlendBSDF":
+    @property
+    def needs_geometry(self) -> bool:
+        """A blended BSDF perturbs the shading normal."""
+        return any(b.needs_geometry for b in self.bsdfs)
+
+    def at(self, uv: np.ndarray, geometry=None) -> "BlendBSDF":
         """The blend with the weight and both BSDFs bound to the hits' ``uv``."""
         bound = copy.copy(self)
         if isinstance(self.weight, Texture):
             bound.weight = np.clip(self.weight.eval_1(uv), 0.0, 1.0)
-        bound.bsdfs = tuple(b.at(uv) if b.textured else b for b in self.bsdfs)
+        bound.bsdfs = tuple(b.at(uv, geometry) if b.textured else b for b in self.bsdfs)
         return bound
 
     def _weight(self, n: int) -> np.ndarray:

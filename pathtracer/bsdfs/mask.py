@@ -41,13 +41,18 @@ class MaskBSDF(BSDF):
         """The opacity or the nested BSDF varies over the surface."""
         return isinstance(self.opacity, Texture) or self.nested.textured
 
-    def at(self, uv: np.ndarray) -> "MaskBSDF":
+    @property
+    def needs_geometry(self) -> bool:
+        """The nested BSDF perturbs the shading normal."""
+        return self.nested.needs_geometry
+
+    def at(self, uv: np.ndarray, geometry=None) -> "MaskBSDF":
         """The mask with its opacity and nested BSDF bound to the hits' ``uv``."""
         bound = copy.copy(self)
         if isinstance(self.opacity, Texture):
             bound.opacity = np.clip(self.opacity.eval_1(uv), 0.0, 1.0)
         if self.nested.textured:
-            bound.nested = self.nested.at(uv)
+            bound.nested = self.nested.at(uv, geometry)
         return bound
 
     def _opacity(self, n: int) -> np.ndarray:

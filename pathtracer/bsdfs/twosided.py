@@ -46,11 +46,17 @@ class TwoSided(BSDF):
         """A nested BSDF has a texture."""
         return self.nested.textured or (self.back is not None and self.back.textured)
 
-    def at(self, uv: np.ndarray) -> "TwoSided":
+    @property
+    def needs_geometry(self) -> bool:
+        """A nested BSDF perturbs the shading normal."""
+        return any(b is not None and b.needs_geometry for b in (self.nested, self.back))
+
+    def at(self, uv: np.ndarray, geometry=None) -> "TwoSided":
         """Two-sided wrapper of the nested BSDF(s) bound to the hits' ``uv``."""
         if self.back is None:
-            return TwoSided(self.nested.at(uv))
-        return TwoSided(*(b.at(uv) if b.textured else b for b in (self.nested, self.back)))
+            return TwoSided(self.nested.at(uv, geometry))
+        return TwoSided(*(b.at(uv, geometry) if b.textured else b
+                          for b in (self.nested, self.back)))
 
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Nested ``eval`` with both directions mirrored where ``wi`` is on the back side."""

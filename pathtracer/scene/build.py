@@ -33,12 +33,12 @@ SUPPORTED = {
               "bsplinecurve", "linearcurve", "shapegroup", "instance"),
     "bsdf": ("diffuse", "twosided", "conductor", "roughconductor", "dielectric",
              "thindielectric", "roughdielectric", "plastic", "roughplastic", "null", "blendbsdf",
-             "mask"),
+             "mask", "bumpmap", "normalmap"),
     "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
     "sensor": ("perspective",),
     "integrator": ("path", "direct", "ptracer", "recursive", "path_bsdf", "path_nee", "smallpt",
                    "light", "volpath", "volpath_phase"),
-    "texture": ("bitmap", "checkerboard"),
+    "texture": ("bitmap", "checkerboard", "rawconstant"),
     "medium": ("homogeneous",),
     "phase": ("isotropic", "hg"),
 }
@@ -435,6 +435,10 @@ def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | Non
         result = _build_composite(props, bsdfs)
         props.finish()
         return result
+    if kind in ("bumpmap", "normalmap"):
+        result = _build_perturbed(props, bsdfs)
+        props.finish()
+        return result
     _children(plugin, {"texture": 10**9})
 
     def colour(name, default):
@@ -507,6 +511,37 @@ def _scalar_or_texture(props: Props, name: str, default):
     return props.float(name, default)
 
 
+def _build_perturbed(props: Props, bsdfs):
+    """``normalmap`` (an RGB texture named ``normalmap``) and ``bumpmap`` (one height
+    texture of any name, ``scale`` 1), each around one nested BSDF; both take
+    ``flip_invalid_normals`` and ``use_shadowing_function`` (true), as in Mitsuba."""
+    from pathtracer.textures import BitmapTexture
+
+    plugin = props.plugin
+    kids = _children(plugin, {"bsdf": 1, "texture": 1})
+    if not kids["bsdf"]:
+        raise plugin.error(f"{plugin.type} needs exactly one nested <bsdf>")
+    nested = build_bsdf(kids["bsdf"][0], props.folders, props.texture_cache)
+    flags = dict(flip_invalid_normals=props.bool("flip_invalid_normals", True),
+                 use_shadowing_function=props.bool("use_shadowing_function", True))
+    if plugin.type == "normalmap":
+        if "normalmap" not in props.textures:
+            raise plugin.error("normalmap needs a <texture name=\"normalmap\">")
+        props.used.add("normalmap")
+        texture = build_texture(props.textures["normalmap"], props.folders, props.texture_cache)
+        return bsdfs.NormalMap(nested, texture, **flags)
+    if not kids["texture"]:
+        raise plugin.error("bumpmap needs one nested <texture> (the height)")
+    name = next(iter(props.textures))
+    props.used.add(name)
+    texture = build_texture(props.textures[name], props.folders, props.texture_cache)
+    if not isinstance(texture, BitmapTexture):
+        raise props.textures[name].error(
+            f"a bumpmap's height must be a bitmap: Mitsuba differentiates only bitmaps "
+            f"(eval_1_grad), not \"{props.textures[name].type}\"")
+    return bsdfs.BumpMap(nested, texture, props.float("scale", 1.0), **flags)
+
+
 # -- textures ----------------------------------------------------------------
 
 def build_texture(plugin: Plugin, folders: list[str], cache: dict):
@@ -528,6 +563,13 @@ def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
         result = textures.Checkerboard(props.reflectance_or_texture("color0", 0.4, folders, cache),
                                        props.reflectance_or_texture("color1", 0.2, folders, cache),
                                        to_uv)
+    elif plugin.type == "rawconstant":
+        # A value used as given (no colour conversion, no range check): a float or a vector.
+        value = props._get("value", ("float", "integer", "vector", "point", "rgb"),
+                           "a <float> or a <vector>")
+        if value is None:
+            raise plugin.error("missing \"value\" (a <float> or a <vector>)")
+        result = textures.ConstantTexture(np.asarray(value, dtype=float))
     elif plugin.type == "bitmap":
         filter_type = props.string("filter_type", "bilinear").strip().lower()
         wrap_mode = props.string("wrap_mode", "repeat").strip().lower()
@@ -537,8 +579,9 @@ def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
                 raise plugin.error(f"unknown {name} \"{value}\" (supported: "
                                    f"{', '.join(allowed)})", props.line(name))
         raw = props.bool("raw", False)
-        # accel only picks hardware texture units on GPUs; the values are the same.
-        props.ignore("accel")
+        # accel only picks hardware texture units on GPUs, format the storage precision
+        # (half or the variant's float): the values are the same up to rounding.
+        props.ignore("accel", "format")
         path = find_file(plugin, props, "filename", folders)
         try:
             data = read_bitmap(path, raw=raw)
