@@ -356,7 +356,10 @@ def _roughness(bsdf) -> float:
     """Mean microfacet roughness of a rough BSDF (geometric mean of alpha_u, alpha_v)."""
     for owner in (bsdf, getattr(bsdf, "distribution", None), getattr(bsdf, "mf", None)):
         if owner is not None and hasattr(owner, "alpha_u"):
-            return float(np.sqrt(owner.alpha_u * owner.alpha_v))
+            # A textured roughness counts with its mean.
+            alpha_u, alpha_v = (getattr(a, "mean", lambda a=a: a)()
+                                for a in (owner.alpha_u, owner.alpha_v))
+            return float(np.sqrt(alpha_u * alpha_v))
     for value in vars(bsdf).values():
         if hasattr(value, "alpha_u"):
             return float(np.sqrt(value.alpha_u * value.alpha_v))

@@ -88,7 +88,7 @@ CASES = {
         '<texture type="bitmap">', 'unknown wrap_mode "wrap" (supported: repeat, mirror, clamp)'),
     "unknown texture": (
         f'<bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"/>{MARK}</bsdf>',
-        '<texture type="mesh_attribute">', "unsupported texture (supported: bitmap, checkerboard)"),
+        '<texture type="mesh_attribute">', "unsupported texture (supported: bitmap, checkerboard, rawconstant)"),
     "texture for a scalar parameter": (
         f'<bsdf type="roughplastic">\n<texture type="checkerboard" name="alpha"/>{MARK}</bsdf>',
         '<texture type="checkerboard">', 'roughplastic takes a number for "alpha"'),
