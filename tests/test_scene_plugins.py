@@ -33,7 +33,8 @@ INSTANCES = """
 </shape>
 <shape type="instance"><ref id="group"/></shape>
 <shape type="instance"><ref id="group"/>
-  <transform name="to_world"><rotate y="1" angle="45"/><scale value="0.8"/><translate x="-1.2" z="1"/></transform></shape>
+  <transform name="to_world"><rotate y="1" angle="45"/><scale value="0.8"/>
+    <translate x="-1.2" z="1"/></transform></shape>
 """
 
 

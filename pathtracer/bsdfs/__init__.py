@@ -22,6 +22,6 @@ from .twosided import TwoSided
 __all__ = [
     "BSDF", "BSDFSample", "BlendBSDF", "BumpMap", "Conductor", "Dielectric", "Diffuse", "MaskBSDF",
     "MicrofacetDistribution", "NormalMap", "NullBSDF", "Plastic", "RoughConductor", "RoughDielectric",
-    "RoughPlastic", "ThinDielectric", "TwoSided",
-    "fresnel_conductor", "fresnel_dielectric", "fresnel_schlick", "reflect", "refract",
+    "RoughPlastic", "ThinDielectric", "TwoSided", "fresnel_conductor",
+    "fresnel_dielectric", "fresnel_schlick", "reflect", "refract",
 ]

@@ -80,7 +80,7 @@ class PerturbedNormal(BSDF):
         return True
 
     def at(self, uv: np.ndarray, geometry=None) -> "PerturbedNormal":
-        """This BSDF with its perturbed normals at the hits (``geometry``:
+        """The BSDF with its perturbed normals at the hits (``geometry``:
         :class:`pathtracer.tangents.LocalGeometry` of the same rows)."""
         if geometry is None:
             raise ValueError(f"{type(self).__name__} needs the hits' differential geometry")
