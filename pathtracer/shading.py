@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bsdfs.tangent_frame import InTangentFrame
 from .geometry import texture_uv
 from .tangents import local_geometry
 from .scene.types import Scene
@@ -78,11 +79,15 @@ def _groups(scene: Scene, hit):
 
 def _bound(scene: Scene, hit, bsdf, rows: np.ndarray):
     """``bsdf`` ready for the hits ``rows``: bound to their uv (and, for normal and bump
-    maps, their differential geometry) if textured. Plain BSDFs are returned as they are."""
-    if not bsdf.textured:
+    maps, their differential geometry) if textured; turned into Mitsuba's tangent frame
+    (dp/du) if anisotropic. Plain isotropic BSDFs are returned as they are."""
+    anisotropic = bsdf.anisotropic
+    if not (bsdf.textured or anisotropic):
         return bsdf
-    geometry = local_geometry(scene, hit, rows) if bsdf.needs_geometry else None
-    return bsdf.at(texture_uv(scene, hit, rows), geometry)
+    geometry = local_geometry(scene, hit, rows) if bsdf.needs_geometry or anisotropic else None
+    if bsdf.textured:
+        bsdf = bsdf.at(texture_uv(scene, hit, rows), geometry)
+    return InTangentFrame(bsdf, geometry.tangent) if anisotropic else bsdf
 
 
 _PLAIN = (bool, int, float, complex, str, type(None))

@@ -194,3 +194,57 @@ def test_mitsuba_surface_derivatives(tmp_path, mi):
         np.testing.assert_allclose(dp_du[k], np.array(si.dp_du), atol=scale)
         np.testing.assert_allclose(dp_dv[k], np.array(si.dp_dv), atol=scale)
     assert kinds == {"sphere", "disk", "cylinder", "mesh"}
+
+
+@pytest.mark.mitsuba
+def test_mitsuba_bsdfs_at_hits(tmp_path, maps, mi):
+    """BSDF values at real hits, world directions: anisotropic roughness follows Mitsuba's
+    tangent (dp/du), and normal / bump maps perturb the frames Mitsuba perturbs."""
+    from pathtracer import load_scene
+    from pathtracer.geometry import intersect
+    from pathtracer.shading import eval_bsdf
+    from tests.test_scene_plugins import _rays, _write
+    aniso = '<bsdf type="roughconductor"><float name="alpha_u" value="0.4"/><float name="alpha_v" value="0.05"/>' \
+            '<string name="distribution" value="ggx"/></bsdf>'
+    nmap = f'<bsdf type="normalmap"><texture type="bitmap" name="normalmap"><boolean name="raw" value="true"/>' \
+           f'<string name="filename" value="{maps["normal"]}"/></texture><bsdf type="diffuse"/></bsdf>'
+    bump = f'<bsdf type="bumpmap"><float name="scale" value="0.3"/><texture type="bitmap" name="h">' \
+           f'<boolean name="raw" value="true"/><string name="filename" value="{maps["height"]}"/></texture>' \
+           f'<bsdf type="roughplastic"/></bsdf>'
+    body = f"""
+<shape type="sphere"><point name="center" value="0.8, 0.3, 0.5"/><float name="radius" value="0.5"/>
+  <transform name="to_world"><rotate x="1" angle="30"/></transform>{aniso}</shape>
+<shape type="rectangle"><transform name="to_world"><scale x="2" y="0.8"/><rotate x="1" angle="-80"/>
+  <rotate z="1" angle="20"/><translate y="1.6"/></transform>{aniso}</shape>
+<shape type="cube"><transform name="to_world"><scale value="0.3"/><rotate z="1" angle="35"/>
+  <translate x="0.2" y="-0.6" z="1.2"/></transform>{nmap}</shape>
+<shape type="cylinder"><float name="radius" value="0.3"/><transform name="to_world">
+  <translate x="-0.8" y="0.5"/></transform>{bump}</shape>
+<shape type="disk"><transform name="to_world"><scale value="0.7"/><rotate y="1" angle="20"/>
+  <translate x="-1" z="1.4"/></transform>{nmap}</shape>"""
+    path = _write(tmp_path, body)
+    scene, mi_scene = load_scene(path), mi.load_file(path)
+    o, d = _rays(1500, 940)
+    hit = intersect(scene, o, d)
+    rows = np.flatnonzero(hit.valid)
+    wo = random_directions(len(rows), 941)
+    # Directions near the sampled lobe too, so that the narrow anisotropic lobe is seen.
+    wo[::2] = (-d[rows] + 2 * np.einsum("ij,ij->i", d[rows], hit.sh_n[rows])[:, None] * (-hit.sh_n[rows]))[::2]
+    wo[::2] = wo[::2] + 0.15 * random_directions(len(rows), 942)[::2]
+    wo = wo / np.linalg.norm(wo, axis=1)[:, None]
+    sub = type(hit)(**{k: v[rows] for k, v in vars(hit).items()})
+    value, pdf = eval_bsdf(scene, sub, -d[rows], wo)
+    ctx, kinds, compared = mi.BSDFContext(), set(), 0
+    for k, r in enumerate(rows):
+        si = mi_scene.ray_intersect(mi.Ray3f(mi.Point3f(*o[r]), mi.Vector3f(*d[r])))
+        if not si.is_valid() or abs(si.t - hit.t[r]) > 1e-5 * (1 + hit.t[r]):
+            continue
+        local = si.to_local(mi.Vector3f(*wo[k]))
+        theirs = si.bsdf().eval(ctx, si, local)
+        their_pdf = si.bsdf().pdf(ctx, si, local)
+        scale = 1e-3 * (1.0 + abs(theirs[0]))
+        assert abs(value[k, 0] - theirs[0]) < max(scale, 2e-3 * abs(theirs[0])), (k, value[k], theirs)
+        assert abs(pdf[k] - their_pdf) < max(1e-3 * (1 + abs(their_pdf)), 2e-3 * abs(their_pdf)), (k, pdf[k], their_pdf)
+        kinds.add(scene.shape_kind[hit.shape[r]])
+        compared += 1
+    assert kinds == {"sphere", "mesh", "cylinder", "disk"} and compared > 300

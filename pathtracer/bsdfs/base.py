@@ -131,6 +131,9 @@ class BSDF:
 
     #: Needs the hits' differential geometry in :meth:`at` (shading-normal perturbation).
     needs_geometry: bool = False
+    #: Sees the azimuth of the tangent frame (anisotropic roughness): queried in Mitsuba's
+    #: tangent frame (:mod:`pathtracer.bsdfs.tangent_frame`).
+    anisotropic: bool = False
 
     def at(self, uv: np.ndarray, geometry=None) -> "BSDF":
         """The same BSDF for a batch of hits with texture coordinates ``uv`` (n, 2).

@@ -41,6 +41,11 @@ class BlendBSDF(BSDF):
         return isinstance(self.weight, Texture) or any(b.textured for b in self.bsdfs)
 
     @property
+    def anisotropic(self) -> bool:
+        """A nested BSDF sees the azimuth of the tangent frame."""
+        return any(b.anisotropic for b in self.bsdfs)
+
+    @property
     def needs_geometry(self) -> bool:
         """A blended BSDF perturbs the shading normal."""
         return any(b.needs_geometry for b in self.bsdfs)

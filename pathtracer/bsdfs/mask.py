@@ -42,6 +42,11 @@ class MaskBSDF(BSDF):
         return isinstance(self.opacity, Texture) or self.nested.textured
 
     @property
+    def anisotropic(self) -> bool:
+        """A nested BSDF sees the azimuth of the tangent frame."""
+        return self.nested.anisotropic
+
+    @property
     def needs_geometry(self) -> bool:
         """The nested BSDF perturbs the shading normal."""
         return self.nested.needs_geometry

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..textures import Texture
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR, BK7_IOR
 from .fresnel import fresnel_dielectric, reflect_about, refract_about
@@ -64,6 +65,12 @@ class RoughDielectric(BSDF):
         self.eta = float(int_ior) / float(ext_ior)
         self.specular_reflectance = as_colour_or_texture(specular_reflectance)
         self.specular_transmittance = as_colour_or_texture(specular_transmittance)
+
+    @property
+    def anisotropic(self) -> bool:
+        """Sees the azimuth of the tangent frame (alpha_u != alpha_v, or a textured roughness)."""
+        return isinstance(self.alpha_u, Texture) or isinstance(self.alpha_v, Texture) \
+            or self.alpha_u != self.alpha_v
 
     def bind_derived(self) -> None:
         """The distribution of the hits' roughness (when a texture gives it)."""

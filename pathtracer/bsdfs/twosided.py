@@ -47,6 +47,11 @@ class TwoSided(BSDF):
         return self.nested.textured or (self.back is not None and self.back.textured)
 
     @property
+    def anisotropic(self) -> bool:
+        """A nested BSDF sees the azimuth of the tangent frame."""
+        return any(b is not None and b.anisotropic for b in (self.nested, self.back))
+
+    @property
     def needs_geometry(self) -> bool:
         """A nested BSDF perturbs the shading normal."""
         return any(b is not None and b.needs_geometry for b in (self.nested, self.back))
