@@ -34,6 +34,11 @@ class BlendBSDF(BSDF):
         self.weight = weight if isinstance(weight, Texture) else float(np.clip(weight, 0.0, 1.0))
         self.has_smooth = first.has_smooth or second.has_smooth
         self.is_delta = first.is_delta and second.is_delta
+        # For the light tracer's adjoint scaling: the relative index of the refracting
+        # BSDF (the first one's if both refract).
+        refracting = [b for b in (first, second) if b.refracts]
+        self.refracts = bool(refracting)
+        self.eta = refracting[0].eta if refracting else 1.0
 
     @property
     def textured(self) -> bool:

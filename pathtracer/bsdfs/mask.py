@@ -35,6 +35,8 @@ class MaskBSDF(BSDF):
                         else float(np.clip(opacity, 0.0, 1.0)))
         self.has_smooth = nested.has_smooth
         self.is_delta = nested.is_delta
+        # The nested BSDF's refraction (the pass-through has no value to scale).
+        self.refracts, self.eta = nested.refracts, getattr(nested, "eta", 1.0)
 
     @property
     def textured(self) -> bool:

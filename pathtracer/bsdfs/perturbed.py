@@ -72,6 +72,7 @@ class PerturbedNormal(BSDF):
         self.use_shadowing_function = bool(use_shadowing_function)
         self.has_smooth = nested.has_smooth
         self.is_delta = nested.is_delta
+        self.refracts, self.eta = nested.refracts, getattr(nested, "eta", 1.0)
         self.normal = None      # (n, 3) perturbed normal, local frame, after at()
 
     @property

@@ -29,6 +29,8 @@ class InTangentFrame(BSDF):
     def __init__(self, bsdf: BSDF, tangent: np.ndarray):
         self.bsdf = bsdf
         self.has_smooth, self.is_delta = bsdf.has_smooth, bsdf.is_delta
+        # Refraction (and its relative index) for the adjoint scaling of the light tracer.
+        self.refracts, self.eta = bsdf.refracts, getattr(bsdf, "eta", 1.0)
         length = np.hypot(tangent[:, 0], tangent[:, 1])
         ok = length > 0.0
         self.cos = np.where(ok, tangent[:, 0] / np.where(ok, length, 1.0), 1.0)
