@@ -74,6 +74,7 @@ class PerturbedNormal(BSDF):
         self.is_delta = nested.is_delta
         self.refracts, self.eta = nested.refracts, getattr(nested, "eta", 1.0)
         self.normal = None      # (n, 3) perturbed normal, local frame, after at()
+        self._geometry = None   # the hits' LocalGeometry, after at()
 
     @property
     def textured(self) -> bool:
@@ -153,7 +154,6 @@ class NormalMap(PerturbedNormal):
     def __init__(self, nested: BSDF, normalmap: Texture, **flags):
         super().__init__(nested, **flags)
         self.normalmap = normalmap
-        self._tangent_hint = None
 
     def _normal(self, uv, geometry) -> np.ndarray:
         n_mitsuba = 2.0 * self.normalmap.eval(uv) - 1.0     # in Mitsuba's (s, t, n)
@@ -163,15 +163,10 @@ class NormalMap(PerturbedNormal):
         normal[:, 2] += n_mitsuba[:, 2]
         return normal
 
-    def at(self, uv, geometry=None):
-        bound = super().at(uv, geometry)
-        bound._tangent_hint = geometry.tangent
-        return bound
-
     def _tangent(self, normal: np.ndarray) -> np.ndarray:
         # Mitsuba: normalize((1, 0, 0) - n n_x) in its frame, i.e. its tangent made
         # orthogonal to n'.
-        return _gram_schmidt(self._tangent_hint, normal)
+        return _gram_schmidt(self._geometry.tangent, normal)
 
 
 class BumpMap(PerturbedNormal):
