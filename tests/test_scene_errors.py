@@ -63,7 +63,7 @@ CASES = {
         f'<integrator type="prb_projective"/>{MARK}', '<integrator type="prb_projective">',
         "differentiable"),
     "shape not implemented": (
-        f'<shape type="cylinder">{MARK}</shape>', '<shape type="cylinder">',
+        f'<shape type="sdfgrid">{MARK}</shape>', '<shape type="sdfgrid">',
         "not implemented in this tracer"),
     "curve without its file": (
         f'<shape type="bsplinecurve">{MARK}</shape>', '<shape type="bsplinecurve">',
