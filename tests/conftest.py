@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import os
+import sys
 
 import pytest
 
@@ -43,6 +44,26 @@ def pytest_runtest_setup(item):
     if os.environ.get("PATHTRACER_REQUIRE_MITSUBA") == "1":
         pytest.fail(f"{message}; PATHTRACER_REQUIRE_MITSUBA=1 forbids skipping", pytrace=False)
     pytest.skip(message)
+
+
+#: Module fixtures that hold Mitsuba in another variant for their module (and restore it).
+VARIANT_FIXTURES = {"mi_llvm", "mi_variant"}
+
+
+@pytest.fixture(autouse=True)
+def _scalar_variant_after(request):
+    """Leave Mitsuba in ``scalar_rgb`` after every test.
+
+    Rendering a reference switches the process to a JIT variant when one works; a test
+    that did so must not leave the next test of the same worker in it (``mi`` is set up
+    once per session).
+    """
+    yield
+    mitsuba = sys.modules.get("mitsuba")
+    if mitsuba is None or VARIANT_FIXTURES & set(request.fixturenames):
+        return
+    if mitsuba.variant() not in (None, "scalar_rgb"):
+        mitsuba.set_variant("scalar_rgb")
 
 
 @pytest.fixture(scope="session")

@@ -219,9 +219,11 @@ def test_committed_direct_equals_path_depth2(scene):
 
 @pytest.fixture(scope="module")
 def mi_variant(mi):
+    """The variant references are rendered in here; ``scalar_rgb`` again after the module."""
     from mitsuba_refs.variant import set_variant
     variant, _ = set_variant()
-    return variant
+    yield variant
+    mi.set_variant("scalar_rgb")
 
 
 def _spp(variant, jit, scalar):
