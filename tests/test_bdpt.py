@@ -72,7 +72,7 @@ def test_each_unweighted_strategy_estimates_the_paths_of_its_length(unweighted_b
 def test_weighted_strategy_images_sum_to_the_render():
     """Same samples, same random numbers: the MIS-weighted images of all strategies add up
     to the rendered image (glass and a mirror make Dirac vertices on both subpaths)."""
-    scene = load_scene("cornell-caustics", width=12, height=12)
+    scene = load_scene("cornell-caustics", width=8, height=8)
     integrator = BDPTIntegrator(replicas=2)
     result = render(scene, integrator, spp=4, seed=3, processes=1)
     images = render_strategies(scene, integrator, spp=4, seed=3)
@@ -142,7 +142,7 @@ def test_balance_heuristic_on_the_quad_light():
         E = polygon_irradiance(hit.p, corners, np.array([0.0, 1.0, 0.0]), Le)
         return np.where(on_plane, rho / np.pi * E, 0.0)[:, None] * np.ones(3)
 
-    result = render(scene, BDPTIntegrator(mis="balance"), spp=32, seed=15, processes=1)
+    result = render(scene, BDPTIntegrator(mis="balance"), spp=16, seed=15, processes=1)
     assert_matches(result, footprint_average(scene, radiance_at, sub=32))
 
 
