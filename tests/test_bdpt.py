@@ -6,8 +6,12 @@ in test_analytic.py. Here: each strategy (s, t), unweighted, against the per-bou
 references; the weighted strategy images summing to the render; the point-light caustic,
 which only the light-tracing strategies can sample, against Mitsuba's ``ptracer``.
 """
+from pathlib import Path
+
 import numpy as np
 import pytest
+
+import pathtracer
 
 from mitsuba_refs.cache import get_reference
 from mitsuba_refs.stats import compare_means
@@ -160,6 +164,9 @@ def test_refusals():
         BDPTIntegrator(replicas=0)
     with pytest.raises(ValueError, match="splats"):
         BDPTIntegrator().radiance(None, None, None)
+    with pytest.raises(ValueError, match="hide_emitters"):
+        render(load_scene("quad-light", width=4, height=4), "bdpt", spp=1, processes=1,
+               hide_emitters=True)
     with pytest.raises(ValueError, match="light tracing does not support"):
         render(load_scene("envmap", width=4, height=4), "bdpt", spp=1, processes=1)
 
@@ -174,3 +181,13 @@ def test_cli_renders_bdpt(tmp_path, capsys):
         main(["render", "quad-light", "--integrator", "bdpt", "--mis", "max", "-o",
               str(tmp_path / "x.exr")])
     assert error.value.code == 2
+
+
+def test_scene_file_selects_bdpt(tmp_path):
+    """``<integrator type="bdpt">`` with its own parameters (no Mitsuba counterpart)."""
+    xml = tmp_path / "scene.xml"
+    builtin = Path(pathtracer.__file__).parent / "scenes" / "quad-light.xml"
+    xml.write_text(builtin.read_text().replace(
+        '<integrator type="path">', '<integrator type="bdpt"><string name="mis" value="balance"/>'))
+    result = render(load_scene(str(xml), width=4, height=4), spp=2, seed=1, processes=1)
+    assert result.integrator == "bdpt" and result.options["mis"] == "balance"

@@ -192,17 +192,22 @@ class BDPTIntegrator(Integrator):
 
     def __init__(self, mis: str = "power", replicas: int = 8, **options):
         super().__init__(**options)
-        if mis not in MIS_EXPONENT:
-            raise ValueError(f"mis must be one of {tuple(MIS_EXPONENT)}, got {mis!r}")
         if int(replicas) < 1:
             raise ValueError(f"replicas must be >= 1, got {replicas}")
-        if self.hide_emitters:
-            raise ValueError("bdpt does not support hide_emitters")
         self.mis = mis
         self.replicas = int(replicas)
+        self.check_options()
 
     def options(self) -> dict:
         return dict(super().options(), mis=self.mis, replicas=self.replicas)
+
+    def check_options(self) -> None:
+        """Refuse what the options say but bdpt cannot do (render() may set options on a copy)."""
+        if self.mis not in MIS_EXPONENT:
+            raise ValueError(f"mis must be one of {tuple(MIS_EXPONENT)}, got {self.mis!r}")
+        if self.hide_emitters:
+            raise ValueError("bdpt does not support hide_emitters: light subpaths would still "
+                             "reach the camera through the hidden lights")
 
     def radiance(self, scene, rays, rng):
         raise ValueError("bdpt splats into the film: render it with pathtracer.render, "
@@ -222,6 +227,7 @@ class BDPTIntegrator(Integrator):
         ``weighted=False`` gives each strategy's own (unweighted) estimate of the paths of
         length s + t - 1: what it alone would compute.
         """
+        self.check_options()
         count = len(pixels)
         parts = []
         if self.max_depth != 0 and count:
