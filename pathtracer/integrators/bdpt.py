@@ -356,7 +356,7 @@ class BDPTIntegrator(Integrator):
         # A point light's own image (s = 1) is left out, as by Mitsuba's path and ptracer.
         seen_light = (ends.s == 1) & position.delta[ends.row]
         value = value * np.where(seen_light, 0.0, seen.importance)[:, None]
-        visible = self.unblocked(scene, light.p[y], light.n[y], seen.wi, seen.dist, value)
+        visible = self.unblocked(scene, light.p[y], light.n[y], seen.wi, seen.free_dist, value)
         value[~visible] = 0.0
         cos = np.where(light.on_surface[y], np.abs(dot(light.n[y], seen.wi)), 1.0)
         rev = {"light_end": seen.importance * cos,
