@@ -63,17 +63,18 @@ DEFAULT_IMPLEMENTATION = "autograder.solution"
 SOLUTION_MODULES = tuple(f"pathtracer.integrators.{name}" for name in (
     "path", "path_bsdf", "path_nee", "direct", "recursive", "smallpt", "pathclass", "light",
     # The volumetric tracers render surfaces too (MIS path tracing in vacuum).
-    "volpath", "volpath_phase", "volume"))
+    "volpath", "volpath_phase", "volume", "bdpt"))
 GRADER_PACKAGES = ("autograder", "mitsuba_refs", "mitsuba", "drjit")
 #: Names that are the reference solution wherever they are imported from.
 SOLUTION_NAMES = {
     "pathtracer": {"INTEGRATORS", "make_integrator"},
     "pathtracer.integrators": {"INTEGRATORS", "make_integrator", "PathIntegrator",
                                "PathBSDFIntegrator", "PathNEEIntegrator", "DirectIntegrator",
-                               "RecursiveIntegrator", "SmallptIntegrator", "LightIntegrator", "path",
+                               "RecursiveIntegrator", "SmallptIntegrator", "LightIntegrator",
+                               "BDPTIntegrator", "path",
                                "path_bsdf", "path_nee", "direct", "recursive", "smallpt",
                                "pathclass", "light", "VolPathIntegrator",
-                               "VolPathPhaseIntegrator", "volpath", "volpath_phase", "volume"},
+                               "VolPathPhaseIntegrator", "volpath", "volpath_phase", "volume", "bdpt"},
     "pathtracer.camera": {"camera_rays"},
 }
 #: Most source a submission may have (files, bytes) before the grader stops reading.

@@ -79,6 +79,9 @@ class CameraConnection:
         point projects outside the film or lies outside the clip range.
     pixel : (n,) flat index (row * W + column) of the pixel the point projects to, -1 outside.
     film : (n, 2) film position in pixels (x to the right, y down).
+    free_dist : (n,) length of the segment from the point towards the camera that must be
+        unoccluded: up to the near clip plane, where camera rays start (what lies between
+        the pinhole and that plane is not seen, e.g. the wall behind smallpt's camera).
     """
 
     wi: np.ndarray
@@ -86,6 +89,7 @@ class CameraConnection:
     importance: np.ndarray
     pixel: np.ndarray
     film: np.ndarray
+    free_dist: np.ndarray
 
 
 def _plane_half_extent(camera: Camera) -> tuple[float, float]:
@@ -140,5 +144,6 @@ def connect_to_camera(camera: Camera, p: np.ndarray) -> CameraConnection:
     wi = to_camera / np.where(dist > 0, dist, 1.0)[:, None]
     importance = np.where(inside, camera_importance(camera, d_cam) / np.maximum(dist, 1e-300) ** 2,
                           0.0)
+    free_dist = dist * np.maximum(1.0 - camera.near_clip / z, 0.0)
     return CameraConnection(wi, dist, importance, np.where(inside, row * camera.width + column, -1),
-                            np.stack((s_x * camera.width, s_y * camera.height), axis=1))
+                            np.stack((s_x * camera.width, s_y * camera.height), axis=1), free_dist)

@@ -125,7 +125,9 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--branches", type=_positive, help="recursive: indirect rays per hit")
     render.add_argument("--branch-depth", type=_natural, help="recursive: depth down to which hits branch")
     render.add_argument("--replicas", type=_positive,
-                        help="light: independent renders whose spread gives the variance (default 8)")
+                        help="light, bdpt: independent renders whose spread gives the variance (default 8)")
+    render.add_argument("--mis", choices=("power", "balance"),
+                        help="bdpt: heuristic combining the strategies (default power)")
     render.add_argument("--paths", metavar="REGEX",
                         help="render only the paths of a Heckbert class, light first, e.g. 'LS+DE' "
                              "(caustics), 'LDE', 'L.*E' (MIS path tracer; see docs/experiments.md)")
@@ -193,7 +195,7 @@ def _integrator_choice(args, options: dict):
     return PathClassIntegrator(args.paths, glossy=args.glossy,
                                **{k: v for k, v in options.items()
                                   if v is not None and k not in ("branches", "branch_depth",
-                                                                 "replicas")})
+                                                                 "replicas", "mis")})
 
 
 def _render_checked(args) -> int:
@@ -208,7 +210,7 @@ def _render_checked(args) -> int:
 
     options = dict(max_depth=args.max_depth, rr_depth=args.rr_depth, roulette=args.roulette,
                    rr_q=args.rr_q, hemisphere=args.hemisphere, branches=args.branches,
-                   branch_depth=args.branch_depth, replicas=args.replicas)
+                   branch_depth=args.branch_depth, replicas=args.replicas, mis=args.mis)
     try:
         scene = load_scene(args.scene, resolution=args.resolution, sample_count=args.spp,
                            **parse_defines(args.defines))

@@ -498,3 +498,20 @@ def emitted_towards(scene: Scene, position: EmitterPosition, d: np.ndarray) -> n
         else:
             out[rows] = light.intensity * light.falloff(d[rows])[:, None]
     return out
+
+
+def emitter_position_at(scene: Scene, hit) -> EmitterPosition:
+    """The hits on area lights as :class:`EmitterPosition` s, with the area density with which
+    :func:`sample_emitter_position` would have picked them (``1 / (N area)``).
+
+    Hits that are not on an emitter get ``emitter`` -1 and pdf 0. The normal is the shading
+    normal, the one :func:`emitted_radiance` tests the emitting side against.
+    """
+    which = hit_emitter(scene, hit)
+    pdf = np.zeros(len(which))
+    on_light = which >= 0
+    if on_light.any():
+        area = np.array([scene.shape_area[e.shape] if e.kind == "area" else np.inf
+                         for e in scene.emitters])
+        pdf[on_light] = 1.0 / (area[which[on_light]] * scene.num_emitters)
+    return EmitterPosition(hit.p, hit.sh_n, which, pdf, np.zeros(len(which), dtype=bool))

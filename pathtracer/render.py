@@ -354,7 +354,14 @@ class _SplatJob:
         """``(pixels, sums)``: the pixels the unit's splats reached and their (m, 3) sums."""
         replica, b0, b1 = unit
         ids = replica * self.paths + np.arange(b0, b1, dtype=np.int64)
-        pixel, value = self.integrator.splat(self.scene, RandomStream(sample_keys(self.seed, ids)))
+        rng = RandomStream(sample_keys(self.seed, ids))
+        if getattr(self.integrator, "camera_subpaths", False):
+            # Sample i of a replica starts its camera subpath in pixel i mod (W H).
+            camera = self.scene.camera
+            pixels = np.arange(b0, b1, dtype=np.int64) % (camera.width * camera.height)
+            pixel, value = self.integrator.splat(self.scene, rng, pixels)
+        else:
+            pixel, value = self.integrator.splat(self.scene, rng)
         touched, inverse = np.unique(pixel, return_inverse=True)
         sums = np.stack([np.bincount(inverse, weights=value[:, c], minlength=len(touched))
                          for c in range(value.shape[1])], axis=1)

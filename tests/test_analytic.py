@@ -22,8 +22,8 @@ pytestmark = pytest.mark.statistical(assertions=1)
 ALL = sorted(name for name, cls in INTEGRATORS.items() if not getattr(cls, "handles_media", False))
 #: Integrators that only sample BSDFs: a point light is a Dirac delta they can never hit.
 BSDF_ONLY = ("path_bsdf", "smallpt")
-#: Light paths cannot start on an environment yet (the light tracer refuses it: test_light.py).
-WITH_ENVIRONMENT = [i for i in ALL if i != "light"]
+#: Light paths cannot start on an environment yet (light and bdpt refuse it: test_light.py).
+WITH_ENVIRONMENT = [i for i in ALL if i not in ("light", "bdpt")]
 
 
 def footprint_average(scene, radiance_at, sub=4):

@@ -86,3 +86,18 @@ def test_camera_connection_matches_mitsuba_sample_direction(tmp_path, axis, fov,
         np.testing.assert_allclose(ours.film[k], uv, atol=1e-4)
         np.testing.assert_allclose(ours.wi[k], np.array(ds.d), atol=1e-5)
         assert ours.importance[k] == pytest.approx(float(np.array(weight)[0]), rel=1e-4)
+
+
+def test_camera_connections_are_free_only_up_to_the_near_clip_plane():
+    """Camera rays start on the near clip plane, so a connection to the pinhole must be
+    unoccluded only that far: smallpt's camera sits behind the room's front wall (near clip
+    140), and light paths joined to it would all be blocked by the wall."""
+    from pathtracer.camera import connect_to_camera
+    camera = load_scene("smallpt", width=16, height=12).camera
+    rng = np.random.default_rng(4)
+    pixel = rng.integers(0, 16 * 12, 500)
+    rays = camera_rays(camera, pixel, rng.random((500, 2)))
+    beyond = rng.uniform(1.0, 200.0, 500)
+    connection = connect_to_camera(camera, rays.o + rays.d * beyond[:, None])
+    np.testing.assert_allclose(connection.free_dist, beyond, rtol=1e-9)
+    np.testing.assert_array_equal(connection.pixel, pixel)

@@ -5,11 +5,14 @@ import json
 import numpy as np
 import pytest
 
-from experiments import common, convergence, estimators, pathclasses, progression, sweep
+from experiments import (bdpt_strategies, common, convergence, estimators, pathclasses, progression,
+                         sweep)
 
 
-@pytest.mark.parametrize("module", [convergence, progression, estimators, pathclasses, sweep],
-                         ids=["error-vs-spp", "progression", "estimators", "pathclasses", "sweep"])
+@pytest.mark.parametrize("module", [convergence, progression, estimators, pathclasses, sweep,
+                                    bdpt_strategies],
+                         ids=["error-vs-spp", "progression", "estimators", "pathclasses", "sweep",
+                              "bdpt-strategies"])
 def test_help(module, capsys):
     with pytest.raises(SystemExit) as stop:
         module.main(["--help"])
@@ -131,3 +134,11 @@ def test_sweep_on_a_dask_local_cluster(tmp_path):
     reference = sweep.run_sweep(_tasks()[:1], tmp_path / "inline", workers=1, progress=False)
     task = _tasks()[0]
     assert store.get(task)["image_mean"] == reference.get(task)["image_mean"]
+
+
+def test_bdpt_strategies_script(tmp_path, capsys):
+    out = tmp_path / "bdpt"
+    assert bdpt_strategies.main(["--out", str(out), "--longest", "2", "--spp", "2", "-D", "width=8",
+                                 "-D", "height=8", "--no-progress"]) == 0
+    _outputs(out, "bdpt-strategies.png", "bdpt-weighted.png", "bdpt-strategies.csv")
+    assert "k=2 (s=2, t=1)" in capsys.readouterr().out

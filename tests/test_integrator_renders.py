@@ -33,9 +33,9 @@ SEED = 7
 #: Scenes of the integrator x scene matrix: glass + mirror, two lights, a point light, an
 #: environment, rough conductors and plastic, and smallpt's room (glass split, roulette).
 SCENES = ("cornell-caustics", "cornell-lights", "point-light", "envmap", "materials", "smallpt")
-#: The camera-path surface integrators the path-state rewrite touched. ``light`` (light
-#: paths, splatted) and the volumetric integrators have their own tests (tests/test_light.py,
-#: tests/test_media.py).
+#: The camera-path surface integrators the path-state rewrite touched. ``light`` and ``bdpt``
+#: (light paths, splatted) and the volumetric integrators have their own tests (tests/test_light.py,
+#: tests/test_bdpt.py, tests/test_media.py).
 ALL = ("direct", "path", "path_bsdf", "path_nee", "recursive", "smallpt", "pathclass")
 
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from .base import Integrator
+from .bdpt import BDPTIntegrator
 from .direct import DirectIntegrator
 from .light import LightIntegrator
 from .path import PathIntegrator
@@ -15,7 +16,7 @@ from .volpath_phase import VolPathPhaseIntegrator
 INTEGRATORS = {cls.name: cls for cls in (
     PathIntegrator, PathBSDFIntegrator, PathNEEIntegrator, RecursiveIntegrator,
     SmallptIntegrator, DirectIntegrator, LightIntegrator, VolPathIntegrator,
-    VolPathPhaseIntegrator)}
+    VolPathPhaseIntegrator, BDPTIntegrator)}
 
 
 def make_integrator(name: str, **options) -> Integrator:

@@ -117,7 +117,7 @@ class LightIntegrator(Integrator):
     def visible(scene, p, n, camera, value) -> tuple[np.ndarray, np.ndarray]:
         """The splats ``(pixel, value)`` of the non-zero values whose shadow ray reaches the camera."""
         rows = np.flatnonzero((camera.pixel >= 0) & np.any(value != 0, axis=1))
-        rows = rows[~shadowed(scene, p[rows], n[rows], camera.wi[rows], camera.dist[rows])]
+        rows = rows[~shadowed(scene, p[rows], n[rows], camera.wi[rows], camera.free_dist[rows])]
         return camera.pixel[rows], value[rows]
 
 

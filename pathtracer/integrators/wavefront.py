@@ -184,3 +184,9 @@ def replace_hits(hit, rows, new):
         v[rows] = getattr(new, k)
         out[k] = v
     return type(hit)(**out)
+
+
+def concatenate_hits(hits: list):
+    """One hit batch holding the rows of every batch of ``hits``, in order."""
+    return type(hits[0])(**{k: np.concatenate([getattr(h, k) for h in hits], axis=0)
+                            for k in vars(hits[0])})

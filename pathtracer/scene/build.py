@@ -37,7 +37,7 @@ SUPPORTED = {
     "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
     "sensor": ("perspective",),
     "integrator": ("path", "direct", "ptracer", "recursive", "path_bsdf", "path_nee", "smallpt",
-                   "light", "volpath", "volpath_phase"),
+                   "light", "volpath", "volpath_phase", "bdpt"),
     "texture": ("bitmap", "checkerboard", "rawconstant"),
     "medium": ("homogeneous",),
     "phase": ("isotropic", "hg"),
