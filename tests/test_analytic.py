@@ -58,10 +58,11 @@ def polygon_irradiance(x, vertices, normal, radiance):
     return radiance / 2 * np.abs(total)
 
 
-@pytest.mark.parametrize("integrator", ALL)
-def test_quad_light_over_plane(integrator):
+def quad_light_case(width: int, height: int):
+    """The quad-light scene and its closed form: a diffuse plane (albedo 0.5) under a square
+    light (Le = 10, half size 0.5, height 1); Lambert's polygon formula gives its radiance."""
     rho, Le, h, s = 0.5, 10.0, 1.0, 0.5
-    scene = load_scene("quad-light", width=32, height=24, albedo=rho, radiance=Le,
+    scene = load_scene("quad-light", width=width, height=height, albedo=rho, radiance=Le,
                        light_height=h, half_size=s)
     corners = [np.array(c, float) for c in ((-s, h, -s), (s, h, -s), (s, h, s), (-s, h, s))]
     plane = scene.shape_name.index(next(n for n in scene.shape_name if "plane" in n))
@@ -71,8 +72,14 @@ def test_quad_light_over_plane(integrator):
         E = polygon_irradiance(hit.p, corners, np.array([0.0, 1.0, 0.0]), Le)
         return np.where(on_plane, rho / np.pi * E, 0.0)[:, None] * np.ones(3)
 
+    return scene, footprint_average(scene, radiance_at, sub=32)
+
+
+@pytest.mark.parametrize("integrator", ALL)
+def test_quad_light_over_plane(integrator):
+    scene, expected = quad_light_case(32, 24)
     result = render(scene, integrator, spp=64, seed=11, processes=1)
-    assert_matches(result, footprint_average(scene, radiance_at, sub=32))
+    assert_matches(result, expected)
 
 
 @pytest.mark.parametrize("integrator", [i for i in ALL if i not in BSDF_ONLY])

@@ -24,7 +24,7 @@ from pathtracer.integrators.wavefront import subset_hit
 from pathtracer.rng import RandomStream, sample_keys
 from pathtracer.shading import is_delta
 from tests.budget import ALPHA
-from tests.test_analytic import assert_matches, footprint_average, polygon_irradiance
+from tests.test_analytic import assert_matches, quad_light_case
 
 #: Per-bounce references of the Cornell box (Mitsuba ``path`` at max_depth = 1, 2, 3).
 BOX = {"width": 64, "height": 64}
@@ -140,19 +140,9 @@ def test_bdpt_finds_the_point_light_caustic():
 @pytest.mark.statistical(assertions=1)
 def test_balance_heuristic_on_the_quad_light():
     """``mis="balance"``: the same closed form as test_analytic's quad light."""
-    rho, Le, h, s = 0.5, 10.0, 1.0, 0.5
-    scene = load_scene("quad-light", width=16, height=12, albedo=rho, radiance=Le,
-                       light_height=h, half_size=s)
-    corners = [np.array(c, float) for c in ((-s, h, -s), (s, h, -s), (s, h, s), (-s, h, s))]
-    plane = scene.shape_name.index(next(n for n in scene.shape_name if "plane" in n))
-
-    def radiance_at(hit, d):
-        on_plane = hit.valid & (hit.shape == plane)
-        E = polygon_irradiance(hit.p, corners, np.array([0.0, 1.0, 0.0]), Le)
-        return np.where(on_plane, rho / np.pi * E, 0.0)[:, None] * np.ones(3)
-
+    scene, expected = quad_light_case(16, 12)
     result = render(scene, BDPTIntegrator(mis="balance"), spp=16, seed=15, processes=1)
-    assert_matches(result, footprint_average(scene, radiance_at, sub=32))
+    assert_matches(result, expected)
 
 
 def test_refusals():
