@@ -5,14 +5,14 @@ import json
 import numpy as np
 import pytest
 
-from experiments import (bdpt_strategies, common, convergence, estimators, pathclasses, progression,
+from experiments import (bdpt_strategies, caustics, common, convergence, estimators, pathclasses, progression,
                          sweep)
 
 
 @pytest.mark.parametrize("module", [convergence, progression, estimators, pathclasses, sweep,
-                                    bdpt_strategies],
+                                    bdpt_strategies, caustics],
                          ids=["error-vs-spp", "progression", "estimators", "pathclasses", "sweep",
-                              "bdpt-strategies"])
+                              "bdpt-strategies", "caustics"])
 def test_help(module, capsys):
     with pytest.raises(SystemExit) as stop:
         module.main(["--help"])
@@ -142,3 +142,24 @@ def test_bdpt_strategies_script(tmp_path, capsys):
                                  "-D", "height=8", "--no-progress"]) == 0
     _outputs(out, "bdpt-strategies.png", "bdpt-weighted.png", "bdpt-strategies.csv")
     assert "k=2 (s=2, t=1)" in capsys.readouterr().out
+
+
+@pytest.mark.statistical(assertions=1)
+def test_caustics_script(tmp_path, capsys):
+    """A fraction of a CPU second per integrator on the point light: the figures and the
+    numbers are written, and the harness says that path tracing with shadow rays misses the
+    caustic (a disagreement whose worst tile is at the caustic), not that it passes."""
+    out = tmp_path / "caustics"
+    assert caustics.main(["--out", str(out), "--lights", "point", "--seconds", "0.15",
+                          "--no-progress"]) == 0
+    _outputs(out, "caustics.png", "caustics-error.png", "caustics.json")
+    numbers = json.loads((out / "caustics.json").read_text())["lights"]["point"]
+    rows = numbers["integrators"]
+    assert list(rows) == ["path_bsdf", "path", "light", "bdpt"]
+    for row in rows.values():
+        assert len(row["curve"]) >= 2 and row["spp"] >= 2
+        assert all(np.isfinite([p["seconds"], p["rmse"]]).all() for p in row["curve"])
+    assert numbers["caustic_pixels"] > 0
+    path = rows["path"]
+    assert not path["agree"] and path["worst_in_caustic"], path["verdict"]
+    assert "path on the point light" in capsys.readouterr().out
