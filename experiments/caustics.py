@@ -242,7 +242,8 @@ def plot_images(results, out) -> str:
             ax.set_xticks([])
             ax.set_yticks([])
         axis_row[0].set_ylabel(f"{light} light")
-    fig.suptitle(f"caustics at equal CPU time ({args_seconds(results):.3g} s each)", fontsize=10)
+    low, high = seconds_range(results)
+    fig.suptitle(f"caustics at equal CPU time ({low:.3g} to {high:.3g} s each)", fontsize=10)
     return save_png(fig, out, "caustics")
 
 
@@ -271,9 +272,10 @@ def plot_errors(results, out) -> str:
     return save_png(fig, out, "caustics-error")
 
 
-def args_seconds(results) -> float:
-    """The longest budget actually spent (for the figure's title)."""
-    return max(row["seconds"] for r in results.values() for row in r["integrators"].values())
+def seconds_range(results) -> tuple[float, float]:
+    """The shortest and longest CPU time actually spent (the last batch overshoots a little)."""
+    spent = [row["seconds"] for r in results.values() for row in r["integrators"].values()]
+    return min(spent), max(spent)
 
 
 def save_png(fig, out, stem) -> str:
