@@ -251,7 +251,9 @@ def _sample_area(scene, emitter, ref_p, u, sample, rows):
     wo = to_light / np.where(dist > 0, dist, 1.0)[:, None]
     cos_light = dot(wo, normal)
     if pdf is None:
-        pdf = dist ** 2 / (np.abs(cos_light) * scene.shape_area[shape])
+        # A grazing sample (cos_light = 0) has an infinite solid-angle pdf: dropped below.
+        with np.errstate(divide="ignore"):
+            pdf = dist ** 2 / (np.abs(cos_light) * scene.shape_area[shape])
     # One-sided: the light emits only on the side its normal faces.
     facing = (cos_light < 0) & (dist > 0) & np.isfinite(pdf) & (pdf > 0)
     pdf = np.where(facing, pdf, 0.0)
