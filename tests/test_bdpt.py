@@ -13,16 +13,13 @@ import pytest
 
 import pathtracer
 
+from experiments.caustics import first_hits
 from mitsuba_refs.cache import get_reference
 from mitsuba_refs.stats import compare_means
 from pathtracer import load_scene, render
-from pathtracer.camera import camera_rays
 from pathtracer.cli import main
-from pathtracer.geometry import intersect
 from pathtracer.integrators.bdpt import BDPTIntegrator, render_strategies
-from pathtracer.integrators.wavefront import subset_hit
 from pathtracer.rng import RandomStream, sample_keys
-from pathtracer.shading import is_delta
 from tests.budget import ALPHA
 from tests.test_analytic import assert_matches, quad_light_case
 
@@ -101,19 +98,12 @@ def test_no_camera_subpath_ends_on_a_point_light():
     assert np.all(np.isfinite(value)) and np.all(value >= 0)
 
 
-def pixels_seeing_glass(scene, sub=4) -> np.ndarray:
-    """(H, W) True where a camera ray of the pixel's footprint (sub x sub) first hits a
-    Dirac BSDF."""
-    width, height = scene.camera.width, scene.camera.height
-    pixels = np.arange(width * height)
-    out = np.zeros(width * height, dtype=bool)
-    for offset in (np.stack(np.meshgrid(np.arange(sub), np.arange(sub)), -1).reshape(-1, 2) + 0.5) / sub:
-        rays = camera_rays(scene.camera, pixels, np.tile(offset, (len(pixels), 1)))
-        hit = intersect(scene, rays.o, rays.d, rays.tmax)
-        glass = np.zeros(len(pixels), dtype=bool)
-        glass[hit.valid] = is_delta(scene, subset_hit(hit, hit.valid))
-        out |= glass
-    return out.reshape(height, width)
+def pixels_seeing_glass(scene) -> np.ndarray:
+    """(H, W) True where some camera ray of the pixel's footprint first hits a Dirac BSDF."""
+    glass = np.zeros(scene.camera.width * scene.camera.height, dtype=bool)
+    for _, seen, _ in first_hits(scene):
+        glass |= seen
+    return glass.reshape(scene.camera.height, scene.camera.width)
 
 
 @pytest.mark.statistical(assertions=1)
