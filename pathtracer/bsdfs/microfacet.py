@@ -42,6 +42,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..sampling import square_to_uniform_disk_concentric
+from ..textures import Texture
 
 SQRT_PI = np.sqrt(np.pi)
 ALPHA_MIN = 1e-4
@@ -73,8 +74,6 @@ def textured_distribution(bsdf, distribution: str, alpha_u, alpha_v, sample_visi
     Sets ``bsdf.distribution``, ``bsdf.alpha_u``, ``bsdf.alpha_v`` (clamped floats, or the
     textures) and ``bsdf.sample_visible``.
     """
-    from ..textures import Texture
-
     alpha_v = alpha_u if alpha_v is None else alpha_v
     if isinstance(alpha_u, Texture) or isinstance(alpha_v, Texture):
         distr = None
@@ -86,6 +85,23 @@ def textured_distribution(bsdf, distribution: str, alpha_u, alpha_v, sample_visi
         bsdf.alpha_u, bsdf.alpha_v = distr.alpha_u, distr.alpha_v
     bsdf.distribution, bsdf.sample_visible = check.distribution, check.sample_visible
     return distr
+
+
+class RoughSurface:
+    """What a rough BSDF built by :func:`textured_distribution` shares (a mixin before
+    :class:`~pathtracer.bsdfs.base.BSDF`): its anisotropy and its per-batch distribution."""
+
+    @property
+    def anisotropic(self) -> bool:
+        """Sees the azimuth of the tangent frame (alpha_u != alpha_v, or a textured roughness)."""
+        return isinstance(self.alpha_u, Texture) or isinstance(self.alpha_v, Texture) \
+            or self.alpha_u != self.alpha_v
+
+    def bind_derived(self) -> None:
+        """The distribution of the hits' roughness (when a texture gives it)."""
+        if self.distr is None:
+            self.distr = MicrofacetDistribution(self.distribution, self.alpha_u, self.alpha_v,
+                                                self.sample_visible)
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:

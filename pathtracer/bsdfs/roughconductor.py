@@ -26,15 +26,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..textures import Texture
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .conductor import complex_ior, conductor_reflectance
 from .fresnel import reflect_about
-from .microfacet import (MicrofacetDistribution, _dot, reflection_half_vector,
+from .microfacet import (RoughSurface, _dot, reflection_half_vector,
                          textured_distribution)
 
 
-class RoughConductor(BSDF):
+class RoughConductor(RoughSurface, BSDF):
     r"""Microfacet conductor.
 
     Parameters
@@ -65,18 +64,6 @@ class RoughConductor(BSDF):
         self.distr = textured_distribution(self, distribution, alpha_u, alpha_v, sample_visible)
         self.specular_reflectance = as_colour_or_texture(specular_reflectance)
         self.eta_complex = complex_ior(eta, k)
-
-    @property
-    def anisotropic(self) -> bool:
-        """Sees the azimuth of the tangent frame (alpha_u != alpha_v, or a textured roughness)."""
-        return isinstance(self.alpha_u, Texture) or isinstance(self.alpha_v, Texture) \
-            or self.alpha_u != self.alpha_v
-
-    def bind_derived(self) -> None:
-        """The distribution of the hits' roughness (when a texture gives it)."""
-        if self.distr is None:
-            self.distr = MicrofacetDistribution(self.distribution, self.alpha_u, self.alpha_v,
-                                                self.sample_visible)
 
     def fresnel(self, cos_theta: np.ndarray) -> np.ndarray:
         """Conductor Fresnel factor times ``specular_reflectance`` -> (n, 3)."""

@@ -34,11 +34,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..textures import Texture
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR, BK7_IOR
 from .fresnel import fresnel_dielectric, reflect_about, refract_about
-from .microfacet import MicrofacetDistribution, _dot, _normalize, textured_distribution
+from .microfacet import (RoughSurface, _dot, _normalize,
+                         textured_distribution)
 
 
 def _mulsign_z(v: np.ndarray, sign_of: np.ndarray) -> np.ndarray:
@@ -46,7 +46,7 @@ def _mulsign_z(v: np.ndarray, sign_of: np.ndarray) -> np.ndarray:
     return np.where(np.signbit(sign_of)[:, None], -v, v)
 
 
-class RoughDielectric(BSDF):
+class RoughDielectric(RoughSurface, BSDF):
     """Microfacet interface between media of indices ``int_ior`` (inside) and ``ext_ior``."""
 
     texture_params = ("specular_reflectance", "specular_transmittance")
@@ -65,17 +65,6 @@ class RoughDielectric(BSDF):
         self.eta = float(int_ior) / float(ext_ior)
         self.specular_reflectance = as_colour_or_texture(specular_reflectance)
         self.specular_transmittance = as_colour_or_texture(specular_transmittance)
-
-    @property
-    def anisotropic(self) -> bool:
-        """Sees the azimuth of the tangent frame (alpha_u != alpha_v, or a textured roughness)."""
-        return isinstance(self.alpha_u, Texture) or isinstance(self.alpha_v, Texture) \
-            or self.alpha_u != self.alpha_v
-
-    def bind_derived(self) -> None:
-        """The distribution of the hits' roughness (when a texture gives it)."""
-        if self.distr is None:
-            self.distr = MicrofacetDistribution(self.distribution, self.alpha_u, self.alpha_v)
 
     def _geometry(self, wi: np.ndarray, wo: np.ndarray):
         """Reflection mask, relative index :math:`\\eta'`, generalised half vector (upper side)."""
