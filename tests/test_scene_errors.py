@@ -218,6 +218,37 @@ CASES = {
     "blendbsdf with one bsdf": (
         f'<bsdf type="blendbsdf">{MARK}<float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf>',
         '<bsdf type="blendbsdf">', "needs exactly 2 nested <bsdf>"),
+    # participating media (tests/test_media.py tests what they render)
+    "heterogeneous medium": (
+        f'<medium type="heterogeneous" id="m"/>{MARK}', '<medium type="heterogeneous">',
+        "heterogeneous (grid volume) media are not implemented"),
+    "spectral-only phase": (
+        f'<medium type="homogeneous">\n<phase type="rayleigh"/>{MARK}</medium>',
+        '<phase type="rayleigh">', "spectral variants"),
+    "grid volume": (
+        f'<medium type="homogeneous">\n<volume type="gridvolume" name="albedo"/>{MARK}</medium>',
+        '<volume type="gridvolume">', "only homogeneous media"),
+    "mitsuba 0.6 coefficients": (
+        f'<medium type="homogeneous">\n<rgb name="sigma_a" value="0.5"/>{MARK}\n'
+        f'<rgb name="sigma_s" value="1.5, 1, 0.5"/></medium>',
+        '<medium type="homogeneous">', "sigma_t = sigma_a + sigma_s = 2, 1.5, 1, albedo = "
+        "sigma_s / sigma_t = 0.75, 0.666667, 0.5"),
+    "rgb sigma_t above 1": (
+        f'<medium type="homogeneous">\n<rgb name="sigma_t" value="2, 1, 1"/>{MARK}</medium>',
+        '<medium type="homogeneous">', "an <rgb> sigma_t must lie in [0, 1]"),
+    "hg g out of range": (
+        f'<medium type="homogeneous"><phase type="hg">\n<float name="g" value="1"/>{MARK}</phase></medium>',
+        '<phase type="hg">', "g must lie in (-1, 1)"),
+    "shape medium without side": (
+        f'<shape type="cube">\n<medium type="homogeneous"/>{MARK}</shape>',
+        '<medium type="homogeneous">', 'needs name="interior" or name="exterior"'),
+    "two interior media": (
+        f'<medium type="homogeneous" id="a"/><shape type="cube"><ref id="a" name="interior"/>'
+        f'\n<medium type="homogeneous" name="interior"/>{MARK}</shape>',
+        '<medium type="homogeneous">', "has two interior media"),
+    "null bsdf parameter": (
+        f'<bsdf type="null">\n<float name="alpha" value="0.1"/>{MARK}</bsdf>',
+        '<bsdf type="null">', 'unsupported property "alpha"'),
 }
 
 
