@@ -621,6 +621,15 @@ class _Geometry:
         self.cdf.append(cdf)
         self.ntri += len(p)
 
+    def add_analytic(self, kind: str, table: list, entry, area: float) -> None:
+        """Add one analytic shape (sphere, disk, curve, cylinder): ``entry`` goes into its
+        ``table`` (e.g. ``self.spheres``); its primitive range is that one row."""
+        table.append(entry)
+        self.kind.append(kind)
+        self.prim.append((len(table) - 1, len(table)))
+        self.area.append(area)
+        self.cdf.append(None)
+
 
 def _shape_label(plugin: Plugin) -> str:
     ident = f' "{plugin.id}"' if plugin.id else ""
@@ -806,11 +815,9 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
         # Object frame for texture coordinates: the inverse of the rotation (a
         # mirror included) left after dividing out the radius.
         to_local = (lin / np.sqrt(s2)).T
-        geo.spheres.append((full[:3, 3].copy(), float(np.sqrt(s2)), flip, shape_id, to_local))
-        geo.kind.append("sphere")
-        geo.prim.append((len(geo.spheres) - 1, len(geo.spheres)))
-        geo.area.append(4.0 * np.pi * s2)
-        geo.cdf.append(None)
+        geo.add_analytic("sphere", geo.spheres,
+                         (full[:3, 3].copy(), float(np.sqrt(s2)), flip, shape_id, to_local),
+                         4.0 * np.pi * s2)
     elif kind in ("bsplinecurve", "linearcurve"):
         _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids)
     elif kind == "disk":
@@ -819,12 +826,9 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
             raise plugin.error("a disk rotated about a non-unit axis is not supported (Mitsuba "
                                "then transforms its normal inconsistently with its surface)",
                                props.line("to_world"))
-        geo.disks.append((m, flip, shape_id))
-        geo.kind.append("disk")
-        geo.prim.append((len(geo.disks) - 1, len(geo.disks)))
         # The unit disk maps to an ellipse of area pi |u x v| (u, v = images of x, y).
-        geo.area.append(np.pi * np.linalg.norm(np.cross(m[:3, 0], m[:3, 1])))
-        geo.cdf.append(None)
+        geo.add_analytic("disk", geo.disks, (m, flip, shape_id),
+                         np.pi * np.linalg.norm(np.cross(m[:3, 0], m[:3, 1])))
     elif kind == "cylinder":
         _add_cylinder(plugin, props, geo, shape_id, m, flip, kids["emitter"])
     else:
@@ -859,11 +863,7 @@ def _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids):
         raise plugin.error(f"{os.path.basename(path)}: a control point has a negative radius",
                            props.line("filename"))
     shape = CurveShape(world, "bspline" if bspline else "linear", shape_id)
-    geo.curves.append(shape)
-    geo.kind.append("curve")
-    geo.prim.append((len(geo.curves) - 1, len(geo.curves)))
-    geo.area.append(shape.area())
-    geo.cdf.append(None)
+    geo.add_analytic("curve", geo.curves, shape, shape.area())
 
 
 def _add_cylinder(plugin, props, geo, shape_id, m, flip, emitters) -> None:
@@ -884,12 +884,9 @@ def _add_cylinder(plugin, props, geo, shape_id, m, flip, emitters) -> None:
         raise plugin.error("a mirroring to_world is not supported on a cylinder (Mitsuba flips "
                            "its normals by a rule this tracer does not reproduce)",
                            props.line("to_world"))
-    geo.cylinders.append((full, flip, shape_id))
-    geo.kind.append("cylinder")
-    geo.prim.append((len(geo.cylinders) - 1, len(geo.cylinders)))
     # Mitsuba: 2 pi r l, r and l the lengths of the images of local x and z.
-    geo.area.append(2.0 * np.pi * np.linalg.norm(full[:3, 0]) * np.linalg.norm(full[:3, 2]))
-    geo.cdf.append(None)
+    geo.add_analytic("cylinder", geo.cylinders, (full, flip, shape_id),
+                     2.0 * np.pi * np.linalg.norm(full[:3, 0]) * np.linalg.norm(full[:3, 2]))
 
 
 # -- emitters, sensor, integrator -----------------------------------------
