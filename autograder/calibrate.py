@@ -60,8 +60,9 @@ def seed_record(k: int, results: list, seconds: float) -> dict:
     }
 
 
-def summarise(records: list) -> dict:
-    """The report of :func:`main` from the :func:`seed_record` of every repetition."""
+def summarise(records: list, part_alpha: float = grading.ALPHA) -> dict:
+    """The report of :func:`main` from the :func:`seed_record` of every repetition, with the
+    assignment's per-part level ``part_alpha``."""
     lost = sum(record["lost_points"] for record in records)
     p = np.array([v for record in records for v in record["p_values"].values()])
     low, high = clopper_pearson(lost, len(records))
@@ -71,11 +72,11 @@ def summarise(records: list) -> dict:
         "false_failure_rate": lost / len(records),
         "false_failure_ci95": [low, high],
         "designed_rate": grading.SUBMISSION_ALPHA,
-        "part_alpha": grading.ALPHA,
+        "part_alpha": part_alpha,
         "part_p_values": len(p),
         "below_0.05": int((p <= 0.05).sum()),
         "below_0.01": int((p <= 0.01).sum()),
-        "below_part_alpha": int((p <= grading.ALPHA).sum()),
+        "below_part_alpha": int((p <= part_alpha).sum()),
         "min_p": float(p.min()) if p.size else None,
         "ks_uniform_p": float(stats.kstest(p, "uniform").pvalue) if p.size else None,
         "seconds_per_submission": float(np.median([r["seconds"] for r in records])),
@@ -103,8 +104,11 @@ def main(argv=None) -> int:
                         help="the implementation builds on the reference solution (correct "
                              "alternatives in tests/alternatives)")
     parser.add_argument("--seeds", type=int, default=40, help="repetitions (default: %(default)s)")
+    parser.add_argument("--assignment", choices=list(grading.ASSIGNMENTS),
+                        default=grading.DEFAULT_ASSIGNMENT,
+                        help="the assignment graded (default: %(default)s)")
     parser.add_argument("--checks", nargs="+", choices=sorted(grading.CHECKS_BY_ID),
-                        help="grade only these checks (default: all)")
+                        help="grade only these checks of the assignment (default: all)")
     parser.add_argument("--workers", type=int, default=1, help="submissions graded at once")
     parser.add_argument("--out", type=Path, default=Path("out/grading-calibration.json"))
     parser.add_argument("--fresh", action="store_true",
@@ -112,7 +116,12 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.seeds < 1 or args.workers < 1:
         parser.error("--seeds and --workers must be >= 1")
-    checks = [grading.CHECKS_BY_ID[c] for c in args.checks] if args.checks else grading.CHECKS
+    checks = grading.checks_of(args.assignment)
+    if args.checks:
+        others = sorted(set(args.checks) - {c.id for c in checks})
+        if others:
+            parser.error(f"--checks {' '.join(others)}: not in the assignment {args.assignment}")
+        checks = [grading.CHECKS_BY_ID[c] for c in args.checks]
     check_ids = [c.id for c in checks]
 
     # Every finished repetition is appended at once, so a long sweep can be stopped and resumed.
@@ -142,7 +151,8 @@ def main(argv=None) -> int:
                   f"{'lost ' + str(record['lost']) if record['lost_points'] else 'full marks'}; "
                   f"{lost}/{len(records)} lost so far", flush=True)
 
-    report = summarise([r for r in records if r["seed"] <= args.seeds])
+    part_alpha = grading.alpha_of(checks[0])
+    report = summarise([r for r in records if r["seed"] <= args.seeds], part_alpha)
     report.update(impl=args.impl, checks=check_ids)
     args.out.write_text(json.dumps(report, indent=2))
     low, high = report["false_failure_ci95"]
@@ -150,7 +160,7 @@ def main(argv=None) -> int:
           f"(95 % CI [{low:.1%}, {high:.1%}]; designed <= {grading.SUBMISSION_ALPHA:g})")
     print(f"{report['part_p_values']} part p-values: {report['below_0.05']} <= 0.05, "
           f"{report['below_0.01']} <= 0.01, {report['below_part_alpha']} <= the part level "
-          f"{grading.ALPHA:.2g}, min {report['min_p']:.2g}, "
+          f"{part_alpha:.2g}, min {report['min_p']:.2g}, "
           f"KS vs uniform p = {report['ks_uniform_p']:.2f}")
     print(f"wrote {args.out}")
     return 0

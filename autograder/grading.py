@@ -14,9 +14,12 @@ quality of a correct estimator. When anything fails, the check also renders the 
 integrator at max_depth = 1, 2, 3 against the per-bounce references to say which bounce
 breaks first (evidence for the hints, never scored), and writes the z-map pictures.
 
+Checks are grouped into *assignments* (``ASSIGNMENTS``: path tracing, and the lecture's later
+methods), each graded as a submission of its own (``--assignment`` of the pytest plugin).
+
 Error budget
 ------------
-Every scored part is one statistical test. A correct submission must lose points with
+Every scored part is one statistical test. A correct submission to an assignment must lose points with
 probability at most ``SUBMISSION_ALPHA`` = 1e-3 in total, so each of the ``N`` scored parts
 runs at ``alpha = SUBMISSION_ALPHA / N`` (Bonferroni, valid under any dependence; the mean,
 variance and convergence tests each control their own internal families at that level).
@@ -79,6 +82,7 @@ class Check:
     title : str
     max_depth : int, optional  render (and compare) at this max_depth instead of the scene's
         unbounded default: an off-by-one in the depth limit is invisible at max_depth = -1
+    assignment : str  the assignment (``ASSIGNMENTS`` key) the check belongs to
     """
 
     id: str
@@ -91,6 +95,7 @@ class Check:
     glass: bool = False
     title: str = ""
     max_depth: int | None = None
+    assignment: str = "path-tracing"
 
     @property
     def points(self) -> float:
@@ -159,20 +164,41 @@ CHECKS = (
           title="Perspective camera (camera_rays)"),
 )
 
-CHECKS_BY_ID = {c.id: c for c in CHECKS}
+#: Assignment name -> its checks. Each assignment is graded as a submission of its own (its own
+#: Gradescope autograder, ``--assignment``): its own points, time and error budget.
+ASSIGNMENTS = {
+    "path-tracing": CHECKS,
+}
+#: Every check of every assignment (ids are unique across assignments).
+ALL_CHECKS = tuple(check for checks in ASSIGNMENTS.values() for check in checks)
+CHECKS_BY_ID = {c.id: c for c in ALL_CHECKS}
+DEFAULT_ASSIGNMENT = "path-tracing"
 
 
-def budget() -> ErrorBudget:
-    """The submission's error budget: one registered test per scored part."""
+def checks_of(assignment: str = DEFAULT_ASSIGNMENT) -> tuple:
+    """The checks of ``assignment``; a ValueError that lists the assignments if it is unknown."""
+    if assignment not in ASSIGNMENTS:
+        raise ValueError(f"unknown assignment {assignment!r}; the assignments are "
+                         f"{', '.join(ASSIGNMENTS)}")
+    return ASSIGNMENTS[assignment]
+
+
+def budget(assignment: str = DEFAULT_ASSIGNMENT) -> ErrorBudget:
+    """The error budget of one submission to ``assignment``: one registered test per scored part."""
     b = ErrorBudget(SUBMISSION_ALPHA)
-    for check in CHECKS:
+    for check in checks_of(assignment):
         for part, _ in check.parts:
             b.register(f"{check.id}/{part}")
     return b
 
 
-#: Per-test level of every scored part.
-ALPHA = budget().alpha(f"{CHECKS[0].id}/mean")
+def alpha_of(check: Check) -> float:
+    """Per-test level of every scored part of ``check`` (its assignment's Bonferroni share)."""
+    return budget(check.assignment).alpha(f"{check.id}/{check.parts[0][0]}")
+
+
+#: Per-test level of every scored part of the path-tracing assignment.
+ALPHA = alpha_of(CHECKS[0])
 
 
 @dataclass
@@ -249,14 +275,14 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
     seed_offset : int  added to every render seed (false-failure calibration)
     limits : Limits, optional  default: the check's time limit, MEMORY_MB, OUTPUT_BYTES
     history : dict, optional  ``check id -> CheckResult`` of earlier checks (hints compare them)
-    alpha : float, optional  per-part level (default :data:`ALPHA`)
+    alpha : float, optional  per-part level (default: :func:`alpha_of` the check)
     trusted : bool  grade in the solution runtime without the refusal check (the reference
         solution, the bug zoo and the correct alternatives; never a student's submission)
     """
     from mitsuba_refs.compare import compare
 
     start = time.perf_counter()
-    alpha = ALPHA if alpha is None else alpha
+    alpha = alpha_of(check) if alpha is None else alpha
     limits = limits or Limits(check.seconds * TIME_SCALE, MEMORY_MB, OUTPUT_BYTES)
     result = CheckResult(check)
     camera = "student" if check.camera else "reference"

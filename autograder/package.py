@@ -1,4 +1,7 @@
-"""Build the Gradescope autograder zip: ``python -m autograder.package OUT.zip``.
+"""Build the Gradescope autograder zip: ``python -m autograder.package OUT.zip [--assignment NAME]``.
+
+One zip grades one assignment (:data:`autograder.grading.ASSIGNMENTS`, default ``path-tracing``):
+its name is written into ``run_autograder``.
 
 The zip holds what Gradescope's Ubuntu image needs (https://gradescope-autograders.readthedocs.io):
 
@@ -71,6 +74,7 @@ set -u
 ROOT=${AUTOGRADER_ROOT:-/autograder}
 . "$ROOT/env.sh"
 RESULTS=$ROOT/results/results.json
+ASSIGNMENT=@ASSIGNMENT@
 mkdir -p "$ROOT/results"
 chmod 700 "$ROOT/results"
 rm -rf "$ROOT/student" && mkdir -p "$ROOT/student"
@@ -87,7 +91,7 @@ cd "$ROOT/source"
 # The plugin is a pytest11 entry point only where the project is pip-installed.
 PLUGIN=$("$GRADER_PYTHON" -c 'import importlib.metadata as m
 print("" if any(e.name == "autograder" for e in m.entry_points(group="pytest11")) else "-p autograder.plugin")')
-"$GRADER_PYTHON" -m pytest $PLUGIN autograder/tests_for_students --impl "$IMPL" \\
+"$GRADER_PYTHON" -m pytest $PLUGIN autograder/tests_for_students --impl "$IMPL" --assignment "$ASSIGNMENT" \\
     --gradescope "$RESULTS" -q -p no:cacheprovider ${AUTOGRADER_PYTEST_K:+-k "$AUTOGRADER_PYTEST_K"} || true
 # The plugin writes results after every test; if the grader could not even start, say so.
 "$GRADER_PYTHON" - "$RESULTS" <<'PY'
@@ -123,12 +127,15 @@ def _files():
                 yield file
 
 
-def build(out_zip) -> Path:
-    """Write the Gradescope zip; return its path."""
+def build(out_zip, assignment: str = "path-tracing") -> Path:
+    """Write the Gradescope zip that grades ``assignment``; return its path."""
+    from .grading import checks_of
+    checks_of(assignment)                       # an unknown name fails here, not on Gradescope
     out_zip = Path(out_zip)
     out_zip.parent.mkdir(parents=True, exist_ok=True)
     with zipfile.ZipFile(out_zip, "w", zipfile.ZIP_DEFLATED) as z:
-        for name, text in (("setup.sh", SETUP_SH), ("run_autograder", RUN_AUTOGRADER)):
+        run = RUN_AUTOGRADER.replace("@ASSIGNMENT@", assignment)
+        for name, text in (("setup.sh", SETUP_SH), ("run_autograder", run)):
             info = zipfile.ZipInfo(name)
             info.external_attr = 0o755 << 16
             z.writestr(info, text)
@@ -142,8 +149,11 @@ def main(argv=None) -> int:
     """Build the Gradescope upload (command line); exit code."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out_zip")
+    from .grading import ASSIGNMENTS
+    parser.add_argument("--assignment", choices=list(ASSIGNMENTS), default="path-tracing",
+                        help="the assignment the zip grades (default: %(default)s)")
     args = parser.parse_args(argv)
-    path = build(args.out_zip)
+    path = build(args.out_zip, args.assignment)
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return 0
 

@@ -3,6 +3,8 @@
 Options
 -------
 ``--impl PATH_OR_MODULE``   the implementation to grade (default :mod:`autograder.solution`)
+``--assignment NAME``       the assignment graded (:data:`autograder.grading.ASSIGNMENTS`;
+                            default ``path-tracing``)
 ``--gradescope RESULTS``    write Gradescope's ``results.json`` there, after every test
 ``--grading-pictures DIR``  where z-map pictures of failed checks go (default: next to RESULTS)
 ``--solution-runtime``      grade in the runtime that contains the reference solution, without
@@ -40,6 +42,8 @@ def pytest_addoption(parser):
     group.addoption("--impl", default=None, metavar="PATH_OR_MODULE",
                     help="implementation to grade: module name, .py file or package folder "
                          "(default: autograder.solution, the reference solution)")
+    group.addoption("--assignment", default="path-tracing", metavar="NAME",
+                    help="the assignment whose checks are graded (default: path-tracing)")
     group.addoption("--gradescope", default=None, metavar="RESULTS_JSON",
                     help="write Gradescope results.json here, atomically after every test")
     group.addoption("--grading-pictures", default=None, metavar="DIR",
@@ -54,6 +58,11 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "points(n): max score of a graded test")
     config.addinivalue_line("markers", "visibility(v): Gradescope visibility: visible, "
                                        "after_due_date, after_published or hidden")
+    from .grading import ASSIGNMENTS
+    assignment = config.getoption("--assignment")
+    if assignment not in ASSIGNMENTS:
+        raise pytest.UsageError(f"--assignment {assignment}: unknown; the assignments are "
+                                f"{', '.join(ASSIGNMENTS)}")
     path = config.getoption("--gradescope")
     if path:
         config.stash[_RESULTS] = Results(path)

@@ -1,9 +1,9 @@
 """Power of the graded mean parts: the smallest global bias each check detects.
 
-``python -m autograder.power`` prints, for every check in :data:`autograder.grading.CHECKS`
-(whatever it holds when run), the smallest relative bias ``b`` such that an image ``(1+b)``
-times the truth fails the check's mean part with probability >= 0.95 at the per-part level
-:data:`autograder.grading.ALPHA`:
+``python -m autograder.power [--assignment NAME]`` prints, for every check of the assignment
+(:data:`autograder.grading.ASSIGNMENTS`, whatever it holds when run), the smallest relative bias
+``b`` such that an image ``(1+b)`` times the truth fails the check's mean part with probability
+>= 0.95 at the assignment's per-part level (:func:`autograder.grading.alpha_of`):
 
 1. analytically, from the committed reference's per-pixel mean and variance and the test's
    statistic (:func:`mitsuba_refs.stats.detectable_bias`: the whole-image component of the
@@ -31,7 +31,7 @@ from mitsuba_refs.stats.power import gross_error_bound
 
 from . import grading
 
-#: The bias every integrator check must detect (probability >= POWER at grading.ALPHA).
+#: The bias every integrator check must detect (probability >= POWER at its per-part level).
 TARGET_BIAS = 0.015
 POWER = 0.95
 
@@ -97,30 +97,33 @@ def rendered_power(check, b: float, renders: int, *, alpha: float, seed: int = 7
 
 def power_table(checks=None, *, alpha: float | None = None, seeds: int = 200,
                 renders: int = 0) -> list[dict]:
-    """One row per check: spp, analytic detectable bias (both signs), injected power there."""
+    """One row per check: spp, analytic detectable bias (both signs), injected power there.
+
+    ``alpha``: the per-part level (default: each check's own, :func:`autograder.grading.alpha_of`).
+    """
     checks = grading.CHECKS if checks is None else checks
-    alpha = grading.ALPHA if alpha is None else alpha
     rows = []
     for i, check in enumerate(checks):
         if not any(name == "mean" for name, _ in check.parts):
             continue
         ref = reference_of(check)
-        row = {"check": check.id, "spp": check.spp, "alpha": alpha}
+        level = alpha or grading.alpha_of(check)
+        row = {"check": check.id, "spp": check.spp, "alpha": level}
         for sign, key in ((1, "brighter"), (-1, "darker")):
-            b = detectable_bias(ref.mean, ref.var, ref.n, check.spp, alpha=alpha, power=POWER,
+            b = detectable_bias(ref.mean, ref.var, ref.n, check.spp, alpha=level, power=POWER,
                                 sign=sign)
             row[f"bias_{key}"] = b
             row[f"injected_power_{key}"] = injected_power(sign * b, ref.mean, ref.var, ref.n,
-                                                          check.spp, alpha=alpha, seeds=seeds,
+                                                          check.spp, alpha=level, seeds=seeds,
                                                           seed=1000 * i + (sign > 0))
             if renders:
                 row[f"rendered_power_{key}"] = rendered_power(check, sign * b, renders,
-                                                              alpha=alpha)
+                                                              alpha=level)
         row["detectable_bias"] = max(row["bias_brighter"], row["bias_darker"])
-        row["reference_floor"] = detectable_bias(ref.mean, ref.var, ref.n, 1e15, alpha=alpha,
+        row["reference_floor"] = detectable_bias(ref.mean, ref.var, ref.n, 1e15, alpha=level,
                                                  power=POWER)
         row["gross_error_bound"] = gross_error_bound(ref.mean, ref.var, ref.n, check.spp,
-                                                     alpha=alpha, max_var_ratio=VARIANCE_BOUND)
+                                                     alpha=level, max_var_ratio=VARIANCE_BOUND)
         rows.append(row)
     return rows
 
@@ -147,11 +150,15 @@ def main(argv=None) -> int:
     parser.add_argument("--seeds", type=int, default=200, help="injected renders per check and sign")
     parser.add_argument("--renders", type=int, default=0,
                         help="also real renders of the reference solution per check and sign (slow)")
-    parser.add_argument("--alpha", type=float, default=None, help="per-part level (default grading.ALPHA)")
-    parser.add_argument("--checks", nargs="*", help="check ids (default: all)")
+    parser.add_argument("--alpha", type=float, default=None,
+                        help="per-part level (default: the assignment's, grading.alpha_of)")
+    parser.add_argument("--assignment", choices=list(grading.ASSIGNMENTS),
+                        default=grading.DEFAULT_ASSIGNMENT, help="the assignment (default: %(default)s)")
+    parser.add_argument("--checks", nargs="*", help="check ids (default: all of the assignment)")
     parser.add_argument("--json", help="also write the rows here")
     args = parser.parse_args(argv)
-    checks = [grading.CHECKS_BY_ID[c] for c in args.checks] if args.checks else None
+    checks = ([grading.CHECKS_BY_ID[c] for c in args.checks] if args.checks
+              else grading.checks_of(args.assignment))
     start = time.perf_counter()
     rows = power_table(checks, alpha=args.alpha, seeds=args.seeds, renders=args.renders)
     alpha = rows[0]["alpha"] if rows else grading.ALPHA

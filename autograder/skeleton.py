@@ -1,6 +1,7 @@
 """Generate the student skeleton from the reference solution.
 
-``python -m autograder.skeleton OUT_DIR`` writes a package ``OUT_DIR/student/``:
+``python -m autograder.skeleton OUT_DIR [--assignment NAME]`` writes a package
+``OUT_DIR/student/`` with the modules of one assignment (``ASSIGNMENT_MODULES``):
 
 * one module per integrator, copied from ``pathtracer/integrators/`` with every
   ``radiance`` body replaced by its docstring and
@@ -19,6 +20,7 @@ import argparse
 import ast
 import re
 import sys
+import textwrap
 from pathlib import Path
 
 import pathtracer
@@ -38,16 +40,17 @@ STUBS = {
     "camera.py": ("camera_rays", "slide 'Ray Tracing' (primary rays of a perspective camera)"),
 }
 
-INIT = '''"""Your implementation: fill in every function that raises NotImplementedError.
+#: The modules of each assignment's skeleton (keys of ``STUBS``; the order of ``INTEGRATORS``).
+ASSIGNMENT_MODULES = {
+    "path-tracing": ("integrators/path.py", "integrators/path_bsdf.py", "integrators/path_nee.py",
+                     "integrators/recursive.py", "integrators/smallpt.py", "integrators/direct.py",
+                     "camera.py"),
+}
 
-Grade it locally with
-    pytest autograder/tests_for_students --impl path/to/student
-(from the project's source folder). Import only pathtracer's building blocks (geometry,
-shading, emitters, sampling, the base class, the path state), NumPy and SciPy: a
-submission that imports the reference integrators, the reference camera or the grader is
-refused.
-
-A radiance traces all its rays at once; the base class keeps the bookkeeping of which paths
+#: The loop each assignment's ``__init__.py`` sketches: the slide's steps, with the path-state
+#: operations that implement them.
+ASSIGNMENT_LOOPS = {
+    "path-tracing": """A radiance traces all its rays at once; the base class keeps the bookkeeping of which paths
 are still alive (pathtracer/integrators/wavefront.py), so you write only the slide's steps:
 
     def radiance(self, scene, rays, rng):
@@ -61,23 +64,60 @@ are still alive (pathtracer/integrators/wavefront.py), so you write only the sli
             # Russian roulette                   self.russian_roulette(paths)
             # the next hit                       paths.next_hit(scene)
         return paths.L
-"""
+""",
+}
+
+INIT = '''"""Your implementation: fill in every function that raises NotImplementedError.
+
+Grade it locally with
+    pytest autograder/tests_for_students --assignment {assignment} --impl path/to/student
+(from the project's source folder). Import only pathtracer's building blocks (geometry,
+shading, emitters, sampling, the base class, the path state), NumPy and SciPy: a
+submission that imports the reference integrators, the reference camera or the grader is
+refused.
+
+{loop}"""
 from pathtracer.integrators.base import Integrator
 
-from .camera import camera_rays
-from .direct import DirectIntegrator
-from .path import PathIntegrator
-from .path_bsdf import PathBSDFIntegrator
-from .path_nee import PathNEEIntegrator
-from .recursive import RecursiveIntegrator
-from .smallpt import SmallptIntegrator
+{imports}
 
-INTEGRATORS = {cls.name: cls for cls in (
-    PathIntegrator, PathBSDFIntegrator, PathNEEIntegrator, RecursiveIntegrator,
-    SmallptIntegrator, DirectIntegrator)}
+INTEGRATORS = {{cls.name: cls for cls in (
+    {classes})}}
 
-__all__ = ["INTEGRATORS", "Integrator", "camera_rays"]
+__all__ = {exports}
 '''
+
+
+def integrator_classes(source: str) -> list:
+    """Names of the classes of ``source`` that register an integrator (a string ``name``)."""
+    found = []
+    for node in ast.parse(source).body:
+        if isinstance(node, ast.ClassDef) and any(
+                isinstance(stmt, ast.Assign) and isinstance(stmt.value, ast.Constant)
+                and isinstance(stmt.value.value, str)
+                and any(getattr(t, "id", None) == "name" for t in stmt.targets)
+                for stmt in node.body):
+            found.append(node.name)
+    return found
+
+
+def init_source(assignment: str) -> str:
+    """The skeleton's ``__init__.py`` for ``assignment``: the contract's ``INTEGRATORS``
+    (and ``camera_rays`` where the assignment grades the camera)."""
+    imports, classes, exports = [], [], ["INTEGRATORS", "Integrator"]
+    for relative in ASSIGNMENT_MODULES[assignment]:
+        module = Path(relative).stem
+        if relative == "camera.py":
+            imports.append("from .camera import camera_rays")
+            exports.append("camera_rays")
+            continue
+        names = integrator_classes((SOURCE / relative).read_text())
+        imports += [f"from .{module} import {name}" for name in names]
+        classes += names
+    return INIT.format(assignment=assignment, loop=ASSIGNMENT_LOOPS[assignment],
+                       imports="\n".join(sorted(imports)),
+                       classes="\n    ".join(textwrap.wrap(", ".join(classes), 92)),
+                       exports=repr(exports).replace("'", '"'))
 
 
 def absolute_imports(source: str, package: str) -> str:
@@ -114,15 +154,16 @@ def stub_source(source: str, name: str, slide: str) -> str:
     return "".join(lines)
 
 
-def generate(out_dir, stubs: bool = True) -> Path:
-    """Write the skeleton package ``out_dir/student``; return its path.
+def generate(out_dir, stubs: bool = True, assignment: str = "path-tracing") -> Path:
+    """Write the skeleton package ``out_dir/student`` of ``assignment``; return its path.
 
     ``stubs=False`` writes the reference solution itself in the student's layout, a
     stand-alone correct submission for testing the grader end to end.
     """
     package = Path(out_dir) / "student"
     package.mkdir(parents=True, exist_ok=True)
-    for relative, (name, slide) in STUBS.items():
+    for relative in ASSIGNMENT_MODULES[assignment]:
+        name, slide = STUBS[relative]
         source = (SOURCE / relative).read_text()
         module_package = "pathtracer." + ".".join(Path(relative).parent.parts)
         module_package = module_package.rstrip(".")
@@ -132,7 +173,7 @@ def generate(out_dir, stubs: bool = True) -> Path:
         header = (f"# Generated by `python -m autograder.skeleton` from pathtracer/{relative}.\n"
                   f"# Implement {name} (the lecture's {slide}).\n")
         (package / Path(relative).name).write_text(header + source)
-    (package / "__init__.py").write_text(INIT)
+    (package / "__init__.py").write_text(init_source(assignment))
     return package
 
 
@@ -140,8 +181,10 @@ def main(argv=None) -> int:
     """Write the student skeleton package (command line); exit code."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out_dir", help="folder to write the package 'student' into")
+    parser.add_argument("--assignment", choices=list(ASSIGNMENT_MODULES), default="path-tracing",
+                        help="the assignment whose skeleton is written (default: %(default)s)")
     args = parser.parse_args(argv)
-    package = generate(args.out_dir)
+    package = generate(args.out_dir, assignment=args.assignment)
     print(f"wrote {package}")
     return 0
 

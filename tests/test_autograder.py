@@ -63,8 +63,9 @@ def _limits(check):
 
 @pytest.fixture(scope="session")
 def graded():
-    """CheckResults of the reference (every check) and of every mutant (its target check)."""
-    jobs = {("reference", c.id): (c, "autograder.solution") for c in grading.CHECKS}
+    """CheckResults of the reference (every check of every assignment) and of every mutant
+    (its target check)."""
+    jobs = {("reference", c.id): (c, "autograder.solution") for c in grading.ALL_CHECKS}
     for path in MUTANTS:
         module = constants(path)
         jobs[(Path(path).stem, module.CHECK)] = (grading.CHECKS_BY_ID[module.CHECK], path)
@@ -80,24 +81,35 @@ def graded():
         return {key: f.result() for key, f in futures.items()}
 
 
-def test_budget_is_within_one_in_a_thousand():
-    b = grading.budget()
-    assert b.n_tests == sum(len(c.parts) for c in grading.CHECKS)
+@pytest.mark.parametrize("assignment", list(grading.ASSIGNMENTS))
+def test_budget_is_within_one_in_a_thousand(assignment):
+    """Each assignment is a submission of its own: its parts share 1e-3."""
+    checks = grading.checks_of(assignment)
+    b = grading.budget(assignment)
+    assert b.n_tests == sum(len(c.parts) for c in checks)
     assert b.worst_case_suite_alpha() <= grading.SUBMISSION_ALPHA * (1 + 1e-9)
-    assert grading.ALPHA == pytest.approx(grading.SUBMISSION_ALPHA / b.n_tests)
+    for check in checks:
+        assert check.assignment == assignment
+        assert grading.alpha_of(check) == pytest.approx(grading.SUBMISSION_ALPHA / b.n_tests)
+    assert grading.ALPHA == grading.alpha_of(grading.CHECKS[0])
 
 
-def test_time_limits_fit_gradescope():
+def test_check_ids_are_unique_across_assignments():
+    assert len(grading.CHECKS_BY_ID) == len(grading.ALL_CHECKS)
+
+
+@pytest.mark.parametrize("assignment", list(grading.ASSIGNMENTS))
+def test_time_limits_fit_gradescope(assignment):
     """Even a submission whose every test hangs to its limit is graded before Gradescope's
     default autograder timeout of 10 minutes ("It took longer than 600 seconds to run"),
     with 60 s left for the grader itself (start-up, references, statistics, results.json).
     The bound was 270 s (5 minutes) while checks rendered 64 spp; the spp that give every
     check its power (docs/autograder.md, "Power") need limits of 445 s."""
-    assert sum(c.seconds for c in grading.CHECKS) <= 600 - 60
+    assert sum(c.seconds for c in grading.checks_of(assignment)) <= 600 - 60
 
 
 def test_reference_solution_gets_full_marks(graded):
-    for check in grading.CHECKS:
+    for check in grading.ALL_CHECKS:
         result = graded[("reference", check.id)]
         assert result.passed and result.score == check.points, result.report()
 
@@ -365,14 +377,23 @@ def _run_grader(impl, out, *extra, timeout=900, env_extra=None):
     return proc, document
 
 
-def test_skeleton_grades_zero_without_crashing(tmp_path):
+@pytest.mark.parametrize("assignment", list(grading.ASSIGNMENTS))
+def test_skeleton_grades_zero_without_crashing(tmp_path, assignment):
     from autograder.skeleton import generate
-    package = generate(tmp_path / "skeleton")
-    proc, document = _run_grader(package, tmp_path / "results.json")
+    package = generate(tmp_path / "skeleton", assignment=assignment)
+    proc, document = _run_grader(package, tmp_path / "results.json", "--assignment", assignment)
     assert document["score"] == 0
-    assert len(document["tests"]) == len(grading.CHECKS), proc.stdout[-2000:]
+    assert len(document["tests"]) == len(grading.checks_of(assignment)), proc.stdout[-2000:]
     for test in document["tests"]:
         assert test["status"] == "failed" and "not implemented" in test["output"], test
+
+
+def test_unknown_assignment_is_a_usage_error(tmp_path):
+    cmd = [sys.executable, "-m", "pytest", *_plugin_args(), str(ROOT / "autograder" / "tests_for_students"),
+           "--assignment", "raytracing", "-q", "-p", "no:cacheprovider", "--rootdir", str(ROOT / "autograder")]
+    proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 4, proc.stdout + proc.stderr
+    assert "unknown; the assignments are path-tracing" in proc.stderr, proc.stderr
 
 
 def test_plugin_writes_points_visibility_and_partial_credit(tmp_path):
