@@ -11,8 +11,12 @@ render seed shifted, and reports
 
     python -m autograder.calibrate --seeds 100 --out out/grading-calibration.json
 
-A seed costs one graded submission (about 24 s on one core). Each finished seed is appended
-to ``OUT.jsonl`` at once; running the command again resumes from there (``--fresh`` restarts).
+A seed costs one graded submission (about 140 s of CPU for the path-tracing assignment).
+Each finished seed is appended to ``OUT.jsonl`` at once; running the command again resumes
+from there (``--fresh`` restarts). The sweep measures the statistics, not the machine:
+``--time-scale`` multiplies every time limit, so that a sweep on a loaded machine does not
+count a slow render as a lost point (the time limits' margin is measured apart,
+docs/autograder.md "Time and memory").
 """
 from __future__ import annotations
 
@@ -110,12 +114,15 @@ def main(argv=None) -> int:
     parser.add_argument("--checks", nargs="+", choices=sorted(grading.CHECKS_BY_ID),
                         help="grade only these checks of the assignment (default: all)")
     parser.add_argument("--workers", type=int, default=1, help="submissions graded at once")
+    parser.add_argument("--time-scale", type=float, default=grading.TIME_SCALE,
+                        help="multiply every time limit (default: AUTOGRADER_TIME_SCALE or 1)")
     parser.add_argument("--out", type=Path, default=Path("out/grading-calibration.json"))
     parser.add_argument("--fresh", action="store_true",
                         help="ignore the repetitions already logged beside --out")
     args = parser.parse_args(argv)
-    if args.seeds < 1 or args.workers < 1:
-        parser.error("--seeds and --workers must be >= 1")
+    if args.seeds < 1 or args.workers < 1 or not args.time_scale > 0:
+        parser.error("--seeds and --workers must be >= 1, --time-scale > 0")
+    grading.TIME_SCALE = args.time_scale
     checks = grading.checks_of(args.assignment)
     if args.checks:
         others = sorted(set(args.checks) - {c.id for c in checks})
