@@ -130,7 +130,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="bdpt: heuristic combining the strategies (default power)")
     render.add_argument("--paths", metavar="REGEX",
                         help="render only the paths of a Heckbert class, light first, e.g. 'LS+DE' "
-                             "(caustics), 'LDE', 'L.*E' (MIS path tracer; see docs/experiments.md)")
+                             "(caustics), 'LDE', 'L.*E' (with path, light or bdpt; "
+                             "see docs/experiments.md)")
     render.add_argument("--glossy", default="G",
                         help="--paths: letter of rough conductors, G, D, S or an alpha threshold")
     render.add_argument("--processes", type=_positive, help="worker processes (default: all cores)")
@@ -186,12 +187,16 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 
 
 def _integrator_choice(args, options: dict):
-    """The ``integrator`` argument of :func:`render`: a name, None, or the --paths integrator."""
+    """The ``integrator`` argument of :func:`render`: a name, None, or the --paths integrator
+    (the class-splitting path tracer, or ``light`` / ``bdpt`` with their ``paths`` option)."""
     if not args.paths:
         return args.integrator
+    from .integrators import make_integrator
     from .integrators.pathclass import PathClassIntegrator
+    if args.integrator in ("light", "bdpt"):
+        return make_integrator(args.integrator, paths=args.paths, glossy=args.glossy)
     if args.integrator not in (None, "path"):
-        raise ValueError("--paths works with the path integrator only")
+        raise ValueError("--paths works with the path, light and bdpt integrators only")
     return PathClassIntegrator(args.paths, glossy=args.glossy,
                                **{k: v for k, v in options.items()
                                   if v is not None and k not in ("branches", "branch_depth",

@@ -43,6 +43,7 @@ letter. ``twosided`` takes the letter of its nested BSDF; an unknown BSDF is
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -272,9 +273,10 @@ class PathClass:
         return f"PathClass({self.expression!r}, {self.n_states} states)"
 
 
-def compile_class(expression: str) -> PathClass:
-    """Compile a path expression (light first) into the DFA of its reversal (eye first)."""
-    tree = reverse(parse(expression))
+def _compile_tree(tree) -> tuple[np.ndarray, np.ndarray]:
+    """Subset construction: (transition table, accepting states) of a syntax tree's DFA.
+
+    State 0 is the dead state, state 1 the start."""
     nfa = _NFA()
     start, end = nfa.build(tree)
     dead = frozenset()
@@ -297,6 +299,12 @@ def compile_class(expression: str) -> PathClass:
         i += 1
     delta = np.array(rows, dtype=np.int32)
     accept = np.array([end in states for states in order], dtype=bool)
+    return delta, accept
+
+
+def compile_class(expression: str) -> PathClass:
+    """Compile a path expression (light first) into the DFA of its reversal (eye first)."""
+    delta, accept = _compile_tree(reverse(parse(expression)))
     return PathClass(expression, delta, accept, 1)
 
 
@@ -305,6 +313,75 @@ def compile_classes(expressions) -> list[PathClass]:
     if isinstance(expressions, str):
         expressions = [expressions]
     return [e if isinstance(e, PathClass) else compile_class(e) for e in expressions]
+
+
+@dataclass(frozen=True, eq=False)
+class JoinedClass:
+    """A path class read from both ends, for light tracing and BDPT.
+
+    A light subpath reads its vertices from the light (``L`` first) with the DFA of the
+    expression as written; a camera subpath reads them from the eye (``E`` first) with
+    :attr:`camera`, the DFA of the reversal. Joining a light prefix u that left the first
+    automaton in state a with a camera prefix v that left the second in state b gives a
+    path of the class iff ``join[a, b]``: the state a fixes every suffix u can be completed
+    with, b every prefix v can be, so the answer depends on the two states only and is
+    tabulated from one shortest string reaching each of them.
+
+    Attributes
+    ----------
+    expression : str
+    light_delta : (n_light_states, 5) int32
+        Transition table of the expression's DFA (light first); state 1 is the start.
+    camera : PathClass
+        The DFA of the reversal (:func:`compile_class`).
+    join : (n_light_states, camera.n_states) bool
+    """
+
+    expression: str
+    light_delta: np.ndarray
+    camera: PathClass
+    join: np.ndarray
+
+    start = 1
+
+    def light_step(self, state, letter) -> np.ndarray:
+        """Light-side states after reading ``letter`` (a letter or per-path codes)."""
+        return self.light_delta[state, LETTER[letter] if isinstance(letter, str) else letter]
+
+    def camera_step(self, state, letter) -> np.ndarray:
+        """Camera-side states after reading ``letter`` (a letter or per-path codes)."""
+        return self.camera.step(state, letter)
+
+    def accepts(self, light_state, camera_state) -> np.ndarray:
+        """Whether joining the two prefixes gives a path of the class."""
+        return self.join[light_state, camera_state]
+
+
+def _shortest_strings(delta: np.ndarray, start: int) -> dict:
+    """state -> a shortest string that reaches it from ``start`` (breadth first)."""
+    found, frontier = {start: ""}, [start]
+    while frontier:
+        following = []
+        for state in frontier:
+            for code, letter in enumerate(ALPHABET):
+                target = int(delta[state, code])
+                if target not in found:
+                    found[target] = found[state] + letter
+                    following.append(target)
+        frontier = following
+    return found
+
+
+@functools.lru_cache(maxsize=64)
+def compile_joined(expression: str) -> JoinedClass:
+    """Compile a path expression (light first) for subpaths grown from both ends."""
+    camera = compile_class(expression)
+    light_delta, _ = _compile_tree(parse(expression))
+    join = np.zeros((len(light_delta), camera.n_states), dtype=bool)
+    for a, prefix in _shortest_strings(light_delta, 1).items():
+        for b, suffix in _shortest_strings(camera.delta, camera.start).items():
+            join[a, b] = camera.matches(prefix + suffix[::-1])
+    return JoinedClass(expression, light_delta, camera, join)
 
 
 def enumerate_paths(max_vertices: int, letters: str = SCATTERING):
@@ -371,6 +448,47 @@ def bsdf_letters(scene, glossy="G") -> np.ndarray:
     return np.array([LETTER[bsdf_letter(b, glossy)] for b in scene.bsdfs], dtype=np.int32)
 
 
+class SubpathClass:
+    """A :class:`JoinedClass` with the letters of one scene: the automaton states of the
+    subpaths of light tracing and BDPT, one per path, updated a vertex at a time.
+
+    Parameters
+    ----------
+    expression : str
+        The class, light first (``"LS+DE"``).
+    scene : Scene
+        Gives each shape the letter of its BSDF (:func:`bsdf_letters`).
+    glossy : {'G', 'D', 'S'} or float
+        As for :func:`bsdf_letter`.
+    """
+
+    def __init__(self, expression: str, scene, glossy="G"):
+        self.joined = compile_joined(expression)
+        self.shape_letter = bsdf_letters(scene, glossy)[np.asarray(scene.shape_bsdf)]
+        self.after_light = int(self.joined.light_step(self.joined.start, "L"))
+        self.after_eye = int(self.joined.camera_step(self.joined.camera.start, "E"))
+
+    def light_states(self, count: int) -> np.ndarray:
+        """(count,) states of light subpaths that hold their light vertex only."""
+        return np.full(count, self.after_light, dtype=np.int32)
+
+    def camera_states(self, count: int) -> np.ndarray:
+        """(count,) states of camera subpaths that hold the eye only."""
+        return np.full(count, self.after_eye, dtype=np.int32)
+
+    def light_vertex(self, state: np.ndarray, shape: np.ndarray) -> np.ndarray:
+        """Light-side states after a scattering vertex on each of ``shape``."""
+        return self.joined.light_step(state, self.shape_letter[shape])
+
+    def camera_vertex(self, state: np.ndarray, shape: np.ndarray) -> np.ndarray:
+        """Camera-side states after a scattering vertex on each of ``shape``."""
+        return self.joined.camera_step(state, self.shape_letter[shape])
+
+    def accepts(self, light_state, camera_state) -> np.ndarray:
+        """Whether the joined subpaths form a path of the class."""
+        return self.joined.accepts(light_state, camera_state)
+
+
 def describe_letters(scene, glossy="G") -> list[str]:
     """'name: letter' for each BSDF of the scene, for reports."""
     return [f"{type(b).__name__}"
@@ -389,5 +507,6 @@ def _parse_glossy(value):
 
 
 __all__ = ["ALPHABET", "LETTER", "LECTURE_CLASSES", "PathClass", "PathRegexError", "parse",
-           "reverse", "compile_class", "compile_classes", "is_partition", "enumerate_paths",
+           "reverse", "compile_class", "compile_classes", "JoinedClass", "compile_joined", "SubpathClass",
+           "is_partition", "enumerate_paths",
            "bsdf_letter", "bsdf_letters", "describe_letters"]

@@ -96,7 +96,7 @@ BAD_OPTIONS = {
     "-D max_depth -5": (["cornell-box", "-D", "max_depth=-5"], ["cornell-box.xml:", "max_depth must be -1"]),
     "bad path expression": (["cornell-box", "--paths", "L(S"], ["path expression"]),
     "paths with another integrator": (["cornell-box", "--paths", "LDE", "--integrator", "direct"],
-                                      ["--paths works with the path integrator only"]),
+                                      ["--paths works with the path, light and bdpt integrators only"]),
     "branches 0": (["cornell-box", "--integrator", "recursive", "--branches", "0"], ["--branches"]),
     "branches with path": (["cornell-box", "--branches", "2"], ["branches"]),
     "rr-q with mitsuba roulette out of range": (["cornell-box", "--rr-q", "1.5"], ["rr_q must lie in [0, 1)"]),

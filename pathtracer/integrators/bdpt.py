@@ -63,6 +63,12 @@ exactly the light subpath's ``pdf_fwd(y_0)``.
 A point or spot light is not imaged by the pinhole (s = t = 1 is zero for it), as in
 Mitsuba, whose ``path`` and ``ptracer`` cannot see a Dirac light either.
 
+With ``paths`` (a Heckbert class, :mod:`pathtracer.pathclasses`) the light subpath reads
+the class's automaton from its ``L`` end and the camera subpath the reversed one from the
+``E`` end; a strategy counts iff the two states at its connection accept together
+(:class:`pathtracer.pathclasses.JoinedClass`), so each class image holds exactly the
+MIS-weighted contributions of the class's paths.
+
 The light subpaths' splats (t = 1) reach any pixel, so the integrator renders like the
 light tracer (:func:`pathtracer.render.render_splats`): sample i of a replica runs its
 camera subpath through pixel ``i mod (W H)``.
@@ -80,6 +86,7 @@ from ..shading import eval_bsdf, has_smooth, sample_bsdf
 from ..vec import dot
 from .base import Integrator
 from .light import leaving, shading_correction
+from .pathclass import ClassSelection
 from .wavefront import Paths, concatenate_hits, subset_hit, trace
 
 #: MIS heuristics and the exponent of their density ratios.
@@ -171,7 +178,7 @@ def _remap0(pdf: np.ndarray) -> np.ndarray:
     return np.where(pdf > 0, pdf, 1.0)
 
 
-class BDPTIntegrator(Integrator):
+class BDPTIntegrator(ClassSelection, Integrator):
     """Bidirectional path tracer with multiple importance sampling (Veach's BDPT).
 
     Parameters
@@ -180,6 +187,11 @@ class BDPTIntegrator(Integrator):
         The heuristic combining the strategies.
     replicas : int
         Independent renders whose spread gives each pixel's variance (splats, as ``light``).
+    paths : str, optional
+        A Heckbert class (``"LS+DE"``, :mod:`pathtracer.pathclasses`): only the strategies'
+        contributions of paths in it count (see :meth:`class_mask`).
+    glossy : {'G', 'D', 'S'} or float
+        Letter of glossy BSDFs for ``paths``.
     **options
         As :class:`~pathtracer.integrators.base.Integrator` (``hide_emitters`` is refused:
         light subpaths would still reach the camera through the hidden lights).
@@ -190,16 +202,18 @@ class BDPTIntegrator(Integrator):
     #: render_splats passes each sample's pixel (its camera subpath starts there).
     camera_subpaths = True
 
-    def __init__(self, mis: str = "power", replicas: int = 8, **options):
+    def __init__(self, mis: str = "power", replicas: int = 8, paths: str | None = None,
+                 glossy="G", **options):
         super().__init__(**options)
         if int(replicas) < 1:
             raise ValueError(f"replicas must be >= 1, got {replicas}")
         self.mis = mis
         self.replicas = int(replicas)
+        self.select_paths(paths, glossy)
         self.check_options()
 
     def options(self) -> dict:
-        return dict(super().options(), mis=self.mis, replicas=self.replicas)
+        return dict(super().options(), mis=self.mis, replicas=self.replicas, **self.class_options())
 
     def check_options(self) -> None:
         """Refuse what the options say but bdpt cannot do (render() may set options on a copy)."""
@@ -235,6 +249,11 @@ class BDPTIntegrator(Integrator):
             camera = self.camera_subpath(scene, streams.subset(2 * np.arange(count)), pixels)
             light, position = self.light_subpath(scene, streams.subset(2 * np.arange(count) + 1))
             s, t, row = self.strategy_rows(camera, light)
+            classes = self.subpath_class(scene)
+            states = None if classes is None else (subpath_states(camera, classes.camera_states(count),
+                                                                  classes.camera_vertex),
+                                                   subpath_states(light, classes.light_states(count),
+                                                                  classes.light_vertex))
             for case, connect in ((s == 0, self.hit_light), (t == 1, self.to_camera),
                                   ((s > 0) & (t > 1), self.join)):
                 ends = Ends(s[case], t[case], row[case], pixels)
@@ -243,12 +262,32 @@ class BDPTIntegrator(Integrator):
                 value, pixel, rev = connect(scene, camera, light, position, ends)
                 if weighted:
                     value = value * self.mis_weight(camera, light, position, ends, rev)[:, None]
+                if classes is not None:
+                    value = value * self.class_mask(classes, states, ends)[:, None]
                 keep = (pixel >= 0) & np.any(value != 0, axis=1)
                 parts.append((ends.s[keep], ends.t[keep], pixel[keep], value[keep]))
         if not parts:
             return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64),
                     np.zeros((0, 3)))
         return tuple(np.concatenate([part[k] for part in parts]) for k in range(4))
+
+    @staticmethod
+    def class_mask(classes, states, ends) -> np.ndarray:
+        """Whether the path of each strategy in ``ends`` lies in the selected class.
+
+        ``states`` are the camera and the light subpaths' automaton states per vertex
+        (:func:`subpath_states`). Strategy (s, t) joins the light prefix y_0 ... y_{s-1}
+        to the camera prefix z_0 ... z_{t-1}; for s = 0 the camera's z_{t-1} is the light
+        vertex, so its prefix ends at z_{t-2} and the light side is ``L`` alone. Every
+        strategy that samples a path reads the same letters, so the MIS weights of a path in
+        the class still sum to one.
+        """
+        camera_states, light_states = states
+        hits_light = ends.s == 0
+        camera_vertex = np.where(hits_light, ends.t - 2, ends.t - 1)
+        light_state = np.where(hits_light, classes.after_light,
+                               light_states[np.maximum(ends.s - 1, 0), ends.row])
+        return classes.accepts(light_state, camera_states[camera_vertex, ends.row])
 
     def strategy_rows(self, camera: Subpaths, light: Subpaths):
         """Every (s, t, row) that both subpaths of sample ``row`` allow, s + t - 1 <= max_depth."""
@@ -487,6 +526,22 @@ class Ends:
         """Slots of y_{s - back} (-1 where s - back < 0)."""
         depth = self.s - back
         return np.where(depth >= 0, light.slot[np.maximum(depth, 0), self.row], -1)
+
+
+def subpath_states(subpaths: Subpaths, first: np.ndarray, step) -> np.ndarray:
+    """(length, count) automaton states of a batch of subpaths after each of their vertices.
+
+    ``first`` are the states after vertex 0 (the eye or the light), ``step(state, shape)``
+    reads a scattering vertex on ``shape``. Rows past a subpath's end keep its last state.
+    """
+    states = np.empty((subpaths.length, len(first)), dtype=np.int32)
+    states[0] = first
+    for depth in range(1, subpaths.length):
+        states[depth] = states[depth - 1]
+        rows = np.flatnonzero(subpaths.slot[depth] >= 0)
+        shapes = subpaths.hit.shape[subpaths.slot[depth, rows] - subpaths.first_hit]
+        states[depth, rows] = step(states[depth - 1, rows], shapes)
+    return states
 
 
 def _take(position: EmitterPosition, rows) -> EmitterPosition:

@@ -23,6 +23,10 @@ f* is the adjoint BSDF: importance is not compressed by refraction (no
 each bounce is multiplied by ``|cos_s(w_in) cos_g(w_out) / (cos_s(w_out) cos_g(w_in))|``
 (Veach's thesis, p. 155); directions on opposite sides of the two normals are
 dropped (light leaks). Mitsuba 3's ``ptracer`` computes the same estimator.
+
+With ``paths`` (a Heckbert class, :mod:`pathtracer.pathclasses`) each light path runs
+the class's automaton from its ``L`` end, one letter per vertex, and a splat counts only
+where appending ``E`` accepts; the visible-emitter splats are the class ``LE``.
 """
 from __future__ import annotations
 
@@ -35,10 +39,11 @@ from ..geometry import spawn_ray
 from ..shading import eval_bsdf, sample_bsdf
 from ..vec import dot
 from .base import Integrator
+from .pathclass import ClassSelection
 from .wavefront import Paths, trace
 
 
-class LightIntegrator(Integrator):
+class LightIntegrator(ClassSelection, Integrator):
     """Light tracer (particle tracer), Mitsuba's ``ptracer``.
 
     Parameters
@@ -46,6 +51,12 @@ class LightIntegrator(Integrator):
     replicas : int
         Independent renders whose spread gives the variance of each pixel (a light
         path's splats do not belong to one pixel, see :func:`pathtracer.render.render`).
+    paths : str, optional
+        A Heckbert class (``"LS+DE"``, :mod:`pathtracer.pathclasses`): only the splats of
+        paths in it count. A light path reads its automaton from the ``L`` end; joining a
+        vertex to the camera appends ``E``.
+    glossy : {'G', 'D', 'S'} or float
+        Letter of glossy BSDFs for ``paths`` (:func:`pathtracer.pathclasses.bsdf_letter`).
     **options
         As :class:`~pathtracer.integrators.base.Integrator`.
     """
@@ -53,14 +64,15 @@ class LightIntegrator(Integrator):
     name = "light"
     splats = True
 
-    def __init__(self, replicas: int = 8, **options):
+    def __init__(self, replicas: int = 8, paths: str | None = None, glossy="G", **options):
         super().__init__(**options)
         if int(replicas) < 1:
             raise ValueError(f"replicas must be >= 1, got {replicas}")
         self.replicas = int(replicas)
+        self.select_paths(paths, glossy)
 
     def options(self) -> dict:
-        return dict(super().options(), replicas=self.replicas)
+        return dict(super().options(), replicas=self.replicas, **self.class_options())
 
     def radiance(self, scene, rays, rng):
         raise ValueError("the light tracer splats into the film: render it with "
@@ -71,20 +83,27 @@ class LightIntegrator(Integrator):
         splats = []
         if self.max_depth == 0:
             return _concatenate(splats)
+        classes = self.subpath_class(scene)
         if not self.hide_emitters:
-            splats.append(self.visible_emitters(scene, rng))
+            seen = self.visible_emitters(scene, rng)     # drawn in any case: same random numbers
+            if classes is None or classes.accepts(classes.after_light, classes.after_eye):
+                splats.append(seen)
         if self.depth_limit < 2:
             return _concatenate(splats)
         ray = sample_emitter_ray(scene, rng.next_1d(), rng.next_2d(), rng.next_2d())
         first = leaving(ray.position.p, ray.position.n, ray.d)
         paths = Paths(first, rng, trace(scene, first))
         paths.beta = ray.weight               # Le cos / (p_light p_pos p_dir)
+        if classes is not None:
+            paths.declare(state=classes.light_states(len(paths)))   # the automaton after L
         while paths:
             # ---- Light paths that escaped end; the others splat their vertex ----
             paths.keep(paths.hit.valid)
             if not paths:
                 break
-            splats.append(self.connect(scene, paths.hit, paths.wi, paths.beta))
+            if classes is not None:
+                paths.state = classes.light_vertex(paths.state, paths.hit.shape)
+            splats.append(self.connect(scene, paths.hit, paths.wi, self.in_class(classes, paths)))
             # ---- The next vertex's path to the camera would have depth + 3 segments ----
             if paths.depth + 2 >= self.depth_limit:
                 break
@@ -96,6 +115,15 @@ class LightIntegrator(Integrator):
             self.russian_roulette(paths)
             paths.next_hit(scene)
         return _concatenate(splats)
+
+    @staticmethod
+    def in_class(classes, paths) -> np.ndarray:
+        """The throughputs of the light paths, 0 where the path joined to the camera at its
+        current vertex (its automaton ``state`` has read it) is not in the selected class."""
+        if classes is None:
+            return paths.beta
+        accepted = classes.accepts(paths.state, classes.after_eye)
+        return np.where(accepted[:, None], paths.beta, 0.0)
 
     def connect(self, scene, hit, wi, beta) -> tuple[np.ndarray, np.ndarray]:
         """Splats of light-path vertices ``hit`` (arrived along ``-wi``) joined to the camera."""
