@@ -5,14 +5,14 @@ import json
 import numpy as np
 import pytest
 
-from experiments import (bdpt_strategies, caustics, common, convergence, estimators, pathclasses, progression,
-                         sweep)
+from experiments import (bdpt_strategies, caustics, common, convergence, estimators, integrators, pathclasses,
+                         progression, sweep)
 
 
 @pytest.mark.parametrize("module", [convergence, progression, estimators, pathclasses, sweep,
-                                    bdpt_strategies, caustics],
+                                    bdpt_strategies, caustics, integrators],
                          ids=["error-vs-spp", "progression", "estimators", "pathclasses", "sweep",
-                              "bdpt-strategies", "caustics"])
+                              "bdpt-strategies", "caustics", "integrators"])
 def test_help(module, capsys):
     with pytest.raises(SystemExit) as stop:
         module.main(["--help"])
@@ -163,3 +163,18 @@ def test_caustics_script(tmp_path, capsys):
     path = rows["path"]
     assert not path["agree"] and path["worst_in_caustic"], path["verdict"]
     assert "path on the point light" in capsys.readouterr().out
+
+
+def test_integrators_script(tmp_path, capsys):
+    """The four-integrator table on one small scene with a directional light: recursive and
+    path get numbers (path's relative efficiency is 1), light and bdpt say why they cannot run."""
+    out = tmp_path / "integrators"
+    assert integrators.main(["--out", str(out), "--scenes", "spot-directional", "--seconds", "0.1",
+                             "--no-progress"]) == 0
+    rows = json.loads((out / "integrators.json").read_text())["scenes"]["spot-directional"]["integrators"]
+    assert rows["path"]["efficiency_relative"] == 1.0 and rows["recursive"]["rmse"] > 0
+    assert rows["path"]["spp"] >= 2 and rows["path"]["agree"] in (True, False)
+    for name in ("light", "bdpt"):
+        assert not rows[name]["ran"] and "directional" in rows[name]["reason"]
+    table = capsys.readouterr().out
+    assert "| `spot-directional` (32×32) |" in table and "cannot run" in table
