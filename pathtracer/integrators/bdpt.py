@@ -86,7 +86,7 @@ from ..shading import eval_bsdf, has_smooth, sample_bsdf
 from ..vec import dot
 from .base import Integrator
 from .light import leaving, shading_correction
-from .pathclass import ClassSelection
+from .class_selection import ClassSelection
 from .wavefront import Paths, concatenate_hits, subset_hit, trace
 
 #: MIS heuristics and the exponent of their density ratios.

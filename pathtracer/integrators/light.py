@@ -39,7 +39,7 @@ from ..geometry import spawn_ray
 from ..shading import eval_bsdf, sample_bsdf
 from ..vec import dot
 from .base import Integrator
-from .pathclass import ClassSelection
+from .class_selection import ClassSelection
 from .wavefront import Paths, trace
 
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..emitters import pdf_emitter_direction
-from ..pathclasses import LETTER, SubpathClass, _parse_glossy, bsdf_letters, compile_classes, compile_joined
+from ..pathclasses import LETTER, _parse_glossy, bsdf_letters, compile_classes
 from ..sampling import power_heuristic
 from ..shading import sample_bsdf
 from .base import Integrator
@@ -116,31 +116,3 @@ class PathClassIntegrator(Integrator):
             self.russian_roulette(paths)
             paths.next_hit(scene)
         return L
-
-
-class ClassSelection:
-    """The ``paths`` option of the integrators that grow paths from the lights (``light``,
-    ``bdpt``): keep only the contributions of paths in one Heckbert class.
-
-    Call :meth:`select_paths` from ``__init__``; :meth:`subpath_class` gives the class
-    with one scene's letters (None: every path counts). The random numbers do not depend
-    on the class, so with the same seed a partition's images add up to the full render.
-    """
-
-    paths = None
-    glossy = "G"
-
-    def select_paths(self, paths: str | None, glossy="G") -> None:
-        """Set the class (an expression, light first, or None) and the glossy letter."""
-        self.paths = paths or None
-        self.glossy = _parse_glossy(glossy)
-        if self.paths is not None:
-            compile_joined(self.paths)      # a malformed expression fails here, not mid-render
-
-    def subpath_class(self, scene) -> SubpathClass | None:
-        """The selected class with ``scene``'s letters, or None when there is none."""
-        return None if self.paths is None else SubpathClass(self.paths, scene, self.glossy)
-
-    def class_options(self) -> dict:
-        """The class options for :meth:`Integrator.options` (empty when none is selected)."""
-        return {} if self.paths is None else dict(paths=self.paths, glossy=self.glossy)
