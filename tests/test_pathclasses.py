@@ -163,3 +163,22 @@ def test_light_and_bdpt_class_images_agree_with_the_path_tracer():
         if not verdict.agree:
             failures.append(f"{integrator} {expression} vs {other}: {verdict.verdict}")
     assert not failures, "\n".join(failures)
+
+
+@pytest.mark.parametrize("integrator", ["light", "bdpt"])
+def test_cli_renders_a_class_with_light_and_bdpt(tmp_path, integrator):
+    """``--integrator light|bdpt --paths`` renders the class: the image of the same render
+    through the library (float32 in the EXR); a bad expression is one line and exit code 2."""
+    from pathtracer.cli import main
+    from pathtracer.io import read_exr
+    out = tmp_path / "class.exr"
+    assert main(["render", "cornell-caustics", "-D", "width=8", "-D", "height=8", "--spp", "2",
+                 "--seed", "4", "--integrator", integrator, "--paths", "LD+E", "--replicas", "2",
+                 "--processes", "1", "--no-progress", "-o", str(out)]) == 0
+    scene = load_scene("cornell-caustics", width=8, height=8)
+    expected = render(scene, make_integrator(integrator, paths="LD+E", replicas=2), spp=2, seed=4,
+                      processes=1)
+    assert expected.mean.max() > 0
+    np.testing.assert_allclose(read_exr(out).mean, expected.mean, rtol=1e-6, atol=1e-7)
+    assert main(["render", "cornell-caustics", "--integrator", integrator, "--paths", "L(S",
+                 "-o", str(tmp_path / "bad.exr")]) == 2
