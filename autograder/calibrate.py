@@ -122,7 +122,6 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.seeds < 1 or args.workers < 1 or not args.time_scale > 0:
         parser.error("--seeds and --workers must be >= 1, --time-scale > 0")
-    grading.TIME_SCALE = args.time_scale
     checks = grading.checks_of(args.assignment)
     if args.checks:
         others = sorted(set(args.checks) - {c.id for c in checks})
@@ -144,7 +143,7 @@ def main(argv=None) -> int:
     def grade_one(k):
         started = time.perf_counter()
         results = grading.grade(args.impl, checks, seed_offset=SEED_STRIDE * k,
-                                trusted=args.solution_runtime)
+                                trusted=args.solution_runtime, time_scale=args.time_scale)
         return seed_record(k, results, time.perf_counter() - started)
 
     with ThreadPoolExecutor(args.workers) as pool, log_path.open("a") as log:

@@ -441,12 +441,16 @@ def _pictures(result: CheckResult, comparison, main_render, out_dir: Path) -> di
 
 
 def grade(impl: str, checks=CHECKS, out_dir=None, seed_offset: int = 0, log=None,
-          trusted: bool = False) -> list:
-    """Run every check of ``impl`` in order; returns the CheckResults."""
+          trusted: bool = False, time_scale: float | None = None) -> list:
+    """Run every check of ``impl`` in order; returns the CheckResults.
+
+    ``time_scale`` multiplies the checks' time limits (default :data:`TIME_SCALE`).
+    """
     history = {}
+    scale = TIME_SCALE if time_scale is None else time_scale
     for check in checks:
         result = run_check(check, impl, out_dir=out_dir, seed_offset=seed_offset, history=history,
-                           trusted=trusted)
+                           trusted=trusted, limits=Limits(check.seconds * scale, MEMORY_MB, OUTPUT_BYTES))
         history[check.id] = result
         if log:
             log(result.report())

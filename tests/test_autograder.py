@@ -443,7 +443,7 @@ def test_calibration_script_reports_rates_and_p_values(tmp_path, capsys):
     from autograder import calibrate
     out = tmp_path / "cal.json"
     assert calibrate.main(["--seeds", "2", "--checks", "camera", "direct-glass", "--workers", "2",
-                           "--out", str(out)]) == 0
+                           "--time-scale", str(CI_TIME_SCALE), "--out", str(out)]) == 0
     report = json.loads(out.read_text())
     assert report["submissions"] == 2 and report["checks"] == ["camera", "direct-glass"]
     assert report["part_p_values"] == 2 * 2          # camera mean; glass mean
