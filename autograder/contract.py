@@ -63,7 +63,7 @@ DEFAULT_IMPLEMENTATION = "autograder.solution"
 SOLUTION_MODULES = tuple(f"pathtracer.integrators.{name}" for name in (
     "path", "path_bsdf", "path_nee", "direct", "recursive", "smallpt", "pathclass", "light",
     # The volumetric tracers render surfaces too (MIS path tracing in vacuum).
-    "volpath", "volpath_phase", "volume", "bdpt"))
+    "volpath", "volpath_phase", "bdpt"))
 GRADER_PACKAGES = ("autograder", "mitsuba_refs", "mitsuba", "drjit")
 #: Names that are the reference solution wherever they are imported from.
 SOLUTION_NAMES = {
@@ -74,7 +74,7 @@ SOLUTION_NAMES = {
                                "BDPTIntegrator", "path",
                                "path_bsdf", "path_nee", "direct", "recursive", "smallpt",
                                "pathclass", "light", "VolPathIntegrator",
-                               "VolPathPhaseIntegrator", "volpath", "volpath_phase", "volume", "bdpt"},
+                               "VolPathPhaseIntegrator", "volpath", "volpath_phase", "bdpt"},
     "pathtracer.camera": {"camera_rays"},
 }
 #: Most source a submission may have (files, bytes) before the grader stops reading.

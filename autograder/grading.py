@@ -164,10 +164,28 @@ CHECKS = (
           title="Perspective camera (camera_rays)"),
 )
 
+#: The ``media`` assignment: volumetric path tracing on ``media-box`` (a fog cube behind an
+#: index-matched null boundary, floating above the floor of a box lit from the ceiling; 32 x 32).
+#: ``volpath_phase`` (phase and BSDF sampling only) has no Mitsuba estimator of its own: mean
+#: and convergence only, against Mitsuba's ``volpath``. ``spp``: a 1.5 % global bias is
+#: detected with probability >= 0.95 at the assignment's ALPHA, with volpath_phase's own
+#: per-sample variance (3.7x volpath's, measured) counted. Time limits 2.3-3x the reference
+#: solution's time on one core (docs/autograder.md, "The media assignment").
+MEDIA_CHECKS = (
+    Check("volpath_phase-media", "volpath_phase", "media-box", (("mean", 6), ("convergence", 2)),
+          90, spp=1152, assignment="media",
+          title="Volumetric path tracing with phase-function sampling, fog behind an "
+                "index-matched boundary"),
+    Check("volpath-media", "volpath", "media-box",
+          (("mean", 6), ("variance", 2), ("convergence", 2)), 60, spp=384, assignment="media",
+          title="Volumetric path tracing with shadow rays through the fog and MIS"),
+)
+
 #: Assignment name -> its checks. Each assignment is graded as a submission of its own (its own
 #: Gradescope autograder, ``--assignment``): its own points, time and error budget.
 ASSIGNMENTS = {
     "path-tracing": CHECKS,
+    "media": MEDIA_CHECKS,
 }
 #: Every check of every assignment (ids are unique across assignments).
 ALL_CHECKS = tuple(check for checks in ASSIGNMENTS.values() for check in checks)
@@ -401,17 +419,19 @@ def score_parts(check: Check, comparison) -> list:
 
 def _bounce_sweep(check: Check, render, alpha: float) -> dict:
     """{max_depth: (MeanAgreement, test mean, reference mean)}: the student's integrator vs
-    Mitsuba's per-bounce ``path`` references (explanations only, never scored)."""
+    Mitsuba's per-bounce references, ``path`` (``volpath`` for the volumetric integrators;
+    explanations only, never scored)."""
     from mitsuba_refs.cache import get_reference
-    from mitsuba_refs.compare import TEST_SEED, default_params
+    from mitsuba_refs.compare import BOUNCE_REFERENCE, TEST_SEED, default_params
     from mitsuba_refs.stats import compare_means
 
     params = default_params(check.scene)
+    estimator = BOUNCE_REFERENCE.get(check.integrator, "path")   # volpath for the media checks
     depths = [d for d in BOUNCE_DEPTHS if not (check.integrator == "direct" and d > 2)
               and not (check.max_depth is not None and d > check.max_depth > 0)]
     out = {}
     for depth in depths:
-        reference = get_reference(check.scene, {**params, "max_depth": depth}, "path")
+        reference = get_reference(check.scene, {**params, "max_depth": depth}, estimator)
         mean, variance = render(check.scene, check.integrator, params, BOUNCE_SPP,
                                 TEST_SEED + depth, max_depth=depth)
         out[depth] = (compare_means(mean, variance, BOUNCE_SPP, reference.mean, reference.var,

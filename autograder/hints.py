@@ -422,7 +422,11 @@ def explain(ev: Evidence) -> list:
                    f"{r:.2f}x as much as the per-pixel variances predict (1 expected; {how}): "
                    "the same random numbers are reused across samples (use the rng you are given, "
                    "one stream per ray; never reseed or share one stream)")
-    if not ev.check.glass and not correlated:
+    if getattr(ev.check, "assignment", "") == "media":
+        if not correlated:
+            from .hints_media import explain_media
+            out += explain_media(ev)
+    elif not ev.check.glass and not correlated:
         out += _sweep_hints(ev)
     generic = base.hints(comparison)
     if ev.independence is not None and not correlated:

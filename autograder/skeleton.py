@@ -4,15 +4,17 @@
 ``OUT_DIR/student/`` with the modules of one assignment (``ASSIGNMENT_MODULES``):
 
 * one module per integrator, copied from ``pathtracer/integrators/`` with every
-  ``radiance`` body replaced by its docstring and
-  ``raise NotImplementedError("<slide of the lecture>")``; module docstrings (the slide's
-  pseudocode) and helper methods such as ``__init__``/``options`` are kept;
+  ``radiance`` body (or every body of the methods ``STUBS`` names for it) replaced by its
+  docstring and ``raise NotImplementedError("<slide of the lecture>")``; module docstrings
+  (the slide's pseudocode) and helper methods such as ``__init__``/``options`` are kept;
 * ``camera.py`` with ``camera_rays`` stubbed the same way;
 * ``__init__.py`` exposing ``INTEGRATORS`` and ``camera_rays`` (the contract of
   :mod:`autograder.contract`).
 
 Relative imports become absolute (``from pathtracer.shading import ...``), so the skeleton
-imports cleanly against the installed ``pathtracer`` and grades as zero.
+imports cleanly against the installed ``pathtracer`` and grades as zero; an import of another
+module of the same skeleton stays relative (``volpath`` builds on the student's own
+``volpath_phase``).
 """
 from __future__ import annotations
 
@@ -27,7 +29,7 @@ import pathtracer
 
 SOURCE = Path(pathtracer.__file__).resolve().parent
 
-#: Module -> (class or function to stub, lecture slide it implements).
+#: Module -> (function(s) to stub: a name or a tuple of names, lecture slide it implements).
 STUBS = {
     "integrators/path_bsdf.py": ("radiance", "slide 'Path Tracing': L = Le + f_r L cos / p"),
     "integrators/path_nee.py": ("radiance", "slides 'Path Tracing with Shadow Rays' and "
@@ -38,6 +40,14 @@ STUBS = {
     "integrators/recursive.py": ("radiance", "slide 'Monte Carlo Ray Tracing Algorithm'"),
     "integrators/smallpt.py": ("radiance", "slide 'Path Tracing on 99 Lines of C++'"),
     "camera.py": ("camera_rays", "slide 'Ray Tracing' (primary rays of a perspective camera)"),
+    # The segment loop, the scattering step in a medium and the surface step with medium
+    # tracking; volpath inherits the loop and the surface step's bounce from volpath_phase.
+    "integrators/volpath_phase.py": (("radiance", "in_medium", "on_surface", "bounce"),
+                                     "volumetric path tracing: free-flight distance sampling, "
+                                     "phase-function sampling, medium boundaries"),
+    "integrators/volpath.py": (("in_medium", "on_surface", "shadow_ray"),
+                               "volumetric path tracing with shadow rays: transmittance along "
+                               "shadow rays and MIS"),
 }
 
 #: The modules of each assignment's skeleton (keys of ``STUBS``; the order of ``INTEGRATORS``).
@@ -45,6 +55,7 @@ ASSIGNMENT_MODULES = {
     "path-tracing": ("integrators/path.py", "integrators/path_bsdf.py", "integrators/path_nee.py",
                      "integrators/recursive.py", "integrators/smallpt.py", "integrators/direct.py",
                      "camera.py"),
+    "media": ("integrators/volpath_phase.py", "integrators/volpath.py"),
 }
 
 #: The loop each assignment's ``__init__.py`` sketches: the slide's steps, with the path-state
@@ -64,6 +75,28 @@ are still alive (pathtracer/integrators/wavefront.py), so you write only the sli
             # Russian roulette                   self.russian_roulette(paths)
             # the next hit                       paths.next_hit(scene)
         return paths.L
+""",
+    "media": """A path in a medium is a sequence of segments, each ending where the next event is sampled: a
+scattering point in the medium or the next surface. pathtracer/media.py has the building blocks
+(sample_free_flight, phase_sample / phase_eval, next_medium, null_event, shadow_transmittance);
+integrators/volume.py keeps the per-path arrays (PathBatch), random numbers per segment
+(self.uniform), roulette (self.survivors) and tracing (self.trace_segment). volpath_phase:
+
+    def radiance(self, scene, rays, rng):
+        paths = self.start(scene, rays, rng)             # camera rays, in the sensor's medium
+        for segment in range(MAX_SEGMENTS):
+            # roulette and the depth limit           paths.keep(self.survivors(...))
+            # the next surface                       hit = self.trace_segment(scene, paths)
+            # free flight: scatter before it?        flight = sample_free_flight(...)
+            #   throughput x T / pdf                 paths.beta *= flight.weight
+            # scattered: phase-function sample      self.in_medium(...)
+            # else: emission, BSDF sample and the    self.on_surface(...) -> self.bounce(...)
+            #   medium on the other side (null
+            #   boundaries too)                      next_medium(...)
+
+volpath adds a shadow ray where a path scatters (in the medium and on smooth surfaces): the light
+sample times the transmittance to the light (shadow_transmittance), MIS-weighted against the
+phase function / BSDF sample, and weights emission found by that sample accordingly.
 """,
 }
 
@@ -120,10 +153,13 @@ def init_source(assignment: str) -> str:
                        exports=repr(exports).replace("'", '"'))
 
 
-def absolute_imports(source: str, package: str) -> str:
-    """``from ..x import`` / ``from .x import`` -> ``from pathtracer[.pkg].x import``."""
+def absolute_imports(source: str, package: str, siblings=()) -> str:
+    """``from ..x import`` / ``from .x import`` -> ``from pathtracer[.pkg].x import``, except
+    ``from .x import`` of a module ``x`` in ``siblings`` (another module of the skeleton)."""
     def repl(match):
         dots, rest = match.group(1), match.group(2)
+        if dots == "." and rest in siblings:
+            return match.group(0)
         parts = package.split(".")
         base = parts[:len(parts) - (len(dots) - 1)]
         target = ".".join(base + ([rest] if rest else []))
@@ -131,12 +167,19 @@ def absolute_imports(source: str, package: str) -> str:
     return re.sub(r"^from (\.+)([\w.]*) import", repl, source, flags=re.M)
 
 
-def stub_source(source: str, name: str, slide: str) -> str:
-    """Replace the body of every function or method ``name`` by docstring + raise."""
+def stub_names(name) -> tuple:
+    """The function names of a ``STUBS`` entry (one name or a tuple of names)."""
+    return (name,) if isinstance(name, str) else tuple(name)
+
+
+def stub_source(source: str, name, slide: str) -> str:
+    """Replace the body of every function or method ``name`` (or of each of a tuple of
+    names) by docstring + raise."""
+    names = stub_names(name)
     tree = ast.parse(source)
     lines = source.splitlines(keepends=True)
     targets = [node for node in ast.walk(tree)
-               if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.name == name]
+               if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.name in names]
     # Replace from the bottom so that line numbers above stay valid.
     for node in sorted(targets, key=lambda n: n.lineno, reverse=True):
         body = node.body
@@ -148,7 +191,7 @@ def stub_source(source: str, name: str, slide: str) -> str:
         else:
             start = first.lineno - 1
         indent = " " * (first.col_offset if not (keep_doc and len(body) == 1) else body[0].col_offset)
-        message = f"{name}: implement the lecture's {slide}".replace('"', "'")
+        message = f"{node.name}: implement the lecture's {slide}".replace('"', "'")
         stub = f'{indent}raise NotImplementedError("{message}")\n'
         lines[start:node.end_lineno] = [stub]
     return "".join(lines)
@@ -162,16 +205,17 @@ def generate(out_dir, stubs: bool = True, assignment: str = "path-tracing") -> P
     """
     package = Path(out_dir) / "student"
     package.mkdir(parents=True, exist_ok=True)
+    siblings = {Path(relative).stem for relative in ASSIGNMENT_MODULES[assignment]}
     for relative in ASSIGNMENT_MODULES[assignment]:
         name, slide = STUBS[relative]
         source = (SOURCE / relative).read_text()
         module_package = "pathtracer." + ".".join(Path(relative).parent.parts)
         module_package = module_package.rstrip(".")
-        source = absolute_imports(source, module_package)
+        source = absolute_imports(source, module_package, siblings)
         if stubs:
             source = stub_source(source, name, slide)
         header = (f"# Generated by `python -m autograder.skeleton` from pathtracer/{relative}.\n"
-                  f"# Implement {name} (the lecture's {slide}).\n")
+                  f"# Implement {', '.join(stub_names(name))} (the lecture's {slide}).\n")
         (package / Path(relative).name).write_text(header + source)
     (package / "__init__.py").write_text(init_source(assignment))
     return package

@@ -73,8 +73,10 @@ LIGHT_SCENES = ("cornell-box",)
 
 #: Built-in scenes with agreement tests of their own (tests/test_agreement.py) and the
 #: references those need, built by hand: ``textured`` (``path`` at 32 x 32) and
-#: ``quad-light-filtered`` (``path`` on a tent and a gaussian film). Not in BUILTIN_SCENES.
-OWN_TEST_SCENES = ("textured", "quad-light-filtered")
+#: ``quad-light-filtered`` (``path`` on a tent and a gaussian film), and the autograder's
+#: ``media-box`` (``volpath`` at its own 32 x 32, and at max_depth 1, 2, 3: the ``media``
+#: checks, tests/test_autograder.py). Not in BUILTIN_SCENES.
+OWN_TEST_SCENES = ("textured", "quad-light-filtered", "media-box")
 
 #: The built-in scenes (``pathtracer/scenes/*.xml``) that every suite renders with every
 #: integrator: all but FEATURE_SCENES and OWN_TEST_SCENES. A scene file added there joins

@@ -40,11 +40,16 @@ from ..media import (next_medium, phase_eval, phase_sample, samples_emitters,
 from ..sampling import power_heuristic
 from ..shading import eval_bsdf, has_smooth
 from .base import subset_hit
-from .volume import SLOT_DIRECTION, SLOT_LIGHT, SLOT_SHADOW, VolumeIntegrator, move
+from .volpath_phase import VolPathPhaseIntegrator
+from .volume import SLOT_DIRECTION, SLOT_LIGHT, SLOT_SHADOW, move
 
 
-class VolPathIntegrator(VolumeIntegrator):
-    """Volumetric path tracing with NEE through media and MIS, Mitsuba's ``volpath``."""
+class VolPathIntegrator(VolPathPhaseIntegrator):
+    """Volumetric path tracing with NEE through media and MIS, Mitsuba's ``volpath``.
+
+    ``volpath_phase``'s segment loop (``radiance``) and surface step (``bounce``), with
+    shadow rays added where a path scatters.
+    """
 
     name = "volpath"
 

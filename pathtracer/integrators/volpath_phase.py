@@ -26,14 +26,50 @@ from __future__ import annotations
 import numpy as np
 
 from ..emitters import emitted_radiance
-from ..media import phase_sample
-from .volume import SLOT_DIRECTION, VolumeIntegrator, move
+from ..media import next_medium, null_event, phase_sample, sample_free_flight
+from ..shading import sample_bsdf
+from .base import subset_hit
+from .volume import (MAX_SEGMENTS, SLOT_DIRECTION, SLOT_FLIGHT, SLOT_LOBE, PathBatch,
+                     VolumeIntegrator, move)
 
 
 class VolPathPhaseIntegrator(VolumeIntegrator):
     """Volumetric path tracing with phase and BSDF sampling only."""
 
     name = "volpath_phase"
+
+    def radiance(self, scene, rays, rng):
+        """The segment loop (``volpath`` shares it) -> radiance (n, 3).
+
+        Each segment: roulette, trace to the next surface, sample a free flight in the
+        current medium; paths that scatter in the medium go to :meth:`in_medium`, the
+        others to :meth:`on_surface`. Both add their estimates to ``L`` and return which
+        of their paths continue.
+        """
+        L = np.zeros((len(rays), 3))
+        if self.max_depth == 0:
+            return L
+        paths = self.start(scene, rays, rng)
+        for segment in range(MAX_SEGMENTS):
+            paths = paths.keep(self.survivors(paths, segment))
+            if not len(paths):
+                break
+            hit = self.trace_segment(scene, paths)
+            # ---- Free flight: scatter in the medium before the surface, or reach it ----
+            flight = sample_free_flight(scene, paths.medium, paths.channel, hit.t,
+                                        self.uniform(paths, segment, SLOT_FLIGHT))
+            paths.beta = paths.beta * flight.weight       # T / pdf (x sigma_s where it scatters)
+            goes_on = np.zeros(len(paths), dtype=bool)
+            medium_rows = np.flatnonzero(flight.scattered)
+            if len(medium_rows):
+                goes_on[medium_rows] = self.in_medium(scene, paths, medium_rows,
+                                                      flight.t[medium_rows], segment, L)
+            surface_rows = np.flatnonzero(~flight.scattered)
+            if len(surface_rows):
+                goes_on[surface_rows] = self.on_surface(scene, paths, surface_rows,
+                                                        subset_hit(hit, surface_rows), segment, L)
+            paths = paths.keep(np.flatnonzero(goes_on))
+        return L
 
     def in_medium(self, scene, paths, rows, t, segment, L):
         """Scatter inside the medium: sample the phase function (weight 1)."""
@@ -49,3 +85,28 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
         Le = emitted_radiance(scene, hit, -paths.d[rows])
         L[paths.row[rows]] += paths.beta[rows] * self.visible_emission(paths.depth[rows], Le)
         return self.bounce(scene, paths, rows, hit, segment)
+
+    def bounce(self, scene, paths: PathBatch, rows: np.ndarray, hit, segment: int) -> np.ndarray:
+        """Continue paths ``rows`` at their surface hits by sampling the BSDF -> which go on.
+
+        Updates throughput and eta, and the medium on the other side (medium tracking). A
+        null crossing (a ``null`` BSDF, a ``thindielectric``'s straight transmission) keeps
+        the depth, the last scattering vertex, its pdf and the specular flag (it is not a
+        scattering event, as in Mitsuba); any other sampled lobe updates them.
+        """
+        valid = hit.valid.copy()
+        on = np.flatnonzero(valid)
+        rows, hit = rows[on], subset_hit(hit, on)
+        bs = sample_bsdf(scene, hit, -paths.d[rows], self.uniform(paths, segment, SLOT_LOBE)[rows],
+                         self.uniform(paths, segment, SLOT_DIRECTION, 2)[rows], self.hemisphere)
+        real = ~null_event(scene, hit, -paths.d[rows], bs.wo)
+        paths.beta[rows] *= bs.weight
+        paths.eta[rows] *= bs.eta
+        paths.depth[rows] += real
+        paths.last_p[rows] = np.where(real[:, None], hit.p, paths.last_p[rows])
+        paths.last_pdf[rows] = np.where(real, bs.pdf, paths.last_pdf[rows])
+        paths.specular[rows] = np.where(real, bs.delta, paths.specular[rows])
+        # ---- Medium tracking: the medium on the side wo leaves to, null boundaries too ----
+        paths.medium[rows] = next_medium(scene, hit, paths.medium[rows], bs.wo)
+        move(paths, rows, hit.p, hit.n, bs.wo)
+        return valid

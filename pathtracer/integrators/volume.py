@@ -1,4 +1,9 @@
-"""What the two volumetric path tracers share: the state of a batch of paths.
+"""What the two volumetric path tracers share: the state of a batch of paths (building blocks).
+
+The algorithm itself (the segment loop, scattering in a medium, surfaces and
+medium tracking, shadow rays) is in :mod:`.volpath_phase` and :mod:`.volpath`;
+this module holds the bookkeeping they share: the per-path arrays, random
+numbers per segment, Mitsuba's roulette rule and the camera's view of emitters.
 
 A path in a scene with media is a sequence of *segments*: each starts at the
 camera, a surface or a point inside a medium and ends where the next event is
@@ -22,8 +27,7 @@ import numpy as np
 
 from ..camera import Rays
 from ..geometry import offset_p
-from ..media import camera_medium, choose_channel, next_medium, null_event, sample_free_flight
-from ..shading import sample_bsdf
+from ..media import camera_medium, choose_channel
 from .base import Integrator, replace_hits, skip_emitters, subset_hit, trace
 
 #: Counters reserved per segment; shadow rays use SLOT_SHADOW + k for their k-th crossing.
@@ -71,9 +75,6 @@ class VolumeIntegrator(Integrator):
 
     #: Renders participating media (render() refuses media scenes for the others).
     handles_media = True
-
-    def radiance(self, scene, rays, rng):
-        return walk(self, scene, rays, rng)
 
     def start(self, scene, rays, rng) -> PathBatch:
         """Camera paths: throughput 1, in the sensor's medium, one RGB channel each."""
@@ -134,30 +135,6 @@ class VolumeIntegrator(Integrator):
             return np.where((depth == 0)[:, None], 0.0, Le)
         return Le
 
-    def bounce(self, scene, paths: PathBatch, rows: np.ndarray, hit, segment: int) -> np.ndarray:
-        """Continue paths ``rows`` at their surface hits by sampling the BSDF -> which go on.
-
-        Updates throughput and eta, and the medium on the other side (medium tracking). A
-        null crossing (a ``null`` BSDF, a ``thindielectric``'s straight transmission) keeps
-        the depth, the last scattering vertex, its pdf and the specular flag (it is not a
-        scattering event, as in Mitsuba); any other sampled lobe updates them.
-        """
-        valid = hit.valid.copy()
-        on = np.flatnonzero(valid)
-        rows, hit = rows[on], subset_hit(hit, on)
-        bs = sample_bsdf(scene, hit, -paths.d[rows], self.uniform(paths, segment, SLOT_LOBE)[rows],
-                         self.uniform(paths, segment, SLOT_DIRECTION, 2)[rows], self.hemisphere)
-        real = ~null_event(scene, hit, -paths.d[rows], bs.wo)
-        paths.beta[rows] *= bs.weight
-        paths.eta[rows] *= bs.eta
-        paths.depth[rows] += real
-        paths.last_p[rows] = np.where(real[:, None], hit.p, paths.last_p[rows])
-        paths.last_pdf[rows] = np.where(real, bs.pdf, paths.last_pdf[rows])
-        paths.specular[rows] = np.where(real, bs.delta, paths.specular[rows])
-        paths.medium[rows] = next_medium(scene, hit, paths.medium[rows], bs.wo)
-        move(paths, rows, hit.p, hit.n, bs.wo)
-        return valid
-
 
 def move(paths: PathBatch, rows: np.ndarray, origin: np.ndarray, normal: np.ndarray,
          wo: np.ndarray) -> None:
@@ -166,36 +143,3 @@ def move(paths: PathBatch, rows: np.ndarray, origin: np.ndarray, normal: np.ndar
     paths.o[rows] = offset_p(origin, normal, wo)
     paths.d[rows] = wo
     paths.tmax[rows] = np.inf
-
-
-def walk(integrator: VolumeIntegrator, scene, rays, rng) -> np.ndarray:
-    """The segment loop both volumetric integrators share -> radiance (n, 3).
-
-    Each segment: roulette, trace to the next surface, sample a free flight in
-    the current medium; paths that scatter in the medium go to
-    ``integrator.in_medium``, the others to ``integrator.on_surface``. Both add
-    their estimates to ``L`` and return which of their paths continue.
-    """
-    L = np.zeros((len(rays), 3))
-    if integrator.max_depth == 0:
-        return L
-    paths = integrator.start(scene, rays, rng)
-    for segment in range(MAX_SEGMENTS):
-        paths = paths.keep(integrator.survivors(paths, segment))
-        if not len(paths):
-            break
-        hit = integrator.trace_segment(scene, paths)
-        flight = sample_free_flight(scene, paths.medium, paths.channel, hit.t,
-                                    integrator.uniform(paths, segment, SLOT_FLIGHT))
-        paths.beta = paths.beta * flight.weight
-        goes_on = np.zeros(len(paths), dtype=bool)
-        medium_rows = np.flatnonzero(flight.scattered)
-        if len(medium_rows):
-            goes_on[medium_rows] = integrator.in_medium(scene, paths, medium_rows,
-                                                        flight.t[medium_rows], segment, L)
-        surface_rows = np.flatnonzero(~flight.scattered)
-        if len(surface_rows):
-            goes_on[surface_rows] = integrator.on_surface(scene, paths, surface_rows,
-                                                          subset_hit(hit, surface_rows), segment, L)
-        paths = paths.keep(np.flatnonzero(goes_on))
-    return L
