@@ -2,8 +2,9 @@
 bug-zoo mutant loses points with the expected hint, misbehaving submissions fail cleanly
 while results.json stays valid.
 
-Runtime: the reference's nine checks and the mutants' checks run concurrently in one pool
-(each check is its own student process), ~4 min on 2 cores; everything else is seconds.
+Runtime: the reference's checks (every assignment's) and the mutants' checks run concurrently
+in one pool (each check is its own student process), ~4 min on 2 cores, of which the media
+assignment's 2 reference checks and 4 mutants are ~2.5 min of CPU; everything else is seconds.
 Time limits are scaled by ``CI_TIME_SCALE`` because CI machines are shared.
 """
 from __future__ import annotations
