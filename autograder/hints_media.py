@@ -144,6 +144,16 @@ def explain_media(ev) -> list:
         out.append(f"light from the fog too dark (x{fog2:.2f} at max_depth = 2 in its pixels, "
                    f"the rest x{clear2:.2f}), {image}; {depth3}; most likely first: {first}; or "
                    f"{second} {numbers}")
+    elif abs(clear2 - 1) > REGION_TOLERANCE:
+        out.append(f"direct light on the surfaces outside the fog x{clear2:.2f} (the fog's pixels "
+                   f"x{fog2:.2f}), {image}: the surface steps, as in path tracing: emission "
+                   "found (MIS weight against the last scattering event's light sample), the "
+                   "shadow ray's light pdf and MIS weight, the BSDF sample's weight f cos / pdf "
+                   f"{numbers}")
+    elif not out and 1 in sweep and abs(sweep[1][0].rel_bias) > REGION_TOLERANCE:
+        out.append(f"light sources seen directly are wrong (max_depth = 1: "
+                   f"x{1 + sweep[1][0].rel_bias:.3f}): add Le where a camera ray hits an emitter, "
+                   f"with the throughput of its way there {numbers}")
     elif not out:
         out.append(f"{image} with the fog and its surroundings right at max_depth 1-2: longer "
                    "paths: roulette after rr_depth scattering events (divide by q), or the "

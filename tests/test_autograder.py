@@ -498,3 +498,35 @@ def test_sandboxed_render_is_the_direct_render():
     with StudentProcess("autograder.solution", Limits(60 * CI_TIME_SCALE)) as student:
         mean, _ = student.render("glass-cube", "path_bsdf", params, 2, 5, max_depth=2)
     assert np.array_equal(mean, shallow.mean)          # an explicit depth beats the file's
+
+
+@pytest.mark.parametrize("integrator, fog, clear, fog_later, first_words", [
+    ("volpath", 1.19, 1.15, 1.19, "transmittance along shadow rays"),
+    ("volpath_phase", 1.40, 1.10, 1.40, "null boundaries"),
+    ("volpath_phase", 0.60, 0.97, 0.0, "pdf cancels"),
+    ("volpath", 0.79, 0.99, 0.79, "free-flight"),
+    ("volpath", 1.00, 0.80, 1.00, "surface steps"),
+])
+def test_media_hints_read_the_fog_and_clear_regions(integrator, fog, clear, fog_later, first_words):
+    """The media rules (autograder/hints_media.py) on sweeps made from the committed per-bounce
+    references, what each depth adds scaled by one factor in the fog's pixels and another in
+    the rest: each pattern names its cause first, with the factors it read."""
+    from mitsuba_refs.cache import get_reference
+    from autograder import hints
+    from autograder.hints_media import explain_media, fog_pixels
+    check = grading.CHECKS_BY_ID[f"{integrator}-media"]
+    refs = {d: get_reference("media-box", {"max_depth": d}, "volpath", render=False).mean
+            for d in (1, 2, 3)}
+    in_fog, _ = fog_pixels("media-box", {})
+    sweep, test = {}, {0: np.zeros_like(refs[1])}
+    for depth, (f, c) in {1: (1, 1), 2: (fog, clear), 3: (fog_later, clear)}.items():
+        scale = np.where(in_fog[..., None], f, c)
+        base = refs[depth - 1] if depth > 1 else 0
+        test[depth] = base + (refs[depth] - base) * scale
+        rel = float(test[depth].sum() / refs[depth].sum() - 1)
+        sweep[depth] = (SimpleNamespace(agree=abs(rel) < 1e-3, rel_bias=rel), test[depth], refs[depth])
+    comparison = SimpleNamespace(mean=SimpleNamespace(agree=False, rel_bias=0.05))
+    found = explain_media(hints.Evidence(check=check, comparison=comparison, sweep=sweep))
+    text = " ".join(found)
+    assert found and first_words in found[0].split("; or ")[0], found
+    assert f"x{fog:.2f}" in text and not re.search(r"\bx?(nan|inf)\b", text.lower()), text
