@@ -76,6 +76,7 @@ SOLUTION_NAMES = {
                                "pathclass", "light", "VolPathIntegrator",
                                "VolPathPhaseIntegrator", "volpath", "volpath_phase", "bdpt"},
     "pathtracer.camera": {"camera_rays"},
+    "pathtracer.camera_connection": {"connect_to_camera", "camera_importance", "pdf_camera"},
 }
 #: Most source a submission may have (files, bytes) before the grader stops reading.
 MAX_FILES, MAX_BYTES = 200, 4 << 20

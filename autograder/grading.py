@@ -181,11 +181,28 @@ MEDIA_CHECKS = (
           title="Volumetric path tracing with shadow rays through the fog and MIS"),
 )
 
+#: The light-tracing assignment (slide 'Light Tracing'): the student writes the light tracer's
+#: ``splat`` (paths from the lights, importance transport) and the camera's side of each
+#: connection (``connect_to_camera``, ``camera_importance``). One check, mean only: a light
+#: tracer's samples belong to no pixel, its variance comes from 8 replicas (7 degrees of
+#: freedom per pixel), and a variance part would add a test without adding a mistake it sees.
+#: 256 spp (W H 256 light paths): a 1.5 % global bias fails the mean part with probability
+#: >= 0.95 (python -m autograder.power --assignment light-tracing; docs/autograder.md).
+LIGHT_CHECKS = (
+    # A red lamp inside a glass sphere and a cyan ceiling light: the 1/eta^2 radiance scaling
+    # applied to importance scales only the red channel (eta^2 = 2.26); the room is not
+    # symmetric, so splats in mirrored pixels change the image.
+    Check("light-glass-lamp", "light", "glass-lamp", (("mean", 10),), 35, spp=256,
+          title="Light tracing (slide 'Light Tracing') with a lamp inside glass",
+          assignment="light-tracing"),
+)
+
 #: Assignment name -> its checks. Each assignment is graded as a submission of its own (its own
 #: Gradescope autograder, ``--assignment``): its own points, time and error budget.
 ASSIGNMENTS = {
     "path-tracing": CHECKS,
     "media": MEDIA_CHECKS,
+    "light-tracing": LIGHT_CHECKS,
 }
 #: Every check of every assignment (ids are unique across assignments).
 ALL_CHECKS = tuple(check for checks in ASSIGNMENTS.values() for check in checks)
@@ -306,7 +323,7 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
     camera = "student" if check.camera else "reference"
     run_as = f"reference:{check.integrator}" if check.camera else check.integrator
 
-    from mitsuba_refs.compare import TEST_SEED, default_params
+    from mitsuba_refs.compare import SPLATTING, TEST_SEED, default_params
     main_render = {}
 
     trusted = trusted or impl == SOLUTION
@@ -354,6 +371,10 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
             try:
                 if check.camera:
                     evidence.camera = camera_geometry
+                elif check.integrator in SPLATTING:
+                    # No camera rays to probe and no per-bounce light references: the light
+                    # rules read the scored render itself (hints.light_hints).
+                    evidence.images = _images(check, main_render)
                 else:
                     evidence.sweep = _bounce_sweep(check, render, alpha=alpha)
                     result.bounce = {d: s[0] for d, s in evidence.sweep.items()} or None
@@ -415,6 +436,19 @@ def score_parts(check: Check, comparison) -> list:
             raise ValueError(f"unknown part {name!r}")
         parts.append(Part(name, float(points) if ok else 0.0, float(points), ok, detail))
     return parts
+
+
+def _images(check: Check, main_render) -> dict | None:
+    """The scored render and its reference, for the rules that read images (light tracing)."""
+    from mitsuba_refs.cache import get_reference
+    from mitsuba_refs.compare import reference_integrator
+    if "image" not in main_render:
+        return None
+    reference = get_reference(check.scene, check_params(check),
+                              reference_integrator(check.integrator))
+    mean, variance = main_render["image"]
+    return dict(mean=mean, var=variance, n=check.spp, ref_mean=reference.mean,
+                ref_var=reference.var, ref_n=reference.n)
 
 
 def _bounce_sweep(check: Check, render, alpha: float) -> dict:

@@ -14,7 +14,11 @@ autograder sees, each quoting the numbers it rests on:
   ``R`` times what the per-pixel variances predict (R ~ 1 for independent samples, biased or
   not; R >> 1 when samples reuse random numbers);
 * glass: the same integrator right on the Cornell box but wrong with a glass sphere;
-* camera: the field of view measured from the student's own rays.
+* camera: the field of view measured from the student's own rays;
+* light tracing (:func:`light_hints`, from the scored render itself): splats in the wrong
+  pixel (the image matches Mitsuba's flipped or shifted), the 1/eta^2 of radiance applied to
+  importance (only the light that leaves glass is off, by eta^2), the camera importance
+  (a ratio that follows a power of cos theta, the angle to the optical axis, or a constant).
 
 A rule never runs a test of its own; hints are explanations, never points.
 """
@@ -46,6 +50,7 @@ class Evidence:
     independence: float = None    # R, see module docstring
     camera: dict = None           # measured field of view, see camera_evidence
     probe: tuple = None           # distinct results of 4096 copies of one ray: (student, reference)
+    images: dict = None           # the scored render and its reference (light tracing)
     incomplete: str = ""
 
 
@@ -405,6 +410,8 @@ def explain(ev: Evidence) -> list:
     from mitsuba_refs import explain as base
     comparison = ev.comparison
     out = []
+    if ev.images is not None:
+        out += light_hints(ev.check, ev.images)
     if ev.camera is not None:
         out += _camera_hints(ev.camera)
     out += _glass_hints(ev)
@@ -449,4 +456,129 @@ def explain(ev: Evidence) -> list:
             out.append(hint)
     if ev.incomplete:
         out.append(f"(explanation incomplete: {ev.incomplete})")
+    return out
+
+
+# ----------------------------------------------------------------------------------------
+# Light tracing: rules that read the scored image against the reference
+
+#: Scenes of the light checks whose light leaves glass: the channel only that light gives,
+#: what it is, and the glass's relative index of refraction (Mitsuba's BK7 in air).
+GLASS_LIGHTS = {"glass-lamp": dict(channel=0, colour="red", others=(1, 2),
+                                   light="the red lamp inside the glass sphere",
+                                   eta=1.5046 / 1.000277)}
+#: A rearrangement of the reference that explains the image this much better (chi^2 per pixel
+#: at most this fraction of the image as it is) means the splats land in the wrong pixels.
+REARRANGED = 0.5
+#: Channels (or tiles) within this of Mitsuba's count as right in the light rules.
+LIGHT_TOLERANCE = 0.05
+
+
+def _rearrangements():
+    """name -> (function of an (H, W, ...) image, its rows/columns kept) for wrong-pixel splats."""
+    whole = (slice(None), slice(None))
+    return {
+        "as it is": (lambda x: x, whole),
+        "flipped upside down (row r in row H - 1 - r)": (lambda x: x[::-1], whole),
+        "mirrored left-right (column c in column W - 1 - c)": (lambda x: x[:, ::-1], whole),
+        "rotated by 180 degrees": (lambda x: x[::-1, ::-1], whole),
+        "shifted one row down": (lambda x: np.roll(x, 1, axis=0), (slice(1, None), slice(None))),
+        "shifted one row up": (lambda x: np.roll(x, -1, axis=0), (slice(None, -1), slice(None))),
+        "shifted one column right": (lambda x: np.roll(x, 1, axis=1), (slice(None), slice(1, None))),
+        "shifted one column left": (lambda x: np.roll(x, -1, axis=1), (slice(None), slice(None, -1))),
+        "transposed": (lambda x: np.swapaxes(x, 0, 1), whole),
+    }
+
+
+def pixel_mapping(images: dict) -> dict:
+    """chi^2 per pixel of the render against each rearrangement of the reference (name -> value;
+    shapes that do not fit, e.g. a transposed 4:3 film, are left out)."""
+    mean, ref = images["mean"], images["ref_mean"]
+    var = images["var"] / images["n"]
+    ref_var = images["ref_var"] / images["ref_n"]
+    floor = (1e-3 * float(np.mean(np.abs(ref)))) ** 2
+    out = {}
+    for name, (move, keep) in _rearrangements().items():
+        moved, moved_var = move(ref), move(ref_var)
+        if moved.shape != mean.shape:
+            continue
+        chi2 = (mean - moved) ** 2 / (var + moved_var + floor)
+        out[name] = float(np.mean(chi2[keep]))
+    return out
+
+
+def _pixel_cosines(check, shape) -> np.ndarray:
+    """cos theta (to the optical axis) of each pixel centre's ray, (H, W)."""
+    from mitsuba_refs.compare import default_params
+    from pathtracer import load_scene
+    camera = load_scene(check.scene, **default_params(check.scene)).camera
+    height, width = shape[:2]
+    tan_x = np.tan(np.radians(camera.x_fov) / 2)
+    x = (1 - 2 * (np.arange(width) + 0.5) / width) * tan_x
+    y = (1 - 2 * (np.arange(height) + 0.5) / height) * tan_x * height / width
+    return 1.0 / np.sqrt(1.0 + x[None, :] ** 2 + y[:, None] ** 2)
+
+
+def _tile_sums(image, tile=8):
+    h, w = image.shape[:2]
+    h, w = h - h % tile, w - w % tile
+    return image[:h, :w].reshape(h // tile, tile, w // tile, tile, *image.shape[2:]).sum(axis=(1, 3))
+
+
+def light_hints(check, images: dict) -> list:
+    """Likely causes of a failed light-tracing check, each with the numbers it rests on."""
+    mapping = pixel_mapping(images)
+    best = min(mapping, key=mapping.get)
+    if best != "as it is" and mapping[best] <= REARRANGED * mapping["as it is"]:
+        return [f"splats land in the wrong pixel: your image matches Mitsuba's {best} (chi^2 per "
+                f"pixel {mapping[best]:.2f}, 1 expected; as it is: {mapping['as it is']:.1f}): the "
+                "pixel a point projects to is row * width + column with row 0 at the top of the "
+                "image and column 0 on its left (camera space: +x to the left, +y up), "
+                "row = floor(s_y H), column = floor(s_x W) with the film position s of "
+                "camera_rays inverted"]
+    out = []
+    mean, ref = images["mean"], images["ref_mean"]
+    channel_ratio = mean.sum(axis=(0, 1)) / np.maximum(ref.sum(axis=(0, 1)), 1e-300)
+    glass = GLASS_LIGHTS.get(check.scene)
+    if glass is not None:
+        own = float(channel_ratio[glass["channel"]])
+        others = float(np.mean(channel_ratio[list(glass["others"])]))
+        eta2 = glass["eta"] ** 2
+        if abs(others - 1) <= LIGHT_TOLERANCE and abs(own - 1) > LIGHT_TOLERANCE:
+            factor = (f" = eta^2 ({eta2:.2f})" if abs(own / eta2 - 1) < 0.1 else
+                      f" = 1/eta^2 ({1 / eta2:.2f})" if abs(own * eta2 - 1) < 0.1 else "")
+            out.append(f"only the light that leaves glass is wrong: the {glass['colour']} channel "
+                       f"(lit only by {glass['light']}) is x{own:.2f}{factor} while the others "
+                       f"are x{others:.2f}: light paths carry importance, which refraction does "
+                       "not scale: no 1/eta^2 on a light path's refractions (the adjoint BSDF: "
+                       "sample_bsdf(..., adjoint=True) and eval_bsdf(..., adjoint=True)); the "
+                       "1/eta^2 belongs to radiance, i.e. to camera paths")
+            return out
+    cosines = _pixel_cosines(check, mean.shape)
+    lum_test, lum_ref = mean @ LUMINANCE, ref @ LUMINANCE
+    sum_ref = _tile_sums(lum_ref)
+    lit = sum_ref > 1e-3 * sum_ref.max()
+    ratio = _tile_sums(lum_test)[lit] / sum_ref[lit]
+    cos_tile = _tile_sums(cosines)[lit] / 64
+    if len(ratio) >= 4 and np.all(ratio > 0):
+        slope, intercept = np.polyfit(np.log(cos_tile), np.log(ratio), 1)
+        fitted = intercept + slope * np.log(cos_tile)
+        residual = np.log(ratio) - fitted
+        explained = 1 - residual.var() / max(np.log(ratio).var(), 1e-300)
+        centre, edge = np.exp(intercept), np.exp(intercept + slope * np.log(cosines.min()))
+        if abs(slope) >= 0.5 and explained >= 0.6:
+            out.append(f"the error follows the angle theta to the optical axis: yours / Mitsuba's "
+                       f"is x{centre:.2f} at the centre and x{edge:.2f} in the corners, "
+                       f"~cos^{slope:.1f} theta ({100 * explained:.0f} % of the tiles' spread): "
+                       "the camera importance is wrong: We = 1 / (A cos^3 theta) (A: the film's "
+                       "area on the plane at distance 1; the cos^3 converts the film's area "
+                       "density to solid angle), and a splat is value * We / d^2 (the pinhole "
+                       "has no pdf of its own)")
+        elif np.all(np.abs(ratio / np.median(ratio) - 1) <= 2 * LIGHT_TOLERANCE) \
+                and abs(np.median(ratio) - 1) > LIGHT_TOLERANCE:
+            out.append(f"the whole image is x{np.median(ratio):.2f} (every tile within "
+                       f"{100 * 2 * LIGHT_TOLERANCE:.0f} % of that): a constant factor in the "
+                       "importance (We = 1 / (A cos^3 theta) with A = 4 tan(fov_x/2) "
+                       "tan(fov_y/2)) or in the light paths' starting weight Le cos / (p_light "
+                       "p_position p_direction)")
     return out

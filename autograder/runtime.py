@@ -36,7 +36,7 @@ SANDBOX_FILES = ("__init__.py", "child.py", "wire.py", "seccomp.py")
 PRIVATE_MODULES = ("integrators/pathclass.py", "cli.py")
 #: Integrators the course does not grade (yet): the registry imports them, so the student
 #: runtime keeps each class, with its name and options, but not its algorithm.
-UNGRADED_MODULES = ("integrators/light.py", "integrators/bdpt.py")
+UNGRADED_MODULES = ("integrators/bdpt.py",)
 FLAVOURS = ("student", "solution")
 
 SOLUTION_INIT = '''"""The reference solution in the student contract (solution runtime only)."""

@@ -75,8 +75,9 @@ LIGHT_SCENES = ("cornell-box",)
 #: references those need, built by hand: ``textured`` (``path`` at 32 x 32) and
 #: ``quad-light-filtered`` (``path`` on a tent and a gaussian film), and the autograder's
 #: ``media-box`` (``volpath`` at its own 32 x 32, and at max_depth 1, 2, 3: the ``media``
-#: checks, tests/test_autograder.py). Not in BUILTIN_SCENES.
-OWN_TEST_SCENES = ("textured", "quad-light-filtered", "media-box")
+#: checks, tests/test_autograder.py) and ``glass-lamp`` (``light`` at 64 x 48: the
+#: ``light-tracing`` check). Not in BUILTIN_SCENES.
+OWN_TEST_SCENES = ("textured", "quad-light-filtered", "media-box", "glass-lamp")
 
 #: The built-in scenes (``pathtracer/scenes/*.xml``) that every suite renders with every
 #: integrator: all but FEATURE_SCENES and OWN_TEST_SCENES. A scene file added there joins

@@ -269,7 +269,9 @@ def test_student_runtime_has_no_solution(tmp_path):
     from autograder import runtime
     from autograder.skeleton import STUBS, stub_names
     folder = runtime.build(tmp_path / "rt")
-    for relative, (name, _) in STUBS.items():
+    stubs = [(relative, name) for relative, (names, _) in STUBS.items()
+             for name in ((names,) if isinstance(names, str) else names)]
+    for relative, name in stubs:
         tree = ast.parse((folder / "pathtracer" / relative).read_text())
         bodies = [node.body for node in ast.walk(tree)
                   if isinstance(node, ast.FunctionDef) and node.name in stub_names(name)]
@@ -311,10 +313,12 @@ def test_refusal_reads_the_source(tmp_path):
     from autograder.skeleton import generate
     assert refusal(str(generate(tmp_path / "skeleton"))) == ""
     assert refusal(str(generate(tmp_path / "copy", stubs=False))) == ""
+    assert refusal(str(generate(tmp_path / "light", stubs=False, assignment="light-tracing"))) == ""
     assert "imports the reference solution" in refusal(str(HOSTILE / "solution_import.py"))
     bad = tmp_path / "bad.py"
     for line in ("from pathtracer.integrators.path import PathIntegrator",
                  "import mitsuba_refs.cache", "from pathtracer.camera import camera_rays",
+                 "from pathtracer.camera_connection import connect_to_camera",
                  "from pathtracer import INTEGRATORS", "__import__('autograder.solution')"):
         bad.write_text(line + "\n")
         assert refusal(str(bad)), line
@@ -479,6 +483,42 @@ def test_calibration_script_reports_rates_and_p_values(tmp_path, capsys):
     low, high = report["false_failure_ci95"]
     assert 0 <= low <= report["false_failure_rate"] <= high <= 1
     assert "correct submissions lost points" in capsys.readouterr().out
+
+
+def test_light_tracer_written_as_a_student_renders_in_the_student_runtime(tmp_path):
+    """The light-tracing contract end to end: the skeleton filled with the reference's code
+    (its light.py calls the package's own camera_connection.py; the runtime's are stubs)
+    renders in the student runtime, its splats carried back as the two images, bit for bit
+    what pathtracer.render gives; the skeleton itself is 'not implemented'."""
+    from autograder.isolation import StudentFailure
+    from autograder.skeleton import generate
+    from pathtracer import load_scene, render
+    filled = generate(tmp_path / "filled", stubs=False, assignment="light-tracing")
+    assert "from .camera_connection import connect_to_camera" in (filled / "light.py").read_text()
+    with StudentProcess(str(filled), Limits(60 * CI_TIME_SCALE)) as student:
+        mean, variance = student.render("glass-lamp", "light", {}, 4, 5)
+    direct = render(load_scene("glass-lamp"), "light", spp=4, seed=5, processes=1)
+    assert np.array_equal(mean, direct.mean) and np.array_equal(variance, direct.variance)
+    assert mean.sum() > 0 and variance.sum() > 0
+    stubbed = generate(tmp_path / "stubbed", assignment="light-tracing")
+    assert "NotImplementedError" in (stubbed / "camera_connection.py").read_text()
+    with StudentProcess(str(stubbed), Limits(60 * CI_TIME_SCALE)) as student:
+        with pytest.raises(StudentFailure, match="splat: implement the lecture's slide 'Light Tracing'"):
+            student.render("glass-lamp", "light", {}, 4, 5)
+
+
+def test_splats_are_checked_before_they_reach_the_film():
+    """A splat outside the film would wrap into another pixel: refused, as NaN and negatives."""
+    from autograder.sandbox.child import ContractError, check_splats
+    pixel, value = np.array([0, 5]), np.ones((2, 3))
+    assert check_splats((pixel, value), 6, "light")[0].dtype == np.int64
+    for bad, words in [((np.array([0, 6]), value), "outside the film"),
+                       ((np.array([-1, 0]), value), "outside the film"),
+                       ((pixel, value * np.nan), "NaN"), ((pixel, -value), "negative"),
+                       ((pixel, value[:1]), "shape"), ((pixel * 1.0, value), "integer"),
+                       ([pixel, value], "tuple")]:
+        with pytest.raises(ContractError, match=words):
+            check_splats(bad, 6, "light")
 
 
 def test_sandboxed_render_is_the_direct_render():

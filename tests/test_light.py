@@ -11,7 +11,8 @@ import pytest
 from pathtracer import load_scene, render
 from pathtracer.bsdfs.dielectric import Dielectric
 from pathtracer.bsdfs.roughdielectric import RoughDielectric
-from pathtracer.camera import camera_rays, connect_to_camera, pdf_camera
+from pathtracer.camera import camera_rays
+from pathtracer.camera_connection import connect_to_camera, pdf_camera
 from pathtracer.cli import main
 from pathtracer.emitters import (EmitterPosition, emitted_towards, pdf_emitter_ray,
                                  sample_emitter_ray)

@@ -76,3 +76,20 @@ def test_check_spp_defaults_to_the_old_constant():
     assert check.spp == grading.SPP == 64
     assert all(c.spp >= grading.SPP and c.spp % 64 == 0 for c in grading.CHECKS)
     assert not math.isnan(grading.ALPHA)
+
+
+@pytest.mark.parametrize("check", grading.LIGHT_CHECKS, ids=[c.id for c in grading.LIGHT_CHECKS])
+def test_light_check_detects_a_bias_of_one_and_a_half_percent(check):
+    """The light tracer's mean test has tiles only (its pixels are correlated across the image):
+    its analytic bound (tile_detectable_bias, a lower bound on the power) meets the 1.5 %
+    target, and at that bound at least the lower ALPHA-quantile of Binomial(50, 0.95) of 50
+    injected renders per sign fail, as they do with probability >= 1 - ALPHA if it holds."""
+    ref = power.reference_of(check)
+    level = grading.alpha_of(check)
+    need = int(sps.binom.ppf(ALPHA, 50, 0.95))
+    for sign in (1, -1):
+        b = power.tile_detectable_bias(ref.mean, ref.var, ref.n, check.spp, alpha=level, sign=sign)
+        assert b <= power.TARGET_BIAS, f"{check.id}: {100 * b:.2f} % at {check.spp} spp"
+        rate = power.injected_power(sign * b, ref.mean, ref.var, ref.n, check.spp, alpha=level,
+                                    seeds=50, seed=11 + (sign > 0), image_components=False)
+        assert round(rate * 50) >= need, (check.id, sign, b, rate)

@@ -17,7 +17,10 @@ Then it serves requests, one frame each (:mod:`wire`), until the grader closes t
 
 ``render``    the submission's integrator on a built-in scene -> ``mean``, ``variance``;
               camera rays come from the grader (``camera`` callback frames): the reference
-              camera is not in the student runtime;
+              camera is not in the student runtime. A light tracer (``splats``) is rendered
+              by the same driver as replicas of splatted images (its ``splat`` output is
+              checked: pixels on the film, finite non-negative values), so the reply is the
+              same two images;
 ``radiance``  the submission's integrator on rays the grader sends -> ``radiance``;
 ``rays``      the submission's ``camera_rays`` -> ``o``, ``d``.
 
@@ -206,10 +209,50 @@ def check_radiance(out, n: int, name: str):
     return out
 
 
+def check_splats(out, n_pixels: int, name: str):
+    """``out`` if it is a valid ``(pixel, value)`` pair of splats on a film of ``n_pixels``
+    pixels, else ContractError (a pixel outside the film would land in another one)."""
+    import numpy as np
+    if not (isinstance(out, tuple) and len(out) == 2 and all(isinstance(x, np.ndarray) for x in out)):
+        raise ContractError(f"{name}.splat returned {type(out).__name__}, expected a tuple "
+                            "(pixel, value) of NumPy arrays")
+    pixel, value = out
+    if pixel.ndim != 1 or pixel.dtype.kind not in "iu":
+        raise ContractError(f"{name}.splat: pixel must be a 1-D integer array, got shape "
+                            f"{pixel.shape} dtype {pixel.dtype}")
+    if value.shape != (len(pixel), 3) or value.dtype.kind != "f":
+        raise ContractError(f"{name}.splat: value must be a float array of shape ({len(pixel)}, 3), "
+                            f"got shape {value.shape} dtype {value.dtype}")
+    outside = (pixel < 0) | (pixel >= n_pixels)
+    if outside.any():
+        raise ContractError(f"{name}.splat returned {int(outside.sum())} splats outside the film "
+                            f"(first: pixel {int(pixel[outside][0])}; the film has {n_pixels} "
+                            "pixels, flat index row * width + column): drop what the camera does not see")
+    bad = ~np.isfinite(value)
+    if bad.any():
+        raise ContractError(f"{name}.splat returned {int(bad.any(axis=1).sum())} splats with NaN "
+                            "or Inf (a division by a zero pdf, cosine or distance?)")
+    if (value < 0).any():
+        raise ContractError(f"{name}.splat returned {int((value < 0).any(axis=1).sum())} "
+                            "negative splats")
+    return pixel.astype(np.int64), value
+
+
+def graded_method(cls) -> str:
+    """The method a student writes: ``splat`` for an integrator that splats, else ``radiance``."""
+    return "splat" if getattr(cls, "splats", False) else "radiance"
+
+
 def checked_class(cls, name: str):
-    """A subclass of ``cls`` whose radiance checks its output. A subclass, not a wrapped
-    bound method: the render driver copies the instance to apply the scene file's options,
-    and the copy must run with them."""
+    """A subclass of ``cls`` whose radiance (or splat) checks its output. A subclass, not a
+    wrapped bound method: the render driver copies the instance to apply the scene file's
+    options, and the copy must run with them."""
+    if graded_method(cls) == "splat":
+        def splat(self, scene, rng, *args):
+            n_pixels = scene.camera.width * scene.camera.height
+            return check_splats(cls.splat(self, scene, rng, *args), n_pixels, name)
+        return type(cls.__name__, (cls,), {"splat": splat})
+
     def radiance(self, scene, rays, rng):
         return check_radiance(cls.radiance(self, scene, rays, rng), len(rays), name)
     return type(cls.__name__, (cls,), {"radiance": radiance})
@@ -292,10 +335,12 @@ class Server:
         if cls is None:
             raise ContractError(f"your implementation has no integrator named {name!r} (it has: "
                                 f"{', '.join(sorted(self.integrators)) or 'none'})")
-        if not self.trusted and not own_code(cls.radiance, self.root):
+        method = graded_method(cls)
+        written = getattr(cls, method)
+        if not self.trusted and not own_code(written, self.root):
             raise ContractError(
-                f"INTEGRATORS[{name!r}].radiance is not written in your submission (it comes from "
-                f"{getattr(cls.radiance, '__module__', '?')}): implement radiance in your own "
+                f"INTEGRATORS[{name!r}].{method} is not written in your submission (it comes from "
+                f"{getattr(written, '__module__', '?')}): implement {method} in your own "
                 "class; the grader does not accept the library's classes or stubs")
         spec = scene.integrator
         options = dict(spec.params) if spec is not None and spec.name == name else {}

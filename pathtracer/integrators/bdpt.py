@@ -79,7 +79,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..camera import camera_rays, connect_to_camera
+from ..camera import camera_rays
+from ..camera_connection import connect_to_camera
 from ..emitters import (EmitterPosition, emitted_radiance, emitted_towards, emitter_position_at,
                         pdf_emitter_ray, sample_emitter_ray, shadowed)
 from ..shading import eval_bsdf, has_smooth, sample_bsdf

@@ -32,7 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Rays, connect_to_camera
+from ..camera import Rays
+from ..camera_connection import connect_to_camera
 from ..emitters import (emitted_towards, sample_emitter_position, sample_emitter_ray,
                         shadowed)
 from ..geometry import spawn_ray
@@ -79,7 +80,18 @@ class LightIntegrator(ClassSelection, Integrator):
                          "pathtracer.render, not per camera ray")
 
     def splat(self, scene, rng) -> tuple[np.ndarray, np.ndarray]:
-        """One light path per random stream -> splats ``(pixel (m,), value (m, 3))``."""
+        """One light path per random stream -> splats ``(pixel (m,), value (m, 3))``.
+
+        The render driver adds each splat's value to its pixel (flat index row * W + column)
+        and divides by the light paths per pixel. Points on the lights the camera sees
+        directly are one splat each (:meth:`visible_emitters`); a path leaving a light
+        (``sample_emitter_ray``: weight ``Le cos / pdf``) splats at each vertex it reaches
+        (:meth:`connect`) and continues by sampling the *adjoint* BSDF (importance
+        transport: ``sample_bsdf(..., adjoint=True)``, no 1/eta^2 on refraction, times
+        :func:`shading_correction`), with Russian roulette after ``rr_depth`` vertices. A
+        vertex's connection is a camera path of ``depth + 2`` segments: ``max_depth`` bounds
+        it as it bounds a camera path.
+        """
         splats = []
         if self.max_depth == 0:
             return _concatenate(splats)

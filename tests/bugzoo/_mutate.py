@@ -59,3 +59,17 @@ def mutate(base, module, **factories):
     Mutant.__name__ = f"Mutant{base.__name__}"
     Mutant.__qualname__ = Mutant.__name__
     return Mutant
+
+
+def mutate_splat(base, module, **factories):
+    """:func:`mutate` for a light tracer: its ``splat`` sees ``module.name = factory(original)``."""
+
+    class Mutant(base):
+        def splat(self, scene, rng, *args):
+            buggy = {name: make(getattr(module, name)) for name, make in factories.items()}
+            with patched(module, **buggy):
+                return super().splat(scene, rng, *args)
+
+    Mutant.__name__ = f"Mutant{base.__name__}"
+    Mutant.__qualname__ = Mutant.__name__
+    return Mutant
