@@ -32,6 +32,14 @@ package directory) that exposes
     Without ``INTEGRATORS`` the module and, for a package, its direct submodules are searched
     for :class:`~pathtracer.Integrator` subclasses; each one's ``name`` is its key.
 
+A light tracer (the ``light-tracing`` assignment) is a class with ``splats = True`` that
+    implements ``splat(self, scene, rng) -> (pixel, value)`` instead of ``radiance``: one light
+    path per random stream of ``rng``, splats as a 1-D integer array of flat pixel indices
+    (row * W + column, inside the film) and an ``(m, 3)`` float array of finite, non-negative
+    values; the render driver adds them to the film as independent replicas. Its camera
+    connection (``connect_to_camera``, ``camera_importance`` of
+    :mod:`pathtracer.camera_connection`) is the student's too: the runtime's are stubs.
+
 ``camera_rays`` (optional)
     ``camera_rays(camera, pixel, u_film) -> Rays``, Mitsuba's perspective camera, with the
     signature of :func:`pathtracer.camera.camera_rays`. Graded by the camera test only; the
