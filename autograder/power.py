@@ -45,10 +45,11 @@ POWER = 0.95
 
 
 def reference_of(check):
-    """The committed reference a check compares with (no rendering)."""
+    """The committed reference a check compares with (no rendering): at the check's own
+    parameters (:func:`autograder.grading.check_params`: film size, and max_depth if set)."""
     from mitsuba_refs.cache import get_reference
-    from mitsuba_refs.compare import default_params, reference_integrator
-    return get_reference(check.scene, default_params(check.scene),
+    from mitsuba_refs.compare import reference_integrator
+    return get_reference(check.scene, grading.check_params(check),
                          reference_integrator(check.integrator), render=False)
 
 
@@ -139,11 +140,11 @@ def injected_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float, 
 def rendered_power(check, b: float, renders: int, *, alpha: float, seed: int = 70_000) -> float:
     """Fraction of ``renders`` real renders of the reference solution at ``check.spp``,
     multiplied by ``1+b``, whose mean part fails against the committed reference."""
-    from mitsuba_refs.compare import default_params, render_ours
+    from mitsuba_refs.compare import render_ours
     reference = reference_of(check)
     rejected = 0
     for k in range(renders):
-        mean, var = render_ours(check.scene, check.integrator, default_params(check.scene),
+        mean, var = render_ours(check.scene, check.integrator, grading.check_params(check),
                                 check.spp, seed + k, processes=1)
         result = compare_means(mean * (1 + b), var * (1 + b) ** 2, check.spp, reference.mean,
                                reference.var, reference.n, alpha=alpha,

@@ -39,7 +39,7 @@ def default_jobs(scenes=None, integrators=None, extra_params=None,
     jobs = []
     for scene in scenes:
         base = {}
-        if resolution is None and scene in config.BUILTIN_SCENES:
+        if resolution is None and (scene in config.BUILTIN_SCENES or scene in config.GRADING_SCENES):
             width, height = config.test_resolution(scene)
             base = {"width": str(width), "height": str(height)}
         base.update(extra_params or {})

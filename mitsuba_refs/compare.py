@@ -77,7 +77,7 @@ def reference_integrator(name: str) -> str:
 
 def default_params(scene: str) -> dict:
     """The test film size of a built-in scene (the committed references' resolution)."""
-    if scene in config.BUILTIN_SCENES or scene in config.FEATURE_SCENES:
+    if scene in config.BUILTIN_SCENES or scene in config.FEATURE_SCENES or scene in config.GRADING_SCENES:
         width, height = config.test_resolution(scene)
         return {"width": width, "height": height}
     return {}

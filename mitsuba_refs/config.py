@@ -79,11 +79,21 @@ LIGHT_SCENES = ("cornell-box",)
 #: ``light-tracing`` check). Not in BUILTIN_SCENES.
 OWN_TEST_SCENES = ("textured", "quad-light-filtered", "media-box", "glass-lamp")
 
+#: Built-in scenes only the autograder renders, each a variant of a built-in scene (name ->
+#: that scene) with larger, dimmer lights of the same power, where BSDF sampling alone
+#: (``path_bsdf``) finds a light often enough for its checks' power (docs/autograder.md,
+#: "Power"). Test film size as the scene they vary; committed references for the graded
+#: estimator and the per-bounce ``path`` ones only. Not in BUILTIN_SCENES.
+GRADING_SCENES = {"cornell-box-large-light": "cornell-box",
+                  "cornell-caustics-large-light": "cornell-caustics",
+                  "cornell-lights-large": "cornell-lights"}
+
 #: The built-in scenes (``pathtracer/scenes/*.xml``) that every suite renders with every
-#: integrator: all but FEATURE_SCENES and OWN_TEST_SCENES. A scene file added there joins
-#: them and needs its committed references (``mitsuba-refs build``).
+#: integrator: all but FEATURE_SCENES, OWN_TEST_SCENES and GRADING_SCENES. A scene file added
+#: there joins them and needs its committed references (``mitsuba-refs build``).
 BUILTIN_SCENES = tuple(name for name in builtin_scene_names()
-                       if name not in FEATURE_SCENES and name not in OWN_TEST_SCENES)
+                       if name not in FEATURE_SCENES and name not in OWN_TEST_SCENES
+                       and name not in GRADING_SCENES)
 
 #: Our integrator names for which references are built by default.
 REF_INTEGRATORS = ("path", "path_bsdf", "path_nee", "direct")
@@ -103,6 +113,8 @@ ENV_CACHE = "MITSUBA_REFS_CACHE"
 
 def test_resolution(scene_name):
     """Return ``(width, height)`` of the test film for a built-in scene."""
+    if scene_name in GRADING_SCENES:
+        return test_resolution(GRADING_SCENES[scene_name])
     if scene_name in FEATURE_SCENES:
         return FEATURE_SCENES[scene_name][1:]
     if scene_name in WIDE_SCENES:

@@ -86,7 +86,7 @@ def test_one_rule_for_defines_across_the_command_lines():
 
 def test_scene_names_resolve_to_the_same_file_on_both_sides(tmp_path, monkeypatch):
     """A built-in name, a path with or without .xml: the tracer and mitsuba_refs agree."""
-    from mitsuba_refs.config import BUILTIN_SCENES, FEATURE_SCENES, OWN_TEST_SCENES
+    from mitsuba_refs.config import BUILTIN_SCENES, FEATURE_SCENES, GRADING_SCENES, OWN_TEST_SCENES
     from mitsuba_refs.render import resolve_scene
     from pathtracer.scene import builtin_scene_names, scene_file
     scene = tmp_path / "sub" / "mine"
@@ -100,5 +100,7 @@ def test_scene_names_resolve_to_the_same_file_on_both_sides(tmp_path, monkeypatc
     with pytest.raises(FileNotFoundError, match='did you mean "cornell-box"'):
         resolve_scene("cornell-bx")
     names = builtin_scene_names()
-    assert set(BUILTIN_SCENES) == set(names) - set(FEATURE_SCENES) - set(OWN_TEST_SCENES)
+    assert set(BUILTIN_SCENES) == (set(names) - set(FEATURE_SCENES) - set(OWN_TEST_SCENES)
+                                   - set(GRADING_SCENES))
+    assert set(GRADING_SCENES) <= set(names) and set(GRADING_SCENES.values()) <= set(BUILTIN_SCENES)
     assert {"cornell-box", "furnace", "smallpt"} <= set(BUILTIN_SCENES) and "materials" not in BUILTIN_SCENES

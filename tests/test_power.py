@@ -17,10 +17,6 @@ from mitsuba_refs.stats import detectable_bias
 from tests.budget import ALPHA
 
 INTEGRATOR_CHECKS = [c for c in grading.CHECKS if not c.camera]
-#: Checks whose 1.5 % needs more samples than the 3-minute submission budget allows
-#: (docs/autograder.md, "Power": 1728-1920 spp), with the bias they are documented to detect.
-OVER_BUDGET = {"path_bsdf-cornell-box": 0.029, "path_bsdf-glass": 0.030,
-               "path_bsdf-lights": 0.027}
 
 
 def test_power_table_covers_every_check():
@@ -51,22 +47,69 @@ def test_injected_power_confirms_the_analytic_bound(check):
 
 @pytest.mark.parametrize("check", INTEGRATOR_CHECKS, ids=[c.id for c in INTEGRATOR_CHECKS])
 def test_every_integrator_check_detects_a_bias_of_one_and_a_half_percent(check):
-    """1.5 % for every integrator check but the BSDF-only ones, which detect what the docs
-    say they do (and are not silently above it)."""
+    """1.5 % for every integrator check, the BSDF-only ones included (they grade on scenes
+    with larger lights of the same power, mitsuba_refs.config.GRADING_SCENES)."""
     ref = power.reference_of(check)
     worst = max(detectable_bias(ref.mean, ref.var, ref.n, check.spp, alpha=grading.ALPHA, sign=s)
                 for s in (1, -1))
-    target = OVER_BUDGET.get(check.id, power.TARGET_BIAS)
-    assert worst <= target, f"{check.id}: {100 * worst:.2f} % at {check.spp} spp"
+    assert worst <= power.TARGET_BIAS, f"{check.id}: {100 * worst:.2f} % at {check.spp} spp"
+
+
+def test_power_is_measured_against_the_reference_the_check_compares_with():
+    """A max_depth = 3 check is compared with the max_depth = 3 reference; its power too
+    (the unbounded one has another variance: path_nee-lights detects 1.63 % at 448 spp
+    against the max_depth = 3 reference, 1.41 % against the unbounded one)."""
+    check = grading.CHECKS_BY_ID["path_nee-lights"]
+    assert check.max_depth == 3
+    assert power.reference_of(check).metadata["params"]["max_depth"] == "3"
+
+
+def test_bsdf_sampling_is_graded_where_it_finds_the_light():
+    """The path_bsdf checks use the GRADING_SCENES variants: every light of the scene they vary
+    with the same emitted power (radiance x area) on a larger area, every other shape the
+    same; the variant's per-sample variance is at least 4x smaller than the original's, which
+    is what lets the same samples detect 1.5 %."""
+    import numpy as np
+    from mitsuba_refs.config import GRADING_SCENES
+    from pathtracer import load_scene
+    bsdf_checks = [c for c in INTEGRATOR_CHECKS if c.integrator == "path_bsdf"]
+    assert {c.scene for c in bsdf_checks} == set(GRADING_SCENES)
+    for check in bsdf_checks:
+        variant, original = (load_scene(name) for name in (check.scene, GRADING_SCENES[check.scene]))
+        lights = [e.shape for e in original.emitters]
+        assert [e.shape for e in variant.emitters] == lights
+        for mine, theirs in zip(variant.emitters, original.emitters):
+            np.testing.assert_allclose(mine.radiance * variant.shape_area[mine.shape],
+                                       theirs.radiance * original.shape_area[theirs.shape], rtol=1e-6)
+            assert variant.shape_area[mine.shape] >= 4 * original.shape_area[theirs.shape]
+        others = [i for i in range(len(original.shape_area)) if i not in lights]
+        np.testing.assert_allclose(np.asarray(variant.shape_area)[others],
+                                   np.asarray(original.shape_area)[others], rtol=1e-9)
+        original_check = grading.Check("x", check.integrator, GRADING_SCENES[check.scene],
+                                       check.parts, 1, max_depth=check.max_depth)
+        ours, theirs = power.reference_of(check), power.reference_of(original_check)
+        relative = [r.var.mean() / r.mean.mean() ** 2 for r in (ours, theirs)]
+        assert relative[0] * 4 <= relative[1], (check.id, relative)
+
+
+def test_every_check_has_its_committed_references():
+    """Each check's reference and the per-bounce ``path`` references its hints compare with
+    are committed (a missing one would make the grader call Mitsuba on Gradescope)."""
+    from mitsuba_refs.cache import get_reference
+    from mitsuba_refs.compare import default_params
+    for check in grading.ALL_CHECKS:
+        assert power.reference_of(check).n == 4096, check.id
+        depths = [d for d in grading.BOUNCE_DEPTHS if not check.max_depth or d <= check.max_depth]
+        for depth in [] if check.camera else depths:
+            params = {**default_params(check.scene), "max_depth": depth}
+            assert get_reference(check.scene, params, "path", render=False).n == 4096, check.id
 
 
 def test_a_bias_significant_at_1e_minus_4_does_not_pass():
     """The issue's case: +1.6 % measured by the grader with p = 1.5e-4 passed at the part
     level 4.8e-5.  At each check's spp a +1.6 % bias has a detection probability of at least
-    0.95 (analytic bound) wherever the check meets the 1.5 % target."""
+    0.95 (analytic bound) on every integrator check."""
     for check in INTEGRATOR_CHECKS:
-        if check.id in OVER_BUDGET:
-            continue
         ref = power.reference_of(check)
         assert detectable_bias(ref.mean, ref.var, ref.n, check.spp, alpha=grading.ALPHA) < 0.016
 

@@ -183,7 +183,8 @@ INTEGRATORS = registry(PathNEE, Path, PathBSDF, Direct)
 
 #: The integrators that differ from the reference solution (the grader's tests grade their checks).
 CHANGES = ('path_nee', 'path', 'path_bsdf', 'direct')
-#: Graded on the Cornell box checks only: it is the reference's estimator with other random
-#: streams, i.e. the reference at other seeds, whose false-failure rate the calibration sweep
-#: measures on every check; here it guards against a grader that compares random streams.
-GRADED_SCENES = ('cornell-box',)
+#: Graded on the Cornell box checks only (path_bsdf's is the box with a large light): it is the
+#: reference's estimator with other random streams, i.e. the reference at other seeds, whose
+#: false-failure rate the calibration sweep measures on every check; here it guards against a
+#: grader that compares random streams.
+GRADED_SCENES = ('cornell-box', 'cornell-box-large-light')
