@@ -139,11 +139,11 @@ def check_params(check: Check) -> dict:
 
 
 #: The graded checks, in order. ``spp``: each integrator check's mean part detects a global bias
-#: of 1.5 % with probability >= 0.95 at ALPHA (python -m autograder.power), except the three
-#: ``path_bsdf`` checks, whose BSDF-only estimator would need 1728-1920 spp: more than the
-#: 3 minutes a submission may take on one core; they get what fits (2.9-3.5 %). Time limits are
-#: 2.3-3x the reference solution's time on one core (docs/autograder.md) and add up to less
-#: than Gradescope's default 10-minute timeout even if every test of a submission hangs.
+#: of 1.5 % with probability >= 0.95 at ALPHA (python -m autograder.power). The ``path_bsdf``
+#: checks get there by their scenes, not by samples: on the original scenes BSDF sampling alone
+#: would need 1792-1920 spp, more than the 3 minutes a submission may take on one core.
+#: Time limits are 2.3-3x the reference solution's time on one core (docs/autograder.md) and add
+#: up to less than Gradescope's default 10-minute timeout even if every test of a submission hangs.
 CHECKS = (
     # BSDF sampling alone finds a light only by chance: its checks use variants of the scenes
     # with larger, dimmer lights of the same power (mitsuba_refs.config.GRADING_SCENES).
