@@ -94,8 +94,8 @@ def test_bsdf_sampling_is_graded_where_it_finds_the_light():
 
 def test_every_check_has_its_committed_references():
     """Each check's reference and the per-bounce references its hints compare with (``path``,
-    ``volpath`` for the media checks; none for the camera and the splatting light tracer) are committed (a missing one would make the grader call
-    Mitsuba on Gradescope)."""
+    ``volpath`` for the media checks; none for the camera and the splatting light tracer) are
+    committed (a missing one would make the grader call Mitsuba on Gradescope)."""
     from mitsuba_refs.cache import get_reference
     from mitsuba_refs.compare import BOUNCE_REFERENCE, SPLATTING, default_params
     for check in grading.ALL_CHECKS:
