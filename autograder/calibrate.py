@@ -108,6 +108,9 @@ def main(argv=None) -> int:
                         help="the implementation builds on the reference solution (correct "
                              "alternatives in tests/alternatives)")
     parser.add_argument("--seeds", type=int, default=40, help="repetitions (default: %(default)s)")
+    parser.add_argument("--first-seed", type=int, default=1,
+                        help="number of the first repetition (default: %(default)s): sweeps with "
+                             "disjoint ranges can be pooled")
     parser.add_argument("--assignment", choices=list(grading.ASSIGNMENTS),
                         default=grading.DEFAULT_ASSIGNMENT,
                         help="the assignment graded (default: %(default)s)")
@@ -120,8 +123,8 @@ def main(argv=None) -> int:
     parser.add_argument("--fresh", action="store_true",
                         help="ignore the repetitions already logged beside --out")
     args = parser.parse_args(argv)
-    if args.seeds < 1 or args.workers < 1 or not args.time_scale > 0:
-        parser.error("--seeds and --workers must be >= 1, --time-scale > 0")
+    if args.seeds < 1 or args.workers < 1 or args.first_seed < 1 or not args.time_scale > 0:
+        parser.error("--seeds, --first-seed and --workers must be >= 1, --time-scale > 0")
     checks = grading.checks_of(args.assignment)
     if args.checks:
         others = sorted(set(args.checks) - {c.id for c in checks})
@@ -137,7 +140,8 @@ def main(argv=None) -> int:
         log_path.unlink(missing_ok=True)
     records = read_records(log_path, args.impl, check_ids)
     done = {record["seed"] for record in records}
-    todo = [k for k in range(1, args.seeds + 1) if k not in done]
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    todo = [k for k in seeds if k not in done]
     print(f"{len(done)} repetitions already in {log_path}; grading {len(todo)} more", flush=True)
 
     def grade_one(k):
@@ -158,7 +162,7 @@ def main(argv=None) -> int:
                   f"{lost}/{len(records)} lost so far", flush=True)
 
     part_alpha = grading.alpha_of(checks[0])
-    report = summarise([r for r in records if r["seed"] <= args.seeds], part_alpha)
+    report = summarise([r for r in records if r["seed"] in seeds], part_alpha)
     report.update(impl=args.impl, checks=check_ids)
     args.out.write_text(json.dumps(report, indent=2))
     low, high = report["false_failure_ci95"]
