@@ -306,16 +306,10 @@ def main(argv=None) -> int:
     if args.seconds <= 0:
         print("error: --seconds must be positive", file=sys.stderr)
         return 2
-    bar = common.progress_bar(len(args.lights) * len(args.integrators), "caustics",
-                              not args.no_progress)
-    from mitsuba_refs.errors import ReferenceUnavailable
-    try:
-        results = {light: run_light(light, args, bar) for light in args.lights}
-    except ReferenceUnavailable as error:
-        print(f"error: {error}", file=sys.stderr)
+    results = common.run_with_progress(args.lights, lambda key, bar: run_light(key, args, bar),
+                                       len(args.integrators), "caustics", not args.no_progress)
+    if results is None:
         return 2
-    finally:
-        bar.close()
     files = [plot_images(results, args.out), plot_errors(results, args.out),
              common.write_json(common.out_dir(args.out) / "caustics.json", summary(results, args))]
     for light, result in results.items():

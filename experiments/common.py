@@ -85,6 +85,24 @@ def progress_bar(total: int, desc: str, enabled: bool = True):
                 dynamic_ncols=True)
 
 
+def run_with_progress(keys, run, per_key: int, desc: str, enabled: bool = True):
+    """``{key: run(key, bar)}`` for every key, under one progress bar of ``per_key`` steps per key.
+
+    Returns None after printing the error when a Mitsuba reference is missing (the caller exits
+    with 2): an experiment compares against references and has nothing to show without them.
+    """
+    from mitsuba_refs.errors import ReferenceUnavailable
+    keys = list(keys)
+    bar = progress_bar(len(keys) * per_key, desc, enabled)
+    try:
+        return {key: run(key, bar) for key in keys}
+    except ReferenceUnavailable as error:
+        print(f"error: {error}", file=sys.stderr)
+        return None
+    finally:
+        bar.close()
+
+
 # ---------------------------------------------------------------------------------------
 # files
 

@@ -127,16 +127,10 @@ def main(argv=None) -> int:
     if args.seconds <= 0:
         print("error: --seconds must be positive", file=sys.stderr)
         return 2
-    from mitsuba_refs.errors import ReferenceUnavailable
-    bar = common.progress_bar(len(args.scenes) * len(args.integrators), "integrators",
-                              not args.no_progress)
-    try:
-        results = {scene: run_scene(scene, args, bar) for scene in args.scenes}
-    except ReferenceUnavailable as error:
-        print(f"error: {error}", file=sys.stderr)
+    results = common.run_with_progress(args.scenes, lambda key, bar: run_scene(key, args, bar),
+                                       len(args.integrators), "integrators", not args.no_progress)
+    if results is None:
         return 2
-    finally:
-        bar.close()
     path = common.write_json(common.out_dir(args.out) / "integrators.json",
                              dict(seconds=args.seconds, alpha=args.alpha, seed=args.seed,
                                   reference="Mitsuba path, 4096 spp", scenes=results))
