@@ -420,6 +420,18 @@ def test_skeleton_grades_zero_without_crashing(tmp_path, assignment):
         assert test["status"] == "failed" and "not implemented" in test["output"], test
 
 
+def test_package_grades_the_assignment_it_was_built_for(tmp_path):
+    import zipfile
+
+    from autograder import package
+    for name in grading.ASSIGNMENTS:
+        with zipfile.ZipFile(package.build(tmp_path / f"{name}.zip", name)) as z:
+            run = z.read("run_autograder").decode()
+        assert f"ASSIGNMENT={name}\n" in run and '--assignment "$ASSIGNMENT"' in run, run
+    with pytest.raises(ValueError, match="unknown assignment"):
+        package.build(tmp_path / "other.zip", "raytracing")
+
+
 def test_unknown_assignment_is_a_usage_error(tmp_path):
     cmd = [sys.executable, "-m", "pytest", *_plugin_args(), str(ROOT / "autograder" / "tests_for_students"),
            "--assignment", "raytracing", "-q", "-p", "no:cacheprovider", "--rootdir", str(ROOT / "autograder")]
