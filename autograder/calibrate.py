@@ -10,6 +10,10 @@ render seed shifted, and reports
   calibration far more finely than the rare failures themselves.
 
     python -m autograder.calibrate --seeds 100 --out out/grading-calibration.json
+    python -m autograder.calibrate --pool A.jsonl B.jsonl --out pooled.json
+
+The second form grades nothing: it pools sweeps that graded different checks at the same
+repetitions (e.g. a re-run of the checks that changed) into whole submissions.
 
 A seed costs one graded submission (about 140 s of CPU for the path-tracing assignment).
 Each finished seed is appended to ``OUT.jsonl`` at once; running the command again resumes
@@ -83,7 +87,8 @@ def summarise(records: list, part_alpha: float = grading.ALPHA) -> dict:
         "below_part_alpha": int((p <= part_alpha).sum()),
         "min_p": float(p.min()) if p.size else None,
         "ks_uniform_p": float(stats.kstest(p, "uniform").pvalue) if p.size else None,
-        "seconds_per_submission": float(np.median([r["seconds"] for r in records])),
+        "seconds_per_submission": (float(np.median(seconds)) if (seconds := [
+            r["seconds"] for r in records if r["seconds"] is not None]) else None),
     }
 
 
@@ -97,6 +102,37 @@ def read_records(path: Path, impl: str, checks: list) -> list:
         if record.get("impl") == impl and record.get("checks") == checks:
             records.append(record)
     return records
+
+
+def pool_records(logs, impl: str, check_ids: list) -> list:
+    """Whole-submission records pooled from sweeps over parts of the checks.
+
+    Render seeds depend only on the check and the repetition number, so the records of two
+    sweeps at the same repetition ``k`` are the parts of one graded submission. Each log
+    (``OUT.jsonl`` of earlier sweeps of ``impl``) contributes the checks it graded; a later log
+    supersedes an earlier one for the checks both graded (e.g. after a check was changed).
+    A repetition counts only where every check of ``check_ids`` was graded.
+    """
+    by_seed = {}
+    for log in logs:
+        for line in Path(log).read_text().splitlines():
+            record = json.loads(line)
+            if record.get("impl") != impl:
+                continue
+            merged = by_seed.setdefault(record["seed"], {})
+            for check in record["checks"]:
+                merged[check] = (record["lost"].get(check, 0.0),
+                                 {key: p for key, p in record["p_values"].items()
+                                  if key.split("/")[0] == check}, record["seconds"])
+    pooled = []
+    for seed, checks in sorted(by_seed.items()):
+        if not set(check_ids) <= set(checks):
+            continue
+        lost = {c: checks[c][0] for c in check_ids if checks[c][0] > 0}
+        pooled.append({"seed": seed, "lost_points": bool(lost), "lost": lost,
+                       "p_values": {k: p for c in check_ids for k, p in checks[c][1].items()},
+                       "seconds": None, "impl": impl, "checks": check_ids})
+    return pooled
 
 
 def main(argv=None) -> int:
@@ -122,6 +158,9 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=Path("out/grading-calibration.json"))
     parser.add_argument("--fresh", action="store_true",
                         help="ignore the repetitions already logged beside --out")
+    parser.add_argument("--pool", nargs="+", type=Path, metavar="LOG",
+                        help="grade nothing: pool the OUT.jsonl logs of earlier sweeps (each over "
+                             "some of the checks, at the same repetitions) into whole submissions")
     args = parser.parse_args(argv)
     if args.seeds < 1 or args.workers < 1 or args.first_seed < 1 or not args.time_scale > 0:
         parser.error("--seeds, --first-seed and --workers must be >= 1, --time-scale > 0")
@@ -132,6 +171,12 @@ def main(argv=None) -> int:
             parser.error(f"--checks {' '.join(others)}: not in the assignment {args.assignment}")
         checks = [grading.CHECKS_BY_ID[c] for c in args.checks]
     check_ids = [c.id for c in checks]
+    part_alpha = grading.alpha_of(checks[0])
+    if args.pool:
+        records = pool_records(args.pool, args.impl, check_ids)
+        if not records:
+            parser.error("--pool: no repetition of these logs covers every check")
+        return _report(summarise(records, part_alpha), args, check_ids, part_alpha)
 
     # Every finished repetition is appended at once, so a long sweep can be stopped and resumed.
     log_path = args.out.with_suffix(".jsonl")
@@ -161,9 +206,13 @@ def main(argv=None) -> int:
                   f"{'lost ' + str(record['lost']) if record['lost_points'] else 'full marks'}; "
                   f"{lost}/{len(records)} lost so far", flush=True)
 
-    part_alpha = grading.alpha_of(checks[0])
-    report = summarise([r for r in records if r["seed"] in seeds], part_alpha)
+    return _report(summarise([r for r in records if r["seed"] in seeds], part_alpha), args,
+                   check_ids, part_alpha)
+
+
+def _report(report: dict, args, check_ids: list, part_alpha: float) -> int:
     report.update(impl=args.impl, checks=check_ids)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(report, indent=2))
     low, high = report["false_failure_ci95"]
     print(f"{report['lost_points']}/{report['submissions']} correct submissions lost points "

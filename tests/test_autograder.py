@@ -533,6 +533,31 @@ def test_splats_are_checked_before_they_reach_the_film():
             check_splats(bad, 6, "light")
 
 
+def test_calibration_pools_sweeps_of_different_checks(tmp_path, capsys):
+    """Two sweeps over parts of the checks at the same repetitions make whole submissions; a
+    later log supersedes an earlier one for a check both graded; incomplete repetitions drop."""
+    from autograder import calibrate
+
+    def record(seed, checks, lost=None):
+        return json.dumps({"seed": seed, "lost_points": bool(lost), "lost": lost or {},
+                           "p_values": {f"{c}/mean": 0.5 + 0.01 * seed for c in checks},
+                           "seconds": 1.0, "impl": "autograder.solution", "checks": checks})
+    first, second = tmp_path / "a.jsonl", tmp_path / "b.jsonl"
+    first.write_text("\n".join([record(1, ["camera", "direct-glass"], {"direct-glass": 5.0}),
+                                record(2, ["camera", "direct-glass"]), record(3, ["camera"])]))
+    second.write_text("\n".join([record(1, ["direct-glass"]), record(2, ["direct-glass"])]))
+    out = tmp_path / "pooled.json"
+    assert calibrate.main(["--pool", str(first), str(second), "--checks", "camera", "direct-glass",
+                           "--out", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert report["submissions"] == 2 and report["lost_points"] == 0       # seed 1 re-graded
+    assert report["part_p_values"] == 4
+    assert calibrate.main(["--pool", str(first), "--checks", "camera", "direct-glass",
+                           "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["lost_points"] == 1
+    assert "correct submissions lost points" in capsys.readouterr().out
+
+
 def test_sandboxed_render_is_the_direct_render():
     """The student process renders exactly what pathtracer.render gives: same camera rays
     (sent by the grader), same random numbers, and the scene file's options (glass-cube sets
