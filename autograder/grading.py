@@ -236,8 +236,15 @@ def budget(assignment: str = DEFAULT_ASSIGNMENT) -> ErrorBudget:
 
 
 def alpha_of(check: Check) -> float:
-    """Per-test level of every scored part of ``check`` (its assignment's Bonferroni share)."""
-    return budget(check.assignment).alpha(f"{check.id}/{check.parts[0][0]}")
+    """Per-test level of every scored part of ``check`` (its assignment's Bonferroni share).
+
+    A check that is not one of its assignment's (an ad-hoc check built by a test or a course)
+    is graded at the level of one of the assignment's own parts: adding it to a submission
+    does not dilute the others.
+    """
+    parts = budget(check.assignment)
+    name = f"{check.id}/{check.parts[0][0]}"
+    return parts.alpha(name) if name in parts.weights else parts.suite_alpha / parts.n_tests
 
 
 #: Per-test level of every scored part of the path-tracing assignment.

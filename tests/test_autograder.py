@@ -93,6 +93,9 @@ def test_budget_is_within_one_in_a_thousand(assignment):
         assert check.assignment == assignment
         assert grading.alpha_of(check) == pytest.approx(grading.SUBMISSION_ALPHA / b.n_tests)
     assert grading.ALPHA == grading.alpha_of(grading.CHECKS[0])
+    # An ad-hoc check (not registered) is graded at one part's level, not a KeyError.
+    adhoc = grading.Check("adhoc", "path", "quad-light", (("mean", 1),), 10, assignment=assignment)
+    assert grading.alpha_of(adhoc) == pytest.approx(grading.SUBMISSION_ALPHA / b.n_tests)
 
 
 def test_check_ids_are_unique_across_assignments():
