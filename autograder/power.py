@@ -18,9 +18,10 @@
 
 A light tracer's check (``mitsuba_refs.compare.SPLATTING``) has no whole-image components:
 its pixels are correlated across the image (docs/statistics.md, section 8), so the tiles
-decide alone. Its analytic bound is :func:`tile_detectable_bias` (each tile's best channel,
-Bonferroni over tiles and channels), its injection runs ``compare_means`` without the image
-components, and it has no gross-error bound (that is an image component).
+decide alone, with their own variance and with the bounded one. Its analytic bound is
+:func:`tile_detectable_bias` (each tile's best channel, Bonferroni over the two components,
+tiles and channels), its injection runs ``compare_means`` without the image components, and
+its gross-error bound is the tiles' (:func:`mitsuba_refs.stats.power.tile_gross_error_bound`).
 """
 from __future__ import annotations
 
@@ -35,7 +36,7 @@ import numpy as np
 from scipy.stats import norm
 
 from mitsuba_refs.stats import VARIANCE_BOUND, compare_means, detectable_bias
-from mitsuba_refs.stats.power import gross_error_bound
+from mitsuba_refs.stats.power import gross_error_bound, tile_gross_error_bound
 
 from . import grading
 
@@ -59,13 +60,15 @@ def splats(check) -> bool:
     return check.integrator in SPLATTING
 
 
-def tile_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float, tile: int = 8) -> float:
+def tile_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float, tile: int = 8,
+               components: int = 2) -> float:
     """Probability that the tiles-only mean test rejects an image ``(1+b)`` times the truth.
 
-    Each tile rejects when its best channel's ``|z|`` exceeds the Bonferroni critical value
-    over tiles and channels (the real test's Šidák over tiles and its correlated-channel
-    maximum have a smaller one) and the tiles are independent: a lower bound on the power,
-    so the bias :func:`tile_detectable_bias` returns is an upper bound.
+    Each tile rejects when its best channel's ``|z|`` (own variance) exceeds the Bonferroni
+    critical value over the test's ``components`` (own-variance tiles and bounded-variance
+    tiles), tiles and channels (the real test's Šidák and its correlated-channel maximum have
+    a smaller one) and the tiles are independent: a lower bound on the power, so the bias
+    :func:`tile_detectable_bias` returns is an upper bound.
     """
     mean = np.asarray(ref_mean, dtype=np.float64)
     per_sample = np.maximum(np.asarray(ref_var, dtype=np.float64), 0.0)
@@ -77,7 +80,7 @@ def tile_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float, tile
     se = np.sqrt(tiles(per_sample) * (1.0 + b) ** 2 / n_test + tiles(per_sample) / ref_n)
     informative = (se > 0).any(axis=2)
     m = max(int(informative.sum()), 1)
-    critical = norm.isf(alpha / (2 * 3 * m))
+    critical = norm.isf(alpha / (components * 2 * 3 * m))
     with np.errstate(divide="ignore", invalid="ignore"):
         shift = np.where(se > 0, np.abs(b * signal) / se, 0.0).max(axis=2)[informative]
     miss = norm.cdf(critical - shift)
@@ -166,8 +169,8 @@ def power_table(checks=None, *, alpha: float | None = None, seeds: int = 200,
             continue
         ref = reference_of(check)
         level = alpha or grading.alpha_of(check)
-        row = {"check": check.id, "spp": check.spp, "alpha": level}
         tiles_only = splats(check)
+        row = {"check": check.id, "spp": check.spp, "alpha": level, "tiles_only": tiles_only}
         bound = tile_detectable_bias if tiles_only else detectable_bias
         for sign, key in ((1, "brighter"), (-1, "darker")):
             b = bound(ref.mean, ref.var, ref.n, check.spp, alpha=level, power=POWER, sign=sign)
@@ -181,8 +184,9 @@ def power_table(checks=None, *, alpha: float | None = None, seeds: int = 200,
                                                               alpha=level)
         row["detectable_bias"] = max(row["bias_brighter"], row["bias_darker"])
         row["reference_floor"] = bound(ref.mean, ref.var, ref.n, 1e15, alpha=level, power=POWER)
-        row["gross_error_bound"] = math.nan if tiles_only else gross_error_bound(
-            ref.mean, ref.var, ref.n, check.spp, alpha=level, max_var_ratio=VARIANCE_BOUND)
+        gross = tile_gross_error_bound if tiles_only else gross_error_bound
+        row["gross_error_bound"] = gross(ref.mean, ref.var, ref.n, check.spp, alpha=level,
+                                         max_var_ratio=VARIANCE_BOUND)
         rows.append(row)
     return rows
 
@@ -199,9 +203,9 @@ def format_table(rows) -> str:
         lines.append(f"| {r['check']} | {r['spp']} | {100 * r['bias_brighter']:.2f} % / "
                      f"{100 * r['bias_darker']:.2f} % | {100 * r['injected_power_brighter']:.1f} % / "
                      f"{100 * r['injected_power_darker']:.1f} %{extra} | "
-                     f"{100 * r['reference_floor']:.2f} % | " + (
-                         "none (tiles only)" if math.isnan(r["gross_error_bound"])
-                         else f"{100 * r['gross_error_bound']:.1f} %") + " |")
+                     f"{100 * r['reference_floor']:.2f} % | "
+                     f"{100 * r['gross_error_bound']:.1f} %" + (" (tiles)" if r.get("tiles_only")
+                                                                 else "") + " |")
     return "\n".join(lines)
 
 

@@ -14,6 +14,7 @@ from mitsuba_refs.stats import (ErrorBudget, compare_means, compare_variances, c
                                 suite_false_failure)
 from mitsuba_refs.stats._mvn import p_max_abs
 from mitsuba_refs.stats._tiles import region_name, tile_counts, tile_sums
+from mitsuba_refs.stats.power import tile_gross_error_bound
 from mitsuba_refs.stats.simulate import make_scene, render_stats
 
 
@@ -249,6 +250,36 @@ def test_mean_bounded_variance_catches_an_exploding_bias():
     assert compare_means(m2, v2, 64, mb, vb, 4096, alpha=4.8e-5).agree
     r2 = compare_means(m2, v2, 64, mb, vb, 4096, alpha=4.8e-5, max_var_ratio=4.0)
     assert not r2.agree and "x too bright" in r2.verdict and r2.rel_bias == pytest.approx(929, rel=0.01)
+
+
+def test_tiles_only_mean_test_bounds_the_variance_tile_by_tile():
+    """A splatting render (no whole-image components): a wrong light tracer whose image is
+    carried by a few enormous samples agrees with its own tile variances, and is rejected by
+    the bounded tiles, which name the tile and the bound; a correct render still agrees."""
+    ma, va, mb, vb = _pair(48, 64, seed=12)
+    m, v = _heavy_tailed(ma, va, 64, 1e6 * 48 * 64 * 64, 3, seed=2)
+    own = compare_means(m, v, 64, mb, vb, 4096, alpha=1e-4, image_components=False)
+    assert own.agree and set(own.scale_p_values) == {"8px"}      # the flaw this fixes
+    r = compare_means(m, v, 64, mb, vb, 4096, alpha=1e-4, image_components=False,
+                      max_var_ratio=4.0)
+    assert set(r.scale_p_values) == {"8px", "8px, bounded variance"}
+    assert not r.agree and r.scale_p_values["8px, bounded variance"] < 1e-12
+    assert "at most 4x the reference's variance" in r.verdict and r.n_significant >= 1
+    assert compare_means(ma, va, 64, mb, vb, 4096, alpha=1e-4, image_components=False,
+                         max_var_ratio=4.0).agree
+
+
+def test_tile_gross_error_bound_is_a_guarantee():
+    """An observed image off by the tiles' gross-error bound is rejected whatever its own
+    variance (here 1e6x the reference's); one off by a tenth of it, with that variance, is not
+    (nothing else can see it)."""
+    _, _, mb, vb = _pair(48, 64, seed=13)
+    bound = tile_gross_error_bound(mb, vb, 4096, 256, alpha=1e-3, max_var_ratio=4.0)
+    assert 0 < bound < 0.2
+    for r, rejected in ((1.001 * bound, True), (-1.001 * bound, True), (0.1 * bound, False)):
+        verdict = compare_means(mb * (1 + r), vb * 1e6, 256, mb, vb, 4096, alpha=1e-3,
+                                image_components=False, max_var_ratio=4.0)
+        assert verdict.agree is not rejected, (r, verdict.verdict)
 
 
 def test_mean_bounded_variance_is_exact_for_a_noiseless_reference_shift():

@@ -68,7 +68,11 @@ image-mean variance taken as :math:`K\sum_p v^b_p/n_a/P^2` (K times the referenc
 from millions of samples) instead of its own.  Under :math:`H_0`: equal means and a test-side
 variance at most K times the reference's, it is valid (conservative); an observed image mean
 off by more than :math:`z^*\sqrt{K n_b/n_a+1}\,\mathrm{se}_b` is rejected whatever the test's
-own variance.  The family is then Šidák over three components.
+own variance.  The family is then Šidák over three components.  Without the image
+components (splatting renders, ``image_components=False``) the same bound is applied per
+tile: each tile's test-side variance is taken as K times the reference's tile variance, an
+"8px, bounded variance" component Šidák-adjusted over the informative tiles; the family is
+then Šidák over two components (own-variance tiles and bounded tiles).
 
 Which tiles are reported as significant: those whose largest-channel |z| exceeds the
 per-tile critical value of the family.  A global bias too small to show in any one tile is
@@ -291,7 +295,9 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
         its own estimate, so that a test-side variance far above the reference's cannot hide
         a bias (e.g. :data:`VARIANCE_BOUND` for two renders of the same estimator).  Valid
         when the test estimator's per-sample variance, summed over the image, is at most
-        that many times the reference's.  None (default): tiles and image only.
+        that many times the reference's.  With ``image_components=False`` the bound applies
+        to each tile instead ("8px, bounded variance"; valid when it holds per tile).
+        None (default): tiles and image only.
 
     pixel_correlation : PixelCorrelation, optional
         How the film's reconstruction filter correlates neighbouring pixels
@@ -302,7 +308,8 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
         False leaves out the whole-image components (own and bounded variance): for
         renders whose pixels are correlated across the image, where summed pixel variances
         misjudge the image mean's (a light path splats into every pixel its vertices
-        project to; docs/statistics.md section 8). The tiles then decide alone.
+        project to; docs/statistics.md section 8). The tiles then decide alone, with
+        their own variance and, if ``max_var_ratio`` is given, with the bounded one.
 
     Returns
     -------
@@ -382,6 +389,18 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
         scale_p["image, bounded variance"] = (p_max_abs(float(np.max(np.abs(bounded_z))), R)
                                               if np.any(bounded_z != 0) else 1.0)
 
+    # ---- tiles, the test's variance bounded (renders without image components) --------
+    # Splatting correlates pixels across the image but hardly within a tile (docs/statistics.md
+    # section 8), so there the bound applies tile by tile: the test side's tile variance is
+    # max_var_ratio times the reference's, whatever the test's own.
+    bounded_tiles_z = None
+    if max_var_ratio is not None and not image_components:
+        bounded_tiles_z, inf_b = tile_z(ma, max_var_ratio * vb * share, n_a, mb, vb * share, n_b,
+                                        tile, rel_floor=rel_floor)
+        m_b = int(inf_b.any(axis=2).sum())
+        zmax_b = float(np.max(np.abs(np.where(inf_b, bounded_tiles_z, 0.0)))) if m_b else 0.0
+        scale_p[f"{tile}px, bounded variance"] = sidak(p_max_abs(zmax_b, R), m_b) if m_b else 1.0
+
     p_family = sidak(min(scale_p.values()), len(scale_p))
     agree = not (p_family <= alpha)
 
@@ -405,10 +424,15 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
     # ---- where is it worst (base scale) ------------------------------------------
     # per-tile critical |z|: solve p_max_abs(crit, R) = Šidák per-tile level
     lvl = sidak_per_test(sidak_per_test(alpha, len(scale_p)), max(m0, 1))
+    bounded_only = False
     if agree:          # then no tile can exceed the critical value
         sig = np.zeros(z0.shape, dtype=bool)
     else:
         sig = inf0 & (np.abs(z0) > _solve_crit(lvl, R))
+        if bounded_tiles_z is not None and not sig.any():
+            # only the bound rejects (a heavy-tailed test side): report the tiles it rejects
+            z0, bounded_only = bounded_tiles_z, True
+            sig = inf0 & (np.abs(z0) > _solve_crit(lvl, R))
     n_sig = int(sig.any(axis=2).sum())
     if m0:
         absz = np.where(inf0, np.abs(z0), -1.0)
@@ -438,6 +462,9 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
             cs = f"{cols[0]}" if cols[0] == cols[-1] else f"{cols[0]}-{cols[-1]}"
             parts.append(f"{int(any_sig.sum())} of {any_sig.size} {tile}px tiles, largest |z|={abs(worst_z):.1f} "
                          f"at tile rows {rs}, cols {cs} ({where})")
+            if bounded_only:
+                parts.append(f"with at most {max_var_ratio:g}x the reference's variance (your own "
+                             f"variance is so large that it hides the difference)")
             region = where if where == "whole image" else region
         elif bounded_z is not None and scale_p["image, bounded variance"] < scale_p["image"]:
             parts.append(f"the whole-image means differ by far more than the noise of an estimator with "
