@@ -173,6 +173,9 @@ def main(argv=None) -> int:
     check_ids = [c.id for c in checks]
     part_alpha = grading.alpha_of(checks[0])
     if args.pool:
+        missing = [str(log) for log in args.pool if not log.is_file()]
+        if missing:
+            parser.error(f"--pool: no such log: {', '.join(missing)}")
         records = pool_records(args.pool, args.impl, check_ids)
         if not records:
             parser.error("--pool: no repetition of these logs covers every check")

@@ -559,6 +559,9 @@ def test_calibration_pools_sweeps_of_different_checks(tmp_path, capsys):
                            "--out", str(out)]) == 0
     assert json.loads(out.read_text())["lost_points"] == 1
     assert "correct submissions lost points" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exit_info:        # a missing log: a usage error naming it
+        calibrate.main(["--pool", str(first), str(tmp_path / "nope.jsonl"), "--out", str(out)])
+    assert exit_info.value.code == 2 and "nope.jsonl" in capsys.readouterr().err
 
 
 def test_sandboxed_render_is_the_direct_render():
