@@ -35,7 +35,8 @@ import math
 import numpy as np
 from scipy import special
 
-from ._tiles import sidak_per_test, tile_counts, tile_sums
+from ._tiles import sidak_per_test
+from .mean import tile_z
 
 __all__ = ["image_mean_se", "image_critical_z", "bias_power", "detectable_bias", "spp_for_bias",
            "gross_error_bound", "tile_gross_error_bound"]
@@ -174,23 +175,17 @@ def tile_gross_error_bound(ref_mean, ref_var, ref_n, n_test, *, alpha: float,
     reference's with :math:`|r|` at least this value, whatever the test side's own variance:
     in the tile and channel with the largest :math:`\bar b / \mathrm{se}` the bounded
     :math:`|z|` reaches the Bonferroni critical value over ``components``, tiles and channels
-    (at least the test's own critical value, so the guarantee holds). The standard error is
-    the one ``tile_z`` computes with the test side's variance ``K`` times the reference's
-    (rel_floor neglected). A deterministic guarantee on the observed image, not a power.
+    (at least the test's own critical value, so the guarantee holds). The z is
+    :func:`mitsuba_refs.stats.mean.tile_z`'s with the test side's variance ``K`` times the
+    reference's (rel_floor neglected). A deterministic guarantee on the observed image, not a
+    power.
     """
     mu = np.asarray(ref_mean, dtype=np.float64)
     var = np.maximum(np.asarray(ref_var, dtype=np.float64), 0.0)
-    mu, var = (mu if mu.ndim == 3 else mu[..., None]), (var if var.ndim == 3 else var[..., None])
-    count = tile_counts(mu.shape[0], mu.shape[1], tile)[..., None]
-    mean_b, var_b = tile_sums(mu, tile) / count, tile_sums(var, tile) / count
-    # tile_z's pooled variance with a test side of K times the reference's
-    pooled = (n_test * max_var_ratio + ref_n) * var_b / (n_test + ref_n)
-    se = np.sqrt(max_var_ratio * var_b / (count * n_test) + np.maximum(var_b, pooled) / (count * ref_n))
-    informative = ((se > 0) | (mean_b != 0)).any(axis=2)
-    m = max(int(informative.sum()), 1)
-    level = sidak_per_test(alpha, components) / (2 * mu.shape[2] * m)
-    crit = float(-special.ndtri(level))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(se > 0, np.abs(mean_b) / se, np.where(mean_b != 0, np.inf, 0.0))
-    best = float(np.max(ratio))
+    # The bounded z of an image twice the reference's (r = 1) is each tile's mean / se.
+    z, informative = tile_z(2.0 * mu, max_var_ratio * var, n_test, mu, var, ref_n, tile,
+                            rel_floor=0.0)
+    m = max(int(informative.any(axis=2).sum()), 1)
+    crit = float(-special.ndtri(sidak_per_test(alpha, components) / (2 * z.shape[2] * m)))
+    best = float(np.max(np.abs(z)))
     return math.inf if best == 0 else crit / best
