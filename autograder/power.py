@@ -47,7 +47,8 @@ POWER = 0.95
 
 def reference_of(check):
     """The committed reference a check compares with (no rendering): at the check's own
-    parameters (:func:`autograder.grading.check_params`: film size, and max_depth if set)."""
+    parameters (:func:`autograder.grading.check_params`: film size, max_depth and rr_depth
+    if set)."""
     from mitsuba_refs.cache import get_reference
     from mitsuba_refs.compare import reference_integrator
     return get_reference(check.scene, grading.check_params(check),

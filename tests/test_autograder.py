@@ -173,8 +173,7 @@ def test_alternatives_equal_the_reference_where_not_graded(name, monkeypatch):
     assert {c.scene for c in checks} == set(module.SAME_AS_REFERENCE)
     for check in checks:
         params = dict(grading.check_params(check), width=16, height=12)
-        options = {k: v for k, v in (("max_depth", check.max_depth), ("rr_depth", check.rr_depth))
-                   if v is not None}
+        options = {} if check.max_depth is None else {"max_depth": check.max_depth}
         images = [render(load_scene(check.scene, **params), cls(), spp=8, seed=3, processes=1,
                          **options)
                   for cls in (module.INTEGRATORS[check.integrator], REFERENCE[check.integrator])]

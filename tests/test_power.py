@@ -7,6 +7,7 @@ depends on the tracer: the assertions are deterministic, their false-failure pro
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -85,9 +86,7 @@ def test_bsdf_sampling_is_graded_where_it_finds_the_light():
         others = [i for i in range(len(original.shape_area)) if i not in lights]
         np.testing.assert_allclose(np.asarray(variant.shape_area)[others],
                                    np.asarray(original.shape_area)[others], rtol=1e-9)
-        original_check = grading.Check("x", check.integrator, GRADING_SCENES[check.scene],
-                                       check.parts, 1, max_depth=check.max_depth,
-                                       rr_depth=check.rr_depth)
+        original_check = dataclasses.replace(check, scene=GRADING_SCENES[check.scene])
         ours, theirs = power.reference_of(check), power.reference_of(original_check)
         relative = [r.var.mean() / r.mean.mean() ** 2 for r in (ours, theirs)]
         assert relative[0] * 4 <= relative[1], (check.id, relative)
