@@ -30,7 +30,7 @@ from . import config
 from .cache import get_reference, scene_hash
 from .rfilter import pixel_value_counts, reference_correlation
 from .stats import (compare_means, compare_variances, convergence_law, first_diverging_bounce,
-                    image_mse, rare_errors_dominate, reference_mse_floor)
+                    image_mse_parts, rare_errors_dominate, reference_mse_floor)
 from .stats.mean import VARIANCE_BOUND
 
 #: spp ladder of the convergence test and its replicas at the top level (defined in config,
@@ -360,6 +360,11 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
     ladder = convergence_ladder(reference, ladder)
     # var / n_eff is each reference pixel's own variance (var / n with a box filter).
     ref_n = pixel_value_counts(reference)
+    # The reference's side of every part's MSE, and of the whole image's, computed once.
+    ref_parts = [np.asarray(reference.mean[part], dtype=np.float64) for part in lattices]
+    floors = [reference_mse_floor(reference.var[part], ref_n[part]) for part in lattices]
+    whole = ([np.asarray(reference.mean, dtype=np.float64)],
+             [reference_mse_floor(reference.var, ref_n)], [...])
     mse = [[] for _ in ladder]
     lowest_image_mse = []
     top, batch = 0, replicas
@@ -369,11 +374,9 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
             for k in range(done[j], wanted[j]):
                 test_mean, _ = render(scene, integrator, params, n, CONVERGENCE_SEED + 100_000 * j + k,
                                       processes=processes)
-                mse[j] += [image_mse(test_mean[part], reference.mean[part], reference.var[part],
-                                     ref_n[part]) for part in lattices]
+                mse[j] += image_mse_parts(test_mean, ref_parts, floors, lattices)
                 if j == 0:
-                    lowest_image_mse.append(image_mse(test_mean, reference.mean, reference.var,
-                                                      ref_n))
+                    lowest_image_mse += image_mse_parts(test_mean, *whole)
         top += batch
         rare = rare_errors_dominate(lowest_image_mse)
         if not rare or top >= replicas * max_growth:

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy import stats as sps
 
-from mitsuba_refs.stats import compare_means, compare_variances, convergence_law
+from mitsuba_refs.stats import compare_means, compare_variances, convergence_law, image_mse
 from mitsuba_refs.stats.simulate import make_scene, render_means, render_stats
 
 COVER = 1 - 1e-5          # two-sided coverage of the binomial acceptance intervals
@@ -262,8 +262,8 @@ def _simulated_convergence(sc, seed, *, replicas=2, equal_work=True):
         level = []
         for k in range(replicas):
             mean, _ = render(None, None, None, n, 100 * j + k)
-            level += [compare.image_mse(mean[a::4, b::4], rm[0][a::4, b::4], rv[0][a::4, b::4],
-                                        RARE_REF_SPP) for a in range(4) for b in range(4)]
+            level += [image_mse(mean[a::4, b::4], rm[0][a::4, b::4], rv[0][a::4, b::4],
+                                RARE_REF_SPP) for a in range(4) for b in range(4)]
         levels.append(np.array(level))
     return convergence_law(RARE_LADDER, levels, alpha=0.05)
 

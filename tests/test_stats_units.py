@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from mitsuba_refs.stats import (ErrorBudget, compare_means, compare_variances, convergence_law,
-                                first_diverging_bounce, image_mse, per_test_alpha, reference_mse_floor,
-                                suite_false_failure)
+                                first_diverging_bounce, image_mse, image_mse_parts, per_test_alpha,
+                                reference_mse_floor, suite_false_failure)
 from mitsuba_refs.stats._mvn import p_max_abs
 from mitsuba_refs.stats._tiles import region_name, tile_counts, tile_sums
 from mitsuba_refs.stats.power import tile_gross_error_bound
@@ -50,6 +50,19 @@ def test_p_max_abs_limits():
     full = p_max_abs(3.0, np.ones((3, 3)))
     assert one <= full <= 1.2 * one                      # nearly one test when channels are identical
     assert p_max_abs(np.inf, np.eye(3)) == 0.0
+
+
+@pytest.mark.parametrize("channels", [1, 2, 3, 4])
+def test_critical_value_solves_the_tail_equation(channels):
+    """The per-tile critical |z| of compare_means: P(max |Z| >= crit) = level to 1e-9, for
+    random correlations and levels from 1e-2 to 1e-10."""
+    from mitsuba_refs.stats.mean import _solve_crit
+    rng = np.random.default_rng(channels)
+    for level in (1e-2, 1e-5, 3e-8, 1e-10):
+        A = rng.normal(size=(channels, channels))
+        R = A @ A.T / np.sqrt(np.outer(np.diag(A @ A.T), np.diag(A @ A.T)))
+        crit = _solve_crit(level, R)
+        assert p_max_abs(crit, R) == pytest.approx(level, rel=1e-9)
 
 
 def test_mean_agree_non_multiple_size_and_fields():
@@ -152,6 +165,17 @@ def test_image_mse_and_floor():
     assert reference_mse_floor(rv, 100) == pytest.approx(0.005)
     assert image_mse(ref + 0.1, ref, rv, 100) == pytest.approx(0.01 - 0.005)
     assert image_mse(ref, ref, rv, np.full((8, 8), 100)) == pytest.approx(-0.005)
+
+
+def test_image_mse_parts_are_image_mse_of_each_part_bit_for_bit():
+    """The convergence test's precomputed form gives image_mse's own numbers."""
+    rng = np.random.default_rng(5)
+    test, ref, rv = rng.random((3, 12, 16, 3))
+    n = rng.integers(1, 50, (12, 16)).astype(float)
+    parts = [np.s_[a::4, b::4] for a in range(4) for b in range(4)] + [...]
+    got = image_mse_parts(test, [ref[p] for p in parts],
+                          [reference_mse_floor(rv[p], n[p]) for p in parts], parts)
+    assert got == [image_mse(test[p], ref[p], rv[p], n[p]) for p in parts]
 
 
 def test_mse_law_exact_and_failures():

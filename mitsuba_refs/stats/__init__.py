@@ -14,7 +14,7 @@ See docs/statistics.md for the assumptions and the measured calibration.
 from .bounce import depth_name, first_diverging_bounce
 from .budget import SUITE_ALPHA, ErrorBudget, per_test_alpha, suite_false_failure
 from .convergence import (MIN_EFFECTIVE_ROWS, ConvergenceResult, convergence_law, effective_rows,
-                          image_mse, rare_errors_dominate, reference_mse_floor)
+                          image_mse, image_mse_parts, rare_errors_dominate, reference_mse_floor)
 from .mean import VARIANCE_BOUND, MeanAgreement, compare_means, tile_z
 from .power import bias_power, detectable_bias, spp_for_bias
 from .rates import clopper_pearson
@@ -24,7 +24,8 @@ __all__ = [
     "MeanAgreement", "compare_means", "tile_z", "VARIANCE_BOUND",
     "VarianceAgreement", "compare_variances", "MAX_VARIANCE_RATIO",
     "bias_power", "detectable_bias", "spp_for_bias",
-    "ConvergenceResult", "convergence_law", "effective_rows", "image_mse", "rare_errors_dominate",
+    "ConvergenceResult", "convergence_law", "effective_rows", "image_mse", "image_mse_parts",
+    "rare_errors_dominate",
     "reference_mse_floor", "MIN_EFFECTIVE_ROWS",
     "depth_name", "first_diverging_bounce",
     "SUITE_ALPHA", "ErrorBudget", "per_test_alpha", "suite_false_failure", "clopper_pearson",

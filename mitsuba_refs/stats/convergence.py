@@ -89,7 +89,7 @@ from scipy import stats as sps
 from ._tiles import sidak, sidak_per_test
 from .mean import overflow_scale
 
-__all__ = ["ConvergenceResult", "convergence_law", "effective_rows", "image_mse", "mse_levels",
+__all__ = ["ConvergenceResult", "convergence_law", "effective_rows", "image_mse", "image_mse_parts", "mse_levels",
            "rare_errors_dominate", "reference_mse_floor", "MIN_EFFECTIVE_ROWS"]
 
 #: Effective renders (:func:`effective_rows`) the lowest level needs for a calibrated t test.
@@ -108,14 +108,23 @@ def image_mse(test_mean, ref_mean, ref_var, ref_n) -> float:
     the test's MSE (it can be slightly negative when the test is nearly exact).
     Averages run over all pixels and channels.
     """
+    return image_mse_parts(test_mean, [np.asarray(ref_mean, dtype=np.float64)],
+                           [reference_mse_floor(ref_var, ref_n)], [...])[0]
+
+
+def image_mse_parts(test_mean, ref_means, floors, parts) -> list:
+    """:func:`image_mse` of every part ``test_mean[part]`` of one test image.
+
+    The reference's side is the same for every test image, so it comes precomputed:
+    ``ref_means[i]`` is ``ref_mean[parts[i]]`` and ``floors[i]`` its
+    :func:`reference_mse_floor` (the convergence test scores hundreds of renders against
+    one reference).
+    """
     t = np.asarray(test_mean, dtype=np.float64)
-    r = np.asarray(ref_mean, dtype=np.float64)
-    v = np.asarray(ref_var, dtype=np.float64)
-    n = np.asarray(ref_n, dtype=np.float64)
-    if n.ndim == 2 and v.ndim == 3:
-        n = n[..., None]
+    # np.mean's own sum and division (same bits), without its per-call overhead.
     with np.errstate(over="ignore"):       # beyond float64 (images ~1e155 and up): +inf
-        return float(np.mean((t - r) ** 2) - np.mean(np.maximum(v, 0) / n))
+        return [float(np.add.reduce((t[part] - r) ** 2, axis=None) / r.size - floor)
+                for part, r, floor in zip(parts, ref_means, floors)]
 
 
 def effective_rows(mse) -> float:

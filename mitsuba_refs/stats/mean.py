@@ -93,7 +93,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import special
+from scipy import optimize, special
 
 from ._mvn import correlation_from_differences, p_max_abs
 from .correlation import INDEPENDENT, PixelCorrelation
@@ -242,7 +242,26 @@ def tile_z(mean_a, var_a, n_a, mean_b, var_b, n_b, tile: int, *, rel_floor: floa
 
 
 def _solve_crit(level: float, R: np.ndarray) -> float:
-    """|z| threshold with P(max_c |Z_c| >= t) = level (bisection on the monotone tail)."""
+    """|z| threshold with P(max_c |Z_c| >= t) = level.
+
+    The root lies between the one-channel quantile (P(|Z_1| >= t) = level) and the
+    Bonferroni one (C P(|Z_1| >= t) = level); Brent's method on log P finds it to 1e-12 in
+    ~8 evaluations of the tail, where bisection from [0, 40] took 40 (most of the time
+    ``compare_means`` spends on a rejected image). Bisection stays for what Brent cannot
+    bracket (a level outside (0, 1), round-off at the bracket's ends).
+    """
+    C = R.shape[0]
+    if 0.0 < level < 1.0:
+        one, bonferroni = (math.sqrt(2.0) * special.erfcinv(x) for x in (level, level / C))
+        if C == 1 or one == bonferroni:
+            return float(one)
+
+        def log_excess(t):
+            return math.log(max(p_max_abs(t, R), 1e-300)) - math.log(level)
+
+        lo, hi = max(0.0, one - 1e-6), bonferroni + 1e-6
+        if log_excess(lo) > 0 > log_excess(hi):
+            return float(optimize.brentq(log_excess, lo, hi, xtol=1e-12))
     lo, hi = 0.0, 40.0
     for _ in range(40):
         mid = 0.5 * (lo + hi)
