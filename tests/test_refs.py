@@ -215,6 +215,33 @@ def test_committed_direct_equals_path_depth2(scene):
     assert_same_mean(a, b, scene)
 
 
+def test_per_bounce_localisation_finds_the_committed_references_with_rr_depth(monkeypatch):
+    """A comparison run with ``-D rr_depth=8`` (as the grader's glass checks are) localises a
+    failure against the committed per-bounce references: at max_depth 1-3 no roulette acts
+    with rr_depth 8 nor with the file's 5, so they are the same estimator. With rr_depth 2,
+    roulette acts at max_depth 3 only, and only that reference keeps rr_depth in its key."""
+    import mitsuba_refs.compare as compare
+    seen = []
+
+    def committed_only(scene, params, *args, strip=False, **kwargs):
+        seen.append(params.get("rr_depth"))
+        if strip:     # the reference with roulette at depth 3 is not committed: stand in
+            params = {k: v for k, v in params.items() if k != "rr_depth"}
+        return get_reference(scene, params, *args, render=False, **kwargs)
+
+    params = {**compare.default_params("glass-cube"), "rr_depth": 8}
+    monkeypatch.setattr(compare, "get_reference", committed_only)
+    found = compare.localise_bounce("glass-cube", "path", "path", params, 4, 1e-3, 1,
+                                    compare.render_ours)
+    assert sorted(found) == [1, 2, 3] and seen == [None, None, None]
+    seen.clear()
+    monkeypatch.setattr(compare, "get_reference",
+                        lambda *a, **k: committed_only(*a, strip=True, **k))
+    compare.localise_bounce("glass-cube", "path", "path", {**params, "rr_depth": 2}, 4, 1e-3, 1,
+                            compare.render_ours)
+    assert seen == [None, None, 2]
+
+
 # ------------------------------------------------------ live Mitsuba tests
 
 @pytest.fixture(scope="module")
