@@ -155,10 +155,10 @@ def reference_options(options) -> dict | None:
     return chosen or None
 
 
-def declares(scene, name: str) -> bool:
-    """True when the scene file declares ``<default name=...>``."""
+def scene_defaults(scene) -> dict:
+    """The scene file's ``<default name=... value=...>`` declarations, {name: value}."""
     from .render import resolve_scene, xml_defaults
-    return name in xml_defaults(resolve_scene(scene))
+    return xml_defaults(resolve_scene(scene))
 
 
 def loaded_scene(scene, params, resolution=None):
@@ -406,10 +406,10 @@ def localise_bounce(scene, integrator, name, params, spp, alpha, processes, rend
     is dropped: both give the estimator without roulette, and the file's is the committed
     reference (the grader's glass checks pass ``rr_depth`` = 8).
     """
-    from .render import resolve_scene, xml_defaults
     depths = [d for d in BOUNCE_DEPTHS if not (name == "direct" and d > 2)]
-    as_param = declares(scene, "max_depth")
-    file_rr_depth = xml_defaults(resolve_scene(scene)).get("rr_depth")
+    defaults = scene_defaults(scene)
+    as_param = "max_depth" in defaults
+    file_rr_depth = defaults.get("rr_depth")
     results = {}
     for depth in depths:
         overrides = dict(reference_options(options) or {})

@@ -89,8 +89,8 @@ from scipy import stats as sps
 from ._tiles import sidak, sidak_per_test
 from .mean import overflow_scale
 
-__all__ = ["ConvergenceResult", "convergence_law", "effective_rows", "image_mse", "image_mse_parts", "mse_levels",
-           "rare_errors_dominate", "reference_mse_floor", "MIN_EFFECTIVE_ROWS"]
+__all__ = ["ConvergenceResult", "convergence_law", "effective_rows", "image_mse", "image_mse_parts",
+           "mse_levels", "rare_errors_dominate", "reference_mse_floor", "MIN_EFFECTIVE_ROWS"]
 
 #: Effective renders (:func:`effective_rows`) the lowest level needs for a calibrated t test.
 MIN_EFFECTIVE_ROWS = 30

@@ -253,7 +253,7 @@ def _solve_crit(level: float, R: np.ndarray) -> float:
     C = R.shape[0]
     if 0.0 < level < 1.0:
         one, bonferroni = (math.sqrt(2.0) * special.erfcinv(x) for x in (level, level / C))
-        if C == 1 or one == bonferroni:
+        if C == 1:                            # the two quantiles coincide: exact
             return float(one)
 
         def log_excess(t):
