@@ -4,13 +4,13 @@ Build: binned SAH, one tree level at a time (every open node of a level is
 split by the same handful of NumPy calls), then the binary tree is collapsed
 into a 4-wide tree so that each traversal step tests four boxes at once.
 
-Traversal: a ray never owns a Python loop iteration. Every ray of a chunk
-has its own stack (a row of a 2-D array); one iteration pops the top entry
-of every active ray at once, tests the four child boxes of the popped inner
-nodes (float32 slabs, conservatively dilated) and pushes the hit children
-far to near, or tests the triangles of the popped leaves (float64). Rays so
-visit nodes near to far and skip entries beyond their best hit, as a scalar
-ray tracer would: ~12 box steps and ~3 leaves per ray on 100k triangles.
+Traversal: a ray never owns a Python loop iteration. A chunk of rays is
+traversed breadth first: a work list of (ray, node) pairs, the root for every
+ray at first, advances one tree level per iteration; it tests the triangles of
+the listed leaves (float64), then replaces each inner node by the children
+whose boxes (float32 slabs, conservatively dilated) the ray segment up to its
+best hit so far overlaps. ~5 inner nodes and ~0.8 leaves per ray on the
+benchmark mesh scene (82k triangles, 9 levels), 9 iterations at most.
 
 Triangles: Möller–Trumbore in float64 with a tiny barycentric tolerance, so
 that a ray through an edge shared by two triangles hits at least one of them.
@@ -300,8 +300,6 @@ class BVH:
         self._box = np.ascontiguousarray(b32.reshape(len(child), -1).T)
         self._child = np.ascontiguousarray(child.T)
         self._scene_max = float(max(np.abs(lo).max(), np.abs(hi).max()))
-        # Each visit pops one entry and pushes at most WIDTH.
-        self._stack_size = (WIDTH - 1) * _depth(child) + 2
         return tree["leaf_tris"]
 
     # ------------------------------------------------------------------
@@ -376,8 +374,6 @@ class BVH:
 
         Returns
         -------
-        tn : (WIDTH, m) float32
-            Entry distance per child slot (clamped at 0).
         hit : (WIDTH, m) bool
             The ray segment ``[0, best t]`` overlaps the (dilated) box.
         """
@@ -400,10 +396,10 @@ class BVH:
                 np.minimum(tf, t0, out=tf)
         np.maximum(tn, 0.0, out=tn)
         # Rounding tbest to float32 must not shorten the ray.
-        tb = tbest[pr].astype(np.float32)
+        tb = np.take(tbest, pr).astype(np.float32)
         tb *= np.float32(1 + 2.0 ** -20)
         np.minimum(tf, tb, out=tf)
-        return tn, tn <= tf
+        return tn <= tf
 
     def _closest(self, o, d, tbest, prim, b1, b2):
         """Closest-hit traversal of one chunk; updates the outputs in place."""
@@ -427,77 +423,57 @@ class BVH:
 
         def on_hit(r, t, p, u, v):
             occ[r] = True
-            tmax[r] = 0.0  # prunes every remaining stack entry of the ray
+            tmax[r] = -1.0  # no box overlaps [0, -1]: the ray's other pairs end
 
-        self._traverse(o, d, tmax, on_hit, any_hit=True)
+        self._traverse(o, d, tmax, on_hit)
 
-    def _traverse(self, o, d, tbest, on_hit, any_hit=False):
-        """Depth-first traversal of one chunk of rays, all rays at once.
+    def _traverse(self, o, d, tbest, on_hit):
+        """Breadth-first traversal of one chunk of rays, all rays at once.
 
-        Each ray has its own stack, a row of a 2-D array; every iteration pops
-        one entry of each active ray, so rays visit nodes near to far and the
-        pruning ``t_near < tbest`` is as tight as in a scalar ray tracer.
-        Leaf hits closer than ``tbest`` are reported as
-        ``on_hit(rays, t, prim, b1, b2)``, which may shorten ``tbest``; with
-        ``any_hit`` a ray that hit something leaves the traversal at once
-        instead of popping its remaining entries one iteration at a time.
+        Leaf hits closer than ``tbest`` are reported as ``on_hit(rays, t, prim, b1,
+        b2)`` (each ray's nearest of an iteration, the first on ties), which may
+        shorten ``tbest``. The work list holds (ray, node) pairs, at first the root
+        for every ray; an iteration tests its leaves, then replaces every inner node
+        by the children whose boxes the ray segment ``[0, tbest]`` overlaps (with
+        ``tbest`` already shortened by this iteration's leaves). A pair was live when
+        it was made, and nothing shortens ``tbest`` before its turn: the list needs no
+        pruning.
+
+        Depth first, with a stack per ray popped one entry per iteration, rays visit
+        nodes near to far and test fewer of them, but every iteration costs ~40 NumPy
+        calls however few rays are still active, and the slowest ray of a chunk needs
+        ~60 iterations against the tree's ~9 levels: on the benchmark mesh scene
+        breadth first is 2.4x faster (docs/performance.md).
         """
-        n = o.shape[1]
         ray9 = _ray9(o, d, self._scene_max)
-        S = self._stack_size
-        stk = np.zeros(n * S, np.int64)  # node codes; the root is 0
-        stt = np.zeros(n * S, np.float32)  # entry distance of each entry
-        sp = np.ones(n, np.int64)
-        act = np.arange(n)
-        base = act * S
-        while len(act):
-            top = sp[act] - 1
-            sp[act] = top
-            top += base[act]
-            node = stk[top]
-            live = stt[top] < tbest[act]
-            lf = live & (node < 0)
-            if lf.any():
-                r = act[lf]
-                t, p, u, v = self._leaf_test(o, d, r, ~node[lf], tbest)
-                h = t < np.inf
-                on_hit(r[h], t[h], p[h], u[h], v[h])
-                if any_hit:
-                    sp[r[h]] = 0
-            inner = live & (node >= 0)
-            if inner.any():
-                r, nd = act[inner], node[inner]
-                tn, hit = self._step(ray9, tbest, r, nd)
-                # Push hit children far to near (nearest on top): slot j goes
-                # to sp + rank_j, its rank in ascending (-tn); misses go last.
-                key = np.where(hit, -tn, np.inf)
-                rank = np.zeros(key.shape, np.int64)
-                for i in range(WIDTH):
-                    for j in range(i + 1, WIDTH):
-                        c = key[j] < key[i]
-                        rank[i] += c
-                        rank[j] += ~c
-                rank += base[r] + sp[r]
-                stk[rank] = np.take(self._child, nd, axis=1)
-                stt[rank] = tn
-                sp[r] += hit.sum(axis=0)
-            act = act[sp[act] > 0]
+        ray = np.arange(o.shape[1])
+        node = np.zeros(len(ray), np.int64)  # the root
+        while len(ray):
+            is_leaf = node < 0
+            if is_leaf.any():
+                leaf = np.flatnonzero(is_leaf)
+                lr = np.take(ray, leaf)
+                t, p, u, v = self._leaf_test(o, d, lr, ~np.take(node, leaf), tbest)
+                h = np.flatnonzero(t < np.inf)
+                if len(h):
+                    order = h[np.lexsort((t[h], lr[h]))]
+                    ro = lr[order]
+                    nearest = order[np.r_[True, ro[1:] != ro[:-1]]]
+                    on_hit(lr[nearest], t[nearest], p[nearest], u[nearest], v[nearest])
+                inner = np.flatnonzero(~is_leaf)
+                ray, node = np.take(ray, inner), np.take(node, inner)
+                if not len(ray):
+                    break
+            hit = self._step(ray9, tbest, ray, node)
+            pick = np.flatnonzero(hit)  # (slot, pair) flattened: slot-major
+            node = np.take(np.take(self._child, node, axis=1), pick)
+            ray = np.take(ray, pick % len(ray))
 
 
 def _tri_data(tri_p: np.ndarray) -> np.ndarray:
     """Rows (p0, e1, e2) of each triangle as (T, 9) float64."""
     p0 = tri_p[:, 0]
     return np.concatenate((p0, tri_p[:, 1] - p0, tri_p[:, 2] - p0), axis=1)
-
-
-def _depth(child):
-    """Number of levels of the wide tree (child: (N, WIDTH) codes)."""
-    level, depth = np.array([0]), 0
-    while len(level):
-        depth += 1
-        c = child[level]
-        level = c[c > 0]  # 0 is the root: never a child, so 0 marks empty slots
-    return depth
 
 
 def _rays(o, d, tmax):
@@ -555,30 +531,36 @@ def single_threaded_blas() -> None:
 
 
 SMALL_MAX = 64  # triangles up to which :class:`SmallMesh` beats the BVH
-SMALL_CHUNK = 2048  # rays per chunk: the (3T, chunk) float32 work arrays stay in L2
+SMALL_CHUNK = 4096  # rays per chunk: the (3T, chunk) float32 work arrays stay in L2
 SMALL_BARY_EPS = 1e-5  # barycentric slack of the float32 filter (covers its rounding)
 
 
 class SmallMesh:
     """All-pairs intersection for scenes with few triangles (e.g. box rooms).
 
-    Each triangle is written as three affine functions of a point x: the
-    signed distance to its plane, ``c - n.x``, and the barycentrics ``b1 =
-    a1.(x - p0)``, ``b2 = a2.(x - p0)`` (a1, a2: the dual basis of the edges
-    in the plane). For a ray, two small float32 matrix products give those
-    functions at the origin and their rates along the direction for every
-    triangle at once; then ``t = dist / rate`` and ``b = b(o) + t b'(d)``
-    with a handful of in-place ufuncs on (T, chunk) arrays. The closest
-    accepted triangle per ray is one integer ``min``: the float32 ``t`` with
-    its low mantissa bits replaced by the triangle index (negative ``t``,
-    NaN and rejected pairs compare above ``inf`` as unsigned integers).
+    Two triangles that form a parallelogram (the two halves of a rectangle, a
+    cube's face) are tested as one primitive, so a box room costs half the
+    tests. A primitive, with origin ``p0`` and edges ``e1``, ``e2``, is written
+    as five affine functions of a point x: the signed distance to its plane and
+    four functions that are all >= 0 exactly inside it: ``b1``, ``b2`` (x's
+    coordinates along the edges) and ``1 - b1``, ``1 - b2`` for a parallelogram,
+    ``1 - b1 - b2`` twice for a lone triangle. For a ray, two small float32
+    matrix products give those functions at the origin and their rates along the
+    direction for every primitive at once; then ``t = distance / rate`` and
+    ``g = g(o) + t g'(d)`` with a handful of in-place ufuncs on (P, chunk)
+    arrays. The closest accepted primitive per ray is one integer ``min``: the
+    float32 ``t`` with its low mantissa bits replaced by the primitive index
+    (negative ``t``, NaN and rejected pairs compare above ``inf`` as unsigned
+    integers).
 
-    The winner is then intersected again in float64 (Möller–Trumbore, as
-    :class:`BVH` does), so the returned ``t`` and barycentrics have full
-    precision; float32 only decides which triangle. Its slack of
-    ``SMALL_BARY_EPS`` on the barycentrics keeps shared edges watertight.
-    The results match :class:`BVH` except at near-ties within float32
-    rounding (adjacent triangles, coplanar overlaps).
+    The winner is then intersected again in float64 (Möller–Trumbore on its
+    ``p0``, ``e1``, ``e2``, as :class:`BVH` does), so the returned ``t`` and
+    barycentrics have full precision; float32 only decides which primitive. On
+    a parallelogram, ``b1 + b2 <= 1`` picks the triangle, and an affine map turns
+    the coordinates into that triangle's own barycentrics. The filter's slack of
+    ``SMALL_BARY_EPS`` keeps shared edges watertight. The results match
+    :class:`BVH` except at near-ties within float32 rounding (adjacent
+    triangles, coplanar overlaps) and in the last bits of ``t``.
     """
 
     def __init__(self, tri_p: np.ndarray):
@@ -587,8 +569,14 @@ class SmallMesh:
         if T > 1 << 8:
             raise ValueError(f"SmallMesh holds at most 256 triangles, got {T}")
         self.brute_force = True
-        self._bits = max(1, int(np.ceil(np.log2(max(T, 2)))))
-        p0, e1, e2 = tri_p[:, 0], tri_p[:, 1] - tri_p[:, 0], tri_p[:, 2] - tri_p[:, 0]
+        # Primitive k: origin p0, edges e1, e2; its halves 2k (b1 + b2 <= 1) and 2k + 1 are
+        # triangles[2k + h], and to_bary[:, 2k + h] maps (1, b1, b2) to that triangle's
+        # barycentrics of its p1 (rows 0-2) and p2 (rows 3-5).
+        p0, e1, e2, triangles, to_bary, quad = _parallelograms(tri_p)
+        self._triangles = triangles.ravel()  # row 2k + half
+        self._to_bary = np.ascontiguousarray(to_bary.reshape(-1, 6).T)  # (6, 2P)
+        self.num_primitives = P = len(p0)
+        self._bits = max(1, int(np.ceil(np.log2(max(P, 2)))))
         n = np.cross(e1, e2)
         nn = np.einsum("ij,ij->i", n, n)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -596,16 +584,21 @@ class SmallMesh:
             a1 = np.cross(e2, n) * inv[:, None]
             a2 = np.cross(n, e1) * inv[:, None]
             unit = n * np.sqrt(inv)[:, None]
-        mo = np.zeros((3 * T, 4))
-        md = np.zeros((3 * T, 3))
-        for k, (a, sign) in enumerate(((unit, -1.0), (a1, 1.0), (a2, 1.0))):
-            mo[k * T:(k + 1) * T, :3] = sign * a
-            mo[k * T:(k + 1) * T, 3] = -sign * np.einsum("ij,ij->i", a, p0)
-            md[k * T:(k + 1) * T] = a
+        # Rows of five blocks of P: -plane distance, b1, b2, then 1 - b1 (or 1 - b1 - b2)
+        # and 1 - b2 (or 1 - b1 - b2); each as a linear part and a constant.
+        lone = (~quad)[:, None]
+        linear = (-unit, a1, a2, -a1 - lone * a2, -a2 - lone * a1)
+        mo = np.zeros((5 * P, 4))
+        md = np.zeros((5 * P, 3))
+        for k, a in enumerate(linear):
+            mo[k * P:(k + 1) * P, :3] = a
+            mo[k * P:(k + 1) * P, 3] = -np.einsum("ij,ij->i", a, p0) + (k >= 3)
+            md[k * P:(k + 1) * P] = a
+        md[:P] *= -1.0  # the plane's rate along d: n . d
         self._mo = mo.astype(np.float32)
         self._md = md.astype(np.float32)
-        self._index = np.arange(T, dtype=np.uint32)[:, None]
-        self._tri = _tri_data(tri_p).T.copy()  # (9, T) float64 for the refit
+        self._index = np.arange(P, dtype=np.uint32)[:, None]
+        self._prim = np.concatenate((p0, e1, e2), axis=1).T.copy()  # (9, P) float64 for the refit
         # Scratch buffers per thread: renders running in threads share one scene.
         self._scratch = threading.local()
         single_threaded_blas()
@@ -622,39 +615,33 @@ class SmallMesh:
 
     def _buffers(self, m):
         work = getattr(self._scratch, "work", None)
-        if work is None or work[0].shape[1] < m:
-            T = self.num_triangles
-            work = self._scratch.work = (
-                np.empty((4, m), np.float32), np.empty((3, m), np.float32),
-                np.empty((3 * T, m), np.float32), np.empty((3 * T, m), np.float32),
-                np.empty((T, m), np.float32), np.empty((T, m), bool))
-        return [w[:, :m] if w.ndim == 2 else w for w in work]
+        if work is None or work[0].shape[1] != m:
+            P = self.num_primitives
+            work = (np.empty((4, m), np.float32), np.empty((3, m), np.float32),
+                    np.empty((5 * P, m), np.float32), np.empty((5 * P, m), np.float32),
+                    np.empty((P, m), np.float32), np.empty((P, m), bool))
+            if m == SMALL_CHUNK:  # the full chunks' buffers are kept for the next call
+                self._scratch.work = work
+        return work
 
     def _closest_keys(self, o, d):
-        """Packed (t, triangle) key of the nearest accepted triangle per ray (o, d: (3, m))."""
-        m = o.shape[1]
-        T = self.num_triangles
-        o4, d3, ao, ad, low, ok = self._buffers(m)
-        if o4.shape[1] != m:  # views of the first m columns are not contiguous: fresh ones
-            o4, d3 = np.empty((4, m), np.float32), np.empty((3, m), np.float32)
-            ao, ad = np.empty((3 * T, m), np.float32), np.empty((3 * T, m), np.float32)
-            low, ok = np.empty((T, m), np.float32), np.empty((T, m), bool)
+        """Packed (t, primitive) key of the nearest accepted primitive per ray (o, d: (3, m))."""
+        P = self.num_primitives
+        o4, d3, ao, ad, low, ok = self._buffers(o.shape[1])
         o4[:3] = o
         o4[3] = 1.0
         d3[...] = d
         np.matmul(self._mo, o4, out=ao)
         np.matmul(self._md, d3, out=ad)
-        t, b1, b2 = ao[:T], ad[T:2 * T], ad[2 * T:]
+        t = ao[:P]
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            t /= ad[:T]
-            b1 *= t
-            b1 += ao[T:2 * T]
-            b2 *= t
-            b2 += ao[2 * T:]
-            np.minimum(b1, b2, out=low)
-            b0 = np.add(b1, b2, out=ao[T:2 * T])
-            np.subtract(1.0, b0, out=b0)
-            np.minimum(low, b0, out=low)
+            t /= ad[:P]
+            g = ad[P:]  # g = g(o) + t g'(d) for the four functions at once
+            g.reshape(4, P, -1).__imul__(t)
+            g += ao[P:]
+            np.minimum(g[:P], g[P:2 * P], out=low)
+            np.minimum(low, g[2 * P:3 * P], out=low)
+            np.minimum(low, g[3 * P:], out=low)
         # Rejected pairs get t / 0 = +-inf or NaN (a masked copy is ~8x slower than this
         # division by a bool, and dividing by 1 leaves t exact).
         np.greater_equal(low, -SMALL_BARY_EPS, out=ok)
@@ -666,8 +653,8 @@ class SmallMesh:
         return key.min(axis=0)
 
     def _refit(self, o, d, prim):
-        """Float64 Möller–Trumbore of rays (3, m) against their triangles ``prim``."""
-        tri = np.take(self._tri, prim, axis=1)
+        """Float64 hits of rays (3, m) on their primitives ``prim``: (t, triangle, b1, b2)."""
+        tri = np.take(self._prim, prim, axis=1)
         e1, e2 = tri[3:6], tri[6:9]
         px = d[1] * e2[2] - d[2] * e2[1]
         py = d[2] * e2[0] - d[0] * e2[2]
@@ -681,7 +668,11 @@ class SmallMesh:
             qz = s[0] * e1[1] - s[1] * e1[0]
             b2 = (d[0] * qx + d[1] * qy + d[2] * qz) * inv
             t = (e2[0] * qx + e2[1] * qy + e2[2] * qz) * inv
-        return t, b1, b2
+        half = 2 * prim + (b1 + b2 > 1.0)  # the triangle: row of the (2P,) tables
+        m = np.take(self._to_bary, half, axis=1)
+        u = m[0] + m[1] * b1 + m[2] * b2
+        v = m[3] + m[4] * b1 + m[5] * b2
+        return t, np.take(self._triangles, half), u, v
 
     def intersect(self, o, d, tmax=None):
         """Closest hit of each ray (same contract as :meth:`BVH.intersect`)."""
@@ -699,23 +690,100 @@ class SmallMesh:
         rows = np.flatnonzero(key < np.uint32(0x7F800000))  # a finite, positive t
         if len(rows) == n:   # every ray has a candidate (a closed room): no gathers
             cand = (key & np.uint32((1 << self._bits) - 1)).astype(np.int64)
-            tt, u, v = self._refit(o, d, cand)
+            tt, tri, u, v = self._refit(o, d, cand)
             ok = (tt > 0.0) & (tt < tmax)
             if ok.all():
-                return tt, cand, u, v
+                return tt, tri, u, v
             rows = np.flatnonzero(ok)
-            t[rows], prim[rows], b1[rows], b2[rows] = tt[rows], cand[rows], u[rows], v[rows]
+            t[rows], prim[rows], b1[rows], b2[rows] = tt[rows], tri[rows], u[rows], v[rows]
         elif len(rows):
             cand = (key[rows] & np.uint32((1 << self._bits) - 1)).astype(np.int64)
-            tt, u, v = self._refit(np.take(o, rows, axis=1), np.take(d, rows, axis=1), cand)
+            tt, tri, u, v = self._refit(np.take(o, rows, axis=1), np.take(d, rows, axis=1), cand)
             ok = (tt > 0.0) & (tt < tmax[rows])
-            rows, cand = rows[ok], cand[ok]
-            t[rows], prim[rows], b1[rows], b2[rows] = tt[ok], cand, u[ok], v[ok]
+            rows = rows[ok]
+            t[rows], prim[rows], b1[rows], b2[rows] = tt[ok], tri[ok], u[ok], v[ok]
         return t, prim, b1, b2
 
     def occluded(self, o, d, tmax=None):
         """(n,) bool: some triangle lies on the ray with ``0 < t < tmax``."""
         return self.intersect(o, d, tmax)[1] >= 0
+
+
+def _parallelograms(tri_p: np.ndarray, rtol: float = 1e-9):
+    """Pair the triangles that form parallelograms; every other triangle stays alone.
+
+    Triangles (x, s, t) and (y, s, t), in any vertex order, sharing the edge s-t
+    with ``x + y = s + t`` form the parallelogram x + b1 (s - x) + b2 (t - x),
+    b1, b2 in [0, 1]; (x, s, t) is its half with ``b1 + b2 <= 1``.
+
+    Returns
+    -------
+    p0, e1, e2 : (P, 3) arrays
+        Origin and edges of each primitive (a lone triangle: its own p0, e1, e2).
+    triangles : (P, 2) int64
+        The triangle for ``b1 + b2 <= 1`` and for ``> 1`` (a lone triangle twice).
+    to_bary : (P, 2, 2, 3) array
+        Per triangle, the rows mapping (1, b1, b2) to its barycentrics of p1 and p2.
+    quad : (P,) bool
+        Which primitives are parallelograms.
+    """
+    T = len(tri_p)
+    scale = max(float(np.abs(tri_p).max()), 1e-30) if T else 1.0
+    pairs, used = [], np.zeros(T, bool)
+    for i in range(T):
+        for j in range(i + 1, T):
+            if used[i] or used[j]:
+                continue
+            roles = _shared_edge(tri_p[i], tri_p[j], rtol * scale)
+            if roles is not None:
+                pairs.append((i, j) + roles)
+                used[i] = used[j] = True
+    p0, e1, e2, triangles, to_bary, quad = [], [], [], [], [], []
+    # A triangle's own coordinates: barycentrics of p1, p2 are (b1, b2).
+    own = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    for i in np.flatnonzero(~used):
+        a, b, c = tri_p[i]
+        p0.append(a), e1.append(b - a), e2.append(c - a)
+        triangles.append((i, i)), to_bary.append((own, own)), quad.append(False)
+    # Weights of x, s, t (in the first half) and of s, t, y = s + t - x (in the second)
+    # at the point x + b1 (s - x) + b2 (t - x), as rows over (1, b1, b2).
+    first_weights = {"x": (1.0, -1.0, -1.0), "s": (0.0, 1.0, 0.0), "t": (0.0, 0.0, 1.0)}
+    second_weights = {"y": (-1.0, 1.0, 1.0), "s": (1.0, 0.0, -1.0), "t": (1.0, -1.0, 0.0)}
+    for i, j, roles_i, roles_j in pairs:
+        x, s, t = (tri_p[i][roles_i.index(r)] for r in "xst")
+        first = np.array([first_weights[r] for r in roles_i[1:]])
+        second = np.array([second_weights[r] for r in roles_j[1:]])
+        p0.append(x), e1.append(s - x), e2.append(t - x)
+        triangles.append((i, j)), to_bary.append((first, second)), quad.append(True)
+    if not p0:
+        return (np.zeros((0, 3)),) * 3 + (np.zeros((0, 2), np.int64), np.zeros((0, 2, 2, 3)),
+                                          np.zeros(0, bool))
+    return (np.array(p0), np.array(e1), np.array(e2), np.array(triangles, np.int64),
+            np.array(to_bary), np.array(quad))
+
+
+def _shared_edge(a: np.ndarray, b: np.ndarray, tol: float):
+    """The roles of the vertices of triangles ``a`` and ``b`` (3, 3) if they form a parallelogram.
+
+    They do when they share two vertices s and t (exactly equal) and their third
+    vertices x (of ``a``) and y (of ``b``) satisfy ``x + y = s + t`` within ``tol``.
+    Returns (roles of ``a``'s vertices, roles of ``b``'s) as strings over "xst" and
+    "yst" in vertex order, or None.
+    """
+    match = [[k for k in range(3) if np.array_equal(a[i], b[k])] for i in range(3)]
+    if sum(map(len, match)) != 2 or any(len(m) > 1 for m in match):
+        return None
+    shared = [i for i in range(3) if match[i]]
+    roles_a = ["x"] * 3
+    roles_b = ["y"] * 3
+    for name, i in zip("st", shared):
+        roles_a[i] = name
+        roles_b[match[i][0]] = name
+    x, s, t = (a[roles_a.index(r)] for r in "xst")
+    y = b[roles_b.index("y")]
+    if np.abs(x + y - s - t).max() > tol:
+        return None
+    return "".join(roles_a), "".join(roles_b)
 
 
 # ----------------------------------------------------------------------

@@ -29,7 +29,7 @@ from .sampling import (square_to_cosine_hemisphere, square_to_cosine_hemisphere_
                        square_to_uniform_disk_concentric,
                        square_to_uniform_sphere, square_to_uniform_triangle)
 from .scene.types import Scene
-from .vec import dot, norm, normalize, to_local, to_world
+from .vec import dot, max_component, norm, normalize, to_local, to_world
 
 
 @dataclass
@@ -176,7 +176,7 @@ def sample_emitter(scene: Scene, hit, u_choice: np.ndarray, u: np.ndarray,
         sample.pdf = np.where(sample.delta, sample.pdf, sample.pdf / n_emitters)
         sample.weight *= n_emitters
     if test_visibility:
-        live = np.flatnonzero(np.any(sample.weight > 0, axis=1))
+        live = np.flatnonzero(max_component(sample.weight) > 0)
         if len(live) == count:   # no gathers when every sample needs its shadow ray
             sample.weight[shadowed(scene, hit.p, hit.n, sample.wo, sample.dist)] = 0.0
         else:

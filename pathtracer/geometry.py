@@ -18,7 +18,7 @@ import numpy as np
 
 from .accel import BVH, SMALL_MAX, SmallMesh, SplitMesh, small_shapes
 from .cylinder import cylinder_surface, cylinder_t
-from .vec import dot, max_abs, normalize
+from .vec import dot, max_abs, normalize, put_rows
 
 RAY_EPSILON = 1500 * 2.0 ** -24  # Mitsuba's math::RayEpsilon for float32 (8.94e-5)
 SHADOW_EPSILON = 10 * RAY_EPSILON  # math::ShadowEpsilon
@@ -139,10 +139,10 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
         _fill_triangles(scene, hit, sel, b1[sel], b2[sel])
     sel = np.flatnonzero(kind == 1)
     if len(sel):
-        _fill_spheres(scene, hit, sel, o[sel], d[sel])
+        _fill_spheres(scene, hit, sel, np.take(o, sel, axis=0), np.take(d, sel, axis=0))
     sel = np.flatnonzero(kind == 2)
     if len(sel):
-        _fill_disks(scene, hit, sel, o[sel], d[sel])
+        _fill_disks(scene, hit, sel, np.take(o, sel, axis=0), np.take(d, sel, axis=0))
     for i, (piece, s) in enumerate(curve_hits):
         sel = np.flatnonzero((kind == 3) & (prim == i))
         if len(sel):
@@ -323,7 +323,11 @@ def _triangle_records(scene, k, b1, b2):
 
 def _fill_triangles(scene, hit, sel, b1, b2):
     p, nrm, sh_n, shape, uv = _triangle_records(scene, hit.prim[sel], b1, b2)
-    hit.p[sel], hit.n[sel], hit.sh_n[sel], hit.shape[sel], hit.uv[sel] = p, nrm, sh_n, shape, uv
+    put_rows(hit.p, sel, p)
+    put_rows(hit.n, sel, nrm)
+    put_rows(hit.sh_n, sel, sh_n)
+    put_rows(hit.uv, sel, uv)
+    hit.shape[sel] = shape
 
 
 def _fill_spheres(scene, hit, sel, o, d):
@@ -331,12 +335,13 @@ def _fill_spheres(scene, hit, sel, o, d):
     c, r = scene.sphere_center[i], scene.sphere_radius[i]
     # Reproject onto the sphere (Mitsuba: p = c + r * normalize(ray(t) - c)).
     nrm = normalize(o + hit.t[sel, None] * d - c)
-    hit.p[sel] = c + r[:, None] * nrm
+    p = c + r[:, None] * nrm
+    put_rows(hit.p, sel, p)
+    local = (p - c) / r[:, None]
     nrm = np.where(scene.sphere_flip[i][:, None], -nrm, nrm)
-    hit.n[sel] = nrm
-    hit.sh_n[sel] = nrm
+    put_rows(hit.n, sel, nrm)
+    put_rows(hit.sh_n, sel, nrm)
     hit.shape[sel] = scene.sphere_shape[i]
-    local = (hit.p[sel] - c) / r[:, None]
     phi = np.arctan2(local[:, 1], local[:, 0])
     phi = np.where(phi < 0, phi + 2 * np.pi, phi)
     hit.uv[sel, 0] = phi / (2 * np.pi)
@@ -352,12 +357,12 @@ def _fill_disks(scene, hit, sel, o, d):
     # Reproject onto the plane through the disk center (as Mitsuba does).
     center = to_world[:, :3, 3]
     p = p + dot(center - p, nrm)[:, None] * nrm
-    hit.p[sel] = p
+    put_rows(hit.p, sel, p)
     local = np.einsum("kij,kj->ki", to_local[:, :3, :3], p) + to_local[:, :3, 3]
-    hit.uv[sel] = local[:, :2]
+    put_rows(hit.uv, sel, local[:, :2])
     nrm = np.where(scene.disk_flip[i][:, None], -nrm, nrm)
-    hit.n[sel] = nrm
-    hit.sh_n[sel] = nrm
+    put_rows(hit.n, sel, nrm)
+    put_rows(hit.sh_n, sel, nrm)
     hit.shape[sel] = scene.disk_shape[i]
 
 

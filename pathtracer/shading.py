@@ -19,7 +19,7 @@ from .bsdfs.tangent_frame import InTangentFrame
 from .geometry import texture_uv
 from .tangents import local_geometry
 from .scene.types import Scene
-from .vec import frame, to_local, to_world
+from .vec import frame, put_rows, to_local, to_world
 
 
 @dataclass
@@ -165,12 +165,18 @@ def eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray,
     value = np.zeros((len(wi), 3))
     pdf = np.zeros(len(wi))
     for bsdf, rows in groups:
-        wi_local, wo_local = _local_pair(hit.sh_n[rows], wi[rows], wo[rows])
-        value[rows] = bsdf.eval(wi_local, wo_local)
+        wi_local, wo_local = _local_pair(_rows(hit.sh_n, rows), _rows(wi, rows), _rows(wo, rows))
+        f = np.asarray(bsdf.eval(wi_local, wo_local), np.float64)
         if adjoint and bsdf.refracts:
-            value[rows] *= importance_scale(bsdf, wi_local, wo_local)[:, None]
+            f = f * importance_scale(bsdf, wi_local, wo_local)[:, None]
+        put_rows(value, rows, f)
         pdf[rows] = bsdf.pdf(wi_local, wo_local, hemisphere=hemisphere)
     return value, pdf
+
+
+def _rows(a: np.ndarray, rows) -> np.ndarray:
+    """``a[rows]`` (``rows`` integer indices or a slice): ``np.take`` is ~4x faster on (n, 3)."""
+    return a[rows] if isinstance(rows, slice) else np.take(a, rows, axis=0)
 
 
 def _local_pair(n, a, b):
@@ -220,12 +226,12 @@ def sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarra
         out = ScatterSample(np.zeros((count, 3)), np.zeros((count, 3)), np.zeros(count),
                             np.zeros(count, dtype=bool), np.ones(count))
         for bsdf, rows in groups:
-            n = hit.sh_n[rows]
+            n = _rows(hit.sh_n, rows)
             columns = frame(n)
-            bs = bsdf.sample(to_local(wi[rows], n, columns), u1[rows], u2[rows],
-                             hemisphere=hemisphere)
-            out.wo[rows] = to_world(bs.wo, n, columns)
-            out.weight[rows] = np.where(bs.valid[:, None], bs.weight, 0.0)
+            bs = bsdf.sample(to_local(_rows(wi, rows), n, columns), _rows(u1, rows),
+                             _rows(u2, rows), hemisphere=hemisphere)
+            put_rows(out.wo, rows, to_world(bs.wo, n, columns))
+            put_rows(out.weight, rows, np.where(bs.valid[:, None], bs.weight, 0.0))
             out.pdf[rows] = np.where(bs.valid, bs.pdf, 0.0)
             out.delta[rows] = bs.delta
             out.eta[rows] = np.where(bs.valid, bs.eta, 1.0)
@@ -259,10 +265,12 @@ def dielectric_lobes(scene: Scene, hit, wi: np.ndarray) -> DielectricLobes:
     out = DielectricLobes(np.zeros(count), np.zeros((count, 3)), np.zeros((count, 3)),
                           np.zeros((count, 3)), np.zeros((count, 3)))
     for bsdf, rows in _groups(scene, hit):
-        n = hit.sh_n[rows]
+        n = _rows(hit.sh_n, rows)
         columns = frame(n)
-        F, wo_r, weight_r, wo_t, weight_t = bsdf.lobes(to_local(wi[rows], n, columns))
+        F, wo_r, weight_r, wo_t, weight_t = bsdf.lobes(to_local(_rows(wi, rows), n, columns))
         out.F[rows] = F
-        out.wo_r[rows], out.weight_r[rows] = to_world(wo_r, n, columns), weight_r
-        out.wo_t[rows], out.weight_t[rows] = to_world(wo_t, n, columns), weight_t
+        put_rows(out.wo_r, rows, to_world(wo_r, n, columns))
+        put_rows(out.weight_r, rows, weight_r)
+        put_rows(out.wo_t, rows, to_world(wo_t, n, columns))
+        put_rows(out.weight_t, rows, weight_t)
     return out

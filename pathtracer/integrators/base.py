@@ -26,6 +26,7 @@ from ..camera import Rays
 from ..emitters import emitted_radiance, hit_emitter, sample_emitter
 from ..scene.types import Scene
 from ..shading import eval_bsdf, has_smooth
+from ..vec import max_component
 # trace, spawn, subset_hit and replace_hits lived here first: submissions import them from here.
 from .wavefront import Paths, replace_hits, spawn, subset_hit, trace
 
@@ -137,14 +138,14 @@ class Integrator:
         if self.roulette == "constant":
             q_continue = np.full(len(u), 1.0 - self.rr_q)
         else:
-            q_continue = np.minimum(beta.max(axis=1) * eta ** 2, 0.95)
+            q_continue = np.minimum(max_component(beta) * eta ** 2, 0.95)
         survive = u < q_continue
         return survive, beta / np.where(q_continue > 0, q_continue, 1.0)[:, None]
 
     def russian_roulette(self, paths: Paths) -> None:
         """End the paths that lose the roulette (see :meth:`roulette_survivors`), and
         those that carry no throughput; survivors divide by their survival probability."""
-        carries_light = paths.beta.max(axis=1) > 0
+        carries_light = max_component(paths.beta) > 0
         survive, paths.beta = self.roulette_survivors(paths.beta, paths.eta, paths.depth,
                                                       paths.rng.next_1d())
         paths.keep(survive & carries_light)

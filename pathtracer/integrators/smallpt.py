@@ -27,6 +27,7 @@ import numpy as np
 from ..bsdfs import Dielectric
 from ..shading import bsdf_index, dielectric_lobes, sample_bsdf
 from ..textures import Texture
+from ..vec import max_component
 from .base import Integrator, subset_hit
 
 
@@ -81,7 +82,7 @@ class SmallptIntegrator(Integrator):
             # ---- R.R.: continue with p = max(f), f /= p ----
             u_rr = paths.rng.next_1d()
             if self.roulette != "off" and depth > self.rr_depth:
-                p = colour[material].max(axis=1)
+                p = max_component(colour[material])
                 survivors = paths.keep(u_rr < p)
                 paths.beta = paths.beta / p[survivors, None]
                 material = material[survivors]
@@ -114,7 +115,7 @@ class SmallptIntegrator(Integrator):
             paths.scatter(wo, weight)
 
             # ---- Paths that carry no light end; the next hit ----
-            paths.keep(paths.beta.max(axis=1) > 0)
+            paths.keep(max_component(paths.beta) > 0)
             paths.next_hit(scene)
         return paths.L
 

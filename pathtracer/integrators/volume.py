@@ -28,6 +28,7 @@ import numpy as np
 from ..camera import Rays
 from ..geometry import offset_p
 from ..media import camera_medium, choose_channel
+from ..vec import max_component
 from .base import Integrator, replace_hits, skip_emitters, subset_hit, trace
 
 #: Counters reserved per segment; shadow rays use SLOT_SHADOW + k for their k-th crossing.
@@ -111,7 +112,7 @@ class VolumeIntegrator(Integrator):
         if self.roulette == "constant":
             q = np.full(len(paths), 1.0 - self.rr_q)
         else:
-            q = np.minimum(paths.beta.max(axis=1) * paths.eta ** 2, 0.95)
+            q = np.minimum(max_component(paths.beta) * paths.eta ** 2, 0.95)
         alive &= ~perform | (u < q)
         paths.beta = np.where(perform[:, None], paths.beta / np.where(q > 0, q, 1.0)[:, None],
                               paths.beta)

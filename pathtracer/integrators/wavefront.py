@@ -40,8 +40,12 @@ class Paths:
     ``rng``   the paths' random streams (:class:`pathtracer.rng.RandomStream`)
 
     plus every array an integrator adds with :meth:`declare`. ``depth`` counts the
-    segments before the current hit (0 on the camera ray's hit); ``L`` (n, 3) holds
+    segments before the current hit (0 on the camera ray's hit); :attr:`L` (n, 3) is
     every camera ray's radiance sample, live or not.
+
+    What :meth:`add_radiance` adds waits in ``gathered``, the path's own (m, 3) row,
+    until the path ends (:meth:`keep`, :meth:`split`) or :attr:`L` is read: adding to a
+    contiguous array costs a thirtieth of a scatter into the camera rays' rows.
 
     Parameters
     ----------
@@ -55,9 +59,10 @@ class Paths:
 
     def __init__(self, rays: Rays, rng: RandomStream, hit=None):
         n = len(rays)
-        self.L = np.zeros((n, 3))
+        self._L = np.zeros((n, 3))
         live = n if hit is not None else 0
         self.row = np.arange(live)
+        self.gathered = np.zeros((live, 3))
         self.beta = np.ones((live, 3))
         self.eta = np.ones(live)
         self.wi = -rays.d if hit is not None else np.zeros((0, 3))
@@ -65,7 +70,7 @@ class Paths:
         self.hit = hit
         self.rng = rng if hit is not None else rng.subset(self.row)
         self.depth = 0
-        self._fields = ["row", "beta", "eta", "wi", "wo"]
+        self._fields = ["row", "gathered", "beta", "eta", "wi", "wo"]
         self._rows_unique = True     # False once a path has split: rows of L repeat
 
     def __len__(self) -> int:
@@ -88,13 +93,18 @@ class Paths:
             setattr(self, name, value)
             self._fields.append(name)
 
+    @property
+    def L(self) -> np.ndarray:
+        """(n, 3) radiance sample of every camera ray, with what the live paths gathered."""
+        self._deliver(slice(None))
+        return self._L
+
     def add_radiance(self, value: np.ndarray, rows=None) -> None:
         """``L += value`` for every live path (or for the live paths ``rows``)."""
-        target = self.row if rows is None else self.row[rows]
-        if self._rows_unique:
-            self.L[target] += value
+        if rows is None:
+            self.gathered += value
         else:
-            np.add.at(self.L, target, value)
+            self.gathered[rows] += value
 
     def keep(self, mask: np.ndarray):
         """Keep the paths where ``mask`` holds, with every array and random stream.
@@ -103,10 +113,20 @@ class Paths:
         """
         if mask.all():
             return slice(None)
+        self._deliver(np.flatnonzero(~mask))
         rows = np.flatnonzero(mask)
         self._take(rows)
         self.rng = self.rng.subset(rows)
         return rows
+
+    def _deliver(self, paths) -> None:
+        """Add the radiance that ``paths`` gathered to their camera rays' rows of ``L``."""
+        target = self.row[paths]
+        if self._rows_unique:
+            self._L[target] += self.gathered[paths]
+        else:
+            np.add.at(self._L, target, self.gathered[paths])
+        self.gathered[paths] = 0.0
 
     def split(self, copies: int, rows=None) -> np.ndarray:
         """Replace paths ``rows`` (default: all) by ``copies`` children each.
@@ -117,6 +137,7 @@ class Paths:
         parent's row of :attr:`L`. Returns the parent index of every new path.
         """
         everything = rows is None or len(rows) == len(self)
+        self._deliver(slice(None))   # children must not inherit what the parent gathered
         rows = np.arange(len(self)) if rows is None else np.asarray(rows)
         whole = np.zeros(0, int) if everything else np.flatnonzero(
             ~np.isin(np.arange(len(self)), rows))
