@@ -29,7 +29,7 @@ from .sampling import (square_to_cosine_hemisphere, square_to_cosine_hemisphere_
                        square_to_uniform_disk_concentric,
                        square_to_uniform_sphere, square_to_uniform_triangle)
 from .scene.types import Scene
-from .vec import dot, max_component, norm, normalize, to_local, to_world
+from .vec import dot, max_component, norm, normalize, scale, select, to_local, to_world, unscale
 
 
 @dataclass
@@ -191,7 +191,7 @@ def shadowed(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
     """True where the segment from ``p`` (normal ``n``) along ``wo`` for ``dist`` is blocked."""
     finite = np.isfinite(dist)
     if finite.all():   # lights at finite distance only: no gathers
-        target = p + wo * dist[:, None]
+        target = p + scale(wo, dist)
         o, d, tmax = geometry.spawn_ray_to(p, n, target)
         return geometry.occluded(scene, o, d, tmax)
     blocked = np.zeros(len(dist), dtype=bool)
@@ -209,8 +209,8 @@ def _sample_point(emitter, ref_p, sample, rows):
     """Point or spot light: the one position, intensity / r^2 (times the spot's falloff)."""
     to_light = emitter.position - ref_p
     dist = norm(to_light)
-    wo = to_light / dist[:, None]
-    weight = emitter.intensity / (dist ** 2)[:, None]
+    wo = unscale(to_light, dist)
+    weight = unscale(emitter.intensity, dist ** 2)
     if emitter.kind == "spot":
         weight = weight * emitter.falloff(-wo)[:, None]
     sample.wo[rows] = wo
@@ -248,7 +248,7 @@ def _sample_area(scene, emitter, ref_p, u, sample, rows):
         pdf = None
     to_light = point - ref_p
     dist = norm(to_light)
-    wo = to_light / np.where(dist > 0, dist, 1.0)[:, None]
+    wo = unscale(to_light, np.where(dist > 0, dist, 1.0))
     cos_light = dot(wo, normal)
     if pdf is None:
         # A grazing sample (cos_light = 0) has an infinite solid-angle pdf: dropped below.
@@ -260,8 +260,7 @@ def _sample_area(scene, emitter, ref_p, u, sample, rows):
     sample.wo[rows] = wo
     sample.dist[rows] = dist
     sample.pdf[rows] = pdf
-    sample.weight[rows] = np.where(facing[:, None],
-                                   emitter.radiance / np.where(facing, pdf, 1.0)[:, None], 0.0)
+    sample.weight[rows] = select(facing, unscale(emitter.radiance, np.where(facing, pdf, 1.0)))
 
 
 def _sample_mesh(scene, shape, u):
@@ -274,14 +273,14 @@ def _sample_mesh(scene, shape, u):
     tri = begin + local
     b = square_to_uniform_triangle(np.stack((u_x, u[:, 1]), axis=1))
     tables = geometry.triangle_tables(scene)
-    b1, b2 = b[:, 0:1], b[:, 1:2]
+    b1, b2 = b[:, 0], b[:, 1]
     point = np.take(tables.p0, tri, axis=0)   # p0 + b1 e1 + b2 e2, gathered with np.take
-    point += b1 * np.take(tables.e1, tri, axis=0)
-    point += b2 * np.take(tables.e2, tri, axis=0)
+    point += scale(np.take(tables.e1, tri, axis=0), b1)
+    point += scale(np.take(tables.e2, tri, axis=0), b2)
     if not tables.smooth[begin:begin + len(cdf)].any():   # flat lights: one normal each
         return point, np.take(tables.flat_n, tri, axis=0)
     n0, n1, n2 = scene.tri_n[tri, 0], scene.tri_n[tri, 1], scene.tri_n[tri, 2]
-    normal = normalize((1 - b1 - b2) * n0 + b1 * n1 + b2 * n2)
+    normal = normalize(scale(n0, 1 - b1 - b2) + scale(n1, b1) + scale(n2, b2))
     return point, normal
 
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from .accel import BVH, SMALL_MAX, SmallMesh, SplitMesh, small_shapes
 from .cylinder import cylinder_surface, cylinder_t
-from .vec import dot, max_abs, normalize, put_rows
+from .vec import dot, max_abs, normalize, put_rows, scale, unscale
 
 RAY_EPSILON = 1500 * 2.0 ** -24  # Mitsuba's math::RayEpsilon for float32 (8.94e-5)
 SHADOW_EPSILON = 10 * RAY_EPSILON  # math::ShadowEpsilon
@@ -182,7 +182,7 @@ def offset_p(p: np.ndarray, n: np.ndarray, d: np.ndarray) -> np.ndarray:
     """
     mag = (1.0 + max_abs(p)) * RAY_EPSILON
     mag = np.where(dot(n, d) >= 0.0, mag, -mag)
-    return p + mag[:, None] * n
+    return p + scale(n, mag)
 
 
 def spawn_ray(p: np.ndarray, n: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -221,7 +221,7 @@ def spawn_ray_to(p: np.ndarray, n: np.ndarray, target: np.ndarray):
     o = offset_p(p, n, target - p)
     d = target - o
     dist = np.sqrt(dot(d, d))
-    d = d / np.where(dist > 0, dist, 1.0)[:, None]
+    d = unscale(d, np.where(dist > 0, dist, 1.0))
     return o, d, dist * (1.0 - SHADOW_EPSILON)
 
 
@@ -236,11 +236,21 @@ def _sphere_t(center, radius, o, d, tmax):
     closest to the center, which keeps the discriminant accurate for rays
     starting far away or grazing the sphere.
     """
-    dd = dot(d, d)
-    l = o - center
-    t_mid = -dot(l, d) / dd  # parameter of the point closest to the center
-    q = l + t_mid[:, None] * d
-    c = dot(q, q) - radius * radius
+    # Per component: (n, 3) arrays broadcast against (3,) or (n, 1) ones run ~5x slower.
+    dx, dy, dz = d[:, 0], d[:, 1], d[:, 2]
+    lx, ly, lz = o[:, 0] - center[0], o[:, 1] - center[1], o[:, 2] - center[2]
+    dd = dx * dx
+    dd += dy * dy
+    dd += dz * dz
+    t_mid = lx * dx
+    t_mid += ly * dy
+    t_mid += lz * dz
+    t_mid = -t_mid / dd  # parameter of the point closest to the center
+    qx, qy, qz = lx + t_mid * dx, ly + t_mid * dy, lz + t_mid * dz
+    c = qx * qx
+    c += qy * qy
+    c += qz * qz
+    c -= radius * radius
     disc = -dd * c  # (B/2)^2 - A C, with B = 0 at the closest point
     with np.errstate(invalid="ignore"):
         half = np.sqrt(disc) / dd
@@ -252,12 +262,15 @@ def _sphere_t(center, radius, o, d, tmax):
 
 def _disk_t(to_local, o, d, tmax):
     """Ray parameter where rays meet the unit disk z = 0 of a local frame (inf if not)."""
-    ol = o @ to_local[:3, :3].T + to_local[:3, 3]
-    dl = d @ to_local[:3, :3].T
+    m, shift = to_local[:3, :3], to_local[:3, 3]
+
+    def local(v, k, offset=0.0):   # component k of v in the disk's frame, per column
+        return v[:, 0] * m[k, 0] + v[:, 1] * m[k, 1] + v[:, 2] * m[k, 2] + offset
+
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = -ol[:, 2] / dl[:, 2]
-        x = ol[:, 0] + t * dl[:, 0]
-        y = ol[:, 1] + t * dl[:, 1]
+        t = -local(o, 2, shift[2]) / local(d, 2)
+        x = local(o, 0, shift[0]) + t * local(d, 0)
+        y = local(o, 1, shift[1]) + t * local(d, 1)
         ok = (t > 0) & (t < tmax) & (x * x + y * y <= 1.0)
     return np.where(ok, t, np.inf)
 
@@ -306,8 +319,8 @@ def _triangle_records(scene, k, b1, b2):
     """
     tab = triangle_tables(scene)
     p = np.take(tab.p0, k, axis=0)
-    p += b1[:, None] * np.take(tab.e1, k, axis=0)
-    p += b2[:, None] * np.take(tab.e2, k, axis=0)
+    p += scale(np.take(tab.e1, k, axis=0), b1)
+    p += scale(np.take(tab.e2, k, axis=0), b2)
     nrm = np.take(tab.n, k, axis=0)
     sh_n = np.take(tab.flat_n, k, axis=0)
     if tab.any_smooth:
@@ -335,10 +348,10 @@ def _fill_spheres(scene, hit, sel, o, d):
     c, r = scene.sphere_center[i], scene.sphere_radius[i]
     # Reproject onto the sphere (Mitsuba: p = c + r * normalize(ray(t) - c)).
     nrm = normalize(o + hit.t[sel, None] * d - c)
-    p = c + r[:, None] * nrm
+    p = c + scale(nrm, r)
     put_rows(hit.p, sel, p)
-    local = (p - c) / r[:, None]
-    nrm = np.where(scene.sphere_flip[i][:, None], -nrm, nrm)
+    local = unscale(p - c, r)
+    nrm = scale(nrm, np.where(scene.sphere_flip[i], -1.0, 1.0))
     put_rows(hit.n, sel, nrm)
     put_rows(hit.sh_n, sel, nrm)
     hit.shape[sel] = scene.sphere_shape[i]
@@ -356,11 +369,11 @@ def _fill_disks(scene, hit, sel, o, d):
     p = o + hit.t[sel, None] * d
     # Reproject onto the plane through the disk center (as Mitsuba does).
     center = to_world[:, :3, 3]
-    p = p + dot(center - p, nrm)[:, None] * nrm
+    p = p + scale(nrm, dot(center - p, nrm))
     put_rows(hit.p, sel, p)
     local = np.einsum("kij,kj->ki", to_local[:, :3, :3], p) + to_local[:, :3, 3]
     put_rows(hit.uv, sel, local[:, :2])
-    nrm = np.where(scene.disk_flip[i][:, None], -nrm, nrm)
+    nrm = scale(nrm, np.where(scene.disk_flip[i], -1.0, 1.0))
     put_rows(hit.n, sel, nrm)
     put_rows(hit.sh_n, sel, nrm)
     hit.shape[sel] = scene.disk_shape[i]

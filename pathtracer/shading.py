@@ -19,7 +19,7 @@ from .bsdfs.tangent_frame import InTangentFrame
 from .geometry import texture_uv
 from .tangents import local_geometry
 from .scene.types import Scene
-from .vec import frame, put_rows, to_local, to_world
+from .vec import frame, put_rows, scale, select, to_local, to_world
 
 
 @dataclass
@@ -218,7 +218,7 @@ def sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarra
         columns = frame(n)
         bs = bsdf.sample(to_local(wi, n, columns), u1, u2, hemisphere=hemisphere)
         out = ScatterSample(to_world(bs.wo, n, columns),
-                            np.where(bs.valid[:, None], bs.weight, 0.0),
+                            select(bs.valid, bs.weight),
                             np.where(bs.valid, bs.pdf, 0.0).astype(np.float64, copy=False),
                             _own(bs.delta, bool), np.where(bs.valid, bs.eta, 1.0))
     else:
@@ -231,12 +231,12 @@ def sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarra
             bs = bsdf.sample(to_local(_rows(wi, rows), n, columns), _rows(u1, rows),
                              _rows(u2, rows), hemisphere=hemisphere)
             put_rows(out.wo, rows, to_world(bs.wo, n, columns))
-            put_rows(out.weight, rows, np.where(bs.valid[:, None], bs.weight, 0.0))
+            put_rows(out.weight, rows, select(bs.valid, bs.weight))
             out.pdf[rows] = np.where(bs.valid, bs.pdf, 0.0)
             out.delta[rows] = bs.delta
             out.eta[rows] = np.where(bs.valid, bs.eta, 1.0)
     if adjoint:
-        out.weight *= (out.eta * out.eta)[:, None]
+        out.weight = scale(out.weight, out.eta * out.eta)
     return out
 
 

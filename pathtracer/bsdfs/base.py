@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..textures import ConstantTexture, Texture
+from ..vec import select
 
 
 @dataclass
@@ -91,7 +92,7 @@ def make_sample(wo: np.ndarray, weight: np.ndarray, pdf: np.ndarray, delta,
     """
     n = wo.shape[0]
     valid = np.asarray(valid, dtype=bool)
-    weight = np.where(valid[:, None], weight, 0.0)
+    weight = select(valid, weight)
     pdf = np.where(valid, pdf, 0.0)
     wo = np.where(np.isfinite(wo), wo, 0.0)
     delta = np.broadcast_to(np.asarray(delta, dtype=bool), (n,)).copy()

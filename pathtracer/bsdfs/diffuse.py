@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import sampling
+from ..vec import scale
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 
 
@@ -38,7 +39,7 @@ class Diffuse(BSDF):
     def eval(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         r""":math:`\rho\,\cos\theta_o / \pi` where both directions are above the surface."""
         cos_theta_o = np.where(self._active(wi, wo), wo[:, 2], 0.0)
-        return (sampling.INV_PI * cos_theta_o)[:, None] * self.reflectance
+        return scale(self.reflectance, sampling.INV_PI * cos_theta_o)
 
     def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
         r"""Density of :meth:`sample`: :math:`\cos\theta_o/\pi` (cosine) or :math:`1/(2\pi)` (uniform)."""
@@ -51,7 +52,7 @@ class Diffuse(BSDF):
         wo = _hemisphere_sample(u2, hemisphere)
         pdf = _hemisphere_pdf(wo, hemisphere)
         valid = (wi[:, 2] > 0.0) & (pdf > 0.0)
-        weight = _hemisphere_weight(wo, hemisphere)[:, None] * self.reflectance
+        weight = scale(self.reflectance, _hemisphere_weight(wo, hemisphere))
         return make_sample(wo, weight, pdf, delta=False, eta=1.0, valid=valid)
 
 

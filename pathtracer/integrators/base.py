@@ -26,7 +26,7 @@ from ..camera import Rays
 from ..emitters import emitted_radiance, hit_emitter, sample_emitter
 from ..scene.types import Scene
 from ..shading import eval_bsdf, has_smooth
-from ..vec import max_component
+from ..vec import max_component, scale, select, unscale
 # trace, spawn, subset_hit and replace_hits lived here first: submissions import them from here.
 from .wavefront import Paths, replace_hits, spawn, subset_hit, trace
 
@@ -140,7 +140,7 @@ class Integrator:
         else:
             q_continue = np.minimum(max_component(beta) * eta ** 2, 0.95)
         survive = u < q_continue
-        return survive, beta / np.where(q_continue > 0, q_continue, 1.0)[:, None]
+        return survive, unscale(beta, np.where(q_continue > 0, q_continue, 1.0))
 
     def russian_roulette(self, paths: Paths) -> None:
         """End the paths that lose the roulette (see :meth:`roulette_survivors`), and
@@ -181,9 +181,9 @@ class Integrator:
         contribution = beta * f * light.weight
         if mis_weight is not None:
             w_light = np.where(light.delta, 1.0, mis_weight(light.pdf, pdf_bsdf))
-            contribution = contribution * w_light[:, None]
+            contribution = scale(contribution, w_light)
         usable = has_smooth(scene, paths.hit) & (light.pdf > 0)
-        return np.where(usable[:, None], contribution, 0.0)
+        return select(usable, contribution)
 
 
 def skip_emitters(scene: Scene, rays: Rays, hit):
