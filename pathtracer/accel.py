@@ -277,10 +277,11 @@ class BVH:
             rows = np.arange(T)[None, :]
         else:
             rows = self._build_tree(tri_p.min(axis=1), tri_p.max(axis=1))
-        # Leaf triangles: row k * c + j holds component c of slot j.
+        # Leaf triangles as (9, leaves, k): component c of slot j of leaf l at [c, l, j], so
+        # that a leaf's k values of a component share a cache line.
         data = _tri_data(tri_p)
         tri = np.where(rows[..., None] >= 0, data[np.maximum(rows, 0)], np.nan)
-        self._leaf_tri = np.ascontiguousarray(tri.transpose(2, 1, 0).reshape(-1, len(rows)))
+        self._leaf_tri = np.ascontiguousarray(tri.transpose(2, 0, 1))
         self._leaf_prim = np.ascontiguousarray(rows.T)
         self._leaf_k = rows.shape[1]
 
@@ -350,11 +351,12 @@ class BVH:
         """
         k = self._leaf_k
         if r is None:
-            tri = self._leaf_tri.reshape(9, k, 1)
+            tri = self._leaf_tri[:, 0, :, None]
             leaf = np.zeros(o.shape[1], np.int64)
             tt, u, v = _moller_trumbore(o, d, tri, tbest)
         else:
-            tri = np.take(self._leaf_tri, leaf, axis=1).reshape(9, k, -1)
+            # Gathered as (9, m, k) (few cache lines per pair), used as (9, k, m).
+            tri = np.take(self._leaf_tri, leaf, axis=1).transpose(0, 2, 1).copy()
             tt, u, v = _moller_trumbore(np.take(o, r, axis=1), np.take(d, r, axis=1),
                                         tri, tbest[r])
         if k > 8:
