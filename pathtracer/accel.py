@@ -543,14 +543,14 @@ class SmallMesh:
     Two triangles that form a parallelogram (the two halves of a rectangle, a
     cube's face) are tested as one primitive, so a box room costs half the
     tests. A primitive, with origin ``p0`` and edges ``e1``, ``e2``, is written
-    as five affine functions of a point x: the signed distance to its plane and
-    four functions that are all >= 0 exactly inside it: ``b1``, ``b2`` (x's
-    coordinates along the edges) and ``1 - b1``, ``1 - b2`` for a parallelogram,
-    ``1 - b1 - b2`` twice for a lone triangle. For a ray, two small float32
-    matrix products give those functions at the origin and their rates along the
-    direction for every primitive at once; then ``t = distance / rate`` and
-    ``g = g(o) + t g'(d)`` with a handful of in-place ufuncs on (P, chunk)
-    arrays. The closest accepted primitive per ray is one integer ``min``: the
+    as affine functions of a point x: the signed distance to its plane, and
+    functions of x's coordinates ``b1``, ``b2`` along the edges that say whether
+    it lies inside: ``|b1 - 1/2|, |b2 - 1/2| <= 1/2`` for a parallelogram,
+    ``b1, b2, 1 - b1 - b2 >= 0`` for a lone triangle. For a ray, two small
+    float32 matrix products give those functions at the origin and their rates
+    along the direction for every primitive at once; then ``t = distance /
+    rate`` and ``g = g(o) + t g'(d)`` with a handful of in-place ufuncs on
+    (P, chunk) arrays. The closest accepted primitive per ray is one integer ``min``: the
     float32 ``t`` with its low mantissa bits replaced by the primitive index
     (negative ``t``, NaN and rejected pairs compare above ``inf`` as unsigned
     integers).
@@ -578,6 +578,7 @@ class SmallMesh:
         self._triangles = triangles.ravel()  # row 2k + half
         self._to_bary = np.ascontiguousarray(to_bary.reshape(-1, 6).T)  # (6, 2P)
         self.num_primitives = P = len(p0)
+        self._quads = Q = int(quad.sum())   # parallelograms first, then lone triangles
         self._bits = max(1, int(np.ceil(np.log2(max(P, 2)))))
         n = np.cross(e1, e2)
         nn = np.einsum("ij,ij->i", n, n)
@@ -586,19 +587,21 @@ class SmallMesh:
             a1 = np.cross(e2, n) * inv[:, None]
             a2 = np.cross(n, e1) * inv[:, None]
             unit = n * np.sqrt(inv)[:, None]
-        # Rows of five blocks of P: -plane distance, b1, b2, then 1 - b1 (or 1 - b1 - b2)
-        # and 1 - b2 (or 1 - b1 - b2); each as a linear part and a constant.
-        lone = (~quad)[:, None]
-        linear = (-unit, a1, a2, -a1 - lone * a2, -a2 - lone * a1)
-        mo = np.zeros((5 * P, 4))
-        md = np.zeros((5 * P, 3))
-        for k, a in enumerate(linear):
-            mo[k * P:(k + 1) * P, :3] = a
-            mo[k * P:(k + 1) * P, 3] = -np.einsum("ij,ij->i", a, p0) + (k >= 3)
-            md[k * P:(k + 1) * P] = a
-        md[:P] *= -1.0  # the plane's rate along d: n . d
-        self._mo = mo.astype(np.float32)
-        self._md = md.astype(np.float32)
+        # Affine functions c + a . x, as rows (linear part, constant): the signed distance
+        # to the plane of every primitive; then b1 - 1/2, b2 - 1/2 of the parallelograms
+        # (inside: both within +-1/2); then b1, b2, 1 - b1 - b2 of the lone triangles
+        # (inside: all >= 0).
+        para, lone = slice(0, Q), slice(Q, P)
+        blocks = [(-unit, 0.0, slice(0, P)), (a1, -0.5, para), (a2, -0.5, para),
+                  (a1, 0.0, lone), (a2, 0.0, lone), (-a1 - a2, 1.0, lone)]
+        mo, md = [], []
+        for a, c, rows in blocks:
+            a, origin = a[rows], p0[rows]
+            mo.append(np.column_stack((a, c - np.einsum("ij,ij->i", a, origin))))
+            md.append(a)
+        md[0] = -md[0]  # the plane's rate along d: n . d
+        self._mo = np.concatenate(mo).astype(np.float32)
+        self._md = np.concatenate(md).astype(np.float32)
         self._index = np.arange(P, dtype=np.uint32)[:, None]
         self._prim = np.concatenate((p0, e1, e2), axis=1).T.copy()  # (9, P) float64 for the refit
         # Scratch buffers per thread: renders running in threads share one scene.
@@ -619,8 +622,9 @@ class SmallMesh:
         work = getattr(self._scratch, "work", None)
         if work is None or work[0].shape[1] != m:
             P = self.num_primitives
+            rows = len(self._mo)
             work = (np.empty((4, m), np.float32), np.empty((3, m), np.float32),
-                    np.empty((5 * P, m), np.float32), np.empty((5 * P, m), np.float32),
+                    np.empty((rows, m), np.float32), np.empty((rows, m), np.float32),
                     np.empty((P, m), np.float32), np.empty((P, m), bool))
             if m == SMALL_CHUNK:  # the full chunks' buffers are kept for the next call
                 self._scratch.work = work
@@ -635,18 +639,26 @@ class SmallMesh:
         d3[...] = d
         np.matmul(self._mo, o4, out=ao)
         np.matmul(self._md, d3, out=ad)
+        Q = self._quads
         t = ao[:P]
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             t /= ad[:P]
-            g = ad[P:]  # g = g(o) + t g'(d) for the four functions at once
-            g.reshape(4, P, -1).__imul__(t)
+            # g = g(o) + t g'(d): two functions per parallelogram, three per triangle.
+            g = ad[P:]
+            m = g.shape[1]
+            g[:2 * Q].reshape(2, Q, m).__imul__(t[:Q])
+            g[2 * Q:].reshape(3, P - Q, m).__imul__(t[Q:])
             g += ao[P:]
-            np.minimum(g[:P], g[P:2 * P], out=low)
-            np.minimum(low, g[2 * P:3 * P], out=low)
-            np.minimum(low, g[3 * P:], out=low)
+            quad, tri = g[:2 * Q], g[2 * Q:]
+            np.abs(quad, out=quad)
+            np.maximum(quad[:Q], quad[Q:], out=low[:Q])
+            np.less_equal(low[:Q], 0.5 + SMALL_BARY_EPS, out=ok[:Q])
+            L = P - Q
+            np.minimum(tri[:L], tri[L:2 * L], out=low[Q:])
+            np.minimum(low[Q:], tri[2 * L:], out=low[Q:])
+            np.greater_equal(low[Q:], -SMALL_BARY_EPS, out=ok[Q:])
         # Rejected pairs get t / 0 = +-inf or NaN (a masked copy is ~8x slower than this
         # division by a bool, and dividing by 1 leaves t exact).
-        np.greater_equal(low, -SMALL_BARY_EPS, out=ok)
         with np.errstate(divide="ignore", invalid="ignore"):
             np.divide(t, ok, out=t)
         key = t.view(np.uint32)
@@ -721,7 +733,8 @@ def _parallelograms(tri_p: np.ndarray, rtol: float = 1e-9):
     Returns
     -------
     p0, e1, e2 : (P, 3) arrays
-        Origin and edges of each primitive (a lone triangle: its own p0, e1, e2).
+        Origin and edges of each primitive (a lone triangle: its own p0, e1, e2), the
+        parallelograms first.
     triangles : (P, 2) int64
         The triangle for ``b1 + b2 <= 1`` and for ``> 1`` (a lone triangle twice).
     to_bary : (P, 2, 2, 3) array
@@ -741,12 +754,6 @@ def _parallelograms(tri_p: np.ndarray, rtol: float = 1e-9):
                 pairs.append((i, j) + roles)
                 used[i] = used[j] = True
     p0, e1, e2, triangles, to_bary, quad = [], [], [], [], [], []
-    # A triangle's own coordinates: barycentrics of p1, p2 are (b1, b2).
-    own = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
-    for i in np.flatnonzero(~used):
-        a, b, c = tri_p[i]
-        p0.append(a), e1.append(b - a), e2.append(c - a)
-        triangles.append((i, i)), to_bary.append((own, own)), quad.append(False)
     # Weights of x, s, t (in the first half) and of s, t, y = s + t - x (in the second)
     # at the point x + b1 (s - x) + b2 (t - x), as rows over (1, b1, b2).
     first_weights = {"x": (1.0, -1.0, -1.0), "s": (0.0, 1.0, 0.0), "t": (0.0, 0.0, 1.0)}
@@ -757,6 +764,12 @@ def _parallelograms(tri_p: np.ndarray, rtol: float = 1e-9):
         second = np.array([second_weights[r] for r in roles_j[1:]])
         p0.append(x), e1.append(s - x), e2.append(t - x)
         triangles.append((i, j)), to_bary.append((first, second)), quad.append(True)
+    # A lone triangle's own coordinates: barycentrics of p1, p2 are (b1, b2).
+    own = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    for i in np.flatnonzero(~used):
+        a, b, c = tri_p[i]
+        p0.append(a), e1.append(b - a), e2.append(c - a)
+        triangles.append((i, i)), to_bary.append((own, own)), quad.append(False)
     if not p0:
         return (np.zeros((0, 3)),) * 3 + (np.zeros((0, 2), np.int64), np.zeros((0, 2, 2, 3)),
                                           np.zeros(0, bool))
