@@ -11,6 +11,8 @@ texture is bound to its hits' texture coordinates first (:meth:`BSDF.at
 from __future__ import annotations
 
 import copy
+import threading
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,7 +49,28 @@ def bsdf_index(scene: Scene, hit) -> np.ndarray:
     return scene.shape_bsdf[hit.shape]
 
 
-def _groups(scene: Scene, hit):
+def _groups(scene: Scene, hit) -> list:
+    """(BSDF, rows) per group of hits that one BSDF object can evaluate (see :func:`_grouping`).
+
+    The last grouping is kept: next-event estimation and BSDF sampling at the same
+    hits (one batch object) group them once.
+    """
+    last = getattr(_last_grouping, "key", None)
+    if last is not None and last[0] is scene and last[1]() is hit:
+        return _last_grouping.groups
+    groups = list(_grouping(scene, hit))
+    try:
+        _last_grouping.key = (scene, weakref.ref(hit))
+    except TypeError:   # a batch type without weak references (a plain namespace): not kept
+        _last_grouping.key = None
+    _last_grouping.groups = groups
+    return groups
+
+
+_last_grouping = threading.local()
+
+
+def _grouping(scene: Scene, hit):
     """(BSDF, rows) per group of hits that one BSDF object can evaluate.
 
     BSDFs of one class whose parameters differ only in constant colours (the
@@ -58,7 +81,7 @@ def _groups(scene: Scene, hit):
     ``slice(None)`` when the group holds every hit (no gathers, no scatters).
     """
     ids = bsdf_index(scene, hit)
-    present = np.unique(ids)
+    present = np.flatnonzero(np.bincount(ids, minlength=len(scene.bsdfs)))
     groups: dict = {}
     for b in present.tolist():
         groups.setdefault(_merge_key(scene.bsdfs[b], b), []).append(b)
@@ -154,7 +177,7 @@ def eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray,
         ``wo`` towards the camera side), Mitsuba's ``TransportMode::Importance``: a
         refraction carries no ``1/eta'^2`` radiance scaling (:func:`importance_scale`).
     """
-    groups = list(_groups(scene, hit))
+    groups = _groups(scene, hit)
     if len(groups) == 1 and isinstance(groups[0][1], slice):   # one group: no scatters
         bsdf, _ = groups[0]
         wi_local, wo_local = _local_pair(hit.sh_n, wi, wo)
@@ -211,7 +234,7 @@ def sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarra
     ``adjoint``: importance transport (see :func:`eval_bsdf`); the weight of a refraction
     is multiplied by ``bs.eta^2`` = ``eta'^2``, which undoes the radiance scaling.
     """
-    groups = list(_groups(scene, hit))
+    groups = _groups(scene, hit)
     if len(groups) == 1 and isinstance(groups[0][1], slice):   # one group: no scatters
         bsdf, _ = groups[0]
         n = hit.sh_n
