@@ -326,9 +326,10 @@ def _triangle_records(scene, k, b1, b2):
     if tab.any_smooth:
         rows = np.flatnonzero(np.take(tab.smooth, k))
         if len(rows):
-            kr, u, v = k[rows], b1[rows, None], b2[rows, None]
-            nv = scene.tri_n[kr]
-            sh_n[rows] = normalize((1.0 - u - v) * nv[:, 0] + u * nv[:, 1] + v * nv[:, 2])
+            kr, u, v = np.take(k, rows), np.take(b1, rows), np.take(b2, rows)
+            nv = np.take(scene.tri_n, kr, axis=0)
+            put_rows(sh_n, rows, normalize(scale(nv[:, 0], 1.0 - u - v) + scale(nv[:, 1], u)
+                                           + scale(nv[:, 2], v)))
     uv = np.empty((len(k), 2))
     uv[:, 0], uv[:, 1] = b1, b2
     return p, nrm, sh_n, np.take(scene.tri_shape, k).astype(np.int32, copy=False), uv
