@@ -851,7 +851,8 @@ class SplitMesh:
         occ = self.small.occluded(o, d, tmax)
         rows = np.flatnonzero(~occ)
         if len(rows):
-            occ[rows] = self.big.occluded(o[rows], d[rows], tmax[rows])
+            occ[rows] = self.big.occluded(np.take(o, rows, axis=0), np.take(d, rows, axis=0),
+                                          np.take(tmax, rows))
         return occ
 
 

@@ -114,11 +114,13 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
     for i in range(len(scene.sphere_radius)):
         ts = _sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, t)
         closer = ts < t
-        t[closer], kind[closer], prim[closer] = ts[closer], 1, i
+        np.minimum(t, ts, out=t)
+        kind[closer], prim[closer] = 1, i
     for i in range(len(scene.disk_shape)):
         td = _disk_t(scene.disk_to_local[i], o, d, t)
         closer = td < t
-        t[closer], kind[closer], prim[closer] = td[closer], 2, i
+        np.minimum(t, td, out=t)
+        kind[closer], prim[closer] = 2, i
     curve_hits = []
     for i, curve in enumerate(scene.curves):
         tc, piece, s, _ = curve.intersect(o, d, t)
