@@ -27,7 +27,8 @@ WIDTH = 4  # children per node of the traversed tree
 LEAF_SIZE = 4  # max triangles per leaf
 NUM_BINS = 12  # SAH bins per axis
 BRUTE_FORCE_MAX = 32  # up to this many triangles, test every triangle
-CHUNK = 32768  # rays per traversal chunk (bounds the stacks' memory)
+CHUNK = 32768  # rays per traversal chunk
+MAX_PAIRS = 1 << 18  # (ray, node) pairs traversed at once (bounds the work lists' memory)
 BARY_EPS = 1e-10  # barycentric slack: closes cracks along shared edges
 SLAB_EPS = 16 * 2.0 ** -24  # box dilation for float32 slabs, relative to |o| + scene size
 
@@ -434,12 +435,14 @@ class BVH:
 
         Leaf hits closer than ``tbest`` are reported as ``on_hit(rays, t, prim, b1,
         b2)`` (each ray's nearest of an iteration, the first on ties), which may
-        shorten ``tbest``. The work list holds (ray, node) pairs, at first the root
-        for every ray; an iteration tests its leaves, then replaces every inner node
-        by the children whose boxes the ray segment ``[0, tbest]`` overlaps (with
-        ``tbest`` already shortened by this iteration's leaves). A pair was live when
-        it was made, and nothing shortens ``tbest`` before its turn: the list needs no
-        pruning.
+        shorten ``tbest``. A work list holds (ray, node) pairs, at first the root for
+        every ray; an iteration tests its leaves, then replaces every inner node by
+        the children whose boxes the ray segment ``[0, tbest]`` overlaps (``tbest``
+        already shortened by this iteration's leaves). A list longer than
+        :data:`MAX_PAIRS` is halved and its halves traversed one after the other, so
+        memory stays bounded when many boxes overlap; a pair made stale by a shorter
+        ``tbest`` costs a test, never a wrong hit (leaves and boxes are tested
+        against the current ``tbest``).
 
         Depth first, with a stack per ray popped one entry per iteration, rays visit
         nodes near to far and test fewer of them, but every iteration costs ~40 NumPy
@@ -448,9 +451,14 @@ class BVH:
         breadth first is 2.4x faster (docs/performance.md).
         """
         ray9 = _ray9(o, d, self._scene_max)
-        ray = np.arange(o.shape[1])
-        node = np.zeros(len(ray), np.int64)  # the root
-        while len(ray):
+        n = o.shape[1]
+        work = [(np.arange(n), np.zeros(n, np.int64))]   # every ray at the root
+        while work:
+            ray, node = work.pop()
+            if len(ray) > MAX_PAIRS:
+                half = len(ray) // 2
+                work += [(ray[half:], node[half:]), (ray[:half], node[:half])]
+                continue
             is_leaf = node < 0
             if is_leaf.any():
                 leaf = np.flatnonzero(is_leaf)
@@ -465,11 +473,12 @@ class BVH:
                 inner = np.flatnonzero(~is_leaf)
                 ray, node = np.take(ray, inner), np.take(node, inner)
                 if not len(ray):
-                    break
+                    continue
             hit = self._step(ray9, tbest, ray, node)
             pick = np.flatnonzero(hit)  # (slot, pair) flattened: slot-major
-            node = np.take(np.take(self._child, node, axis=1), pick)
-            ray = np.take(ray, pick % len(ray))
+            if len(pick):
+                work.append((np.take(ray, pick % len(ray)),
+                             np.take(np.take(self._child, node, axis=1), pick)))
 
 
 def _tri_data(tri_p: np.ndarray) -> np.ndarray:

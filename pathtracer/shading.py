@@ -91,7 +91,9 @@ def _grouping(scene: Scene, hit):
         elif len(members) == 1:
             rows = np.flatnonzero(ids == members[0])
         else:
-            rows = np.flatnonzero(np.isin(ids, members))
+            member = np.zeros(len(scene.bsdfs), bool)
+            member[members] = True
+            rows = np.flatnonzero(member[ids])
         bsdf = scene.bsdfs[members[0]]
         if len(members) > 1:
             bsdf = _merged(scene, members, ids[rows])

@@ -152,10 +152,16 @@ def put_rows(a: np.ndarray, rows, values) -> None:
     (broadcast values, non-contiguous arrays) take the plain assignment.
     """
     values = np.asarray(values)
-    if (a.ndim == 2 and a.flags.c_contiguous and values.shape[-1:] == a.shape[1:]
-            and values.ndim == 2 and a.size):
-        record = np.dtype((np.void, a.shape[1] * a.itemsize))
-        source = np.ascontiguousarray(values, dtype=a.dtype).view(record).reshape(-1)
-        a.view(record).reshape(-1)[rows] = source
+    if (a.ndim == 2 and values.ndim == 2 and values.shape[1] == a.shape[1] and a.size
+            and a.flags.c_contiguous):
+        record = _RECORDS.get((a.dtype, a.shape[1]))
+        if record is None:
+            record = _RECORDS[a.dtype, a.shape[1]] = np.dtype((np.void, a.shape[1] * a.itemsize))
+        if values.dtype != a.dtype or not values.flags.c_contiguous:
+            values = np.ascontiguousarray(values, dtype=a.dtype)
+        a.view(record)[rows, 0] = values.view(record)[:, 0]
     else:
         a[rows] = values
+
+
+_RECORDS: dict = {}   # (dtype, k) -> the void dtype of one row of k elements

@@ -43,6 +43,24 @@ def test_matches_brute_force_on_random_soup():
     np.testing.assert_allclose(p, q, atol=1e-9)
 
 
+def test_bounded_work_lists_give_the_same_hits(monkeypatch):
+    """Traversal halves a work list longer than MAX_PAIRS and finishes the halves one after
+    the other (bounded memory where many boxes overlap): the hits must not change."""
+    rng = np.random.default_rng(5)
+    tri = random_soup(rng, 1500, size=2.0)   # big, overlapping triangles: many live pairs
+    o, d = random_rays(rng, 4000)
+    bvh = BVH(tri)
+    t, prim, b1, b2 = bvh.intersect(o, d)
+    occ = bvh.occluded(o, d, np.full(len(o), 5.0))
+    monkeypatch.setattr("pathtracer.accel.MAX_PAIRS", 64)
+    t_small, prim_small, b1_small, b2_small = bvh.intersect(o, d)
+    np.testing.assert_array_equal(t_small, t)
+    assert np.all((prim_small == prim) | (t_small == t))
+    np.testing.assert_array_equal(bvh.occluded(o, d, np.full(len(o), 5.0)), occ)
+    tb, _, _, _ = BVH(tri, brute_force_max=10**9).intersect(o, d)
+    np.testing.assert_array_equal(t_small, tb)
+
+
 def test_tmax_and_occluded_consistent_with_intersect():
     rng = np.random.default_rng(2)
     tri = random_soup(rng, 800)
