@@ -202,3 +202,45 @@ def test_split_mesh_equals_one_bvh():
     occ = split.occluded(o, d, tmax)
     assert np.mean(occ == whole.occluded(o, d, tmax)) > 0.999
     np.testing.assert_array_equal(occ, split.intersect(o, d, tmax)[1] >= 0)
+
+
+def _parallelogram_pairs(rng, count):
+    """``count`` random parallelograms, each as two triangles with shuffled vertex orders."""
+    tris = []
+    for _ in range(count):
+        x, e1, e2 = rng.normal(size=(3, 3))
+        s, t = x + e1, x + e2
+        halves = ([x, s, t], [s + t - x, s, t])
+        tris += [[h[i] for i in rng.permutation(3)] for h in halves]
+    return np.array(tris)
+
+
+def test_small_mesh_pairs_parallelograms_and_matches_the_bvh():
+    """SmallMesh tests each rectangle (two triangles forming a parallelogram, in any vertex
+    order) as one primitive, lone triangles as before: the hits, triangle indices and
+    barycentrics are those of the BVH (float64 Möller–Trumbore per triangle)."""
+    from pathtracer.accel import SmallMesh
+    rng = np.random.default_rng(11)
+    lone = rng.normal(size=(7, 3, 3))
+    kite = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[1, 0, 0], [0, 1, 0], [2, 2, 0]]], float)
+    tri = np.concatenate((_parallelogram_pairs(rng, 20), lone, kite + 3.0))
+    mesh = SmallMesh(tri)
+    assert mesh.num_primitives == 20 + 7 + 2   # the kite's halves share an edge but stay apart
+    n = 40_000
+    k = rng.integers(0, len(tri), n)
+    target = np.einsum("nk,nkj->nj", rng.dirichlet((1, 1, 1), n), tri[k])
+    o = rng.normal(size=(n, 3)) * 4
+    d = target - o
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    t, prim, b1, b2 = mesh.intersect(o, d)
+    tb, primb, b1b, b2b = BVH(tri, brute_force_max=10**9).intersect(o, d)
+    assert (prim >= 0).all()
+    same = prim == primb
+    assert same.mean() > 0.9995   # the rest: float32 near-ties at shared edges
+    np.testing.assert_allclose(t[same], tb[same], rtol=1e-10)
+    np.testing.assert_allclose(b1[same], b1b[same], atol=1e-9)
+    np.testing.assert_allclose(b2[same], b2b[same], atol=1e-9)
+    v = tri[prim]
+    p = v[:, 0] + b1[:, None] * (v[:, 1] - v[:, 0]) + b2[:, None] * (v[:, 2] - v[:, 0])
+    np.testing.assert_allclose(p, o + t[:, None] * d, atol=1e-9)
+    np.testing.assert_array_equal(mesh.occluded(o, d, t * 0.999), prim != prim)   # no hit before

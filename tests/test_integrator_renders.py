@@ -9,6 +9,12 @@ rules, uniform hemisphere sampling, ``recursive``'s branches, ``smallpt``'s glas
 surfaces, area, point and environment lights. Small images (12x12 or 8x8 pixels, 4-8 spp)
 keep it under ~10 s.
 
+Regenerated once since (2026-12-01), for the speed work of docs/performance.md, whose last
+bits differ: parallelograms in SmallMesh (t from the rectangle, not its triangle), radiance
+summed per path before it reaches L, row-wise dot products, float32 angles in the concentric
+disk map (images within 3e-6 of the old ones, relative to their maximum; median 1e-9),
+after every statistical suite had passed on the new code.
+
 Regenerating the file (``python tests/test_integrator_renders.py --write``) is allowed only
 for an *intended* numeric change, e.g. in the shared geometry, BSDF, emitter or sampling
 code, after the statistical suites (test_agreement.py, test_analytic.py, ...) have accepted

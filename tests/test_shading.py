@@ -64,3 +64,25 @@ def test_merging_leaves_the_scene_bsdfs_unchanged():
     scene, hit, wi, wo, u1, u2 = _scene_and_hits(np.arange(90) % 3)
     sample_bsdf(scene, hit, wi, u1, u2)
     assert [b.reflectance.shape for b in scene.bsdfs[:3]] == [(3,)] * 3
+
+
+class _Batch(SimpleNamespace):
+    """A hit batch that takes weak references (as the tracer's Hit does)."""
+
+
+def test_grouping_is_kept_for_the_same_batch_only():
+    """The grouping of hits by BSDF is kept for the next call on the *same* batch object;
+    another batch (here the same hits reversed) is grouped afresh: its results are its own."""
+    scene, hit, wi, wo, u1, u2 = _scene_and_hits([0, 1, 2, 3, 4, 0, 2, 2, 1, 4, 3, 0] * 10)
+    batch = _Batch(**vars(hit))
+    first = eval_bsdf(scene, batch, wi, wo)
+    assert _groups(scene, batch) is _groups(scene, batch)   # kept
+    expected = _one_by_one(scene, hit, wi, wo, u1, u2)
+    np.testing.assert_array_equal(first[0], expected[0])
+    rows = np.arange(len(wi))[::-1]
+    reversed_batch = _Batch(shape=batch.shape[rows], sh_n=batch.sh_n[rows])
+    value, pdf = eval_bsdf(scene, reversed_batch, wi[rows], wo[rows])
+    np.testing.assert_array_equal(value, expected[0][rows])
+    np.testing.assert_array_equal(pdf, expected[1][rows])
+    bs = sample_bsdf(scene, reversed_batch, wi[rows], u1[rows], u2[rows])
+    np.testing.assert_array_equal(bs.wo, expected[2][rows])
