@@ -302,6 +302,8 @@ class BVH:
         self._box = np.ascontiguousarray(b32.reshape(len(child), -1).T)
         self._child = np.ascontiguousarray(child.T)
         self._scene_max = float(max(np.abs(lo).max(), np.abs(hi).max()))
+        margin = 1e-9 * (self._scene_max + 1.0)
+        self._bounds = np.stack((lo.min(axis=0) - margin, hi.max(axis=0) + margin))
         return tree["leaf_tris"]
 
     # ------------------------------------------------------------------
@@ -327,22 +329,56 @@ class BVH:
         t = tmax.copy()
         prim = np.full(n, -1, np.int64)
         b1, b2 = np.zeros(n), np.zeros(n)
-        if self.num_triangles:
-            for s in range(0, n, self._chunk):
-                sl = slice(s, s + self._chunk)
-                self._closest(o[:, sl], d[:, sl], t[sl], prim[sl], b1[sl], b2[sl])
+        rows = self._candidates(o, d, tmax)
+        every = len(rows) == n
+        if not every:   # only the rays that may meet the mesh, as a batch of their own
+            o, d = np.take(o, rows, axis=1), np.take(d, rows, axis=1)
+        out = (t, prim, b1, b2) if every else (np.take(t, rows), np.full(len(rows), -1),
+                                                 np.zeros(len(rows)), np.zeros(len(rows)))
+        for s in range(0, len(rows), self._chunk):
+            sl = slice(s, s + self._chunk)
+            self._closest(o[:, sl], d[:, sl], *(x[sl] for x in out))
+        if not every:
+            t[rows], prim[rows], b1[rows], b2[rows] = out
         t[prim < 0] = np.inf
         return t, prim, b1, b2
 
     def occluded(self, o, d, tmax=None):
         """(n,) bool: the ray hits some triangle with ``0 < t < tmax`` (None: inf)."""
         o, d, tmax = _rays(o, d, tmax)
-        occ = np.zeros(o.shape[1], bool)
-        if self.num_triangles:
-            for s in range(0, len(occ), self._chunk):
-                sl = slice(s, s + self._chunk)
-                self._any(o[:, sl], d[:, sl], tmax[sl], occ[sl])
+        n = o.shape[1]
+        occ = np.zeros(n, bool)
+        rows = self._candidates(o, d, tmax)
+        every = len(rows) == n
+        if not every:   # only the rays that may meet the mesh
+            o, d, tmax = np.take(o, rows, axis=1), np.take(d, rows, axis=1), np.take(tmax, rows)
+        hit = occ if every else np.zeros(len(rows), bool)
+        for s in range(0, len(rows), self._chunk):
+            sl = slice(s, s + self._chunk)
+            self._any(o[:, sl], d[:, sl], tmax[sl], hit[sl])
+        if not every:
+            occ[rows] = hit
         return occ
+
+    def _candidates(self, o, d, tmax) -> np.ndarray:
+        """Indices of the rays (o, d: (3, n)) whose segment ``[0, tmax]`` meets the tree's
+        bounds, dilated by a relative 1e-9 (float64: a conservative test).
+
+        In a mesh-in-a-room scene ~70 % of the rays miss the mesh's bounds: culled here
+        by one slab test, they cost no float32 ray set-up and no first tree level.
+        """
+        n = o.shape[1]
+        if self.brute_force or not self.num_triangles or not n:
+            return np.arange(n) if self.num_triangles else np.zeros(0, np.int64)
+        near, far = np.zeros(n), tmax.copy()
+        with np.errstate(over="ignore"):
+            for a in range(3):
+                inv = 1.0 / np.where(np.abs(d[a]) < 1e-30, 1e-30, d[a])   # no 0 * inf
+                t0 = (self._bounds[0, a] - o[a]) * inv
+                t1 = (self._bounds[1, a] - o[a]) * inv
+                np.maximum(near, np.minimum(t0, t1), out=near)
+                np.minimum(far, np.maximum(t0, t1), out=far)
+        return np.flatnonzero(near <= far)
 
     # ------------------------------------------------------------------
     def _leaf_test(self, o, d, r, leaf, tbest):

@@ -244,3 +244,40 @@ def test_small_mesh_pairs_parallelograms_and_matches_the_bvh():
     p = v[:, 0] + b1[:, None] * (v[:, 1] - v[:, 0]) + b2[:, None] * (v[:, 2] - v[:, 0])
     np.testing.assert_allclose(p, o + t[:, None] * d, atol=1e-9)
     np.testing.assert_array_equal(mesh.occluded(o, d, t * 0.999), prim != prim)   # no hit before
+
+
+def test_rays_along_the_bounds_are_not_culled():
+    """Rays are first tested against the tree's bounds (a float64 slab test with a tiny
+    margin): segments that just reach a face of the bounds, and rays lying in a face plane,
+    must find the triangles that brute force finds."""
+    rng = np.random.default_rng(6)
+    soup = random_soup(rng, 600, size=0.5)
+    top = soup[..., 2].max() + 0.5
+    flat = np.array([[[0, 0, top], [10, 0, top], [0, 10, top]],
+                     [[10, 0, top], [10, 10, top], [0, 10, top]]], float)   # the top face
+    tri = np.concatenate((soup, flat))
+    bvh, brute = BVH(tri), BVH(tri, brute_force_max=10**9)
+    n = 4000
+    # Segments from above that end 1e-7 past the points of the top face they aim at.
+    target = np.column_stack((rng.uniform(0.5, 9.5, (n, 2)), np.full(n, top)))
+    o = target + rng.normal(size=(n, 3)) * [2, 2, 0] + [0, 0, 5]
+    d = target - o
+    dist = np.linalg.norm(d, axis=1)
+    d /= dist[:, None]
+    t, prim, _, _ = bvh.intersect(o, d, dist * (1 + 1e-7))
+    assert np.all(prim >= len(soup))   # every segment reaches the top face
+    np.testing.assert_array_equal(bvh.occluded(o, d, dist * (1 + 1e-7)), np.ones(n, bool))
+    # Rays in the face planes of the bounds, half of them parallel to the face.
+    lo, hi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
+    o = rng.uniform(lo, hi, (n, 3))
+    d = rng.normal(size=(n, 3))
+    axis = rng.integers(0, 3, n)
+    face = np.where(rng.random((n, 1)) < 0.5, lo, hi)
+    o[np.arange(n), axis] = face[np.arange(n), axis]
+    d[np.arange(n) % 2 == 0, axis[np.arange(n) % 2 == 0]] = 0.0
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    t, prim, _, _ = bvh.intersect(o, d)
+    tb, primb, _, _ = brute.intersect(o, d)
+    assert (prim >= 0).sum() > 100
+    np.testing.assert_array_equal(t, tb)
+    np.testing.assert_array_equal(bvh.occluded(o, d, 3.0), brute.occluded(o, d, 3.0))
