@@ -4,7 +4,9 @@ Scenes: a noisy height field (rays from above, like camera rays onto a
 terrain) and a bumpy closed sphere (rays from a surrounding shell, aimed at
 points inside it, so a ray enters and leaves the mesh). Both ~100k triangles,
 64k rays; shadow rays go from the hit points to random points on a
-shell. Run: ``python experiments/bench_accel.py [--tris N] [--rays N]``.
+shell. Run: ``python experiments/bench_accel.py [--tris N] [--rays N]``; with
+``--render-queries`` it replays the BVH queries of a render of the benchmark mesh scene
+instead (docs/performance.md's "replay").
 """
 from __future__ import annotations
 
@@ -76,12 +78,54 @@ def bench(name, tri, o, d, rng, repeat=3):
           f"{len(so) / best_o / 1e3:.0f}k rays/s")
 
 
+def render_queries(size: int = 128, spp: int = 16, repeat: int = 3) -> None:
+    """Replay the BVH queries of a render of the benchmark mesh scene; print the best time.
+
+    The render (``path``, ``size`` x ``size``, ``spp``) records every closest-hit and
+    shadow-ray query that reaches the mesh's BVH; they are then run again on their own, so
+    that a change to the traversal is timed on the rays a render really traces (from
+    surfaces, bounded by the room's hits) rather than on synthetic ones.
+    """
+    from experiments.bench import warmed_scene
+    from pathtracer import render
+    scene = warmed_scene("mesh", "path", size, size)
+    bvh = scene._accel.big
+    queries = []
+    record = {"intersect": bvh.intersect, "occluded": bvh.occluded}
+
+    def recording(kind):
+        def query(o, d, tmax=None):
+            queries.append((kind, np.array(o), np.array(d), None if tmax is None else np.array(tmax)))
+            return record[kind](o, d, tmax)
+        return query
+
+    bvh.intersect, bvh.occluded = recording("intersect"), recording("occluded")
+    try:
+        render(scene, integrator="path", spp=spp, seed=1, processes=1, progress=False)
+    finally:
+        del bvh.intersect, bvh.occluded
+    best = np.inf
+    for _ in range(repeat):
+        t0 = time.process_time()
+        for kind, o, d, tmax in queries:
+            getattr(bvh, kind)(o, d, tmax)
+        best = min(best, time.process_time() - t0)
+    rays = sum(len(q[1]) for q in queries)
+    print(f"mesh scene render queries: {len(queries)} calls, {rays} rays, "
+          f"best {best:.3f} CPU-s ({rays / best / 1e3:.0f}k rays/s)")
+
+
 def main():
     """Benchmark the intersector on a height field and a bumpy sphere (command line)."""
     ap = argparse.ArgumentParser()
     ap.add_argument("--tris", type=int, default=100_000)
     ap.add_argument("--rays", type=int, default=65_536)
+    ap.add_argument("--render-queries", action="store_true",
+                    help="instead: replay the BVH queries of a mesh-scene render (128 x 128, 16 spp)")
     args = ap.parse_args()
+    if args.render_queries:
+        render_queries()
+        return
     rng = np.random.default_rng(0)
     bench("height field", height_field(args.tris, rng),
           *rays_at(args.rays, rng, 3.0, 1.0, up=True), rng)

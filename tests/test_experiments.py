@@ -178,3 +178,13 @@ def test_integrators_script(tmp_path, capsys):
         assert not rows[name]["ran"] and "directional" in rows[name]["reason"]
     table = capsys.readouterr().out
     assert "| `spot-directional` (32×32) |" in table and "cannot run" in table
+
+
+def test_bench_accel_replays_a_renders_queries(capsys):
+    """``bench_accel --render-queries`` records the mesh scene's BVH queries during a render
+    and replays them (the 'replay' of docs/performance.md)."""
+    from experiments import bench_accel
+    bench_accel.render_queries(size=16, spp=1, repeat=1)
+    out = capsys.readouterr().out
+    calls = int(out.split(": ")[1].split(" calls")[0])
+    assert calls > 0 and "rays/s" in out
