@@ -30,3 +30,13 @@ def test_radiance_reaches_L_through_keep_split_and_reads():
     paths.keep(np.zeros(6, bool))                             # all end
     np.testing.assert_array_equal(paths.L, expected)
     np.testing.assert_array_equal(paths.L, expected)          # reading twice adds nothing
+
+
+def test_L_can_still_be_assigned():
+    """Code written when L was a plain attribute may assign it (L = L + ...)."""
+    paths = _paths()
+    paths.add_radiance(np.ones((6, 3)))
+    paths.L = paths.L + 2.0
+    paths.add_radiance(np.ones((6, 3)))
+    np.testing.assert_array_equal(paths.L, np.full((6, 3), 4.0))
+

@@ -99,6 +99,13 @@ class Paths:
         self._deliver(slice(None))
         return self._L
 
+    @L.setter
+    def L(self, value) -> None:
+        # Code written when L was a plain attribute may assign it; what the live paths
+        # gathered so far is in the value read before (the getter delivered it).
+        self.gathered[...] = 0.0
+        self._L = np.asarray(value, dtype=np.float64)
+
     def add_radiance(self, value: np.ndarray, rows=None) -> None:
         """``L += value`` for every live path (or for the live paths ``rows``)."""
         if rows is None:
