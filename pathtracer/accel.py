@@ -10,7 +10,9 @@ ray at first, advances one tree level per iteration; it tests the triangles of
 the listed leaves (float64), then replaces each inner node by the children
 whose boxes (float32 slabs, conservatively dilated) the ray segment up to its
 best hit so far overlaps. ~5 inner nodes and ~0.8 leaves per ray on the
-benchmark mesh scene (82k triangles, 9 levels), 9 iterations at most.
+benchmark mesh scene (82k triangles, 9 levels), 9 iterations at most. Rays
+whose segment misses the tree's bounds never enter it; a work list longer
+than ``MAX_PAIRS`` is halved, its halves traversed one after the other.
 
 Triangles: Möller–Trumbore in float64 with a tiny barycentric tolerance, so
 that a ray through an edge shared by two triangles hits at least one of them.
