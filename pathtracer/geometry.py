@@ -104,11 +104,15 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
     n = len(o)
     tmax = np.broadcast_to(np.inf if tmax is None else np.asarray(tmax, np.float64), (n,))
     t, prim, b1, b2 = prepare(scene).intersect(o, d, tmax)
-    if not len(scene.sphere_radius) and not len(scene.disk_shape) and n and prim.min() >= 0:
-        # Every ray hit a triangle (a closed room): the records are built whole, no scatters.
+    # Every ray hit a triangle (a closed room): the triangle records are built whole, no
+    # scatters; the rows that analytic shapes take are written over below.
+    room = bool(n) and prim.min() >= 0
+    if room and not (len(scene.sphere_radius) or len(scene.disk_shape) or scene.curves
+                     or len(scene.cylinder_shape)):
         p, nrm, sh_n, shape, uv = _triangle_records(scene, prim, b1, b2)
         return Hit(valid=np.ones(n, bool), t=t, p=p, n=nrm, sh_n=sh_n, shape=shape,
                    prim=prim, uv=uv)
+    records = _triangle_records(scene, prim, b1, b2) if room else None
     kind = np.where(prim >= 0, 0, -1)  # 0 triangle, 1 sphere, 2 disk, 3 curve, 4 cylinder
     t = np.where(kind >= 0, t, tmax)  # the far end for the analytic shapes
     for i in range(len(scene.sphere_radius)):
@@ -133,12 +137,16 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
         t[closer], kind[closer], prim[closer] = tc[closer], 4, i
 
     t[kind < 0] = np.inf
-    hit = Hit(valid=kind >= 0, t=t, p=np.zeros((n, 3)), n=np.zeros((n, 3)),
-              sh_n=np.zeros((n, 3)), shape=np.full(n, -1, np.int32), prim=prim,
-              uv=np.zeros((n, 2)))
-    sel = np.flatnonzero(kind == 0)
-    if len(sel):
-        _fill_triangles(scene, hit, sel, b1[sel], b2[sel])
+    if records is not None:
+        p, nrm, sh_n, shape, uv = records
+        hit = Hit(valid=kind >= 0, t=t, p=p, n=nrm, sh_n=sh_n, shape=shape, prim=prim, uv=uv)
+    else:
+        hit = Hit(valid=kind >= 0, t=t, p=np.zeros((n, 3)), n=np.zeros((n, 3)),
+                  sh_n=np.zeros((n, 3)), shape=np.full(n, -1, np.int32), prim=prim,
+                  uv=np.zeros((n, 2)))
+        sel = np.flatnonzero(kind == 0)
+        if len(sel):
+            _fill_triangles(scene, hit, sel, b1[sel], b2[sel])
     sel = np.flatnonzero(kind == 1)
     if len(sel):
         _fill_spheres(scene, hit, sel, np.take(o, sel, axis=0), np.take(d, sel, axis=0))
