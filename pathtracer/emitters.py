@@ -279,9 +279,7 @@ def _sample_mesh(scene, shape, u):
     point += scale(np.take(tables.e2, tri, axis=0), b2)
     if not tables.smooth[begin:begin + len(cdf)].any():   # flat lights: one normal each
         return point, np.take(tables.flat_n, tri, axis=0)
-    n0, n1, n2 = scene.tri_n[tri, 0], scene.tri_n[tri, 1], scene.tri_n[tri, 2]
-    normal = normalize(scale(n0, 1 - b1 - b2) + scale(n1, b1) + scale(n2, b2))
-    return point, normal
+    return point, geometry.smooth_normals(scene, tri, b1, b2)
 
 
 def _sample_disk(scene, shape, u):

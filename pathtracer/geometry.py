@@ -107,11 +107,6 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
     # Every ray hit a triangle (a closed room): the triangle records are built whole, no
     # scatters; the rows that analytic shapes take are written over below.
     room = bool(n) and prim.min() >= 0
-    if room and not (len(scene.sphere_radius) or len(scene.disk_shape) or scene.curves
-                     or len(scene.cylinder_shape)):
-        p, nrm, sh_n, shape, uv = _triangle_records(scene, prim, b1, b2)
-        return Hit(valid=np.ones(n, bool), t=t, p=p, n=nrm, sh_n=sh_n, shape=shape,
-                   prim=prim, uv=uv)
     records = _triangle_records(scene, prim, b1, b2) if room else None
     kind = np.where(prim >= 0, 0, -1)  # 0 triangle, 1 sphere, 2 disk, 3 curve, 4 cylinder
     t = np.where(kind >= 0, t, tmax)  # the far end for the analytic shapes
@@ -336,13 +331,18 @@ def _triangle_records(scene, k, b1, b2):
     if tab.any_smooth:
         rows = np.flatnonzero(np.take(tab.smooth, k))
         if len(rows):
-            kr, u, v = np.take(k, rows), np.take(b1, rows), np.take(b2, rows)
-            nv = np.take(scene.tri_n, kr, axis=0)
-            put_rows(sh_n, rows, normalize(scale(nv[:, 0], 1.0 - u - v) + scale(nv[:, 1], u)
-                                           + scale(nv[:, 2], v)))
+            put_rows(sh_n, rows, smooth_normals(scene, np.take(k, rows), np.take(b1, rows),
+                                                np.take(b2, rows)))
     uv = np.empty((len(k), 2))
     uv[:, 0], uv[:, 1] = b1, b2
     return p, nrm, sh_n, np.take(scene.tri_shape, k).astype(np.int32, copy=False), uv
+
+
+def smooth_normals(scene, tri: np.ndarray, b1: np.ndarray, b2: np.ndarray) -> np.ndarray:
+    """Unit normals interpolated from the vertex normals of triangles ``tri`` at
+    barycentrics ``b1``, ``b2`` (of their vertices p1 and p2) -> (n, 3)."""
+    nv = np.take(scene.tri_n, tri, axis=0)
+    return normalize(scale(nv[:, 0], 1.0 - b1 - b2) + scale(nv[:, 1], b1) + scale(nv[:, 2], b2))
 
 
 def _fill_triangles(scene, hit, sel, b1, b2):
