@@ -66,16 +66,18 @@ def square_to_uniform_disk_concentric(u: np.ndarray) -> np.ndarray:
     b = 2.0 * u[:, 1] - 1.0
     steep = np.abs(a) < np.abs(b)
     r = np.where(steep, b, a)
-    phi = np.where(steep, a, b) / np.where(r == 0.0, 1.0, r)   # r = 0: the centre, any phi
-    phi *= 0.25 * np.pi
-    phi = np.where(steep, 0.5 * np.pi - phi, phi).astype(np.float32)
-    cos_phi, sin_phi = np.cos(phi).astype(np.float64), np.sin(phi).astype(np.float64)
+    # theta = pi/4 (other / r) in [-pi/4, pi/4]; phi = theta, or pi/2 - theta where steep,
+    # whose cosine and sine are theta's sine and cosine: the axes come out exact.
+    theta = np.where(steep, a, b) / np.where(r == 0.0, 1.0, r)   # r = 0: the centre
+    theta *= 0.25 * np.pi
+    theta = theta.astype(np.float32)
+    cos_t, sin_t = np.cos(theta).astype(np.float64), np.sin(theta).astype(np.float64)
     # Rescaled to unit length in float64, so that the radius stays exact (a cosine-weighted
     # direction takes z = sqrt(1 - x^2 - y^2), which would magnify an error near the rim).
-    r = r / np.sqrt(cos_phi * cos_phi + sin_phi * sin_phi)
+    r = r / np.sqrt(cos_t * cos_t + sin_t * sin_t)
     out = np.empty((len(r), 2))
-    np.multiply(r, cos_phi, out=out[:, 0])
-    np.multiply(r, sin_phi, out=out[:, 1])
+    np.multiply(r, np.where(steep, sin_t, cos_t), out=out[:, 0])
+    np.multiply(r, np.where(steep, cos_t, sin_t), out=out[:, 1])
     return out
 
 

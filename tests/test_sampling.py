@@ -92,9 +92,8 @@ def test_disk_concentric_edge_cases():
     p = sampling.square_to_uniform_disk_concentric(u)
     np.testing.assert_allclose(p[0], [0.0, 0.0])
     np.testing.assert_allclose(np.linalg.norm(p[1:], axis=1), 1.0)
-    # The angle's cosine and sine are float32 (see the docstring): within 1e-7 of the axes.
-    np.testing.assert_allclose(p[2], [1.0, 0.0], atol=1e-7)
-    np.testing.assert_allclose(p[3], [0.0, 1.0], atol=1e-7)
+    np.testing.assert_allclose(p[2], [1.0, 0.0], atol=1e-15)
+    np.testing.assert_allclose(p[3], [0.0, 1.0], atol=1e-15)
 
 
 def test_pdfs_integrate_to_one():
