@@ -393,8 +393,8 @@ class BVH:
         else:
             # Gathered as (9, m, k) (few cache lines per pair), used as (9, k, m).
             tri = np.take(self._leaf_tri, leaf, axis=1).transpose(0, 2, 1).copy()
-            tt, u, v = _moller_trumbore(np.take(o, r, axis=1), np.take(d, r, axis=1),
-                                        tri, tbest[r])
+            tt, u, v = _moller_trumbore(np.take(o, r, axis=1, mode="wrap"),
+                                        np.take(d, r, axis=1, mode="wrap"), tri, tbest[r])
         if k > 8:
             j = np.argmin(tt, axis=0)
         else:  # a few row-wise comparisons beat argmin along a short axis
@@ -415,8 +415,10 @@ class BVH:
         hit : (WIDTH, m) bool
             The ray segment ``[0, best t]`` overlaps the (dilated) box.
         """
-        box = np.take(self._box, pn, axis=1).reshape(6, WIDTH, -1)
-        rd = np.take(ray9, pr, axis=1)
+        # mode="wrap" (the indices are valid either way): NumPy's float32 gather along
+        # axis 1 then runs 1.6x faster than with its default bounds check.
+        box = np.take(self._box, pn, axis=1, mode="wrap").reshape(6, WIDTH, -1)
+        rd = np.take(ray9, pr, axis=1, mode="wrap")
         t0 = np.empty(box.shape[1:], np.float32)
         t1, tmp, tn, tf = (np.empty_like(t0) for _ in range(4))
         for a in range(3):
@@ -712,7 +714,7 @@ class SmallMesh:
 
     def _refit(self, o, d, prim):
         """Float64 hits of rays (3, m) on their primitives ``prim``: (t, triangle, b1, b2)."""
-        tri = np.take(self._prim, prim, axis=1)
+        tri = np.take(self._prim, prim, axis=1, mode="wrap")   # "wrap": see BVH._step
         e1, e2 = tri[3:6], tri[6:9]
         px = d[1] * e2[2] - d[2] * e2[1]
         py = d[2] * e2[0] - d[0] * e2[2]
@@ -727,7 +729,7 @@ class SmallMesh:
             b2 = (d[0] * qx + d[1] * qy + d[2] * qz) * inv
             t = (e2[0] * qx + e2[1] * qy + e2[2] * qz) * inv
         half = 2 * prim + (b1 + b2 > 1.0)  # the triangle: row of the (2P,) tables
-        m = np.take(self._to_bary, half, axis=1)
+        m = np.take(self._to_bary, half, axis=1, mode="wrap")
         u = m[0] + m[1] * b1 + m[2] * b2
         v = m[3] + m[4] * b1 + m[5] * b2
         return t, np.take(self._triangles, half), u, v

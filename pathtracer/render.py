@@ -9,6 +9,12 @@ Random numbers depend only on (seed, pixel, sample index), and a pixel's
 samples are reduced in a fixed order, so the image is bit-identical whatever
 the batch size and the number of processes.
 
+An integrator whose ``radiance`` refills its paths (:func:`refills`) receives
+``POOL_UNITS`` units at once and keeps ``batch_size`` paths alive among them
+(:meth:`pathtracer.integrators.wavefront.Paths.pool`); the blocks it returns are merged
+unit by unit as before, and since a path's numbers and arithmetic do not depend on the
+other paths in flight, the image is bit-identical to one unit at a time.
+
 An integrator that *splats* (the light tracer, :mod:`pathtracer.integrators.light`)
 has no camera samples: its light paths add to whatever pixel they reach. It is rendered
 as ``K`` independent *replicas* (:func:`render_splats`), each with ``spp / K`` light
@@ -48,6 +54,11 @@ from .scene.types import Scene
 SAMPLE_BLOCK = 256
 #: Camera paths per batch (bounded memory: about 1 KB per path in flight).
 DEFAULT_BATCH = 1 << 15
+#: Units handed at once to an integrator whose ``radiance`` refills its pool of paths
+#: (:func:`pathtracer.integrators.wavefront.refills`): it keeps ``batch_size`` paths
+#: alive and pays a batch's roulette tail once per group. The group's camera rays, their
+#: random streams and results cost ~150 bytes per camera sample.
+POOL_UNITS = 4
 
 
 @dataclass
@@ -182,13 +193,18 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
         return render_splats(scene, integrator, spp, seed, processes, batch_size, progress)
 
     start = time.perf_counter()
+    groups = [(unit,) for unit in units]
+    if refills(integrator):
+        integrator = copy.copy(integrator)      # the caller's integrator stays as it was
+        integrator.pool_size = batch_size
+        groups = group_units(units, POOL_UNITS, processes)
     job = _Job(scene, integrator, spp, seed, camera or camera_rays)
     if scene.camera.rfilter.is_box:
-        stats = run_units(job, units, pixel_statistics(n_pixels),
+        stats = run_units(job, groups, pixel_statistics(n_pixels),
                           processes, progress)
         mean, variance = mean_and_variance(stats)
     else:
-        sums = run_units(_FilteredJob(job), units, film_sums(n_pixels), processes, progress,
+        sums = run_units(_FilteredJob(job), groups, film_sums(n_pixels), processes, progress,
                          merge=_merge_sums)
         mean, variance = filtered_mean_and_variance(sums, effective_counts(
             scene.camera.rfilter, scene.camera.width, scene.camera.height, spp).reshape(-1, 1))
@@ -197,40 +213,43 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
                         integrator.options(), time.perf_counter() - start, scene.source)
 
 
-def run_units(job, units, stats, processes: int, progress: bool, merge=None):
-    """Run ``job.run(unit)`` for every unit and merge the blocks into ``stats`` (returned).
+def run_units(job, groups, stats, processes: int, progress: bool, merge=None):
+    """Run ``job.run(group)`` for every group of units and merge the blocks it returns (one
+    per unit) into ``stats`` (returned).
 
     ``merge(stats, unit, block)`` defaults to the per-pixel (count, mean, M2) update.
 
-    With ``processes`` > 1 the units go to forked workers that receive ``job`` at fork
+    With ``processes`` > 1 the groups go to forked workers that receive ``job`` at fork
     (inherited, never pickled, no global in this process: renders running concurrently
     in threads cannot swap jobs). Blocks are merged in unit order, so the result does not
     depend on the number of processes. The workers die with this process and are killed
     at once when the render is interrupted (:mod:`pathtracer.workers`).
     """
-    bar = _progress_bar(len(units), progress)
+    bar = _progress_bar(sum(map(len, groups)), progress)
     try:
-        _run_units(job, units, stats, processes, bar, merge or _merge)
+        _run_units(job, groups, stats, processes, bar, merge or _merge)
     finally:
         bar.close()
     return stats
 
 
-def _run_units(job, units, stats, processes: int, bar, merge) -> None:
-    if processes == 1 or len(units) == 1:
-        for unit in units:
-            merge(stats, unit, job.run(unit))
-            bar.update()
+def _run_units(job, groups, stats, processes: int, bar, merge) -> None:
+    if processes == 1 or len(groups) == 1:
+        for group in groups:
+            for unit, block in zip(group, job.run(group)):
+                merge(stats, unit, block)
+            bar.update(len(group))
     else:
         ctx = multiprocessing.get_context("fork")
         with ProcessPoolExecutor(processes, mp_context=ctx, initializer=_install_job,
                                  initargs=(job, os.getpid())) as pool:
             try:
                 with workers.signals_blocked():   # the workers are forked by the first submit
-                    blocks = pool.map(_run_current, units, chunksize=1)
-                for unit, block in zip(units, blocks):
-                    merge(stats, unit, block)
-                    bar.update()
+                    results = pool.map(_run_current, groups, chunksize=1)
+                for group, blocks in zip(groups, results):
+                    for unit, block in zip(group, blocks):
+                        merge(stats, unit, block)
+                    bar.update(len(group))
             except BaseException:
                 # Ctrl-C, SIGTERM or an error: do not wait for the units in flight.
                 workers.stop_pool(pool)
@@ -249,8 +268,22 @@ def plan_units(n_pixels: int, spp: int, batch_size: int) -> list[tuple[int, int,
     return units
 
 
+def refills(integrator) -> bool:
+    """Is ``integrator``'s ``radiance`` marked safe for a refilled pool of paths
+    (:func:`pathtracer.integrators.wavefront.refills`)? A subclass that overrides it
+    (a student's integrator, say) is not, unless it marks its own."""
+    return getattr(type(integrator).radiance, "refills", False) is True
+
+
+def group_units(units: list, per_group: int, processes: int) -> list[tuple]:
+    """Consecutive units in groups of ``per_group``, fewer where the processes would
+    otherwise wait: every process gets a group while there are units."""
+    size = max(1, min(per_group, -(-len(units) // max(1, processes))))
+    return [tuple(units[i:i + size]) for i in range(0, len(units), size)]
+
+
 class _Job:
-    """Everything a worker needs to render one unit (inherited through fork)."""
+    """Everything a worker needs to render a group of units (inherited through fork)."""
 
     current = None     # the job (any object with ``run(unit)``), set in each worker by _install_job
 
@@ -258,20 +291,30 @@ class _Job:
         self.scene, self.integrator, self.spp, self.seed = scene, integrator, spp, seed
         self.camera = camera
 
-    def run(self, unit):
-        """Radiance statistics (count, mean, M2) of a unit's pixels."""
-        p0, p1, s0, s1 = unit
-        pixels, samples = p1 - p0, s1 - s0
-        pixel = np.repeat(np.arange(p0, p1), samples)
-        sample = np.tile(np.arange(s0, s1), pixels)
+    def run(self, group):
+        """Per unit of ``group``, the radiance statistics (count, mean, M2) of its pixels."""
+        values, _ = self.samples(group)
+        return [block_statistics(v.reshape(p1 - p0, s1 - s0, -1))
+                for (p0, p1, s0, s1), v in zip(group, _per_unit(values, group))]
+
+    def samples(self, group):
+        """Every camera sample of the units of ``group``, in order, in one radiance call:
+        (values (n, channels), film positions (n, 2))."""
+        pixel = np.concatenate([np.repeat(np.arange(p0, p1), s1 - s0) for p0, p1, s0, s1 in group])
+        sample = np.concatenate([np.tile(np.arange(s0, s1), p1 - p0) for p0, p1, s0, s1 in group])
         rng = RandomStream(sample_keys(self.seed, pixel.astype(np.int64) * self.spp + sample))
-        rays = self.camera(self.scene.camera, pixel, rng.next_2d())
-        values = self.estimate(rays, rng)
-        return block_statistics(values.reshape(pixels, samples, -1))
+        u_film = rng.next_2d()
+        return self.estimate(self.camera(self.scene.camera, pixel, u_film), rng), u_film
 
     def estimate(self, rays, rng):
         """(n, channels) values of the camera rays: the integrator's radiance."""
         return self.integrator.radiance(self.scene, rays, rng)
+
+
+def _per_unit(rows: np.ndarray, group) -> list[np.ndarray]:
+    """``rows`` (one per camera sample of ``group``) cut into the units' parts."""
+    ends = np.cumsum([(p1 - p0) * (s1 - s0) for p0, p1, s0, s1 in group])
+    return np.split(rows, ends[:-1])
 
 
 class _FilteredJob:
@@ -280,16 +323,16 @@ class _FilteredJob:
     def __init__(self, job):
         self.job = job
 
-    def run(self, unit):
-        """(lo, hi, sum w, sum w f, sum w f^2) over the flat pixel range ``lo:hi`` it reaches."""
-        job, (p0, p1, s0, s1) = self.job, unit
-        camera = job.scene.camera
+    def run(self, group):
+        """Per unit of ``group``, (lo, hi, sum w, sum w f, sum w f^2) over the flat pixel
+        range ``lo:hi`` it reaches."""
+        values, u_film = self.job.samples(group)
+        return [self._splat(unit, v, u) for unit, v, u in
+                zip(group, _per_unit(values, group), _per_unit(u_film, group))]
+
+    def _splat(self, unit, values, u_film):
+        camera, (p0, p1, s0, s1) = self.job.scene.camera, unit
         pixels, samples = p1 - p0, s1 - s0
-        pixel = np.repeat(np.arange(p0, p1), samples)
-        sample = np.tile(np.arange(s0, s1), pixels)
-        rng = RandomStream(sample_keys(job.seed, pixel.astype(np.int64) * job.spp + sample))
-        u_film = rng.next_2d()
-        values = job.estimate(job.camera(camera, pixel, u_film), rng)
         reach = camera.rfilter.reach
         lo = max(0, p0 // camera.width - reach) * camera.width
         hi = min(camera.height, (p1 - 1) // camera.width + reach + 1) * camera.width
@@ -334,7 +377,7 @@ def render_splats(scene, integrator, spp: int, seed: int, processes: int,
              for k in range(replicas) for b0 in range(0, paths, batch_size)]
     start = time.perf_counter()
     stats = _ReplicaStatistics(n_pixels, per_pixel)
-    run_units(_SplatJob(scene, integrator, seed, paths), units, stats, processes,
+    run_units(_SplatJob(scene, integrator, seed, paths), [(u,) for u in units], stats, processes,
               progress, merge=_ReplicaStatistics.merge)
     mean, variance = stats.result()
     shape = (camera.height, camera.width, 3)
@@ -350,7 +393,11 @@ class _SplatJob:
         self.scene, self.integrator, self.seed = scene, integrator, seed
         self.paths = paths_per_replica
 
-    def run(self, unit):
+    def run(self, group):
+        """Per unit of ``group``, :meth:`splats`."""
+        return [self.splats(unit) for unit in group]
+
+    def splats(self, unit):
         """``(pixels, sums)``: the pixels the unit's splats reached and their (m, 3) sums."""
         replica, b0, b1 = unit
         ids = replica * self.paths + np.arange(b0, b1, dtype=np.int64)
@@ -434,8 +481,8 @@ def _install_job(job, parent_pid):
     _Job.current = job
 
 
-def _run_current(unit):
-    return _Job.current.run(unit)
+def _run_current(group):
+    return _Job.current.run(group)
 
 
 def block_statistics(x: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
@@ -542,7 +589,7 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
     processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
     geometry.prepare(scene)
     start = time.perf_counter()
-    stats = run_units(_ClassJob(scene, integrator, int(spp), int(seed)), units,
+    stats = run_units(_ClassJob(scene, integrator, int(spp), int(seed)), [(u,) for u in units],
                       pixel_statistics(n_pixels, 3 * K), processes, progress)
     mean, variance = mean_and_variance(stats)
     h, w = scene.camera.height, scene.camera.width

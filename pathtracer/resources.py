@@ -16,6 +16,10 @@ OUTPUT_BYTES_PER_PIXEL = 24 + 4 * 24 + 3
 #: Memory of one camera path in flight (rays, hits, throughput, random state), measured
 #: as about 1 KB (docs/performance.md): a batch of 32k paths holds ~32 MB.
 BYTES_PER_PATH = 1024
+#: Memory per camera sample of the units a process has in hand (camera ray, random key,
+#: result row; ~200 bytes), times the units handed at once to a pooling integrator
+#: (``pathtracer.render.POOL_UNITS``, 4): 0.8 KB per path of the batch.
+BYTES_PER_UNIT_SAMPLE = 4 * 200
 #: A seed is an unsigned 32-bit integer, as Mitsuba's sampler ``seed``.
 SEED_MAX = 2 ** 32 - 1
 #: The largest spp an EXR header (a signed 32-bit int) can record.
@@ -35,7 +39,8 @@ def render_memory(n_pixels: int, processes: int, batch_size: int) -> int:
         Camera paths per batch.
     """
     per_pixel = STATS_BYTES_PER_PIXEL + OUTPUT_BYTES_PER_PIXEL
-    return n_pixels * per_pixel + max(1, processes) * batch_size * BYTES_PER_PATH
+    return n_pixels * per_pixel + max(1, processes) * batch_size * (BYTES_PER_PATH
+                                                                  + BYTES_PER_UNIT_SAMPLE)
 
 
 def available_memory() -> int | None:
@@ -96,7 +101,8 @@ def check_memory(width: int, height: int, processes: int, batch_size: int,
         raise ValueError(
             f"a {width}x{height} image needs about {format_bytes(need)} of memory "
             f"({STATS_BYTES_PER_PIXEL + OUTPUT_BYTES_PER_PIXEL} bytes per pixel for its "
-            f"statistics and outputs, {format_bytes(batch_size * BYTES_PER_PATH)} per process), "
+            f"statistics and outputs, "
+            f"{format_bytes(batch_size * (BYTES_PER_PATH + BYTES_PER_UNIT_SAMPLE))} per process), "
             f"but only {format_bytes(available)} is available; render fewer pixels "
             "(-D width=... -D height=...) or use fewer --processes")
 

@@ -64,6 +64,10 @@ class Integrator:
     """
 
     name = "base"
+    #: Live paths at once when ``radiance`` runs on more camera rays than that (a
+    #: :meth:`Paths.pool`); None: all of them. The renderer sets it on its own copy of an
+    #: integrator whose ``radiance`` is marked :func:`~.wavefront.refills`.
+    pool_size: int | None = None
 
     def __init__(self, max_depth: int = -1, rr_depth: int = 5, roulette: str = "mitsuba",
                  rr_q: float = 0.5, hemisphere: str = "cosine", hide_emitters: bool = False):
@@ -106,6 +110,9 @@ class Integrator:
         """
         if self.max_depth == 0:
             return Paths(rays, rng)
+        if self.pool_size is not None and len(rays) > self.pool_size:
+            return Paths.pool(rays, rng, self.pool_size,
+                              lambda camera: self.trace_camera(scene, camera))
         return Paths(rays, rng, self.trace_camera(scene, rays))
 
     def trace_camera(self, scene: Scene, rays: Rays):
@@ -115,32 +122,35 @@ class Integrator:
             return hit
         return skip_emitters(scene, rays, hit)
 
-    def emission(self, scene: Scene, hit, wi: np.ndarray, depth: int) -> np.ndarray:
-        """Radiance emitted towards ``wi`` at the hits of segment ``depth`` + 1.
+    def emission(self, scene: Scene, hit, wi: np.ndarray, depth) -> np.ndarray:
+        """Radiance emitted towards ``wi`` at the hits of segment ``depth`` + 1
+        (``depth``: an int, or one per hit).
 
         With ``hide_emitters``, camera rays (``depth`` 0) that escape see no
         environment, as in Mitsuba (area lights are skipped by :meth:`trace_camera`).
         """
         radiance = emitted_radiance(scene, hit, wi)
-        if depth == 0 and self.hide_emitters:
-            radiance[~hit.valid] = 0.0
+        if self.hide_emitters:
+            radiance[(np.asarray(depth) == 0) & ~hit.valid] = 0.0
         return radiance
 
-    def roulette_survivors(self, beta: np.ndarray, eta: np.ndarray, depth: int,
+    def roulette_survivors(self, beta: np.ndarray, eta: np.ndarray, depth,
                            u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Russian roulette after ``depth`` segments.
+        """Russian roulette after ``depth`` segments (an int, or one per path).
 
         Returns the survival mask and the throughput divided by the survival
         probability (so that E[beta'] = beta: the estimator stays unbiased).
         """
-        if self.roulette == "off" or depth < self.rr_depth:
+        playing = np.asarray(depth) >= self.rr_depth
+        if self.roulette == "off" or not playing.any():
             return np.ones(len(u), dtype=bool), beta
         if self.roulette == "constant":
             q_continue = np.full(len(u), 1.0 - self.rr_q)
         else:
             q_continue = np.minimum(max_component(beta) * eta ** 2, 0.95)
-        survive = u < q_continue
-        return survive, unscale(beta, np.where(q_continue > 0, q_continue, 1.0))
+        survive = (u < q_continue) | ~playing
+        # Paths not yet playing keep beta: divided by 1, which is exact.
+        return survive, unscale(beta, np.where(playing & (q_continue > 0), q_continue, 1.0))
 
     def russian_roulette(self, paths: Paths) -> None:
         """End the paths that lose the roulette (see :meth:`roulette_survivors`), and

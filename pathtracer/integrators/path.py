@@ -25,6 +25,7 @@ from ..emitters import pdf_emitter_direction
 from ..sampling import power_heuristic
 from ..shading import sample_bsdf
 from .base import Integrator
+from .wavefront import refills
 
 
 class PathIntegrator(Integrator):
@@ -32,6 +33,7 @@ class PathIntegrator(Integrator):
 
     name = "path"
 
+    @refills
     def radiance(self, scene, rays, rng):
         paths = self.camera_paths(scene, rays, rng)
         paths.declare(prev_p=rays.o,       # the previous vertex (for the light pdf of a hit)

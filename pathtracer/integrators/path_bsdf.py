@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from ..shading import sample_bsdf
 from .base import Integrator
+from .wavefront import refills
 
 
 class PathBSDFIntegrator(Integrator):
@@ -21,6 +22,7 @@ class PathBSDFIntegrator(Integrator):
 
     name = "path_bsdf"
 
+    @refills
     def radiance(self, scene, rays, rng):
         paths = self.camera_paths(scene, rays, rng)
         while paths:

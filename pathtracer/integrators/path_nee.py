@@ -27,6 +27,7 @@ import numpy as np
 
 from ..shading import sample_bsdf
 from .base import Integrator
+from .wavefront import refills
 
 
 class PathNEEIntegrator(Integrator):
@@ -34,6 +35,7 @@ class PathNEEIntegrator(Integrator):
 
     name = "path_nee"
 
+    @refills
     def radiance(self, scene, rays, rng):
         paths = self.camera_paths(scene, rays, rng)
         paths.declare(last_specular=True)     # was the last bounce Dirac? (the camera counts)

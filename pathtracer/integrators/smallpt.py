@@ -29,6 +29,7 @@ from ..shading import bsdf_index, dielectric_lobes, sample_bsdf
 from ..textures import Texture
 from ..vec import max_component
 from .base import Integrator, subset_hit
+from .wavefront import refills
 
 
 def surface_colour(bsdf) -> np.ndarray:
@@ -66,6 +67,7 @@ class SmallptIntegrator(Integrator):
     def options(self):
         return dict(super().options(), split_depth=self.split_depth)
 
+    @refills
     def radiance(self, scene, rays, rng):
         colour = np.array([surface_colour(b) for b in scene.bsdfs])
         glass = np.array([isinstance(getattr(b, "nested", b), Dielectric) for b in scene.bsdfs])
@@ -76,16 +78,16 @@ class SmallptIntegrator(Integrator):
 
             # ---- Paths that escaped, or whose next segment max_depth forbids, end ----
             paths.keep(paths.hit.valid & (paths.depth + 1 < self.depth_limit))
-            depth = paths.depth + 1                 # smallpt's ++depth: this hit's number
+            depth = np.broadcast_to(paths.depth + 1, len(paths))   # smallpt's ++depth, per path
             material = bsdf_index(scene, paths.hit)
 
-            # ---- R.R.: continue with p = max(f), f /= p ----
+            # ---- R.R. once depth > 5: continue with p = max(f), f /= p (others: p = 1) ----
             u_rr = paths.rng.next_1d()
-            if self.roulette != "off" and depth > self.rr_depth:
-                p = max_component(colour[material])
+            if self.roulette != "off":
+                p = np.where(depth > self.rr_depth, max_component(colour[material]), 1.0)
                 survivors = paths.keep(u_rr < p)
                 paths.beta = paths.beta / p[survivors, None]
-                material = material[survivors]
+                material, depth = material[survivors], depth[survivors]
             if not paths:
                 break
 
@@ -98,20 +100,21 @@ class SmallptIntegrator(Integrator):
             refr = np.flatnonzero(glass[material])
             if len(refr):
                 lobes = dielectric_lobes(scene, subset_hit(paths.hit, refr), paths.wi[refr])
-            if len(refr) and depth > self.split_depth:
+                deep = depth[refr] > self.split_depth
                 # deep: one lobe, reflection with probability P = .25 + .5 Re
-                P = 0.25 + 0.5 * lobes.F
-                take_r = u_lobe[refr] < P
-                wo[refr] = np.where(take_r[:, None], lobes.wo_r, lobes.wo_t)
-                weight[refr] = np.where(take_r[:, None], lobes.weight_r / P[:, None],
-                                        lobes.weight_t / (1 - P)[:, None])
-            elif len(refr):
+                one, P = refr[deep], 0.25 + 0.5 * lobes.F[deep]
+                take_r = (u_lobe[one] < P)[:, None]
+                wo[one] = np.where(take_r, lobes.wo_r[deep], lobes.wo_t[deep])
+                weight[one] = np.where(take_r, lobes.weight_r[deep] / P[:, None],
+                                       lobes.weight_t[deep] / (1 - P)[:, None])
                 # shallow: both lobes, radiance(refl) Re + radiance(refr) Tr (splitting)
-                parent = paths.split(2, refr)        # the children come last, in (refl, refr) pairs
-                wo, weight = wo[parent], weight[parent]
-                children = len(parent) - 2 * len(refr)
-                wo[children:] = _pairs(lobes.wo_r, lobes.wo_t)
-                weight[children:] = _pairs(lobes.weight_r, lobes.weight_t)
+                both, shallow = refr[~deep], ~deep
+                if len(both):
+                    parent = paths.split(2, both)    # the children come last, in (refl, refr) pairs
+                    wo, weight = wo[parent], weight[parent]
+                    children = len(parent) - 2 * len(both)
+                    wo[children:] = _pairs(lobes.wo_r[shallow], lobes.wo_t[shallow])
+                    weight[children:] = _pairs(lobes.weight_r[shallow], lobes.weight_t[shallow])
             paths.scatter(wo, weight)
 
             # ---- Paths that carry no light end; the next hit ----

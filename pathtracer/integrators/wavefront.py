@@ -16,6 +16,15 @@ integrator's ``radiance`` says only what its estimator does at a vertex::
 
 The random stream of a path travels with it, so a path sees the same numbers whichever
 other paths share its batch (:mod:`pathtracer.rng`).
+
+A *pool* (:meth:`Paths.pool`) holds at most ``size`` live paths of a longer list of
+camera rays: when roulette has thinned it below half, :meth:`Paths.next_hit` tops it up
+with new camera paths at their first hits. Every iteration then works on thousands of
+paths instead of a batch's last few dozen (a batch's roulette tail had taken a third of
+a render's time), and each path still sees the numbers and the arithmetic it would see
+alone, so the image is bit-identical. The estimator's code must treat ``depth`` as a
+per-path array for that: integrators that do mark their ``radiance`` with
+:func:`refills`.
 """
 from __future__ import annotations
 
@@ -40,8 +49,9 @@ class Paths:
     ``rng``   the paths' random streams (:class:`pathtracer.rng.RandomStream`)
 
     plus every array an integrator adds with :meth:`declare`. ``depth`` counts the
-    segments before the current hit (0 on the camera ray's hit); :attr:`L` (n, 3) is
-    every camera ray's radiance sample, live or not.
+    segments before the current hit (0 on the camera ray's hit): one int for a batch
+    (its paths move in lock-step), an (m,) array in a pool. :attr:`L` (n, 3) is every
+    camera ray's radiance sample, live or not.
 
     What :meth:`add_radiance` adds waits in ``gathered``, the path's own (m, 3) row,
     until the path ends (:meth:`keep`, :meth:`split`) or :attr:`L` is read: adding to a
@@ -72,12 +82,34 @@ class Paths:
         self.depth = 0
         self._fields = ["row", "gathered", "beta", "eta", "wi", "wo"]
         self._rows_unique = True     # False once a path has split: rows of L repeat
+        self._initial = {}           # declared fields' start values (for refills)
+        self._waiting = None         # a pool's camera rays not started yet (see pool)
+
+    @classmethod
+    def pool(cls, rays: Rays, rng: RandomStream, size: int, trace_camera) -> "Paths":
+        """A pool of at most ``size`` live paths over the camera rays ``rays``.
+
+        The first ``size`` camera rays start at once; :meth:`next_hit` starts the others
+        whenever fewer than ``size / 2`` paths are left. ``trace_camera(rays)`` returns
+        the first hits of camera rays. ``depth`` is then a per-path array.
+        """
+        size = max(1, int(size))
+        first = np.arange(min(size, len(rays)))
+        paths = cls(rays.subset(first), rng.subset(first), trace_camera(rays.subset(first)))
+        paths._L = np.zeros((len(rays), 3))
+        paths.depth = np.zeros(len(first), np.int64)
+        paths._fields.append("depth")
+        # The camera streams as they are now: the integrator draws from its own copy.
+        paths._waiting = _Waiting(rays, rng.subset(np.arange(len(rays))), len(first), size,
+                                  trace_camera)
+        return paths
 
     def __len__(self) -> int:
         return len(self.row)
 
     def __bool__(self) -> bool:
-        return len(self.row) > 0
+        """Paths are alive, or a pool still has camera rays to start."""
+        return len(self.row) > 0 or (self._waiting is not None and self._waiting.left > 0)
 
     def declare(self, **fields) -> None:
         """Add per-path arrays that :meth:`keep` and :meth:`split` carry along.
@@ -86,12 +118,16 @@ class Paths:
         row per camera ray (``len(L)``), of which every path takes its own row.
         """
         for name, value in fields.items():
-            if np.ndim(value) == 0:
-                value = np.full(len(self), value)
-            else:
-                value = np.asarray(value)[self.row]
-            setattr(self, name, value)
+            self._initial[name] = value
+            setattr(self, name, self._start_values(name, self.row))
             self._fields.append(name)
+
+    def _start_values(self, name: str, rows: np.ndarray) -> np.ndarray:
+        """Declared field ``name`` of new paths on camera rays ``rows``."""
+        value = self._initial[name]
+        if np.ndim(value) == 0:
+            return np.full(len(rows), value)
+        return np.asarray(value)[rows]
 
     @property
     def L(self) -> np.ndarray:
@@ -145,8 +181,10 @@ class Paths:
         parent's row of :attr:`L`. Returns the parent index of every new path.
         """
         everything = rows is None or len(rows) == len(self)
-        self._deliver(slice(None))   # children must not inherit what the parent gathered
         rows = np.arange(len(self)) if rows is None else np.asarray(rows)
+        # Children must not inherit what the parent gathered. Only the parents deliver:
+        # when a path's sum reaches L must not depend on the other paths of the batch.
+        self._deliver(rows)
         whole = np.zeros(0, int) if everything else np.flatnonzero(
             ~np.isin(np.arange(len(self)), rows))
         parent = np.concatenate((whole, np.repeat(rows, copies)))
@@ -168,11 +206,30 @@ class Paths:
         self.depth += 1
 
     def next_hit(self, scene) -> None:
-        """Trace every path's scattered ray to its next hit."""
+        """Trace every path's scattered ray to its next hit (a pool below half its size
+        then starts new camera paths)."""
         rays = spawn(self.hit, self.wo)
         self.hit = trace(scene, rays)
         self.wi = -rays.d
         self.wo = None
+        waiting = self._waiting
+        if waiting is not None and waiting.left and len(self) <= waiting.size // 2:
+            self._start(waiting.next(waiting.size - len(self)))
+
+    def _start(self, camera) -> None:
+        """Append new paths on camera rays ``camera`` (indices), at their first hits."""
+        waiting = self._waiting
+        rays = waiting.rays.subset(camera)
+        start = dict(row=camera, gathered=np.zeros((len(camera), 3)),
+                     beta=np.ones((len(camera), 3)), eta=np.ones(len(camera)), wi=-rays.d,
+                     depth=np.zeros(len(camera), np.int64))
+        for name in self._fields:
+            value = getattr(self, name)
+            if value is not None:
+                new = start[name] if name in start else self._start_values(name, camera)
+                setattr(self, name, np.concatenate((value, new)))
+        self.hit = concatenate_hits([self.hit, waiting.trace_camera(rays)])
+        self.rng = self.rng.joined(waiting.rng.subset(camera))
 
     def _take(self, rows) -> None:
         for name in self._fields:
@@ -180,6 +237,37 @@ class Paths:
             if value is not None:
                 setattr(self, name, np.take(value, rows, axis=0))
         self.hit = subset_hit(self.hit, rows)
+
+
+class _Waiting:
+    """A pool's camera rays: those not started yet are ``begin:``."""
+
+    def __init__(self, rays: Rays, rng: RandomStream, begin: int, size: int, trace_camera):
+        self.rays, self.rng, self.begin, self.size = rays, rng, begin, size
+        self.trace_camera = trace_camera
+
+    @property
+    def left(self) -> int:
+        return len(self.rays) - self.begin
+
+    def next(self, count: int) -> np.ndarray:
+        """Indices of the next ``count`` camera rays (fewer at the end)."""
+        rows = np.arange(self.begin, min(len(self.rays), self.begin + count))
+        self.begin += len(rows)
+        return rows
+
+
+def refills(radiance):
+    """Mark an integrator's ``radiance`` as safe to run on a refilled pool.
+
+    The renderer then hands it several batches of camera rays at once, and
+    :meth:`Integrator.camera_paths` returns a :meth:`Paths.pool`. Safe means: per-path
+    arrays live in the :class:`Paths` (or are recomputed after :meth:`Paths.next_hit`),
+    and ``depth`` is used as an array (masks, not ``if depth > ...``). A subclass that
+    overrides ``radiance`` is not marked.
+    """
+    radiance.refills = True
+    return radiance
 
 
 def trace(scene, rays: Rays):
