@@ -106,7 +106,9 @@ class Integrator:
         """The paths of a batch of camera rays, at their first hits.
 
         With ``max_depth`` = 0 (no segment allowed) no ray is traced and no path is
-        alive: the radiance is zero.
+        alive: the radiance is zero. With :attr:`pool_size` set (by the renderer, for a
+        ``radiance`` marked :func:`~.wavefront.refills`) and more rays than that, a
+        :meth:`Paths.pool` that starts the rays ``pool_size`` at a time.
         """
         if self.max_depth == 0:
             return Paths(rays, rng)
