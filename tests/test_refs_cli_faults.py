@@ -10,7 +10,6 @@ interpreter's start-up and imports. Cases marked ``mitsuba`` need a live Mitsuba
 to load or render the file; tests/conftest.py skips them without it); the others pass
 without it.
 """
-import importlib.util
 import json
 import multiprocessing
 import os
@@ -37,10 +36,6 @@ from tests.test_cli_faults import restore_sigint
 REPO = Path(__file__).resolve().parent.parent
 QUAD_LIGHT = REPO / "pathtracer" / "scenes" / "quad-light.xml"
 COMMITTED = REPO / "mitsuba_refs" / "references"
-
-#: Whether the live cases run (found without importing it: that takes seconds).
-HAVE_MITSUBA = importlib.util.find_spec("mitsuba") is not None
-
 
 def write_scenes(folder: Path) -> None:
     """Broken variants of quad-light.xml, as students write them."""
@@ -178,14 +173,27 @@ def scenes(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def runs(scenes):
-    """Every subprocess case (and the concurrent builders), run at once:
+    """The subprocess cases that need no Mitsuba, run at once:
     name -> (CompletedProcess, cache folder, out folder)."""
+    return run_cases(scenes, {name: case_folders(scenes, name, args)
+                              for name, (args, _, _, live) in SUBPROCESS_CASES.items()
+                              if not live})
+
+
+@pytest.fixture(scope="module")
+def live_runs(scenes):
+    """The cases that render with Mitsuba, and the concurrent builders, run at once. Only
+    tests marked ``mitsuba`` take it: where those skip (tests/conftest.py), nothing runs."""
     jobs = {name: case_folders(scenes, name, args)
-            for name, (args, _, _, live) in SUBPROCESS_CASES.items() if HAVE_MITSUBA or not live}
-    if HAVE_MITSUBA:
-        for k in range(BUILDERS):
-            jobs[f"builder-{k}"] = (["build", "ok.xml", *TINY_BUILD, "--force"],
-                                    scenes / "cache-concurrent", scenes / "no-out")
+            for name, (args, _, _, live) in SUBPROCESS_CASES.items() if live}
+    for k in range(BUILDERS):
+        jobs[f"builder-{k}"] = (["build", "ok.xml", *TINY_BUILD, "--force"],
+                                scenes / "cache-concurrent", scenes / "no-out")
+    return run_cases(scenes, jobs)
+
+
+def run_cases(scenes, jobs):
+    """``jobs`` (name -> (args, cache folder, out folder)) through the CLI, four at a time."""
     with ThreadPoolExecutor(max_workers=4) as pool:
         futures = {name: pool.submit(run_cli, args, scenes, cache_folder)
                    for name, (args, cache_folder, _) in jobs.items()}
@@ -213,9 +221,9 @@ def _params(cases):
 
 
 @pytest.mark.parametrize("name", _params(SUBPROCESS_CASES))
-def test_bad_input_gives_one_line_exit_2_and_leaves_nothing(name, runs):
-    _, status, needles, _ = SUBPROCESS_CASES[name]
-    done, cache_folder, out = runs[name]
+def test_bad_input_gives_one_line_exit_2_and_leaves_nothing(name, request):
+    _, status, needles, live = SUBPROCESS_CASES[name]
+    done, cache_folder, out = request.getfixturevalue("live_runs" if live else "runs")[name]
     assert_one_line_error(done.returncode, done.stdout, done.stderr, status, needles)
     assert leftovers(cache_folder) == []
     assert leftovers(out) == []
@@ -268,11 +276,11 @@ def test_build_accepts_a_film_in_an_include(scenes, tmp_path, capfd, monkeypatch
 
 
 @pytest.mark.mitsuba
-def test_concurrent_builders_leave_one_valid_reference_and_no_temporary_files(runs, scenes):
+def test_concurrent_builders_leave_one_valid_reference_and_no_temporary_files(live_runs, scenes):
     for k in range(BUILDERS):
-        done = runs[f"builder-{k}"][0]
+        done = live_runs[f"builder-{k}"][0]
         assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
-    shared = runs["builder-0"][1]
+    shared = live_runs["builder-0"][1]
     params = {"width": "8", "height": "8"}
     status, detail, _ = validate(scenes / "ok.xml", params, "path", 4, 1, shared)
     assert status == "ok", detail
