@@ -28,7 +28,6 @@ import numpy as np
 from ..camera import Rays
 from ..geometry import offset_p
 from ..media import camera_medium, choose_channel
-from ..vec import max_component
 from .base import Integrator, replace_hits, skip_emitters, subset_hit, trace
 
 #: Counters reserved per segment; shadow rays use SLOT_SHADOW + k for their k-th crossing.
@@ -106,17 +105,9 @@ class VolumeIntegrator(Integrator):
         """
         u = self.uniform(paths, segment, SLOT_ROULETTE)
         alive = np.any(paths.beta != 0, axis=1) & (paths.depth < self.depth_limit)
-        if self.roulette == "off":
-            return np.flatnonzero(alive)
-        perform = paths.depth > self.rr_depth
-        if self.roulette == "constant":
-            q = np.full(len(paths), 1.0 - self.rr_q)
-        else:
-            q = np.minimum(max_component(paths.beta) * paths.eta ** 2, 0.95)
-        alive &= ~perform | (u < q)
-        paths.beta = np.where(perform[:, None], paths.beta / np.where(q > 0, q, 1.0)[:, None],
-                              paths.beta)
-        return np.flatnonzero(alive)
+        # The surface integrators' rule, played once depth > rr_depth (not >=): depth - 1.
+        survive, paths.beta = self.roulette_survivors(paths.beta, paths.eta, paths.depth - 1, u)
+        return np.flatnonzero(alive & survive)
 
     def trace_segment(self, scene, paths: PathBatch):
         """Closest surface along each path's ray; area emitters skipped on the camera's
