@@ -71,11 +71,8 @@ class Paths:
         n = len(rays)
         self._L = np.zeros((n, 3))
         live = n if hit is not None else 0
-        self.row = np.arange(live)
-        self.gathered = np.zeros((live, 3))
-        self.beta = np.ones((live, 3))
-        self.eta = np.ones(live)
-        self.wi = -rays.d if hit is not None else np.zeros((0, 3))
+        self.row, self.gathered, self.beta, self.eta, self.wi = _fresh(np.arange(live),
+                                                                       rays.d[:live])
         self.wo = None
         self.hit = hit
         self.rng = rng if hit is not None else rng.subset(self.row)
@@ -95,7 +92,8 @@ class Paths:
         """
         size = max(1, int(size))
         first = np.arange(min(size, len(rays)))
-        paths = cls(rays.subset(first), rng.subset(first), trace_camera(rays.subset(first)))
+        camera = rays.subset(first)
+        paths = cls(camera, rng.subset(first), trace_camera(camera))
         paths._L = np.zeros((len(rays), 3))
         paths.depth = np.zeros(len(first), np.int64)
         paths._fields.append("depth")
@@ -220,8 +218,7 @@ class Paths:
         """Append new paths on camera rays ``camera`` (indices), at their first hits."""
         waiting = self._waiting
         rays = waiting.rays.subset(camera)
-        start = dict(row=camera, gathered=np.zeros((len(camera), 3)),
-                     beta=np.ones((len(camera), 3)), eta=np.ones(len(camera)), wi=-rays.d,
+        start = dict(zip(("row", "gathered", "beta", "eta", "wi"), _fresh(camera, rays.d)),
                      depth=np.zeros(len(camera), np.int64))
         for name in self._fields:
             value = getattr(self, name)
@@ -237,6 +234,13 @@ class Paths:
             if value is not None:
                 setattr(self, name, np.take(value, rows, axis=0))
         self.hit = subset_hit(self.hit, rows)
+
+
+def _fresh(camera: np.ndarray, d: np.ndarray) -> tuple:
+    """``row``, ``gathered``, ``beta``, ``eta`` and ``wi`` of new paths on camera rays
+    ``camera`` (indices) with directions ``d``."""
+    m = len(camera)
+    return camera, np.zeros((m, 3)), np.ones((m, 3)), np.ones(m), -d
 
 
 class _Waiting:
