@@ -9,8 +9,8 @@ Random numbers depend only on (seed, pixel, sample index), and a pixel's
 samples are reduced in a fixed order, so the image is bit-identical whatever
 the batch size and the number of processes.
 
-An integrator whose ``radiance`` refills its paths (:func:`refills`) receives
-``POOL_UNITS`` units at once and keeps ``batch_size`` paths alive among them
+An integrator whose ``radiance`` refills its paths (marked with
+:func:`pathtracer.integrators.wavefront.refills`) receives ``POOL_UNITS`` units at once and keeps ``batch_size`` paths alive among them
 (:meth:`pathtracer.integrators.wavefront.Paths.pool`); the blocks it returns are merged
 unit by unit as before, and since a path's numbers and arithmetic do not depend on the
 other paths in flight, the image is bit-identical to one unit at a time.
@@ -46,6 +46,7 @@ from .film import effective_counts, splat
 from .camera import camera_rays
 from .emitters import check_light_paths
 from .integrators import Integrator, make_integrator
+from .integrators.wavefront import pooled
 from .media import has_media
 from .rng import RandomStream, sample_keys
 from .scene.types import Scene
@@ -195,7 +196,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
 
     start = time.perf_counter()
     groups = [(unit,) for unit in units]
-    if refills(integrator):
+    if pooled(integrator):
         integrator = copy.copy(integrator)      # the caller's integrator stays as it was
         integrator.pool_size = batch_size
         groups = group_units(units, POOL_UNITS, processes)
@@ -268,13 +269,6 @@ def plan_units(n_pixels: int, spp: int, batch_size: int) -> list[tuple[int, int,
         for s0 in range(0, spp, SAMPLE_BLOCK):
             units.append((p0, p1, s0, min(spp, s0 + SAMPLE_BLOCK)))
     return units
-
-
-def refills(integrator) -> bool:
-    """Is ``integrator``'s ``radiance`` marked safe for a refilled pool of paths
-    (:func:`pathtracer.integrators.wavefront.refills`)? A subclass that overrides it
-    (a student's integrator, say) is not, unless it marks its own."""
-    return getattr(type(integrator).radiance, "refills", False) is True
 
 
 def group_units(units: list, per_group: int, processes: int) -> list[tuple]:

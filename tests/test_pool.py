@@ -14,8 +14,8 @@ import pytest
 from pathtracer import load_scene, render
 from pathtracer.camera import Rays
 from pathtracer.integrators import INTEGRATORS
-from pathtracer.integrators.wavefront import Paths
-from pathtracer.render import group_units, plan_units, refills
+from pathtracer.integrators.wavefront import Paths, pooled
+from pathtracer.render import group_units, plan_units
 from pathtracer.rng import RandomStream, sample_keys
 
 POOLED = ["path", "path_nee", "path_bsdf", "smallpt"]
@@ -102,10 +102,10 @@ def _counting(radiance, calls):
 
 
 def test_only_marked_radiance_is_pooled():
-    assert all(refills(INTEGRATORS[name]()) for name in POOLED)
+    assert all(pooled(INTEGRATORS[name]()) for name in POOLED)
     # recursive branches per depth and bdpt / light splat: never pooled
-    assert not any(refills(INTEGRATORS[name]()) for name in ("recursive", "direct", "light"))
-    assert not refills(unpooled("path")())          # a subclass (a student's) is not
+    assert not any(pooled(INTEGRATORS[name]()) for name in ("recursive", "direct", "light"))
+    assert not pooled(unpooled("path")())          # a subclass (a student's) is not
     integrator = INTEGRATORS["path"]()
     render(load_scene("cornell-box", width=8, height=8), integrator, spp=2, processes=1)
     assert integrator.pool_size is None             # the renderer pooled its own copy

@@ -274,6 +274,12 @@ def refills(radiance):
     return radiance
 
 
+def pooled(integrator) -> bool:
+    """Is ``integrator``'s ``radiance`` marked with :func:`refills`? A subclass that
+    overrides it (a student's integrator, say) is not, unless it marks its own."""
+    return getattr(type(integrator).radiance, "refills", False) is True
+
+
 def trace(scene, rays: Rays):
     """Closest hit of every ray."""
     return geometry.intersect(scene, rays.o, rays.d, rays.tmax)
