@@ -10,7 +10,8 @@ samples are reduced in a fixed order, so the image is bit-identical whatever
 the batch size and the number of processes.
 
 An integrator whose ``radiance`` refills its paths (marked with
-:func:`pathtracer.integrators.wavefront.refills`) receives ``POOL_UNITS`` units at once and keeps ``batch_size`` paths alive among them
+:func:`pathtracer.integrators.wavefront.refills`) receives ``POOL_UNITS`` units at
+once and keeps ``batch_size`` paths alive among them
 (:meth:`pathtracer.integrators.wavefront.Paths.pool`); the blocks it returns are merged
 unit by unit as before, and since a path's numbers and arithmetic do not depend on the
 other paths in flight, the image is bit-identical to one unit at a time.
