@@ -49,6 +49,7 @@ from .emitters import check_light_paths
 from .integrators import Integrator, make_integrator
 from .integrators.wavefront import pooled
 from .media import has_media
+from .resources import POOL_UNITS
 from .rng import RandomStream, sample_keys
 from .scene.types import Scene
 
@@ -56,12 +57,12 @@ from .scene.types import Scene
 SAMPLE_BLOCK = 256
 #: Camera paths per batch (bounded memory: about 1 KB per path in flight).
 DEFAULT_BATCH = 1 << 15
-#: Units handed at once to an integrator whose ``radiance`` refills its pool of paths
-#: (:func:`pathtracer.integrators.wavefront.refills`): it keeps ``batch_size`` paths
+#: POOL_UNITS (defined with the memory estimate that counts it, in resources): units
+#: handed at once to an integrator whose ``radiance`` refills its pool of paths
+#: (:func:`pathtracer.integrators.wavefront.refills`); it keeps ``batch_size`` paths
 #: alive and pays a batch's roulette tail once per group. The group's camera rays, their
 #: random streams and results cost ~200 bytes per camera sample (measured: 274 against
 #: 221 MB for a 1024 x 1024, 64 spp render on two processes; docs/performance.md).
-POOL_UNITS = 4
 
 
 @dataclass

@@ -16,10 +16,12 @@ OUTPUT_BYTES_PER_PIXEL = 24 + 4 * 24 + 3
 #: Memory of one camera path in flight (rays, hits, throughput, random state), measured
 #: as about 1 KB (docs/performance.md): a batch of 32k paths holds ~32 MB.
 BYTES_PER_PATH = 1024
+#: Batches (units) handed at once to an integrator that refills a pool of paths
+#: (``pathtracer.render`` uses it): its worker holds their camera samples together.
+POOL_UNITS = 4
 #: Memory per camera sample of the units a process has in hand (camera ray, random key,
-#: result row; ~200 bytes), times the units handed at once to a pooling integrator
-#: (``pathtracer.render.POOL_UNITS``, 4): 0.8 KB per path of the batch.
-BYTES_PER_UNIT_SAMPLE = 4 * 200
+#: result row; ~200 bytes): 0.8 KB per path of the batch with four units.
+BYTES_PER_UNIT_SAMPLE = POOL_UNITS * 200
 #: A seed is an unsigned 32-bit integer, as Mitsuba's sampler ``seed``.
 SEED_MAX = 2 ** 32 - 1
 #: The largest spp an EXR header (a signed 32-bit int) can record.
