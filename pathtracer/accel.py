@@ -231,6 +231,19 @@ def _moller_trumbore(o, d, tri, tmax):
     t, b1, b2 : (k, m) ndarray
         Ray parameter (inf where missed) and barycentrics of p1 and p2.
     """
+    t, b1, b2 = _plane_coordinates(o, d, tri)
+    with np.errstate(invalid="ignore"):
+        # Comparisons with NaN are False: degenerate and padding triangles miss.
+        ok = (b1 >= -BARY_EPS) & (b2 >= -BARY_EPS) & (b1 + b2 <= 1.0 + BARY_EPS)
+        ok &= (t > 0.0) & (t < tmax)
+    return np.where(ok, t, np.inf), b1, b2
+
+
+def _plane_coordinates(o, d, tri):
+    """Möller–Trumbore's ray parameter ``t`` and edge coordinates ``b1``, ``b2`` of the
+    point where rays (o, d: (3, m)) meet the planes of ``tri`` (rows p0, e1, e2; any
+    shape that broadcasts against (m,)), with no test of whether it lies inside.
+    """
     ox, oy, oz = o
     dx, dy, dz = d
     e1x, e1y, e1z, e2x, e2y, e2z = tri[3:]
@@ -248,10 +261,7 @@ def _moller_trumbore(o, d, tri, tmax):
         qz = sx * e1y - sy * e1x
         b2 = (dx * qx + dy * qy + dz * qz) * inv
         t = (e2x * qx + e2y * qy + e2z * qz) * inv
-        # Comparisons with NaN are False: degenerate and padding triangles miss.
-        ok = (b1 >= -BARY_EPS) & (b2 >= -BARY_EPS) & (b1 + b2 <= 1.0 + BARY_EPS)
-        ok &= (t > 0.0) & (t < tmax)
-    return np.where(ok, t, np.inf), b1, b2
+    return t, b1, b2
 
 
 class BVH:
@@ -715,19 +725,7 @@ class SmallMesh:
     def _refit(self, o, d, prim):
         """Float64 hits of rays (3, m) on their primitives ``prim``: (t, triangle, b1, b2)."""
         tri = np.take(self._prim, prim, axis=1, mode="wrap")   # "wrap": see BVH._step
-        e1, e2 = tri[3:6], tri[6:9]
-        px = d[1] * e2[2] - d[2] * e2[1]
-        py = d[2] * e2[0] - d[0] * e2[2]
-        pz = d[0] * e2[1] - d[1] * e2[0]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inv = 1.0 / (e1[0] * px + e1[1] * py + e1[2] * pz)
-            s = o - tri[0:3]
-            b1 = (s[0] * px + s[1] * py + s[2] * pz) * inv
-            qx = s[1] * e1[2] - s[2] * e1[1]
-            qy = s[2] * e1[0] - s[0] * e1[2]
-            qz = s[0] * e1[1] - s[1] * e1[0]
-            b2 = (d[0] * qx + d[1] * qy + d[2] * qz) * inv
-            t = (e2[0] * qx + e2[1] * qy + e2[2] * qz) * inv
+        t, b1, b2 = _plane_coordinates(o, d, tri)
         half = 2 * prim + (b1 + b2 > 1.0)  # the triangle: row of the (2P,) tables
         m = np.take(self._to_bary, half, axis=1, mode="wrap")
         u = m[0] + m[1] * b1 + m[2] * b2
