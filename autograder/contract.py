@@ -85,6 +85,8 @@ SOLUTION_NAMES = {
                                "VolPathPhaseIntegrator", "volpath", "volpath_phase", "bdpt"},
     "pathtracer.camera": {"camera_rays"},
     "pathtracer.camera_connection": {"connect_to_camera", "camera_importance", "pdf_camera"},
+    "pathtracer.sensors.perspective": {"camera_rays"},
+    "pathtracer.sensors.importance": {"connect_to_camera", "camera_importance", "pdf_camera"},
 }
 #: Most source a submission may have (files, bytes) before the grader stops reading.
 MAX_FILES, MAX_BYTES = 200, 4 << 20

@@ -182,7 +182,7 @@ def camera_evidence(check, student) -> dict:
     """
     from mitsuba_refs.compare import default_params
     from pathtracer import load_scene
-    from pathtracer.camera import camera_rays
+    from pathtracer.sensors.perspective import camera_rays
     params = default_params(check.scene)
     camera = load_scene(check.scene, **params).camera
     w, h = camera.width, camera.height

@@ -39,8 +39,8 @@ def fog_pixels(scene_name: str, params: dict) -> tuple:
     a 2 x 2 grid inside the pixel, all enter a medium (first hit on a medium boundary) or all
     do not; pixels on the fog's outline are in neither."""
     from pathtracer import load_scene
-    from pathtracer.camera import camera_rays
-    from pathtracer.geometry import intersect
+    from pathtracer.sensors.perspective import camera_rays
+    from pathtracer.shapes.intersect import intersect
     scene = load_scene(scene_name, **params)
     camera = scene.camera
     w, h = camera.width, camera.height

@@ -308,7 +308,7 @@ class StudentProcess:
               and ((pixel >= 0) & (pixel < n_pixels)).all())
         if not ok:
             raise wire.WireError("bad camera request")
-        from pathtracer.camera import camera_rays
+        from pathtracer.sensors.perspective import camera_rays
         rays = camera_rays(scene.camera, pixel, u_film)
         wire.write_frame(self._pipes[0], {"kind": "camera"},
                          {"o": rays.o, "d": rays.d, "tmax": rays.tmax}, self.deadline)
@@ -424,8 +424,8 @@ class StudentProcess:
         return mean, variance
 
     def _render_with_student_camera(self, scene, name, params, spp, seed, max_depth):
-        from pathtracer import render
-        from pathtracer.camera import Rays, camera_rays
+        from pathtracer.render import driver as render
+        from pathtracer.sensors.perspective import Rays, camera_rays
         from pathtracer.integrators import make_integrator
         loaded = _scene(scene, params)
 
@@ -444,9 +444,9 @@ class StudentProcess:
     def probe(self, scene, params, integrator, n=4096, seed=99):
         """(distinct results of the student's integrator, of the reference one) for ``n``
         copies of the centre pixel's ray with independent random streams."""
-        from pathtracer.camera import camera_rays
-        from pathtracer.render import integrator_for
-        from pathtracer.rng import RandomStream, sample_keys
+        from pathtracer.sensors.perspective import camera_rays
+        from pathtracer.render.driver import integrator_for
+        from pathtracer.core.rng import RandomStream, sample_keys
         params = {str(k): str(v) for k, v in (params or {}).items()}
         loaded = _scene(scene, params)
         camera = loaded.camera
@@ -584,7 +584,7 @@ def private_paths(extra=()) -> list:
     import pathtracer
     from mitsuba_refs import cache
     tracer = Path(pathtracer.__file__).resolve().parent
-    paths = [cache.cache_dir(), tracer / "integrators", tracer / "camera.py",
+    paths = [cache.cache_dir(), tracer / "integrators", tracer / "sensors" / "perspective.py",
              Path(autograder.__file__).parent, *extra]
     paths += runtimes.public_solution_runtimes()
     return sorted({str(Path(p).resolve()) for p in paths if Path(p).exists()})

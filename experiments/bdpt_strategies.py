@@ -22,7 +22,7 @@ import sys
 
 import numpy as np
 
-from pathtracer.tonemap import auto_scale, tonemap
+from pathtracer.core.tonemap import auto_scale, tonemap
 
 from . import common
 

@@ -15,8 +15,8 @@ import time
 
 import numpy as np
 
-from pathtracer.accel import BVH
-from pathtracer.geometry import spawn_ray_to
+from pathtracer.accel.bvh import BVH
+from pathtracer.shapes.intersect import spawn_ray_to
 
 
 def height_field(n_tris: int, rng) -> np.ndarray:
@@ -87,7 +87,7 @@ def render_queries(size: int = 128, spp: int = 16, repeat: int = 3) -> None:
     surfaces, bounded by the room's hits) rather than on synthetic ones.
     """
     from experiments.bench import warmed_scene
-    from pathtracer import render
+    from pathtracer.render import driver as render
     scene = warmed_scene("mesh", "path", size, size)
     bvh = scene._accel.big
     queries = []

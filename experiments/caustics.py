@@ -34,7 +34,7 @@ import time
 
 import numpy as np
 
-from pathtracer.tonemap import auto_scale, tonemap
+from pathtracer.core.tonemap import auto_scale, tonemap
 
 from . import common
 
@@ -72,10 +72,10 @@ def build_parser():
 
 def first_hits(scene, sub=4):
     """Per pixel and sub-pixel offset (sub x sub grid): (points, hit Dirac BSDF, valid)."""
-    from pathtracer.camera import camera_rays
-    from pathtracer.geometry import intersect
+    from pathtracer.sensors.perspective import camera_rays
+    from pathtracer.shapes.intersect import intersect
     from pathtracer.integrators.wavefront import subset_hit
-    from pathtracer.shading import is_delta
+    from pathtracer.bsdfs.shading import is_delta
     pixels = np.arange(scene.camera.width * scene.camera.height)
     grid = (np.stack(np.meshgrid(np.arange(sub), np.arange(sub)), -1).reshape(-1, 2) + 0.5) / sub
     for offset in grid:
@@ -145,7 +145,7 @@ def equal_time_render(scene, integrator: str, seconds: float, seed: int):
     at the speed measured so far. Returns the pool and a list of (cpu seconds, spp, mean,
     variance of the mean).
     """
-    from pathtracer import render
+    from pathtracer.render import driver as render
     pool, spent, points, batch, index = Pool(), 0.0, [], 2, 0
     while spent < seconds:
         start = time.process_time()

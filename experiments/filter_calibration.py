@@ -26,7 +26,7 @@ from mitsuba_refs.stats import clopper_pearson, compare_means, compare_variances
 from mitsuba_refs.stats.correlation import pixel_correlation
 from mitsuba_refs.stats.simulate import make_scene
 from mitsuba_refs.stats.simulate_filtered import render_filtered
-from pathtracer.film import ReconstructionFilter
+from pathtracer.sensors.film import ReconstructionFilter
 
 LEVELS = (0.05, 0.2)
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import time
 
-from pathtracer.tonemap import auto_scale, tonemap
+from pathtracer.core.tonemap import auto_scale, tonemap
 
 from . import common
 
@@ -35,7 +35,8 @@ INTEGRATORS = ("volpath_phase", "volpath")
 def run(spp: int, seed: int, out, workers=None) -> list[dict]:
     """Render every step with both integrators; write the figure and the table."""
     from mitsuba_refs.compare import default_params
-    from pathtracer import load_scene, render
+    from pathtracer import load_scene
+    from pathtracer.render import driver as render
     out = common.out_dir(out)
     panels, table = {}, []
     for scene_name in STEPS:

@@ -28,7 +28,7 @@ import sys
 
 import numpy as np
 
-from pathtracer.tonemap import auto_scale, tonemap
+from pathtracer.core.tonemap import auto_scale, tonemap
 
 from . import common
 
@@ -63,7 +63,7 @@ def plot_classes(result, named, partition, full, title, out):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from pathtracer.pathclasses import LECTURE_CLASSES
+    from pathtracer.core.pathclasses import LECTURE_CLASSES
     exposure = auto_scale(full)
     total = float(full.mean())
     cols = max(len(named) + 1, len(partition) + 1)
@@ -135,7 +135,7 @@ def compare_bounces(args, bar):
     from mitsuba_refs.cache import ReferenceUnavailable, get_reference
     from mitsuba_refs.stats import compare_means
     from pathtracer import load_scene
-    from pathtracer.render import render_classes
+    from pathtracer.render.driver import render_classes
     params = common.scene_params(args.scene, args.defines)
     try:
         refs = [get_reference(args.scene, {**params, "max_depth": d}, "path") for d in (1, 2, 3)]
@@ -168,9 +168,10 @@ def compare_bounces(args, bar):
 def main(argv=None) -> int:
     """Run the path-class experiment (command line); exit code."""
     args = build_parser().parse_args(argv)
-    from pathtracer import load_scene, render
-    from pathtracer.pathclasses import compile_classes, is_partition
-    from pathtracer.render import render_classes
+    from pathtracer import load_scene
+    from pathtracer.render import driver as render
+    from pathtracer.core.pathclasses import compile_classes, is_partition
+    from pathtracer.render.driver import render_classes
     out = common.out_dir(args.out)
     args.workers = args.workers or common.cpu_count()
     compile_classes(args.classes)          # fail early on a malformed expression

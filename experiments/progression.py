@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from pathtracer.tonemap import auto_scale, tonemap
+from pathtracer.core.tonemap import auto_scale, tonemap
 
 from . import common
 
@@ -150,7 +150,8 @@ def main(argv=None) -> int:
         spp = args.spp[0] if len(args.spp) == 1 else 64
         lecture_media.run(spp, args.seed, args.out or "out/lecture-media", args.workers)
         return 0
-    from pathtracer import load_scene, render
+    from pathtracer import load_scene
+    from pathtracer.render import driver as render
     levels = sorted(set(args.spp))
     out = common.out_dir(args.out)
     params = {"width": args.size[0], "height": args.size[1], **dict(args.defines)}

@@ -141,7 +141,7 @@ def render_ours(scene, integrator, params, spp, seed, processes=None, resolution
                 **options):
     """Our render of ``scene`` with ``params`` (film size ``resolution`` if given):
     (mean, variance)."""
-    from pathtracer import render
+    from pathtracer.render import driver as render
     result = render(loaded_scene(scene, params, resolution), integrator, spp=spp, seed=seed,
                     processes=processes, progress=False, **options)
     return result.mean, result.variance
@@ -150,7 +150,7 @@ def render_ours(scene, integrator, params, spp, seed, processes=None, resolution
 def reference_options(options) -> dict | None:
     """The light-transport options among our render ``options`` (max_depth, rr_depth,
     hide_emitters): the reference is rendered with them too."""
-    from pathtracer.render import SCENE_OPTIONS
+    from pathtracer.render.driver import SCENE_OPTIONS
     chosen = {k: v for k, v in (options or {}).items() if k in SCENE_OPTIONS and v is not None}
     return chosen or None
 

@@ -88,7 +88,7 @@ GRADING_SCENES = {"cornell-box-large-light": "cornell-box",
                   "cornell-caustics-large-light": "cornell-caustics",
                   "cornell-lights-large": "cornell-lights"}
 
-#: The built-in scenes (``pathtracer/scenes/*.xml``) that every suite renders with every
+#: The built-in scenes (``pathtracer/data/scenes/*.xml``) that every suite renders with every
 #: integrator: all but FEATURE_SCENES, OWN_TEST_SCENES and GRADING_SCENES. A scene file added
 #: there joins them and needs its committed references (``mitsuba-refs build``).
 BUILTIN_SCENES = tuple(name for name in builtin_scene_names()

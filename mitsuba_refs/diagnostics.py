@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import TwoSlopeNorm
 
-from pathtracer.tonemap import auto_scale, tonemap
+from pathtracer.core.tonemap import auto_scale, tonemap
 
 __all__ = ["plot_mean_comparison", "plot_convergence", "plot_variance_comparison"]
 

@@ -93,7 +93,7 @@ class Reference:
 
 def resolve_scene(scene):
     """Return the file of ``scene``: a file path, or a built-in name
-    (``cornell-box`` -> ``pathtracer/scenes/cornell-box.xml``), by the tracer's rule
+    (``cornell-box`` -> ``pathtracer/data/scenes/cornell-box.xml``), by the tracer's rule
     (:func:`pathtracer.scene.scene_file`); ``FileNotFoundError`` with its message otherwise."""
     from pathtracer.scene import SceneError, scene_file
     try:
@@ -199,7 +199,7 @@ def reference_settings(path, params, options=None, resolution=None):
         (:func:`pathtracer.render.transport_options`), whatever set them;
         ``settings``: :class:`pathtracer.scene.settings.SceneSettings`.
     """
-    from pathtracer.render import transport_options
+    from pathtracer.render.driver import transport_options
     from pathtracer.scene import scene_settings
     scene_kw = {str(k): str(v) for k, v in (params or {}).items()}
     settings = scene_settings(path, resolution=resolution, **scene_kw)
@@ -491,7 +491,7 @@ def _render_replicas(scene, nested, spp, seed, stream, log):
     ``spp / K`` and the replicas' seeds (:func:`pass_seeds`).
     """
     import mitsuba as mi
-    from pathtracer.render import replica_count
+    from pathtracer.render.driver import replica_count
     film = scene.sensors()[0].film()
     width, height = (int(v) for v in film.crop_size())
     replicas = replica_count(spp, config.REF_REPLICAS)

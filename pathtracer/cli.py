@@ -12,7 +12,8 @@ from pathlib import Path
 
 from .integrators import INTEGRATORS
 from .integrators.base import HEMISPHERE_RULES, ROULETTE_RULES
-from .resources import SEED_MAX, SPP_MAX
+from .core.rng import SEED_MAX
+from .render.resources import SPP_MAX
 
 EPILOG = """\
 examples:
@@ -207,9 +208,9 @@ def _render_checked(args) -> int:
     """Check everything (scene, options, memory, output), render, write; exit code."""
     from concurrent.futures.process import BrokenProcessPool
 
-    from . import render, resources
-    from .io import output_paths, write_exr, write_png
-    from .render import DEFAULT_BATCH, integrator_for
+    from .render import driver as render, resources
+    from .io.output import output_paths, write_exr, write_png
+    from .render.driver import DEFAULT_BATCH, integrator_for
     from .scene import SceneError, load_scene
     from .scene.defines import parse_defines
 

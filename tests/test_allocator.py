@@ -3,7 +3,7 @@ import sys
 
 import pytest
 
-from pathtracer.allocator import keep_freed_memory
+from pathtracer.render.allocator import keep_freed_memory
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")

@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from mitsuba_refs.stats import compare_means
-from pathtracer import INTEGRATORS, load_scene, render
-from pathtracer.camera import camera_rays
-from pathtracer.geometry import intersect
+from pathtracer import INTEGRATORS, load_scene
+from pathtracer.render import driver as render
+from pathtracer.sensors.perspective import camera_rays
+from pathtracer.shapes.intersect import intersect
 from tests.budget import ALPHA
 
 pytestmark = pytest.mark.statistical(assertions=1)

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pathtracer.bitmap import read_bitmap
+from pathtracer.io.bitmap import read_bitmap
 from pathtracer.bsdfs import BumpMap, Diffuse, NormalMap, RoughConductor, RoughPlastic
-from pathtracer.tangents import LocalGeometry
-from pathtracer.textures import BitmapTexture
+from pathtracer.shapes.tangents import LocalGeometry
+from pathtracer.textures.base import BitmapTexture
 from tests.chi2 import chi2_sphere
 from tests.test_bsdfs import _assert_close, _f32, direction, random_directions, tile
 
@@ -164,8 +164,8 @@ def test_chi2(name, theta, maps):
 def test_mitsuba_surface_derivatives(tmp_path, mi):
     """dp/du, dp/dv of every shape kind as Mitsuba's intersections report them."""
     from pathtracer import load_scene
-    from pathtracer.geometry import intersect
-    from pathtracer.tangents import surface_derivatives
+    from pathtracer.shapes.intersect import intersect
+    from pathtracer.shapes.tangents import surface_derivatives
     from tests.test_scene_plugins import _rays, _write
     body = """
 <shape type="sphere"><point name="center" value="0.8, 0.3, 0.5"/><float name="radius" value="0.5"/>
@@ -201,8 +201,8 @@ def test_mitsuba_bsdfs_at_hits(tmp_path, maps, mi):
     """BSDF values at real hits, world directions: anisotropic roughness follows Mitsuba's
     tangent (dp/du), and normal / bump maps perturb the frames Mitsuba perturbs."""
     from pathtracer import load_scene
-    from pathtracer.geometry import intersect
-    from pathtracer.shading import eval_bsdf
+    from pathtracer.shapes.intersect import intersect
+    from pathtracer.bsdfs.shading import eval_bsdf
     from tests.test_scene_plugins import _rays, _write
     aniso = '<bsdf type="roughconductor"><float name="alpha_u" value="0.4"/><float name="alpha_v" value="0.05"/>' \
             '<string name="distribution" value="ggx"/></bsdf>'

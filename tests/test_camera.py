@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from pathtracer.camera import camera_rays
+from pathtracer.sensors.perspective import camera_rays
 from pathtracer.scene import load_scene
 
 SENSOR_XML = """<scene version="3.0.0">
@@ -62,7 +62,7 @@ def test_camera_connection_matches_mitsuba_sample_direction(tmp_path, axis, fov,
                                                             near, mi):
     """connect_to_camera (the light tracer's splat: pixel, direction, importance We / d^2)
     against the sensor's own ``sample_direction`` for points inside and outside the view."""
-    from pathtracer.camera_connection import connect_to_camera
+    from pathtracer.sensors.importance import connect_to_camera
     path = tmp_path / "camera.xml"
     path.write_text(SENSOR_XML.format(fov=fov, axis=axis, near=near, width=width, height=height))
     camera = load_scene(str(path)).camera
@@ -92,7 +92,7 @@ def test_camera_connections_are_free_only_up_to_the_near_clip_plane():
     """Camera rays start on the near clip plane, so a connection to the pinhole must be
     unoccluded only that far: smallpt's camera sits behind the room's front wall (near clip
     140), and light paths joined to it would all be blocked by the wall."""
-    from pathtracer.camera_connection import connect_to_camera
+    from pathtracer.sensors.importance import connect_to_camera
     camera = load_scene("smallpt", width=16, height=12).camera
     rng = np.random.default_rng(4)
     pixel = rng.integers(0, 16 * 12, 500)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from pathtracer.cli import main
-from pathtracer.io import read_exr
+from pathtracer.io.output import read_exr
 
 
 def run(*args):

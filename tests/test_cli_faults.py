@@ -14,10 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pathtracer import load_scene, render
-from pathtracer.io import OutputError, PrecisionWarning, atomic_path, output_paths, read_exr, write_exr
-from pathtracer.resources import check_memory
-from pathtracer.workers import set_parent_death_signal
+from pathtracer import load_scene
+from pathtracer.render import driver as render
+from pathtracer.io.output import OutputError, PrecisionWarning, atomic_path, output_paths, read_exr, write_exr
+from pathtracer.render.resources import check_memory
+from pathtracer.render.workers import set_parent_death_signal
 
 ROOT = Path(__file__).resolve().parent.parent
 #: Small, fast renders: 8x8 pixels, 2 spp, one process.

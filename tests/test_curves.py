@@ -4,8 +4,7 @@ pieces' error bound, the loader's errors, and hits / normals / uv against Mitsub
 import numpy as np
 import pytest
 
-from pathtracer.curves import (CurveFileError, CurveShape, bspline, chord_error,
-                               read_control_points)
+from pathtracer.shapes.curves import CurveFileError, CurveShape, bspline, chord_error, read_control_points
 from pathtracer.scene import load_scene
 from pathtracer.scene.errors import SceneError
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from pathtracer import load_scene
-from pathtracer.emitters import pdf_emitter_direction, sample_emitter
-from pathtracer.geometry import Hit, intersect
+from pathtracer.emitters.dispatch import pdf_emitter_direction, sample_emitter
+from pathtracer.shapes.intersect import Hit, intersect
 from pathtracer.scene import SceneError
 
 SCENE = """<scene version="3.0.0">

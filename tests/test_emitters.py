@@ -14,8 +14,8 @@ import pytest
 
 from pathtracer import load_scene
 from pathtracer.scene import builtin_scene_path
-from pathtracer.emitters import pdf_emitter_direction, sample_emitter
-from pathtracer.geometry import Hit, intersect
+from pathtracer.emitters.dispatch import pdf_emitter_direction, sample_emitter
+from pathtracer.shapes.intersect import Hit, intersect
 from tests.chi2 import chi2_sphere
 
 pytestmark = pytest.mark.statistical(assertions=1)

@@ -14,12 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pathtracer import INTEGRATORS, load_scene, render
-from pathtracer.bitmap import BitmapError, read_bitmap, srgb_to_linear
-from pathtracer.envmap import EnvironmentMap
-from pathtracer.sampling import Distribution2D
+from pathtracer import INTEGRATORS, load_scene
+from pathtracer.render import driver as render
+from pathtracer.io.bitmap import BitmapError, read_bitmap, srgb_to_linear
+from pathtracer.emitters.envmap import EnvironmentMap
+from pathtracer.core.sampling import Distribution2D
 from pathtracer.scene import SceneError, builtin_scene_path, transform
-from pathtracer.scenes.make_envmap import sky
+from tools.scenes.make_envmap import sky
 from tests.chi2 import chi2_plane, chi2_sphere
 
 SKY = Path(builtin_scene_path("envmap")).parent / "envmap-sky.exr"

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from mitsuba_refs.stats.correlation import pixel_correlation
-from pathtracer import load_scene, render
-from pathtracer.film import ReconstructionFilter, effective_counts, lag_correlations, splat
+from pathtracer import load_scene
+from pathtracer.render import driver as render
+from pathtracer.sensors.film import ReconstructionFilter, effective_counts, lag_correlations, splat
 from tests.budget import ALPHA
 
 TENT = ReconstructionFilter.make("tent")
@@ -48,7 +49,7 @@ def test_samples_are_clipped_at_the_image_edge_and_edge_pixels_normalised():
     h, w, n = 6, 8, 5
     sums = splat(GAUSSIAN, w, h, np.arange(h * w), rng.random((h * w, n, 2)),
                  np.full((h * w, n, 3), 0.7))
-    from pathtracer.render import filtered_mean_and_variance
+    from pathtracer.render.driver import filtered_mean_and_variance
     mean, var = filtered_mean_and_variance(sums, effective_counts(GAUSSIAN, w, h, n).reshape(-1, 1))
     np.testing.assert_allclose(mean, 0.7, rtol=1e-14)
     assert not var.any()

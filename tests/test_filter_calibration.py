@@ -16,7 +16,7 @@ from mitsuba_refs.stats import compare_means, compare_variances
 from mitsuba_refs.stats.correlation import pixel_correlation
 from mitsuba_refs.stats.simulate import make_scene
 from mitsuba_refs.stats.simulate_filtered import render_filtered
-from pathtracer.film import ReconstructionFilter
+from pathtracer.sensors.film import ReconstructionFilter
 
 COVER = 1 - 1e-5
 SEEDS, N_TEST, N_REF, ALPHA = 80, 4, 32, 0.2

@@ -6,7 +6,7 @@ when mitsuba is importable.
 import numpy as np
 import pytest
 
-from pathtracer import geometry
+from pathtracer.shapes import intersect as geometry
 from pathtracer.scene.types import Camera, Scene
 
 

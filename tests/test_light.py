@@ -8,16 +8,16 @@ in test_agreement.py / test_convergence.py (tests/scenes.py: ``LIGHT_SCENES`` an
 import numpy as np
 import pytest
 
-from pathtracer import load_scene, render
+from pathtracer import load_scene
+from pathtracer.render import driver as render
 from pathtracer.bsdfs.dielectric import Dielectric
 from pathtracer.bsdfs.roughdielectric import RoughDielectric
-from pathtracer.camera import camera_rays
-from pathtracer.camera_connection import connect_to_camera, pdf_camera
+from pathtracer.sensors.perspective import camera_rays
+from pathtracer.sensors.importance import connect_to_camera, pdf_camera
 from pathtracer.cli import main
-from pathtracer.emitters import (EmitterPosition, emitted_towards, pdf_emitter_ray,
-                                 sample_emitter_ray)
-from pathtracer.sampling import square_to_uniform_sphere
-from pathtracer.shading import importance_scale
+from pathtracer.emitters.dispatch import EmitterPosition, emitted_towards, pdf_emitter_ray, sample_emitter_ray
+from pathtracer.core.sampling import square_to_uniform_sphere
+from pathtracer.bsdfs.shading import importance_scale
 from tests.chi2 import chi2_sphere
 
 LIGHTS = {
@@ -188,7 +188,7 @@ def test_light_render_is_the_same_for_any_number_of_processes():
 
 
 def test_replicas_divide_spp():
-    from pathtracer.render import replica_count
+    from pathtracer.render.driver import replica_count
     assert [replica_count(spp, 8) for spp in (1, 4, 6, 16, 64, 7)] == [1, 4, 6, 8, 8, 7]
     single = render(load_scene("cornell-box", width=8, height=8), "light", spp=1, seed=1, processes=1)
     assert not single.variance.any()    # one replica: no spread to measure

@@ -3,12 +3,12 @@ classes of light tracing and BDPT (automata read from the light end and joined).
 import numpy as np
 import pytest
 
-from pathtracer import load_scene, render
+from pathtracer import load_scene
+from pathtracer.render import driver as render
 from pathtracer.integrators.pathclass import PathClassIntegrator
 from pathtracer.integrators import make_integrator
-from pathtracer.pathclasses import (PathRegexError, bsdf_letter, compile_class, compile_joined,
-                                    describe_letters, enumerate_paths, is_partition)
-from pathtracer.render import render_classes
+from pathtracer.core.pathclasses import PathRegexError, bsdf_letter, compile_class, compile_joined, describe_letters, enumerate_paths, is_partition
+from pathtracer.render.driver import render_classes
 
 PARTITION = ["LE", "LDE", "LD.+E", "LS.*E", "LG.*E"]
 
@@ -170,7 +170,7 @@ def test_cli_renders_a_class_with_light_and_bdpt(tmp_path, integrator):
     """``--integrator light|bdpt --paths`` renders the class: the image of the same render
     through the library (float32 in the EXR); a bad expression is one line and exit code 2."""
     from pathtracer.cli import main
-    from pathtracer.io import read_exr
+    from pathtracer.io.output import read_exr
     out = tmp_path / "class.exr"
     assert main(["render", "cornell-caustics", "-D", "width=8", "-D", "height=8", "--spp", "2",
                  "--seed", "4", "--integrator", integrator, "--paths", "LD+E", "--replicas", "2",

@@ -11,12 +11,13 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from pathtracer import load_scene, render
-from pathtracer.camera import Rays
+from pathtracer import load_scene
+from pathtracer.render import driver as render
+from pathtracer.sensors.perspective import Rays
 from pathtracer.integrators import INTEGRATORS
 from pathtracer.integrators.wavefront import Paths, pooled
-from pathtracer.render import group_units, plan_units
-from pathtracer.rng import RandomStream, sample_keys
+from pathtracer.render.driver import group_units, plan_units
+from pathtracer.core.rng import RandomStream, sample_keys
 
 POOLED = ["path", "path_nee", "path_bsdf", "smallpt"]
 

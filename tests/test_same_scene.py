@@ -18,7 +18,7 @@ from scipy import stats
 from mitsuba_refs.batch import SampleStatistics, copies_per_call
 from mitsuba_refs.cache import _identity, reference_key, reference_stem
 from pathtracer import SceneError, load_scene
-from pathtracer.render import integrator_for
+from pathtracer.render.driver import integrator_for
 from pathtracer.scene import parse_resolution, scene_settings
 from pathtracer.scene.build import x_fov_from
 from tests.budget import ALPHA
@@ -170,7 +170,7 @@ def mitsuba_variant(mi):
 
 
 def our_render(path, resolution, spp, seed, **options):
-    from pathtracer import render
+    from pathtracer.render import driver as render
     result = render(load_scene(path, resolution=resolution), "path", spp=spp, seed=seed,
                     processes=1, progress=False, **options)
     return result.mean, result.variance

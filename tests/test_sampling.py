@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pathtracer import sampling
+from pathtracer.core import sampling
 
 pytestmark = pytest.mark.statistical(assertions=1)
 

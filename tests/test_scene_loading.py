@@ -10,7 +10,7 @@ import pytest
 
 from pathtracer.scene import SceneError, load_scene, transform
 from pathtracer.scene.build import x_fov_from
-from pathtracer.scene.meshes import read_obj, read_ply, smooth_vertex_normals
+from pathtracer.io.meshes import read_obj, read_ply, smooth_vertex_normals
 
 DATA = os.path.join(os.path.dirname(__file__), "data")
 

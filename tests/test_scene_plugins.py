@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from pathtracer import load_scene
-from pathtracer.geometry import intersect, texture_uv
+from pathtracer.shapes.intersect import intersect, texture_uv
 from tests.test_bsdfs import random_directions
 
 SENSOR = """<sensor type="perspective"><float name="fov" value="40"/>

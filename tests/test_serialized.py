@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pathtracer.scene import SceneError, load_scene
-from pathtracer.scene.meshes import MeshFormatError, read_serialized
+from pathtracer.io.meshes import MeshFormatError, read_serialized
 
 
 SENSOR = ('<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>'

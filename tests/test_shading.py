@@ -8,8 +8,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from pathtracer.bsdfs import Conductor, Dielectric, Diffuse
-from pathtracer.shading import _groups, eval_bsdf, sample_bsdf
-from pathtracer.vec import normalize, to_local, to_world
+from pathtracer.bsdfs.shading import _groups, eval_bsdf, sample_bsdf
+from pathtracer.core.vec import normalize, to_local, to_world
 
 
 def _scene_and_hits(shape_ids, seed=3):

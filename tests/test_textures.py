@@ -12,11 +12,11 @@ import pytest
 from PIL import Image
 
 from pathtracer import load_scene
-from pathtracer.bitmap import BitmapError, read_bitmap, srgb_to_linear
+from pathtracer.io.bitmap import BitmapError, read_bitmap, srgb_to_linear
 from pathtracer.bsdfs import Conductor, Dielectric, Diffuse, RoughConductor, TwoSided
-from pathtracer.geometry import intersect, texture_uv
+from pathtracer.shapes.intersect import intersect, texture_uv
 from pathtracer.scene import transform
-from pathtracer.textures import BitmapTexture, Checkerboard, ConstantTexture, wrap_index
+from pathtracer.textures.base import BitmapTexture, Checkerboard, ConstantTexture, wrap_index
 from tests.test_serialized import shape_record, write_serialized
 
 FILM = ('<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>'

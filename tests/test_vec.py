@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from pathtracer.vec import dot, max_component, put_rows, scale, select, unscale
+from pathtracer.core.vec import dot, max_component, put_rows, scale, select, unscale
 
 
 @pytest.fixture

@@ -3,9 +3,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from pathtracer.camera import Rays
+from pathtracer.sensors.perspective import Rays
 from pathtracer.integrators.wavefront import Paths
-from pathtracer.rng import RandomStream
+from pathtracer.core.rng import RandomStream
 
 
 def _paths(n=6):

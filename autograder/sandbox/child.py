@@ -48,8 +48,8 @@ def main(runtime: str, config_json: str) -> None:
     from . import wire
     import numpy  # noqa: F401  (loaded before the sandbox closes: it reads its libraries)
     import pathtracer  # noqa: F401  (likewise loaded while files can still be read)
-    from pathtracer import render  # noqa: F401  (likewise)
-    from pathtracer.accel import single_threaded_blas
+    from pathtracer.render import driver as render  # noqa: F401  (likewise)
+    from pathtracer.accel.bvh import single_threaded_blas
     single_threaded_blas()     # reads /proc/self/maps to find BLAS: done before the hook
     sandbox = []
     if CONFIG.get("seccomp", True):
@@ -320,7 +320,8 @@ class Server:
             return _error("exception", "your code raised an exception:\n" + _traceback(error)), {}
 
     def scene(self, name: str, params: dict):
-        from pathtracer import geometry, load_scene
+        from pathtracer.shapes import intersect as geometry
+        from pathtracer import load_scene
         key = (name, tuple(sorted(params.items())))
         if key not in self.scenes:
             scene = load_scene(name, **params)
@@ -348,7 +349,7 @@ class Server:
 
     def reference_camera(self, camera, pixel, u_film):
         """Camera rays from the grader (the reference camera lives only there)."""
-        from pathtracer.camera import Rays
+        from pathtracer.sensors.perspective import Rays
         self.wire.write_frame(self.reply_fd, {"status": "camera"},
                               {"pixel": pixel, "u_film": u_film})
         header, arrays = self.wire.read_frame(
@@ -357,7 +358,7 @@ class Server:
         return Rays(arrays["o"], arrays["d"], arrays["tmax"])
 
     def render(self, request: dict) -> dict:
-        from pathtracer import render
+        from pathtracer.render import driver as render
         scene = self.scene(request["scene"], request["params"])
         integrator = self.integrator(scene, request["integrator"])
         # An explicit max_depth must override the scene file's, so it goes to render().
@@ -368,9 +369,9 @@ class Server:
 
     def radiance(self, request: dict, arrays: dict) -> dict:
         import numpy as np
-        from pathtracer.camera import Rays
-        from pathtracer.render import integrator_for
-        from pathtracer.rng import RandomStream, sample_keys
+        from pathtracer.sensors.perspective import Rays
+        from pathtracer.render.driver import integrator_for
+        from pathtracer.core.rng import RandomStream, sample_keys
         scene = self.scene(request["scene"], request["params"])
         integrator = integrator_for(scene, self.integrator(scene, request["integrator"]))
         n = len(arrays["o"])

@@ -64,7 +64,7 @@ INDEPENDENT = PixelCorrelation()
 
 def pixel_correlation(rfilter) -> PixelCorrelation:
     """The :class:`PixelCorrelation` of a :class:`pathtracer.film.ReconstructionFilter`."""
-    from pathtracer.film import lag_correlations
+    from pathtracer.sensors.film import lag_correlations
     if rfilter is None or rfilter.is_box:
         return INDEPENDENT
     return PixelCorrelation(tuple(float(r) for r in lag_correlations(rfilter)))

@@ -20,7 +20,7 @@ import copy
 
 import numpy as np
 
-from ..textures import Texture
+from ..textures.base import Texture
 from .base import BSDF, BSDFSample, make_sample
 
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import sampling
-from ..vec import scale
+from ..core import sampling
+from ..core.vec import scale
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 
 

@@ -41,8 +41,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..sampling import square_to_uniform_disk_concentric
-from ..textures import Texture
+from ..core.sampling import square_to_uniform_disk_concentric
+from ..textures.base import Texture
 
 SQRT_PI = np.sqrt(np.pi)
 ALPHA_MIN = 1e-4

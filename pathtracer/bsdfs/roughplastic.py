@@ -35,8 +35,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import sampling
-from ..textures import Texture
+from ..core import sampling
+from ..textures.base import Texture
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR
 from .fresnel import fresnel_dielectric, reflect_about

@@ -7,7 +7,7 @@ and every contribution of a path outside the class is dropped. The path tracer's
 """
 from __future__ import annotations
 
-from ..pathclasses import SubpathClass, _parse_glossy, compile_joined
+from ..core.pathclasses import SubpathClass, _parse_glossy, compile_joined
 
 
 class ClassSelection:

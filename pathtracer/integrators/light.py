@@ -32,13 +32,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Rays
-from ..camera_connection import connect_to_camera
-from ..emitters import (emitted_towards, sample_emitter_position, sample_emitter_ray,
-                        shadowed)
-from ..geometry import spawn_ray
-from ..shading import eval_bsdf, sample_bsdf
-from ..vec import dot
+from ..sensors.perspective import Rays
+from ..sensors.importance import connect_to_camera
+from ..emitters.dispatch import emitted_towards, sample_emitter_position, sample_emitter_ray, shadowed
+from ..shapes.intersect import spawn_ray
+from ..bsdfs.shading import eval_bsdf, sample_bsdf
+from ..core.vec import dot
 from .base import Integrator
 from .class_selection import ClassSelection
 from .wavefront import Paths, trace

@@ -12,7 +12,7 @@ rays, so small lights are found only by chance), Russian roulette to stop::
 """
 from __future__ import annotations
 
-from ..shading import sample_bsdf
+from ..bsdfs.shading import sample_bsdf
 from .base import Integrator
 from .wavefront import refills
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..shading import sample_bsdf
+from ..bsdfs.shading import sample_bsdf
 from .base import Integrator
 
 

@@ -25,9 +25,9 @@ import inspect
 import numpy as np
 
 from ..bsdfs import Dielectric
-from ..shading import bsdf_index, dielectric_lobes, sample_bsdf
-from ..textures import Texture
-from ..vec import max_component
+from ..bsdfs.shading import bsdf_index, dielectric_lobes, sample_bsdf
+from ..textures.base import Texture
+from ..core.vec import max_component
 from .base import Integrator, subset_hit
 from .wavefront import refills
 

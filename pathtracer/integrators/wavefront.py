@@ -30,9 +30,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import geometry
-from ..camera import Rays
-from ..rng import RandomStream
+from ..shapes import intersect as geometry
+from ..sensors.perspective import Rays
+from ..core.rng import RandomStream
 
 
 class Paths:

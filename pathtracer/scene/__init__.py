@@ -14,16 +14,16 @@ __all__ = ["load_scene", "scene_settings", "parse_resolution", "SceneError", "Sc
            "PointEmitter", "ConstantEmitter", "IntegratorSpec", "builtin_scene_path", "builtin_scene_names",
            "scene_file"]
 
-BUILTIN_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scenes")
+BUILTIN_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data", "scenes")
 
 
 def builtin_scene_path(name: str) -> str:
-    """Path of the built-in scene ``name`` (``pathtracer/scenes/<name>.xml``)."""
+    """Path of the built-in scene ``name`` (``pathtracer/data/scenes/<name>.xml``)."""
     return os.path.join(BUILTIN_DIR, name + ".xml")
 
 
 def builtin_scene_names() -> list[str]:
-    """Names of the built-in scenes: the ``.xml`` files of ``pathtracer/scenes``, sorted."""
+    """Names of the built-in scenes: the ``.xml`` files of ``pathtracer/data/scenes``, sorted."""
     if not os.path.isdir(BUILTIN_DIR):
         return []
     return sorted(f[:-4] for f in os.listdir(BUILTIN_DIR) if f.endswith(".xml"))
@@ -43,7 +43,7 @@ def load_scene(path: str | os.PathLike, resolution: tuple[int, int] | None = Non
     ----------
     path : str or path-like
         An XML file, or the name of a built-in scene (no ``/`` and no
-        ``.xml``), e.g. ``"cornell-box"``, looked up in ``pathtracer/scenes``.
+        ``.xml``), e.g. ``"cornell-box"``, looked up in ``pathtracer/data/scenes``.
     resolution : (int, int), optional
         Film (width, height) replacing the file's, literal or ``$param``; the
         ``fov_axis`` keeps its meaning at the new aspect, as in Mitsuba.

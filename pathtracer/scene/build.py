@@ -11,11 +11,13 @@ import warnings
 
 import numpy as np
 
-from . import instances, meshes, spectra, transform
-from ..film import FILTER_PARAMS, ReconstructionFilter
+from ..shapes import instances
+from ..io import meshes
+from . import spectra, transform
+from ..sensors.film import FILTER_PARAMS, ReconstructionFilter
 from .types import (AreaEmitter, Camera, ConstantEmitter, DirectionalEmitter,
                     IntegratorSpec, PointEmitter, Scene, SpotEmitter)
-from ..resources import SEED_MAX
+from ..core.rng import SEED_MAX
 from .xml import Plugin
 
 # Mitsuba's table of named indices of refraction (Hecht, Optics; ~589 nm).
@@ -515,7 +517,7 @@ def _build_perturbed(props: Props, bsdfs):
     """``normalmap`` (an RGB texture named ``normalmap``) and ``bumpmap`` (one height
     texture of any name, ``scale`` 1), each around one nested BSDF; both take
     ``flip_invalid_normals`` and ``use_shadowing_function`` (true), as in Mitsuba."""
-    from pathtracer.textures import BitmapTexture
+    from pathtracer.textures.base import BitmapTexture
 
     plugin = props.plugin
     kids = _children(plugin, {"bsdf": 1, "texture": 1})
@@ -553,8 +555,8 @@ def build_texture(plugin: Plugin, folders: list[str], cache: dict):
 
 
 def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
-    from pathtracer import textures
-    from pathtracer.bitmap import read_bitmap
+    from pathtracer.textures import base as textures
+    from pathtracer.io.bitmap import read_bitmap
 
     props = Props(plugin)
     _children(plugin, {"texture": 2})
@@ -841,7 +843,7 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
 
 def _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids):
     """A ``bsplinecurve`` or ``linearcurve``: control points read and moved to world space."""
-    from ..curves import CurveFileError, CurveShape, read_control_points
+    from ..shapes.curves import CurveFileError, CurveShape, read_control_points
     if flip:
         raise plugin.error("flip_normals is not supported on curves (Mitsuba only ever "
                            "hits their outside)", props.line("flip_normals"))
@@ -869,7 +871,7 @@ def _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids):
 def _add_cylinder(plugin, props, geo, shape_id, m, flip, emitters) -> None:
     """Mitsuba's analytic ``cylinder`` (:mod:`pathtracer.cylinder`): ``p0`` (0, 0, 0),
     ``p1`` (0, 0, 1), ``radius`` (1), open at both ends."""
-    from pathtracer.cylinder import cylinder_matrix
+    from pathtracer.shapes.cylinder import cylinder_matrix
 
     if emitters:
         raise emitters[0].error("an area emitter on a cylinder is not supported (this tracer "
@@ -962,8 +964,8 @@ def _build_directional(plugin, props, folders):
 
 
 def _build_envmap(plugin, props, folders):
-    from pathtracer.bitmap import BitmapError, read_bitmap
-    from pathtracer.envmap import EnvironmentMap
+    from pathtracer.io.bitmap import BitmapError, read_bitmap
+    from pathtracer.emitters.envmap import EnvironmentMap
 
     if props.has("bitmap"):
         raise plugin.error("\"bitmap\" (a Bitmap object) exists only in Python dictionaries; "

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..media import HomogeneousMedium
-from ..phase import HenyeyGreensteinPhase, IsotropicPhase
+from ..media.homogeneous import HomogeneousMedium
+from ..media.phase import HenyeyGreensteinPhase, IsotropicPhase
 from .build import Props, _children, _unsupported
 from .xml import Plugin
 

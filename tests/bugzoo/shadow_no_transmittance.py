@@ -8,7 +8,7 @@ stays right. Expected hint: the transmittance along shadow rays.
 """
 import numpy as np
 
-from pathtracer import media
+from pathtracer.media import homogeneous as media
 from pathtracer.integrators import volpath
 
 from _mutate import camera_rays  # noqa: F401  (the reference camera)

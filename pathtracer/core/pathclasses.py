@@ -411,8 +411,7 @@ def is_partition(expressions, max_vertices: int = 6, letters: str = SCATTERING) 
 
 def bsdf_letter(bsdf, glossy="G") -> str:
     """Heckbert letter of one BSDF object (see the module docstring for ``glossy``)."""
-    from .bsdfs import (Conductor, Dielectric, Diffuse, RoughConductor, RoughDielectric,
-                        RoughPlastic, TwoSided)
+    from ..bsdfs import Conductor, Dielectric, Diffuse, RoughConductor, RoughDielectric, RoughPlastic, TwoSided
     if isinstance(bsdf, TwoSided):
         return bsdf_letter(bsdf.nested, glossy)
     if isinstance(bsdf, Diffuse):

@@ -41,17 +41,18 @@ import multiprocessing
 
 import numpy as np
 
-from . import geometry, workers
+from ..shapes import intersect as geometry
+from . import workers
 from .allocator import keep_freed_memory
-from .film import effective_counts, splat
-from .camera import camera_rays
-from .emitters import check_light_paths
-from .integrators import Integrator, make_integrator
-from .integrators.wavefront import pooled
-from .media import has_media
+from ..sensors.film import effective_counts, splat
+from ..sensors.perspective import camera_rays
+from ..emitters.dispatch import check_light_paths
+from ..integrators import Integrator, make_integrator
+from ..integrators.wavefront import pooled
+from ..media.homogeneous import has_media
 from .resources import POOL_UNITS
-from .rng import RandomStream, sample_keys
-from .scene.types import Scene
+from ..core.rng import RandomStream, sample_keys
+from ..scene.types import Scene
 
 #: Samples of one pixel reduced together; fixed so results never depend on batching.
 SAMPLE_BLOCK = 256
@@ -179,7 +180,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
         Integrator options (max_depth, rr_depth, roulette, hemisphere, ...).
     """
     if not isinstance(scene, Scene):
-        from .scene import load_scene
+        from ..scene import load_scene
         scene = load_scene(scene)
     integrator = integrator_for(scene, integrator, **options)
     spp = int(scene.spp if spp is None else spp)
@@ -575,10 +576,10 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
         ``classes`` (list of str), ``mean`` and ``variance`` ((n_classes, H, W, 3) each),
         ``spp``, ``seed``, ``seconds``, ``options``.
     """
-    from .integrators.pathclass import PathClassIntegrator
+    from ..integrators.pathclass import PathClassIntegrator
 
     if not isinstance(scene, Scene):
-        from .scene import load_scene
+        from ..scene import load_scene
         scene = load_scene(scene)
     integrator = PathClassIntegrator(classes, glossy=glossy, **options)
     K = len(integrator.classes)

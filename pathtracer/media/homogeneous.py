@@ -54,10 +54,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import geometry
+from ..shapes import intersect as geometry
 from .phase import IsotropicPhase
-from .scene.types import Scene
-from .vec import dot
+from ..scene.types import Scene
+from ..core.vec import dot
 
 
 @dataclass

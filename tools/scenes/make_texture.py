@@ -15,6 +15,9 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+#: Where the built-in scenes live (the default output).
+SCENES = Path(__file__).resolve().parents[2] / "pathtracer" / "data" / "scenes"
+
 WIDTH, HEIGHT = 12, 8
 
 
@@ -36,4 +39,4 @@ def main(path: str) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else str(Path(__file__).with_name("textured-grid.png")))
+    main(sys.argv[1] if len(sys.argv) > 1 else str(SCENES / "textured-grid.png"))

@@ -22,8 +22,6 @@ POOL_UNITS = 4
 #: Memory per camera sample of the units a process has in hand (camera ray, random key,
 #: result row; ~200 bytes): 0.8 KB per path of the batch with four units.
 BYTES_PER_UNIT_SAMPLE = POOL_UNITS * 200
-#: A seed is an unsigned 32-bit integer, as Mitsuba's sampler ``seed``.
-SEED_MAX = 2 ** 32 - 1
 #: The largest spp an EXR header (a signed 32-bit int) can record.
 SPP_MAX = 2 ** 31 - 1
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .vec import coordinate_system, dot, normalize, to_local
+from ..core.vec import coordinate_system, dot, normalize, to_local
 
 
 @dataclass

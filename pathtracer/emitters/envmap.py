@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sampling import Distribution2D
+from ..core.sampling import Distribution2D
 
 #: Rec. 709 / sRGB luminance weights (Mitsuba's ``luminance``).
 LUMINANCE = np.array([0.212671, 0.715160, 0.072169])

@@ -17,6 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+#: Where the built-in scenes live (the default output).
+SCENES = Path(__file__).resolve().parents[2] / "pathtracer" / "data" / "scenes"
+
 WIDTH, HEIGHT = 32, 16
 
 
@@ -50,4 +53,4 @@ def write(path) -> None:
 
 
 if __name__ == "__main__":
-    write(sys.argv[1] if len(sys.argv) > 1 else Path(__file__).with_name("envmap-sky.exr"))
+    write(sys.argv[1] if len(sys.argv) > 1 else SCENES / "envmap-sky.exr")

@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sampling import INV_FOUR_PI, square_to_uniform_sphere
-from .vec import dot, to_world
+from ..core.sampling import INV_FOUR_PI, square_to_uniform_sphere
+from ..core.vec import dot, to_world
 
 
 class IsotropicPhase:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .xml import Plugin
+from ..scene.xml import Plugin
 
 
 def flatten(shapes: list[Plugin]):

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .vec import normalize
+from ..core.vec import normalize
 
 
 def local_rays(to_local: np.ndarray, o: np.ndarray, d: np.ndarray):
@@ -83,7 +83,7 @@ def cylinder_surface(to_world: np.ndarray, to_local: np.ndarray, flip: np.ndarra
 
 def cylinder_matrix(to_world: np.ndarray, p0, p1, radius: float) -> np.ndarray:
     """Mitsuba's object-to-world map of a cylinder from ``p0`` to ``p1`` of ``radius``."""
-    from .vec import coordinate_system
+    from ..core.vec import coordinate_system
     axis = np.asarray(p1, np.float64) - np.asarray(p0, np.float64)
     length = float(np.linalg.norm(axis))
     z = axis / length

@@ -27,6 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
+#: Where the built-in scenes live (the default output).
+SCENES = Path(__file__).resolve().parents[2] / "pathtracer" / "data" / "scenes"
+
 LEVEL = 6
 BUMP_AMPLITUDE = 0.06
 BUMP_FREQUENCY = 9.0
@@ -111,9 +114,9 @@ def build(level=LEVEL):
 
 
 def main(argv=None):
-    """Write the bumpy-sphere PLY (to the path given, else beside this script)."""
+    """Write the bumpy-sphere PLY (to the path given, else into the built-in scenes)."""
     argv = sys.argv[1:] if argv is None else argv
-    out = Path(argv[0]) if argv else Path(__file__).with_name("mesh-bumpy-sphere.ply")
+    out = Path(argv[0]) if argv else SCENES / "mesh-bumpy-sphere.ply"
     vertices, faces = build()
     write_ply(out, vertices, faces)
     print(f"{out}: {len(vertices)} vertices, {len(faces)} triangles, "

@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from .accel import BVH
+from ..accel.bvh import BVH
 
 #: Largest allowed distance between the pieces and the true B-spline tube, relative to
 #: the diagonal of the curve's bounding box.
