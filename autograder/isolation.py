@@ -424,9 +424,9 @@ class StudentProcess:
         return mean, variance
 
     def _render_with_student_camera(self, scene, name, params, spp, seed, max_depth):
+        from pathtracer.integrators import make_integrator
         from pathtracer.render import driver as render
         from pathtracer.sensors.perspective import Rays, camera_rays
-        from pathtracer.integrators import make_integrator
         loaded = _scene(scene, params)
 
         def student_camera(camera, pixel, u_film):
@@ -444,9 +444,9 @@ class StudentProcess:
     def probe(self, scene, params, integrator, n=4096, seed=99):
         """(distinct results of the student's integrator, of the reference one) for ``n``
         copies of the centre pixel's ray with independent random streams."""
-        from pathtracer.sensors.perspective import camera_rays
-        from pathtracer.render.driver import integrator_for
         from pathtracer.core.rng import RandomStream, sample_keys
+        from pathtracer.render.driver import integrator_for
+        from pathtracer.sensors.perspective import camera_rays
         params = {str(k): str(v) for k, v in (params or {}).items()}
         loaded = _scene(scene, params)
         camera = loaded.camera

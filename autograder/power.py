@@ -32,7 +32,6 @@ import sys
 import time
 
 import numpy as np
-
 from scipy.stats import norm
 
 from mitsuba_refs.stats import VARIANCE_BOUND, compare_means, detectable_bias

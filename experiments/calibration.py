@@ -16,8 +16,14 @@ from pathlib import Path
 from tqdm import tqdm
 
 from mitsuba_refs.cache import get_reference
-from mitsuba_refs.compare import (CONVERGENCE_REPLICAS, SAME_ESTIMATOR, check_convergence,
-                                  default_params, reference_integrator, render_ours)
+from mitsuba_refs.compare import (
+    CONVERGENCE_REPLICAS,
+    SAME_ESTIMATOR,
+    check_convergence,
+    default_params,
+    reference_integrator,
+    render_ours,
+)
 from mitsuba_refs.stats import clopper_pearson, compare_means, compare_variances
 
 

@@ -72,10 +72,10 @@ def build_parser():
 
 def first_hits(scene, sub=4):
     """Per pixel and sub-pixel offset (sub x sub grid): (points, hit Dirac BSDF, valid)."""
+    from pathtracer.bsdfs.shading import is_delta
+    from pathtracer.integrators.wavefront import subset_hit
     from pathtracer.sensors.perspective import camera_rays
     from pathtracer.shapes.intersect import intersect
-    from pathtracer.integrators.wavefront import subset_hit
-    from pathtracer.bsdfs.shading import is_delta
     pixels = np.arange(scene.camera.width * scene.camera.height)
     grid = (np.stack(np.meshgrid(np.arange(sub), np.arange(sub)), -1).reshape(-1, 2) + 0.5) / sub
     for offset in grid:

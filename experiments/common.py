@@ -174,7 +174,8 @@ def write_csv(path, rows: list[dict]) -> str:
 
 def get_reference(scene, params, integrator="path", quiet=False):
     """The Mitsuba reference (cached or rendered), or None with a note on stderr."""
-    from mitsuba_refs.cache import ReferenceUnavailable, get_reference as lookup
+    from mitsuba_refs.cache import ReferenceUnavailable
+    from mitsuba_refs.cache import get_reference as lookup
     from mitsuba_refs.compare import reference_integrator
     try:
         return lookup(scene, params, reference_integrator(integrator),
@@ -240,8 +241,8 @@ class Task:
 
 def run_task(task: Task) -> dict:
     """Render a task in this process (one core): mean, variance, seconds."""
+    from mitsuba_refs.compare import loaded_scene  # once per worker while the files are unchanged
     from pathtracer.render import driver as render
-    from mitsuba_refs.compare import loaded_scene    # once per worker while the files are unchanged
     scene = loaded_scene(task.scene, dict(task.params))
     result = render(scene, task.integrator, spp=task.spp, seed=task.seed, processes=1,
                     progress=False, **dict(task.options))

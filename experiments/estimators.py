@@ -123,6 +123,7 @@ def part_mis(args, bar):
     """BSDF sampling vs light sampling vs MIS on the glossy plates, direct light only."""
     import matplotlib
     import matplotlib.pyplot as plt
+
     from pathtracer import load_scene
     w, h = args.mis_size
     scene = load_scene(args.mis_scene, **{"width": w, "height": h, **dict(args.defines)})
@@ -187,6 +188,7 @@ def part_mis(args, bar):
 def part_hemisphere(args, bar):
     """Uniform vs cosine-weighted hemisphere sampling."""
     import matplotlib.pyplot as plt
+
     from mitsuba_refs.stats import compare_means
     from pathtracer import load_scene
     scene = load_scene(args.scene, **common.scene_params(args.scene, args.defines))
@@ -248,6 +250,7 @@ ROULETTE_CONFIGS = (
 def part_roulette(args, bar):
     """Russian roulette on/off: unbiased either way; time vs variance."""
     import matplotlib.pyplot as plt
+
     from mitsuba_refs.stats import compare_means
     from pathtracer import load_scene
     params = common.scene_params(args.scene, args.defines)
@@ -292,6 +295,7 @@ def part_roulette(args, bar):
 def part_recursive(args, bar):
     """Recursive ray tracing (N branches down to depth d) vs path tracing at equal time."""
     import matplotlib.pyplot as plt
+
     from pathtracer import load_scene
     params = common.scene_params(args.scene, args.defines)
     scene = load_scene(args.scene, **params)

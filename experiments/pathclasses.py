@@ -63,6 +63,7 @@ def plot_classes(result, named, partition, full, title, out):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     from pathtracer.core.pathclasses import LECTURE_CLASSES
     exposure = auto_scale(full)
     total = float(full.mean())
@@ -169,8 +170,8 @@ def main(argv=None) -> int:
     """Run the path-class experiment (command line); exit code."""
     args = build_parser().parse_args(argv)
     from pathtracer import load_scene
-    from pathtracer.render import driver as render
     from pathtracer.core.pathclasses import compile_classes, is_partition
+    from pathtracer.render import driver as render
     from pathtracer.render.driver import render_classes
     out = common.out_dir(args.out)
     args.workers = args.workers or common.cpu_count()

@@ -92,8 +92,14 @@ def mitsuba_renderer(scene, params, integrator, variant=None):
     Uses :mod:`mitsuba_refs.render`'s integrator mapping and seed spacing; the
     scene file is the one our tracer reads (box filter: a pixel is a plain mean).
     """
-    from mitsuba_refs.render import (check_box_filter, integrator_dict, pass_seeds, resolve_scene,
-                                     split_params, stream_id)
+    from mitsuba_refs.render import (
+        check_box_filter,
+        integrator_dict,
+        pass_seeds,
+        resolve_scene,
+        split_params,
+        stream_id,
+    )
     from mitsuba_refs.variant import set_variant
     path = resolve_scene(scene)
     check_box_filter(path)

@@ -7,6 +7,7 @@ NumPy and OpenEXR only. Main entry points::
     from mitsuba_refs import get_reference, render_reference, choose_variant
 """
 from pathtracer import _console  # noqa: F401  (first: a Ctrl-C while the commands start)
+
 from .cache import ReferenceUnavailable, get_reference, reference_key
 from .render import Reference, render_reference, resolve_scene
 from .variant import choose_variant

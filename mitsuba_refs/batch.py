@@ -97,6 +97,7 @@ def render_moments(scene, integrator, spp, seed, stream, log=None):
         (H, W, 3) float64 mean and per-sample variance, ``n = spp``, and how it was cut.
     """
     import mitsuba as mi
+
     from .render import pass_seeds
     sensor = scene.sensors()[0]
     width, height = (int(v) for v in sensor.film().crop_size())

@@ -49,11 +49,9 @@ from pathlib import Path
 import numpy as np
 
 from . import config
-from .errors import (CacheNotWritable, ReferenceUnavailable, RefsInputError,
-                     is_mitsuba_error, mitsuba_error_line)
+from .errors import CacheNotWritable, ReferenceUnavailable, RefsInputError, is_mitsuba_error, mitsuba_error_line
 from .exr import pixel_checksum, read_reference_exr, write_reference_exr
-from .render import (INTEGRATOR_MAP, MEAN_ONLY, Reference, integrator_dict, reference_settings,
-                     resolve_scene)
+from .render import INTEGRATOR_MAP, MEAN_ONLY, Reference, integrator_dict, reference_settings, resolve_scene
 
 FORMAT_VERSION = 1
 

@@ -114,8 +114,7 @@ def _add_build(subparsers):
 
 def cmd_build(args):
     """Handler of ``build``."""
-    from .cache import (cache_dir, get_reference, mitsuba_available, reference_stem,
-                        validate)
+    from .cache import cache_dir, get_reference, mitsuba_available, reference_stem, validate
     from .preflight import check_scene, check_spp
 
     check_spp(args.spp)
@@ -162,6 +161,7 @@ def cmd_build(args):
 def _usable_variant(requested):
     """``choose_variant``'s choice, refused in one line if this Mitsuba lacks it."""
     import mitsuba as mi
+
     from .variant import choose_variant
     variant, reason = choose_variant(requested)
     if variant not in mi.variants():

@@ -29,8 +29,15 @@ import numpy as np
 from . import config
 from .cache import get_reference, scene_hash
 from .rfilter import pixel_value_counts, reference_correlation
-from .stats import (compare_means, compare_variances, convergence_law, first_diverging_bounce,
-                    image_mse_parts, rare_errors_dominate, reference_mse_floor)
+from .stats import (
+    compare_means,
+    compare_variances,
+    convergence_law,
+    first_diverging_bounce,
+    image_mse_parts,
+    rare_errors_dominate,
+    reference_mse_floor,
+)
 from .stats.mean import VARIANCE_BOUND
 
 #: spp ladder of the convergence test and its replicas at the top level (defined in config,

@@ -71,6 +71,7 @@ class MomentIntegrator:
 def register():
     """Register ``rgb_moments`` with the active Mitsuba variant."""
     import mitsuba as mi
+
     from .integrators._common import make_class
     cls = make_class(MomentIntegrator)
     mi.register_integrator(NAME, lambda props: cls(props))

@@ -462,6 +462,7 @@ def _render_with_wrapper(scene, nested, spp, seed, stream, pass_spp, log):
     """The ``rgb_moments`` method: passes of at most ``pass_spp`` samples, moments combined
     (first and second moment per pixel, as the film's filter weighted them)."""
     import mitsuba as mi
+
     from . import moments
     film = scene.sensors()[0].film()
     width, height = (int(v) for v in film.crop_size())
@@ -491,6 +492,7 @@ def _render_replicas(scene, nested, spp, seed, stream, log):
     ``spp / K`` and the replicas' seeds (:func:`pass_seeds`).
     """
     import mitsuba as mi
+
     from pathtracer.render.driver import replica_count
     film = scene.sensors()[0].film()
     width, height = (int(v) for v in film.crop_size())

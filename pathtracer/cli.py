@@ -10,9 +10,9 @@ import threading
 import warnings
 from pathlib import Path
 
+from .core.rng import SEED_MAX
 from .integrators import INTEGRATORS
 from .integrators.base import HEMISPHERE_RULES, ROULETTE_RULES
-from .core.rng import SEED_MAX
 from .render.resources import SPP_MAX
 
 EPILOG = """\
@@ -208,8 +208,9 @@ def _render_checked(args) -> int:
     """Check everything (scene, options, memory, output), render, write; exit code."""
     from concurrent.futures.process import BrokenProcessPool
 
-    from .render import driver as render, resources
     from .io.output import output_paths, write_exr, write_png
+    from .render import driver as render
+    from .render import resources
     from .render.driver import DEFAULT_BATCH, integrator_for
     from .scene import SceneError, load_scene
     from .scene.defines import parse_defines

@@ -35,6 +35,7 @@ import numpy as np
 from scipy import stats
 
 from tests.budget import ALPHA  # the suite's per-test level (2e-6)
+
 MIN_EXPECTED = 5.0
 
 

@@ -169,7 +169,8 @@ def test_far_away_origins():
 def test_small_mesh_limits_blas_to_one_thread():
     """SmallMesh's tiny float32 matmuls must not use OpenBLAS threads: idle ones spin and,
     with the other cores busy, made a render cost 17x the CPU time."""
-    import threadpoolctl   # a dependency of the project
+    import threadpoolctl  # a dependency of the project
+
     from pathtracer.accel.bvh import SmallMesh
     SmallMesh(np.random.default_rng(0).random((4, 3, 3)))
     blas = threadpoolctl.threadpool_info()

@@ -12,8 +12,7 @@ import pytest
 from mitsuba_refs.compare import SAME_ESTIMATOR, compare
 from pathtracer import INTEGRATORS
 from tests.budget import ALPHA
-from tests.scenes import (AGREEMENT_CASES, FEATURE_CASES, NOISELESS, SURFACE_INTEGRATORS,
-                          integrator_options, spp_for)
+from tests.scenes import AGREEMENT_CASES, FEATURE_CASES, NOISELESS, SURFACE_INTEGRATORS, integrator_options, spp_for
 from tests.test_media import VOLUMETRIC
 
 pytestmark = pytest.mark.statistical(assertions=2)

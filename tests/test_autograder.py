@@ -166,8 +166,8 @@ def test_alternatives_equal_the_reference_where_not_graded(name, monkeypatch):
     """Where an alternative is not graded because its estimator is the reference's there, its
     renders (at each such check's settings, small) equal the reference's bit for bit."""
     from pathtracer import load_scene
-    from pathtracer.render import driver as render
     from pathtracer.integrators import INTEGRATORS as REFERENCE
+    from pathtracer.render import driver as render
     module = _load_alternative(name, monkeypatch)
     checks = [c for c in grading.CHECKS if c.integrator in module.CHANGES and not c.camera
               and c.scene in module.SAME_AS_REFERENCE]
@@ -336,8 +336,10 @@ def test_refusal_reads_the_source(tmp_path):
 def test_wire_rejects_what_is_not_plain_data():
     """Frames carry JSON and raw arrays; anything else is an error, never an object."""
     import pickle
-    from autograder.sandbox import wire
+
     import numpy as np
+
+    from autograder.sandbox import wire
     r, w = os.pipe()
     try:
         wire.write_frame(w, {"status": "ok"}, {"mean": np.ones((2, 3))})
@@ -572,6 +574,7 @@ def test_sandboxed_render_is_the_direct_render():
     (sent by the grader), same random numbers, and the scene file's options (glass-cube sets
     max_depth 8) applied to the submission's integrator."""
     import numpy as np
+
     from pathtracer import load_scene
     from pathtracer.render import driver as render
     params = {"width": 64, "height": 64}
@@ -598,9 +601,9 @@ def test_media_hints_read_the_fog_and_clear_regions(integrator, fog, clear, fog_
     """The media rules (autograder/hints_media.py) on sweeps made from the committed per-bounce
     references, what each depth adds scaled by one factor in the fog's pixels and another in
     the rest: each pattern names its cause first, with the factors it read."""
-    from mitsuba_refs.cache import get_reference
     from autograder import hints
     from autograder.hints_media import explain_media, fog_pixels
+    from mitsuba_refs.cache import get_reference
     check = grading.CHECKS_BY_ID[f"{integrator}-media"]
     refs = {d: get_reference("media-box", {"max_depth": d}, "volpath", render=False).mean
             for d in (1, 2, 3)}

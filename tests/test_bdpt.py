@@ -12,15 +12,14 @@ import numpy as np
 import pytest
 
 import pathtracer
-
 from experiments.caustics import first_hits
 from mitsuba_refs.cache import get_reference
 from mitsuba_refs.stats import compare_means
 from pathtracer import load_scene
-from pathtracer.render import driver as render
 from pathtracer.cli import main
-from pathtracer.integrators.bdpt import BDPTIntegrator, render_strategies
 from pathtracer.core.rng import RandomStream, sample_keys
+from pathtracer.integrators.bdpt import BDPTIntegrator, render_strategies
+from pathtracer.render import driver as render
 from tests.budget import ALPHA
 from tests.test_analytic import assert_matches, quad_light_case
 

@@ -9,10 +9,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pathtracer.core import sampling
-from pathtracer.bsdfs import (Conductor, Dielectric, Diffuse, RoughConductor, TwoSided,
-                              fresnel_dielectric, fresnel_schlick, reflect, refract)
+from pathtracer.bsdfs import (
+    Conductor,
+    Dielectric,
+    Diffuse,
+    RoughConductor,
+    TwoSided,
+    fresnel_dielectric,
+    fresnel_schlick,
+    reflect,
+    refract,
+)
 from pathtracer.bsdfs.fresnel import fresnel_conductor, schlick_f0
+from pathtracer.core import sampling
 
 pytestmark = pytest.mark.statistical(assertions=1)
 

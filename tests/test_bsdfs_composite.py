@@ -12,9 +12,18 @@ import os
 import numpy as np
 import pytest
 
+from pathtracer.bsdfs import (
+    BlendBSDF,
+    Conductor,
+    Diffuse,
+    MaskBSDF,
+    Plastic,
+    RoughConductor,
+    RoughDielectric,
+    RoughPlastic,
+    TwoSided,
+)
 from pathtracer.io.bitmap import read_bitmap
-from pathtracer.bsdfs import (BlendBSDF, Conductor, Diffuse, MaskBSDF, Plastic, RoughConductor,
-                              RoughDielectric, RoughPlastic, TwoSided)
 from pathtracer.textures.base import BitmapTexture, Checkerboard
 from tests.chi2 import chi2_sphere
 from tests.test_bsdfs import _assert_close, _f32, direction, random_directions, tile

@@ -10,14 +10,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pathtracer.bsdfs import (Conductor, Plastic, RoughConductor, RoughDielectric, RoughPlastic,
-                              ThinDielectric, fresnel_dielectric)
+from pathtracer.bsdfs import (
+    Conductor,
+    Plastic,
+    RoughConductor,
+    RoughDielectric,
+    RoughPlastic,
+    ThinDielectric,
+    fresnel_dielectric,
+)
 from pathtracer.bsdfs.conductor_presets import CONDUCTOR_PRESETS
 from pathtracer.bsdfs.fresnel import fresnel_diffuse_reflectance
 from pathtracer.bsdfs.microfacet_albedo import interpolate, table_cosines
 from tests.chi2 import chi2_sphere
-from tests.test_bsdfs import (_MitsubaBSDF, _assert_close, _f32, _pairs, density,
-                              direction, random_directions, tile)
+from tests.test_bsdfs import _assert_close, _f32, _MitsubaBSDF, _pairs, density, direction, random_directions, tile
 
 statistical = pytest.mark.statistical(assertions=1)
 COLOUR = [0.2, 0.5, 0.8]

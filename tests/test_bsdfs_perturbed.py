@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pathtracer.io.bitmap import read_bitmap
 from pathtracer.bsdfs import BumpMap, Diffuse, NormalMap, RoughConductor, RoughPlastic
+from pathtracer.io.bitmap import read_bitmap
 from pathtracer.shapes.tangents import LocalGeometry
 from pathtracer.textures.base import BitmapTexture
 from tests.chi2 import chi2_sphere
@@ -201,8 +201,8 @@ def test_mitsuba_bsdfs_at_hits(tmp_path, maps, mi):
     """BSDF values at real hits, world directions: anisotropic roughness follows Mitsuba's
     tangent (dp/du), and normal / bump maps perturb the frames Mitsuba perturbs."""
     from pathtracer import load_scene
-    from pathtracer.shapes.intersect import intersect
     from pathtracer.bsdfs.shading import eval_bsdf
+    from pathtracer.shapes.intersect import intersect
     from tests.test_scene_plugins import _rays, _write
     aniso = '<bsdf type="roughconductor"><float name="alpha_u" value="0.4"/><float name="alpha_v" value="0.05"/>' \
             '<string name="distribution" value="ggx"/></bsdf>'

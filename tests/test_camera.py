@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from pathtracer.sensors.perspective import camera_rays
 from pathtracer.scene import load_scene
+from pathtracer.sensors.perspective import camera_rays
 
 SENSOR_XML = """<scene version="3.0.0">
   <sensor type="perspective">

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from pathtracer import load_scene
-from pathtracer.render import driver as render
 from pathtracer.io.output import OutputError, PrecisionWarning, atomic_path, output_paths, read_exr, write_exr
+from pathtracer.render import driver as render
 from pathtracer.render.resources import check_memory
 from pathtracer.render.workers import set_parent_death_signal
 

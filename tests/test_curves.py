@@ -4,9 +4,9 @@ pieces' error bound, the loader's errors, and hits / normals / uv against Mitsub
 import numpy as np
 import pytest
 
-from pathtracer.shapes.curves import CurveFileError, CurveShape, bspline, chord_error, read_control_points
 from pathtracer.scene import load_scene
 from pathtracer.scene.errors import SceneError
+from pathtracer.shapes.curves import CurveFileError, CurveShape, bspline, chord_error, read_control_points
 
 # A zigzag (the control points of Mitsuba's documentation curve) and a closed loop.
 ZIGZAG = "-1 0 -1 0.1\n-0.5 0 1 0.1\n-0.25 0 -1 0.1\n0 0 1 0.1\n0.25 0 -1 0.1\n0.5 0 1 0.1\n1 0 -1 0.1\n"

@@ -13,8 +13,8 @@ import pytest
 
 from pathtracer import load_scene
 from pathtracer.emitters.dispatch import pdf_emitter_direction, sample_emitter
-from pathtracer.shapes.intersect import Hit, intersect
 from pathtracer.scene import SceneError
+from pathtracer.shapes.intersect import Hit, intersect
 
 SCENE = """<scene version="3.0.0">
   <sensor type="perspective"><float name="fov" value="40"/>

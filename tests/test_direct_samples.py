@@ -8,7 +8,6 @@ from pathtracer import load_scene, make_integrator
 from pathtracer.render import driver as render
 from pathtracer.scene import SceneError
 
-
 SMALL = dict(width=16, height=12)
 
 

@@ -15,13 +15,13 @@ import numpy as np
 import pytest
 
 from pathtracer import INTEGRATORS, load_scene
-from pathtracer.render import driver as render
-from pathtracer.io.bitmap import BitmapError, read_bitmap, srgb_to_linear
-from pathtracer.emitters.envmap import EnvironmentMap
 from pathtracer.core.sampling import Distribution2D
+from pathtracer.emitters.envmap import EnvironmentMap
+from pathtracer.io.bitmap import BitmapError, read_bitmap, srgb_to_linear
+from pathtracer.render import driver as render
 from pathtracer.scene import SceneError, builtin_scene_path, transform
-from tools.scenes.make_envmap import sky
 from tests.chi2 import chi2_plane, chi2_sphere
+from tools.scenes.make_envmap import sky
 
 SKY = Path(builtin_scene_path("envmap")).parent / "envmap-sky.exr"
 AXIS = np.array([0.3, 1.0, 0.2]) / np.linalg.norm([0.3, 1.0, 0.2])

@@ -5,8 +5,17 @@ import json
 import numpy as np
 import pytest
 
-from experiments import (bdpt_strategies, caustics, common, convergence, estimators, integrators, pathclasses,
-                         progression, sweep)
+from experiments import (
+    bdpt_strategies,
+    caustics,
+    common,
+    convergence,
+    estimators,
+    integrators,
+    pathclasses,
+    progression,
+    sweep,
+)
 
 
 @pytest.mark.parametrize("module", [convergence, progression, estimators, pathclasses, sweep,

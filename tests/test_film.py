@@ -198,8 +198,9 @@ def test_sharp_emitter_edges_match_mitsubas_filtered_film(mi_llvm, tmp_path, kin
     land, so each pixel on its edges is the filter at work. Per pixel, Mitsuba's film and
     ours agree; a box film is told apart (tile means cannot see a filter, which keeps
     local averages: docs/statistics.md)."""
-    from mitsuba_refs.render import render_reference
     from scipy import stats
+
+    from mitsuba_refs.render import render_reference
     path = tmp_path / "edge.xml"
     path.write_text(EDGE_SCENE)
     ref = render_reference(path, {"rfilter": kind}, "path", 1024, 5, variant="llvm_ad_rgb")

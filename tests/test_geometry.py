@@ -6,8 +6,8 @@ when mitsuba is importable.
 import numpy as np
 import pytest
 
-from pathtracer.shapes import intersect as geometry
 from pathtracer.scene.types import Camera, Scene
+from pathtracer.shapes import intersect as geometry
 
 
 def make_scene(tris=(), tri_n=None, spheres=(), disks=()):

@@ -32,8 +32,8 @@ import numpy as np
 import pytest
 
 from pathtracer import load_scene
-from pathtracer.render import driver as render
 from pathtracer.integrators.pathclass import PathClassIntegrator
+from pathtracer.render import driver as render
 from pathtracer.render.driver import render_classes
 
 DATA = Path(__file__).resolve().parent / "data" / "integrator_renders.npz"

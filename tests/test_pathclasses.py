@@ -4,10 +4,18 @@ import numpy as np
 import pytest
 
 from pathtracer import load_scene
-from pathtracer.render import driver as render
-from pathtracer.integrators.pathclass import PathClassIntegrator
+from pathtracer.core.pathclasses import (
+    PathRegexError,
+    bsdf_letter,
+    compile_class,
+    compile_joined,
+    describe_letters,
+    enumerate_paths,
+    is_partition,
+)
 from pathtracer.integrators import make_integrator
-from pathtracer.core.pathclasses import PathRegexError, bsdf_letter, compile_class, compile_joined, describe_letters, enumerate_paths, is_partition
+from pathtracer.integrators.pathclass import PathClassIntegrator
+from pathtracer.render import driver as render
 from pathtracer.render.driver import render_classes
 
 PARTITION = ["LE", "LDE", "LD.+E", "LS.*E", "LG.*E"]

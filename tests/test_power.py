@@ -71,6 +71,7 @@ def test_bsdf_sampling_is_graded_where_it_finds_the_light():
     same; the variant's per-sample variance is at least 4x smaller than the original's, which
     is what lets the same samples detect 1.5 %."""
     import numpy as np
+
     from mitsuba_refs.config import GRADING_SCENES
     from pathtracer import load_scene
     bsdf_checks = [c for c in INTEGRATOR_CHECKS if c.integrator == "path_bsdf"]

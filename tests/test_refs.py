@@ -20,8 +20,7 @@ import pytest
 from scipy import stats
 
 from mitsuba_refs import config
-from mitsuba_refs.cache import (ReferenceUnavailable, get_reference,
-                                store, validate)
+from mitsuba_refs.cache import ReferenceUnavailable, get_reference, store, validate
 from mitsuba_refs.exr import read_reference_exr, write_reference_exr
 from mitsuba_refs.render import Reference, resolve_scene
 from mitsuba_refs.stats import compare_means
@@ -272,6 +271,7 @@ def test_variant_choice_and_override(monkeypatch):
 @pytest.mark.mitsuba
 def test_moment_mean_equals_path_render(mi_variant):
     import mitsuba as mi
+
     from mitsuba_refs import moments
     scene = mi.load_file(str(resolve_scene("cornell-box")), width=32, height=32)
     spp = 16

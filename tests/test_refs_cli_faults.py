@@ -32,7 +32,6 @@ from mitsuba_refs.errors import RefsInputError, mitsuba_error_line
 from mitsuba_refs.render import Reference
 from tests.test_cli_faults import restore_sigint
 
-
 REPO = Path(__file__).resolve().parent.parent
 QUAD_LIGHT = REPO / "pathtracer" / "scenes" / "quad-light.xml"
 COMMITTED = REPO / "mitsuba_refs" / "references"

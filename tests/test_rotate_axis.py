@@ -12,7 +12,6 @@ import pytest
 
 from pathtracer.scene import load_scene
 
-
 SENSOR = ('<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>'
           '<integer name="height" value="8"/><rfilter type="box"/></film></sensor>')
 ROTATE = '<rotate x="0" y="1" z="1" angle="30"/><translate x="0.5"/>'

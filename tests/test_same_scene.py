@@ -203,6 +203,7 @@ def test_override_keeps_fov_axis_meaning_in_mitsuba(tmp_path, mitsuba_variant, s
     """Mitsuba's own sensor, made from the edited scene description, has the tracer's
     horizontal field of view at the new aspect for every fov_axis (exact, no sampling)."""
     import mitsuba as mi
+
     from mitsuba_refs.render import load_mitsuba_scene
     for axis in ("x", "y", "smaller", "larger", "diagonal"):
         path = variant_of_scene(tmp_path, 'value="smaller"', f'value="{axis}"', f"{axis}.xml")

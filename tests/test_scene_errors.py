@@ -410,6 +410,7 @@ def test_unreadable_scene_is_a_scene_error(tmp_path, monkeypatch):
 
 def test_unreadable_mesh_is_a_scene_error(tmp_path, monkeypatch):
     import shutil
+
     from pathtracer.io import meshes
     shutil.copy(Path(__file__).parent / "data" / "pyramid.obj", tmp_path / "pyramid.obj")
     (tmp_path / "s.xml").write_text(

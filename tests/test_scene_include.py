@@ -18,7 +18,6 @@ import pytest
 
 from pathtracer.scene import SceneError, load_scene
 
-
 FILM = ('<film type="hdrfilm"><integer name="width" value="$res"/><integer name="height" '
         'value="$res"/><rfilter type="box"/></film>')
 SENSOR = f'<sensor type="perspective"><float name="fov" value="40"/>{FILM}</sensor>'

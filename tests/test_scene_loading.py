@@ -8,9 +8,9 @@ import textwrap
 import numpy as np
 import pytest
 
+from pathtracer.io.meshes import read_obj, read_ply, smooth_vertex_normals
 from pathtracer.scene import SceneError, load_scene, transform
 from pathtracer.scene.build import x_fov_from
-from pathtracer.io.meshes import read_obj, read_ply, smooth_vertex_normals
 
 DATA = os.path.join(os.path.dirname(__file__), "data")
 

@@ -7,9 +7,8 @@ import zlib
 import numpy as np
 import pytest
 
-from pathtracer.scene import SceneError, load_scene
 from pathtracer.io.meshes import MeshFormatError, read_serialized
-
+from pathtracer.scene import SceneError, load_scene
 
 SENSOR = ('<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>'
           '<integer name="height" value="8"/><rfilter type="box"/></film></sensor>')

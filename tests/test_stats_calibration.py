@@ -246,6 +246,7 @@ def _simulated_convergence(sc, seed, *, replicas=2, equal_work=True):
     """One convergence verdict on the simulated scene: the reference and every render
     drawn from generators keyed by ``seed`` and the render seed."""
     from types import SimpleNamespace
+
     from mitsuba_refs import compare
     rm, rv = render_stats(sc, RARE_REF_SPP, 1, np.random.default_rng([seed, 0]))
     reference = SimpleNamespace(mean=rm[0], var=rv[0], n=RARE_REF_SPP)

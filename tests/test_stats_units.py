@@ -9,9 +9,18 @@ import math
 import numpy as np
 import pytest
 
-from mitsuba_refs.stats import (ErrorBudget, compare_means, compare_variances, convergence_law,
-                                first_diverging_bounce, image_mse, image_mse_parts, per_test_alpha,
-                                reference_mse_floor, suite_false_failure)
+from mitsuba_refs.stats import (
+    ErrorBudget,
+    compare_means,
+    compare_variances,
+    convergence_law,
+    first_diverging_bounce,
+    image_mse,
+    image_mse_parts,
+    per_test_alpha,
+    reference_mse_floor,
+    suite_false_failure,
+)
 from mitsuba_refs.stats._mvn import p_max_abs
 from mitsuba_refs.stats._tiles import region_name, tile_counts, tile_sums
 from mitsuba_refs.stats.power import tile_gross_error_bound
@@ -393,6 +402,7 @@ def test_detectable_bias_closed_form_on_a_uniform_image():
     adds nothing), grows with alpha's strictness, and shrinks with the test's spp down to the
     reference's own floor."""
     from scipy import special
+
     from mitsuba_refs.stats import detectable_bias, spp_for_bias
     from mitsuba_refs.stats.power import bias_power, image_critical_z
     P, v, nb = 64 * 64, 50.0, 4096

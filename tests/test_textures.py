@@ -12,10 +12,10 @@ import pytest
 from PIL import Image
 
 from pathtracer import load_scene
-from pathtracer.io.bitmap import BitmapError, read_bitmap, srgb_to_linear
 from pathtracer.bsdfs import Conductor, Dielectric, Diffuse, RoughConductor, TwoSided
-from pathtracer.shapes.intersect import intersect, texture_uv
+from pathtracer.io.bitmap import BitmapError, read_bitmap, srgb_to_linear
 from pathtracer.scene import transform
+from pathtracer.shapes.intersect import intersect, texture_uv
 from pathtracer.textures.base import BitmapTexture, Checkerboard, ConstantTexture, wrap_index
 from tests.test_serialized import shape_record, write_serialized
 

@@ -1,8 +1,8 @@
 """The one tonemap of the PNG previews and the figures (pathtracer.tonemap)."""
 import numpy as np
 
-from pathtracer.io.output import write_png
 from pathtracer.core.tonemap import auto_scale, to_8bit, tonemap
+from pathtracer.io.output import write_png
 
 
 def test_tonemap_is_the_srgb_curve_of_the_clipped_scaled_image():

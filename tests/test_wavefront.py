@@ -3,9 +3,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from pathtracer.sensors.perspective import Rays
-from pathtracer.integrators.wavefront import Paths
 from pathtracer.core.rng import RandomStream
+from pathtracer.integrators.wavefront import Paths
+from pathtracer.sensors.perspective import Rays
 
 
 def _paths(n=6):

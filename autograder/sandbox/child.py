@@ -45,11 +45,13 @@ def main(runtime: str, config_json: str) -> None:
     sys.path[:] = [runtime] + CONFIG["site"] + [p for p in sys.path if p and p.startswith(
         (sys.base_prefix, sys.prefix))]
     _limits(CONFIG["limits"])
-    from . import wire
     import numpy  # noqa: F401  (loaded before the sandbox closes: it reads its libraries)
+
     import pathtracer  # noqa: F401  (likewise loaded while files can still be read)
-    from pathtracer.render import driver as render  # noqa: F401  (likewise)
     from pathtracer.accel.bvh import single_threaded_blas
+    from pathtracer.render import driver as render  # noqa: F401  (likewise)
+
+    from . import wire
     single_threaded_blas()     # reads /proc/self/maps to find BLAS: done before the hook
     sandbox = []
     if CONFIG.get("seccomp", True):
@@ -141,6 +143,7 @@ def load_submission(path: str):
     import importlib.util
     import inspect
     import pkgutil
+
     from pathtracer.integrators.base import Integrator
     path = os.path.realpath(path)
     if os.path.isdir(path):
@@ -320,8 +323,8 @@ class Server:
             return _error("exception", "your code raised an exception:\n" + _traceback(error)), {}
 
     def scene(self, name: str, params: dict):
-        from pathtracer.shapes import intersect as geometry
         from pathtracer import load_scene
+        from pathtracer.shapes import intersect as geometry
         key = (name, tuple(sorted(params.items())))
         if key not in self.scenes:
             scene = load_scene(name, **params)
@@ -369,9 +372,10 @@ class Server:
 
     def radiance(self, request: dict, arrays: dict) -> dict:
         import numpy as np
-        from pathtracer.sensors.perspective import Rays
-        from pathtracer.render.driver import integrator_for
+
         from pathtracer.core.rng import RandomStream, sample_keys
+        from pathtracer.render.driver import integrator_for
+        from pathtracer.sensors.perspective import Rays
         scene = self.scene(request["scene"], request["params"])
         integrator = integrator_for(scene, self.integrator(scene, request["integrator"]))
         n = len(arrays["o"])

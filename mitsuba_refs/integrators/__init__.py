@@ -7,10 +7,10 @@ switching variants; it is cheap and idempotent per variant).
 
 import mitsuba as mi
 
+from ._common import make_class
+from .direct import mitsuba_direct_dict
 from .path_bsdf import PathBSDFIntegrator
 from .path_nee import PathNEEIntegrator
-from .direct import mitsuba_direct_dict
-from ._common import make_class
 
 _registered = set()
 

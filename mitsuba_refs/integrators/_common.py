@@ -6,6 +6,7 @@ Not an estimator: each estimator lives in its own module.
 import drjit as dr
 import mitsuba as mi
 
+
 #: True in ``scalar_*`` variants: there a null emitter/BSDF pointer is
 #: ``None`` and dead lanes must not call into it, so the loop bodies return
 #: early on a Python bool (always False in JIT variants, where all code is

@@ -13,8 +13,16 @@ See docs/statistics.md for the assumptions and the measured calibration.
 """
 from .bounce import depth_name, first_diverging_bounce
 from .budget import SUITE_ALPHA, ErrorBudget, per_test_alpha, suite_false_failure
-from .convergence import (MIN_EFFECTIVE_ROWS, ConvergenceResult, convergence_law, effective_rows,
-                          image_mse, image_mse_parts, rare_errors_dominate, reference_mse_floor)
+from .convergence import (
+                          MIN_EFFECTIVE_ROWS,
+                          ConvergenceResult,
+                          convergence_law,
+                          effective_rows,
+                          image_mse,
+                          image_mse_parts,
+                          rare_errors_dominate,
+                          reference_mse_floor,
+)
 from .mean import VARIANCE_BOUND, MeanAgreement, compare_means, tile_z
 from .power import bias_power, detectable_bias, spp_for_bias
 from .rates import clopper_pearson

@@ -96,8 +96,8 @@ import numpy as np
 from scipy import optimize, special
 
 from ._mvn import correlation_from_differences, p_max_abs
-from .correlation import INDEPENDENT, PixelCorrelation
 from ._tiles import as_count, as_image, region_name, sidak, sidak_per_test, tile_counts, tile_sums
+from .correlation import INDEPENDENT, PixelCorrelation
 
 __all__ = ["MeanAgreement", "compare_means", "tile_z", "LUMINANCE", "VARIANCE_BOUND", "overflow_scale"]
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from pathtracer.sensors.film import ReconstructionFilter, effective_counts, splat
 from pathtracer.render.driver import filtered_mean_and_variance
+from pathtracer.sensors.film import ReconstructionFilter, effective_counts, splat
 
 from .simulate import SkewedScene
 

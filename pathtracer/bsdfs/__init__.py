@@ -9,9 +9,9 @@ from .dielectric import Dielectric
 from .diffuse import Diffuse
 from .fresnel import fresnel_conductor, fresnel_dielectric, fresnel_schlick, reflect, refract
 from .mask import MaskBSDF
-from .perturbed import BumpMap, NormalMap
 from .microfacet import MicrofacetDistribution
 from .null import NullBSDF
+from .perturbed import BumpMap, NormalMap
 from .plastic import Plastic
 from .roughconductor import RoughConductor
 from .roughdielectric import RoughDielectric

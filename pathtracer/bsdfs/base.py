@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..textures.base import ConstantTexture, Texture
 from ..core.vec import select
+from ..textures.base import ConstantTexture, Texture
 
 
 @dataclass

@@ -37,7 +37,7 @@ from ..core import sampling
 from ..textures.base import Texture
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR
-from .fresnel import fresnel_diffuse_reflectance, fresnel_dielectric, reflect
+from .fresnel import fresnel_dielectric, fresnel_diffuse_reflectance, reflect
 
 POLYPROPYLENE_IOR = 1.49
 

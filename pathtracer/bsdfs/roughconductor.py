@@ -29,8 +29,7 @@ import numpy as np
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .conductor import complex_ior, conductor_reflectance
 from .fresnel import reflect_about
-from .microfacet import (RoughSurface, _dot, reflection_half_vector,
-                         textured_distribution)
+from .microfacet import RoughSurface, _dot, reflection_half_vector, textured_distribution
 
 
 class RoughConductor(RoughSurface, BSDF):

@@ -37,8 +37,7 @@ import numpy as np
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR, BK7_IOR
 from .fresnel import fresnel_dielectric, reflect_about, refract_about
-from .microfacet import (RoughSurface, _dot, _normalize,
-                         textured_distribution)
+from .microfacet import RoughSurface, _dot, _normalize, textured_distribution
 
 
 def _mulsign_z(v: np.ndarray, sign_of: np.ndarray) -> np.ndarray:

@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .tangent_frame import InTangentFrame
+from ..core.vec import frame, put_rows, scale, select, to_local, to_world
+from ..scene.types import Scene
 from ..shapes.intersect import texture_uv
 from ..shapes.tangents import local_geometry
-from ..scene.types import Scene
-from ..core.vec import frame, put_rows, scale, select, to_local, to_world
+from .tangent_frame import InTangentFrame
 
 
 @dataclass

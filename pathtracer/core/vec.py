@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import numpy as np
 
-
 # NumPy broadcasts an (n, 3) array against an (n, 1) or (3,) one with inner loops of
 # length 3, 2-6x slower than the same work done one component (column) at a time.
 # scale, unscale and select are the per-column forms of the common cases.

@@ -2,10 +2,23 @@
 
 The names below are the student contract (submissions import them from ``pathtracer.emitters``).
 """
-from .dispatch import (EmitterPosition, EmitterRay, EmitterSample, check_light_paths, choose_emitter,
-                       emitted_radiance, emitted_towards, emitter_position_at, hit_emitter,
-                       pdf_emitter_direction, pdf_emitter_ray, sample_emitter, sample_emitter_position,
-                       sample_emitter_ray, shadowed)
+from .dispatch import (
+                       EmitterPosition,
+                       EmitterRay,
+                       EmitterSample,
+                       check_light_paths,
+                       choose_emitter,
+                       emitted_radiance,
+                       emitted_towards,
+                       emitter_position_at,
+                       hit_emitter,
+                       pdf_emitter_direction,
+                       pdf_emitter_ray,
+                       sample_emitter,
+                       sample_emitter_position,
+                       sample_emitter_ray,
+                       shadowed,
+)
 
 __all__ = ["EmitterPosition", "EmitterRay", "EmitterSample", "check_light_paths", "choose_emitter",
            "emitted_radiance", "emitted_towards", "emitter_position_at", "hit_emitter",

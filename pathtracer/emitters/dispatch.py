@@ -23,10 +23,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..shapes import intersect as geometry
-from ..core.sampling import square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf, square_to_uniform_cone, square_to_uniform_cone_pdf, square_to_uniform_disk_concentric, square_to_uniform_sphere, square_to_uniform_triangle
-from ..scene.types import Scene
+from ..core.sampling import (
+    square_to_cosine_hemisphere,
+    square_to_cosine_hemisphere_pdf,
+    square_to_uniform_cone,
+    square_to_uniform_cone_pdf,
+    square_to_uniform_disk_concentric,
+    square_to_uniform_sphere,
+    square_to_uniform_triangle,
+)
 from ..core.vec import dot, max_component, norm, normalize, scale, select, to_local, to_world, unscale
+from ..scene.types import Scene
+from ..shapes import intersect as geometry
 
 
 @dataclass

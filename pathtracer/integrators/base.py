@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..sensors.perspective import Rays
-from ..emitters.dispatch import emitted_radiance, hit_emitter, sample_emitter
-from ..scene.types import Scene
 from ..bsdfs.shading import eval_bsdf, has_smooth
 from ..core.vec import max_component, scale, select, unscale
+from ..emitters.dispatch import emitted_radiance, hit_emitter, sample_emitter
+from ..scene.types import Scene
+from ..sensors.perspective import Rays
+
 # trace, spawn, subset_hit and replace_hits lived here first: submissions import them from here.
 from .wavefront import Paths, replace_hits, spawn, subset_hit, trace
 

@@ -79,14 +79,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..sensors.perspective import camera_rays
-from ..sensors.importance import connect_to_camera
-from ..emitters.dispatch import EmitterPosition, emitted_radiance, emitted_towards, emitter_position_at, pdf_emitter_ray, sample_emitter_ray, shadowed
 from ..bsdfs.shading import eval_bsdf, has_smooth, sample_bsdf
 from ..core.vec import dot
+from ..emitters.dispatch import (
+    EmitterPosition,
+    emitted_radiance,
+    emitted_towards,
+    emitter_position_at,
+    pdf_emitter_ray,
+    sample_emitter_ray,
+    shadowed,
+)
+from ..sensors.importance import connect_to_camera
+from ..sensors.perspective import camera_rays
 from .base import Integrator
-from .light import leaving, shading_correction
 from .class_selection import ClassSelection
+from .light import leaving, shading_correction
 from .wavefront import Paths, concatenate_hits, subset_hit, trace
 
 #: MIS heuristics and the exponent of their density ratios.
@@ -560,8 +568,8 @@ def render_strategies(scene, integrator: BDPTIntegrator, spp: int, seed: int,
     Without ``weighted``, image (s, t) is that strategy's own estimate of the paths of
     s + t - 1 segments (Veach's figure 10.3).
     """
-    from ..render.driver import replica_count
     from ..core.rng import RandomStream, sample_keys
+    from ..render.driver import replica_count
 
     camera = scene.camera
     n_pixels = camera.width * camera.height

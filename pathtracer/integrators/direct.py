@@ -33,9 +33,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters.dispatch import emitted_radiance, pdf_emitter_direction
-from ..core.sampling import power_heuristic
 from ..bsdfs.shading import sample_bsdf
+from ..core.sampling import power_heuristic
+from ..emitters.dispatch import emitted_radiance, pdf_emitter_direction
 from .base import Integrator, spawn, subset_hit, trace
 
 

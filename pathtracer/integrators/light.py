@@ -32,12 +32,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..sensors.perspective import Rays
-from ..sensors.importance import connect_to_camera
-from ..emitters.dispatch import emitted_towards, sample_emitter_position, sample_emitter_ray, shadowed
-from ..shapes.intersect import spawn_ray
 from ..bsdfs.shading import eval_bsdf, sample_bsdf
 from ..core.vec import dot
+from ..emitters.dispatch import emitted_towards, sample_emitter_position, sample_emitter_ray, shadowed
+from ..sensors.importance import connect_to_camera
+from ..sensors.perspective import Rays
+from ..shapes.intersect import spawn_ray
 from .base import Integrator
 from .class_selection import ClassSelection
 from .wavefront import Paths, trace

@@ -21,9 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters.dispatch import pdf_emitter_direction
-from ..core.sampling import power_heuristic
 from ..bsdfs.shading import sample_bsdf
+from ..core.sampling import power_heuristic
+from ..emitters.dispatch import pdf_emitter_direction
 from .base import Integrator
 from .wavefront import refills
 

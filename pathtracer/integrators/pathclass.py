@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..emitters.dispatch import pdf_emitter_direction
+from ..bsdfs.shading import sample_bsdf
 from ..core.pathclasses import LETTER, _parse_glossy, bsdf_letters, compile_classes
 from ..core.sampling import power_heuristic
-from ..bsdfs.shading import sample_bsdf
+from ..emitters.dispatch import pdf_emitter_direction
 from .base import Integrator
 
 _L, _E = LETTER["L"], LETTER["E"]

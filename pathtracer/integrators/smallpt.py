@@ -26,8 +26,8 @@ import numpy as np
 
 from ..bsdfs import Dielectric
 from ..bsdfs.shading import bsdf_index, dielectric_lobes, sample_bsdf
-from ..textures.base import Texture
 from ..core.vec import max_component
+from ..textures.base import Texture
 from .base import Integrator, subset_hit
 from .wavefront import refills
 

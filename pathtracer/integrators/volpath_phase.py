@@ -25,12 +25,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..bsdfs.shading import sample_bsdf
 from ..emitters.dispatch import emitted_radiance
 from ..media.homogeneous import next_medium, null_event, phase_sample, sample_free_flight
-from ..bsdfs.shading import sample_bsdf
 from .base import subset_hit
-from .volume import (MAX_SEGMENTS, SLOT_DIRECTION, SLOT_FLIGHT, SLOT_LOBE, PathBatch,
-                     VolumeIntegrator, move)
+from .volume import MAX_SEGMENTS, SLOT_DIRECTION, SLOT_FLIGHT, SLOT_LOBE, PathBatch, VolumeIntegrator, move
 
 
 class VolPathPhaseIntegrator(VolumeIntegrator):

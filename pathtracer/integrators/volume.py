@@ -25,9 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..media.homogeneous import camera_medium, choose_channel
 from ..sensors.perspective import Rays
 from ..shapes.intersect import offset_p
-from ..media.homogeneous import camera_medium, choose_channel
 from .base import Integrator, replace_hits, skip_emitters, subset_hit, trace
 
 #: Counters reserved per segment; shadow rays use SLOT_SHADOW + k for their k-th crossing.

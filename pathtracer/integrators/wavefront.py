@@ -30,9 +30,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..shapes import intersect as geometry
-from ..sensors.perspective import Rays
 from ..core.rng import RandomStream
+from ..sensors.perspective import Rays
+from ..shapes import intersect as geometry
 
 
 class Paths:

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..render.driver import RenderResult
 from ..core.tonemap import to_8bit, tonemap
+from ..render.driver import RenderResult
 
 #: Largest seed an EXR ``int`` attribute (signed 32-bit) holds; larger ones are stored as text.
 EXR_INT_MAX = 2 ** 31 - 1

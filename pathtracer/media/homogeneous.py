@@ -54,10 +54,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.vec import dot
+from ..scene.types import Scene
 from ..shapes import intersect as geometry
 from .phase import IsotropicPhase
-from ..scene.types import Scene
-from ..core.vec import dot
 
 
 @dataclass

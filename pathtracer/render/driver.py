@@ -32,27 +32,27 @@ number of processes; a different batch size changes only the float64 rounding).
 from __future__ import annotations
 
 import copy
+import multiprocessing
 import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
-import multiprocessing
 
 import numpy as np
 
-from ..shapes import intersect as geometry
-from . import workers
-from .allocator import keep_freed_memory
-from ..sensors.film import effective_counts, splat
-from ..sensors.perspective import camera_rays
+from ..core.rng import RandomStream, sample_keys
 from ..emitters.dispatch import check_light_paths
 from ..integrators import Integrator, make_integrator
 from ..integrators.wavefront import pooled
 from ..media.homogeneous import has_media
-from .resources import POOL_UNITS
-from ..core.rng import RandomStream, sample_keys
 from ..scene.types import Scene
+from ..sensors.film import effective_counts, splat
+from ..sensors.perspective import camera_rays
+from ..shapes import intersect as geometry
+from . import workers
+from .allocator import keep_freed_memory
+from .resources import POOL_UNITS
 
 #: Samples of one pixel reduced together; fixed so results never depend on batching.
 SAMPLE_BLOCK = 256

@@ -6,8 +6,7 @@ import os
 
 from .build import build_scene
 from .errors import SceneError
-from .types import (AreaEmitter, Camera, ConstantEmitter, IntegratorSpec,
-                    PointEmitter, Scene)
+from .types import AreaEmitter, Camera, ConstantEmitter, IntegratorSpec, PointEmitter, Scene
 from .xml import parse_file
 
 __all__ = ["load_scene", "scene_settings", "parse_resolution", "SceneError", "Scene", "Camera", "AreaEmitter",

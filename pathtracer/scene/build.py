@@ -11,13 +11,21 @@ import warnings
 
 import numpy as np
 
-from ..shapes import instances
-from ..io import meshes
-from . import spectra, transform
-from ..sensors.film import FILTER_PARAMS, ReconstructionFilter
-from .types import (AreaEmitter, Camera, ConstantEmitter, DirectionalEmitter,
-                    IntegratorSpec, PointEmitter, Scene, SpotEmitter)
 from ..core.rng import SEED_MAX
+from ..io import meshes
+from ..sensors.film import FILTER_PARAMS, ReconstructionFilter
+from ..shapes import instances
+from . import spectra, transform
+from .types import (
+    AreaEmitter,
+    Camera,
+    ConstantEmitter,
+    DirectionalEmitter,
+    IntegratorSpec,
+    PointEmitter,
+    Scene,
+    SpotEmitter,
+)
 from .xml import Plugin
 
 # Mitsuba's table of named indices of refraction (Hecht, Optics; ~589 nm).
@@ -555,8 +563,8 @@ def build_texture(plugin: Plugin, folders: list[str], cache: dict):
 
 
 def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
-    from pathtracer.textures import base as textures
     from pathtracer.io.bitmap import read_bitmap
+    from pathtracer.textures import base as textures
 
     props = Props(plugin)
     _children(plugin, {"texture": 2})
@@ -964,8 +972,8 @@ def _build_directional(plugin, props, folders):
 
 
 def _build_envmap(plugin, props, folders):
-    from pathtracer.io.bitmap import BitmapError, read_bitmap
     from pathtracer.emitters.envmap import EnvironmentMap
+    from pathtracer.io.bitmap import BitmapError, read_bitmap
 
     if props.has("bitmap"):
         raise plugin.error("\"bitmap\" (a Bitmap object) exists only in Python dictionaries; "

@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from ..sensors.film import BOX, ReconstructionFilter
 from ..core.sampling import INV_FOUR_PI, square_to_uniform_sphere
+from ..sensors.film import BOX, ReconstructionFilter
 
 
 @dataclass

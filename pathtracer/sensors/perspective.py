@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.types import Camera
 from ..core.vec import normalize
+from ..scene.types import Camera
 
 
 @dataclass

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..accel.bvh import BVH, SMALL_MAX, SmallMesh, SplitMesh, small_shapes
-from .cylinder import cylinder_surface, cylinder_t
 from ..core.vec import dot, max_abs, normalize, put_rows, scale, unscale
+from .cylinder import cylinder_surface, cylinder_t
 
 RAY_EPSILON = 1500 * 2.0 ** -24  # Mitsuba's math::RayEpsilon for float32 (8.94e-5)
 SHADOW_EPSILON = 10 * RAY_EPSILON  # math::ShadowEpsilon

@@ -8,11 +8,12 @@ Its variance differs a little from the power heuristic's (about 1.1x in ``direct
 Cornell box), so only the mean must equal Mitsuba's.
 """
 import numpy as np
+from _common import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
 from pathtracer.integrators import direct, path
-
-from _common import camera_rays  # noqa: F401  (the reference camera)
-from _common import registry
 
 
 def balance_heuristic(pdf_a, pdf_b):

@@ -6,11 +6,12 @@ E[beta'] = (1 - q) beta / (1 - q) + q 0 = beta: unbiased for any q < 1; only the
 the time differ (here paths live longer than with Mitsuba's rule in a dim room).
 """
 import numpy as np
+from _common import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
 from pathtracer.integrators import path, path_bsdf, path_nee
-
-from _common import camera_rays  # noqa: F401  (the reference camera)
-from _common import registry
 
 #: Termination probability once roulette has started.
 Q = 0.5

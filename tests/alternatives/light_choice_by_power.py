@@ -7,13 +7,14 @@ Any choice probabilities that are > 0 for every light give an unbiased estimator
 same probabilities divide; the variance moves (brighter lights get more shadow rays).
 """
 import numpy as np
+from _common import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
 from pathtracer.emitters import EmitterSample, hit_emitter
 from pathtracer.integrators import base, direct, path, path_nee
 from pathtracer.integrators.base import subset_hit
-
-from _common import camera_rays  # noqa: F401  (the reference camera)
-from _common import registry
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 

@@ -9,15 +9,16 @@ is uniform on [0, 1) given k, so every estimate has the reference's distribution
 differ sample by sample, their mean and variance do not.
 """
 import numpy as np
+from _common import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
 from pathtracer.emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
 from pathtracer.integrators import direct, path, path_bsdf, path_nee
 from pathtracer.integrators.base import spawn, subset_hit, trace
 from pathtracer.sampling import power_heuristic
 from pathtracer.shading import eval_bsdf, has_smooth, sample_bsdf
-
-from _common import camera_rays  # noqa: F401  (the reference camera)
-from _common import registry
 
 
 def light_numbers(u, n_lights):

@@ -6,13 +6,15 @@ Diffuse scenes are unaffected (rays always leave on the front); glass is wrong.
 Expected hint: the dielectric code / back-face normals.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
 
 from pathtracer.camera import Rays
 from pathtracer.geometry import RAY_EPSILON, max_abs
 from pathtracer.integrators import path_bsdf, wavefront
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
 
 BUG = "ray origins offset along the unflipped normal"
 CHECK = "path_bsdf-glass"

@@ -4,10 +4,12 @@
 Bounces 1-3 are right; light of longer paths is missing, the image is too dark.
 Expected hint: bias in long paths (a depth cut or roulette without 1/q).
 """
-from pathtracer.integrators import path_bsdf
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import registry
+from pathtracer.integrators import path_bsdf
 
 BUG = "paths cut after 4 segments"
 CHECK = "path_bsdf-cornell-box"

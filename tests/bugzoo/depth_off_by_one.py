@@ -6,10 +6,12 @@ Invisible at max_depth = -1 (unlimited); graded at max_depth = 3, where the imag
 bright, and where its render at max_depth = d matches Mitsuba's at d + 1.
 Expected hint: max_depth off by one.
 """
-from pathtracer.integrators import path_nee
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import registry
+from pathtracer.integrators import path_nee
 
 BUG = "one path segment more than max_depth"
 CHECK = "path_nee-lights"

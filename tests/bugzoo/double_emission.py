@@ -5,10 +5,13 @@ bounce not specular" rule is missing).
 Direct light is about twice too bright, only in the integrator with shadow rays.
 Expected hint: emission counted twice.
 """
-from pathtracer.integrators import path_nee
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
 
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
+from pathtracer.integrators import path_nee
 
 BUG = "Le added after every bounce although the shadow ray already counted it"
 CHECK = "path_nee-cornell-box"

@@ -5,12 +5,14 @@ on the way *in*.
 Only scenes with glass are wrong.
 Expected hint: the dielectric code (eta inverted).
 """
+from _glass import with_dielectric
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
+
 from pathtracer.bsdfs.dielectric import Dielectric
 from pathtracer.integrators import path
-
-from _glass import with_dielectric
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import registry
 
 BUG = "relative index of refraction inverted"
 CHECK = "path-glass"

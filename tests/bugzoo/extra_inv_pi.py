@@ -5,11 +5,13 @@ Direct light (bounce 2) is darker by a factor near pi.
 Expected hint: darker by a factor near pi, an extra 1/pi.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
 
 from pathtracer.integrators import base, path_nee
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
 
 BUG = "diffuse BRDF divided by pi twice in the shadow-ray term"
 CHECK = "path_nee-cornell-box"

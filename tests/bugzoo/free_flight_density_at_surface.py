@@ -7,11 +7,13 @@ scaled by 1 / sigma_t = 1 / 1.5: the walls seen through the fog and everything t
 lights are too dark. Expected hint: the free-flight pdf (probability of reaching the surface).
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
 
 from pathtracer.integrators import volpath, volpath_phase
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
 
 BUG = "surface reached through a medium divided by the free-flight density, not its probability"
 CHECK = "volpath-media"

@@ -8,11 +8,13 @@ wall light lights is too dark.
 Expected hint: the probability of choosing each light must be the one divided by.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
 
 from pathtracer.integrators import base, direct
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
 
 BUG = "lights chosen proportionally to power, divided by the uniform 1/N"
 CHECK = "direct-lights"

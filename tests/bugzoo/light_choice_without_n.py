@@ -6,11 +6,14 @@ With one light nothing changes; with the two lights of cornell-lights every shad
 counts half of what it should: direct light (bounce 2) is x0.5, the image darker.
 Expected hint: the 1/N of choosing one of the N lights.
 """
-from pathtracer.integrators import base, path_nee
-
 from _lightpdf import scale_sample
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
+
+from pathtracer.integrators import base, path_nee
 
 BUG = "one of N lights chosen uniformly, its 1/N choice probability left out of the pdf"
 CHECK = "path_nee-lights"

@@ -7,11 +7,13 @@ Every splat away from the optical axis is too dark, by cos^3 theta (x0.64 in the
 Expected hint: camera importance; the ratio follows cos theta.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate_splat,
+    registry,
+)
 
 from pathtracer.integrators import light
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate_splat, registry
 
 BUG = "camera importance 1 / A instead of 1 / (A cos^3 theta)"
 CHECK = "light-glass-lamp"

@@ -5,11 +5,14 @@ weight and in the MIS weight of BSDF samples alike).
 Direct light (bounce 2) is too bright, most where the light is seen at a grazing angle.
 Expected hint: light-sampling pdf (cosine at the light).
 """
-from pathtracer.integrators import base, path
-
 from _lightpdf import hit_cosine, light_cosine, scale_sample
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
+
+from pathtracer.integrators import base, path
 
 BUG = "light pdf = d^2 / A: the cosine at the light is missing"
 CHECK = "path-cornell-box"

@@ -5,11 +5,14 @@ in the MIS weight of BSDF samples alike).
 Direct light (bounce 2) is wrong, brighter where the light is far.
 Expected hint: light-sampling pdf (distance squared).
 """
-from pathtracer.integrators import base, direct
-
 from _lightpdf import hit_distance2, scale_sample
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
+
+from pathtracer.integrators import base, direct
 
 BUG = "light pdf = 1/(|cos| A): the distance squared is missing"
 CHECK = "direct-cornell-box"

@@ -7,10 +7,13 @@ cancel); light that starts inside glass and leaves it is eta^2 = 2.26x too brigh
 ``glass-lamp`` the red channel (the lamp inside the glass sphere) only.
 Expected hint: the light leaving glass is off by eta^2; the adjoint BSDF.
 """
-from pathtracer.integrators import light
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate_splat,
+    registry,
+)
 
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate_splat, registry
+from pathtracer.integrators import light
 
 BUG = "light paths refract with the radiance scaling 1/eta^2 (non-adjoint BSDF)"
 CHECK = "light-glass-lamp"

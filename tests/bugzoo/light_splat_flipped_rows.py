@@ -6,11 +6,13 @@ The image is upside down.
 Expected hint: splats in the wrong pixel (the image matches Mitsuba's flipped upside down).
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate_splat,
+    registry,
+)
 
 from pathtracer.integrators import light
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate_splat, registry
 
 BUG = "splat row counted from the bottom of the image"
 CHECK = "light-glass-lamp"

@@ -5,9 +5,9 @@ In a left-right symmetric scene nothing changes; in cornell-lights the red wall,
 light and the boxes change sides.
 Expected hint: the image is mirrored.
 """
-from pathtracer.camera import camera_rays as reference_camera
-
 from _mutate import registry
+
+from pathtracer.camera import camera_rays as reference_camera
 
 BUG = "film x axis flipped: image mirrored left-right"
 CHECK = "camera"

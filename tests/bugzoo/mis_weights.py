@@ -6,15 +6,16 @@ Direct light (bounce 2) is too bright where both strategies find the light.
 Expected hint: MIS weights do not sum to one.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
 from pathtracer.emitters import emitted_radiance, sample_emitter
 from pathtracer.integrators import direct
 from pathtracer.integrators.base import spawn, subset_hit, trace
 from pathtracer.sampling import power_heuristic
 from pathtracer.shading import eval_bsdf, has_smooth, sample_bsdf
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import registry
 
 BUG = "BSDF-sampled emission added with MIS weight 1"
 CHECK = "direct-cornell-box"

@@ -5,12 +5,14 @@ Direct light (bounce 2, shadow rays) stays right; from bounce 3 on the image is 
 Expected hint: the indirect term (bounce 3) is wrong.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
 
 from pathtracer.integrators import path_nee
 from pathtracer.vec import dot
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
 
 BUG = "indirect bounce weighted by f/p: the cosine is missing"
 CHECK = "path_nee-cornell-box"

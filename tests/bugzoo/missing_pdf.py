@@ -6,11 +6,13 @@ With cosine sampling p = cos/pi, so every bounce is about cos/pi too dark: direc
 Expected hint: darker by a factor near pi / a pdf used wrongly.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
 
 from pathtracer.integrators import path_bsdf
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
 
 BUG = "throughput times f cos, not divided by the sampling pdf"
 CHECK = "path_bsdf-cornell-box"

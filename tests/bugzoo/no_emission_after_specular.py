@@ -6,10 +6,13 @@ All-diffuse scenes are unaffected; with a mirror and a glass sphere (cornell-cau
 light's reflection in the mirror and the caustic under the glass are missing.
 Expected hint: emission after a specular bounce (glass / mirror check).
 """
-from pathtracer.integrators import path_nee
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
 
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
+from pathtracer.integrators import path_nee
 
 BUG = "Le never added after a specular bounce"
 CHECK = "path_nee-glass"

@@ -5,11 +5,12 @@ Only bounce 1 (directly visible emitters) is wrong.
 Expected hint: directly visible light / emission on the first hit.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
 from pathtracer.integrators import base, path
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import registry
 
 BUG = "Le not added when the camera ray hits a light"
 CHECK = "path-cornell-box"

@@ -7,12 +7,14 @@ Camera paths never enter the fog of an index-matched cube: it vanishes from the 
 Expected hint: medium tracking at null boundaries.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
 
 from pathtracer.integrators import volpath_phase
 from pathtracer.media import null_event
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
 
 BUG = "the medium is not updated when a path crosses a null (index-matched) boundary"
 CHECK = "volpath_phase-media"

@@ -7,13 +7,14 @@ scattering event for Henyey-Greenstein g = 0.5): the fog is far too dark.
 Expected hint: the phase function's value over its pdf is 1.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
 from pathtracer.integrators import volpath_phase
 from pathtracer.integrators.volume import SLOT_DIRECTION, move
 from pathtracer.media import phase_sample
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import registry
 
 BUG = "phase-sampled direction weighted by the phase value p, not p / pdf = 1"
 CHECK = "volpath_phase-media"

@@ -7,10 +7,9 @@ becomes a point sample (aliased edges). In cornell-lights the wall light's edges
 Expected hint: the film sample (position inside the pixel) is ignored.
 """
 import numpy as np
+from _mutate import registry
 
 from pathtracer.camera import camera_rays as reference_camera
-
-from _mutate import registry
 
 BUG = "u_film ignored: all rays through the pixel centre"
 CHECK = "camera"

@@ -5,12 +5,13 @@ pixel follow the same bounces and averaging more of them barely reduces the erro
 Expected hint: the error does not fall with more samples: same random numbers reused.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
 from pathtracer.integrators import path_bsdf
 from pathtracer.rng import RandomStream
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import registry
 
 BUG = "one random stream shared by every sample"
 CHECK = "path_bsdf-cornell-box"

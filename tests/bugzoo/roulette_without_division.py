@@ -4,10 +4,12 @@ not divided by q, so long paths lose energy.
 Bounces 1-3 are right (roulette starts at depth 5); the full image is too dark.
 Expected hint: bias from roulette without dividing by its probability (or a depth cut).
 """
-from pathtracer.integrators import path
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import registry
+from pathtracer.integrators import path
 
 BUG = "survivors of Russian roulette not divided by the survival probability"
 CHECK = "path-cornell-box"

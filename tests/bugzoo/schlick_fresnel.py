@@ -9,15 +9,16 @@ bright.
 Expected hint: the dielectric (Fresnel) code.
 """
 import numpy as np
+from _glass import with_dielectric
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
 from pathtracer.bsdfs.base import make_sample
 from pathtracer.bsdfs.dielectric import Dielectric
 from pathtracer.bsdfs.fresnel import fresnel_dielectric, reflect, refract
 from pathtracer.integrators import path
-
-from _glass import with_dielectric
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import registry
 
 BUG = "Fresnel reflectance from Schlick's approximation"
 CHECK = "path-glass"

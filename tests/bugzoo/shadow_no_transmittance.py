@@ -7,12 +7,15 @@ light unattenuated) and the floor in the fog's shadow. volpath_phase has no shad
 stays right. Expected hint: the transmittance along shadow rays.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    patched,
+    registry,
+)
 
-from pathtracer.media import homogeneous as media
 from pathtracer.integrators import volpath
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, patched, registry
+from pathtracer.media import homogeneous as media
 
 BUG = "shadow rays ignore the media they cross (transmittance 1 through the fog)"
 CHECK = "volpath-media"

@@ -6,12 +6,14 @@ Direct light (bounce 2) is too dark, in a noisy way.
 Expected hint: shadow rays blocked by self-intersection.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
 
 from pathtracer import geometry
 from pathtracer.integrators import base, path_nee
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
 
 BUG = "shadow rays start on the surface and end on the light: they hit themselves"
 CHECK = "path_nee-cornell-box"

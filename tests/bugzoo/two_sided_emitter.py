@@ -6,13 +6,15 @@ around it, which becomes too bright (top of the image).
 Expected hint: emitters are one-sided.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
 
 from pathtracer.integrators import base, path_bsdf
 from pathtracer.integrators.base import subset_hit
 from pathtracer.vec import dot
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
 
 BUG = "area lights emit on both sides"
 CHECK = "path_bsdf-cornell-box"

@@ -5,10 +5,12 @@ followed, so the variance is higher than that of Mitsuba's estimator (cosine sam
 Partial credit: the mean part passes, the variance part fails.
 Expected hint: mean right, variance higher: the sampling pdf does not follow the cosine.
 """
-from pathtracer.integrators import path_nee
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    registry,
+)
 
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import registry
+from pathtracer.integrators import path_nee
 
 BUG = "uniform instead of cosine-weighted hemisphere sampling"
 CHECK = "path_nee-cornell-box"

@@ -6,12 +6,14 @@ The estimator is biased: grazing directions get the weight of frequent ones.
 Expected hint: the BSDF sampling weight / pdf does not match how directions are drawn.
 """
 import numpy as np
+from _mutate import (
+    camera_rays,  # noqa: F401  (the reference camera)
+    mutate,
+    registry,
+)
 
 from pathtracer.integrators import path
 from pathtracer.vec import dot
-
-from _mutate import camera_rays  # noqa: F401  (the reference camera)
-from _mutate import mutate, registry
 
 BUG = "directions drawn uniformly, weighted with the cosine pdf"
 CHECK = "path-cornell-box"

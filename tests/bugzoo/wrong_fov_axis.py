@@ -4,11 +4,10 @@ axis (tan(fov/2) on y, the x extent scaled by the aspect ratio), so a 4:3 image 
 Expected hint: the camera's field of view / fov axis.
 """
 import numpy as np
+from _mutate import registry
 
 from pathtracer.camera import Rays
 from pathtracer.vec import normalize
-
-from _mutate import registry
 
 BUG = "x field of view applied to the y axis"
 CHECK = "camera"

@@ -8,7 +8,6 @@ import json
 import sys
 
 import numpy as np
-
 from _hostile import black, registry
 
 EXPECT = dict(kind=None, words="")

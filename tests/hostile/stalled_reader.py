@@ -8,7 +8,6 @@ import sys
 import time
 
 import numpy as np
-
 from _hostile import registry
 
 EXPECT = dict(kind="timeout", words="time limit")

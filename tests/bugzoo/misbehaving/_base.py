@@ -1,6 +1,6 @@
 """Submissions that misbehave instead of computing a wrong image (isolation tests)."""
-from pathtracer.integrators import INTEGRATORS as REFERENCE
 from pathtracer.camera import camera_rays  # noqa: F401  (re-exported)
+from pathtracer.integrators import INTEGRATORS as REFERENCE
 from pathtracer.integrators.path import PathIntegrator
 
 

@@ -1,6 +1,5 @@
 """Misbehaving submission: nan."""
 import numpy as np
-
 from _base import camera_rays, registry  # noqa: F401  (the reference camera)
 
 
