@@ -424,8 +424,8 @@ class StudentProcess:
         return mean, variance
 
     def _render_with_student_camera(self, scene, name, params, spp, seed, max_depth):
+        from pathtracer import render
         from pathtracer.integrators import make_integrator
-        from pathtracer.render import driver as render
         from pathtracer.sensors.perspective import Rays, camera_rays
         loaded = _scene(scene, params)
 

@@ -36,7 +36,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENES = ROOT / "pathtracer" / "scenes"
+SCENES = ROOT / "pathtracer" / "data" / "scenes"
 
 #: (label, scene file stem, our integrator, Mitsuba's integrator, aspect height/width).
 CASES = [
@@ -129,8 +129,7 @@ class PeakPss:
 def warmed_scene(stem: str, integrator: str, width: int, height: int):
     """The benchmark scene ``stem`` after one warm-up render (builds the accelerator, touches
     every code path once), so that timings and profiles see the steady state."""
-    from pathtracer import load_scene
-    from pathtracer.render import driver as render
+    from pathtracer import load_scene, render
     scene = load_scene(str(SCENES / f"{stem}.xml"), width=width, height=height)
     render(scene, integrator=integrator, spp=1, seed=99, processes=1, progress=False)
     return scene
@@ -139,7 +138,7 @@ def warmed_scene(stem: str, integrator: str, width: int, height: int):
 def measure_ours(spec: dict) -> dict:
     """Time ``pathtracer.render`` on one scene (``spec``: see :func:`main`)."""
     _pin(spec.get("core"))
-    from pathtracer.render import driver as render
+    from pathtracer import render
     scene = warmed_scene(spec["scene"], spec["integrator"], spec["width"], spec["height"])
     processes = spec.get("processes", 1)
     times, cpu = [], []

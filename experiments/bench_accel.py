@@ -87,7 +87,7 @@ def render_queries(size: int = 128, spp: int = 16, repeat: int = 3) -> None:
     surfaces, bounded by the room's hits) rather than on synthetic ones.
     """
     from experiments.bench import warmed_scene
-    from pathtracer.render import driver as render
+    from pathtracer import render
     scene = warmed_scene("mesh", "path", size, size)
     bvh = scene._accel.big
     queries = []

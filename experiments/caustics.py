@@ -145,7 +145,7 @@ def equal_time_render(scene, integrator: str, seconds: float, seed: int):
     at the speed measured so far. Returns the pool and a list of (cpu seconds, spp, mean,
     variance of the mean).
     """
-    from pathtracer.render import driver as render
+    from pathtracer import render
     pool, spent, points, batch, index = Pool(), 0.0, [], 2, 0
     while spent < seconds:
         start = time.process_time()

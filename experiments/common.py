@@ -242,7 +242,7 @@ class Task:
 def run_task(task: Task) -> dict:
     """Render a task in this process (one core): mean, variance, seconds."""
     from mitsuba_refs.compare import loaded_scene  # once per worker while the files are unchanged
-    from pathtracer.render import driver as render
+    from pathtracer import render
     scene = loaded_scene(task.scene, dict(task.params))
     result = render(scene, task.integrator, spp=task.spp, seed=task.seed, processes=1,
                     progress=False, **dict(task.options))

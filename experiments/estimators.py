@@ -75,7 +75,7 @@ def pixel_variance(variance) -> float:
 def render(scene, integrator, spp, seed, workers, repeats=1, **options):
     """Render ``repeats`` times with independent seeds: the pooled image, and the *fastest*
     time of one render (timings on a shared machine only ever get slower by noise)."""
-    from pathtracer.render import driver as _render
+    from pathtracer import render as _render
     runs = []
     for k in range(max(1, repeats)):
         cpu = time.process_time()

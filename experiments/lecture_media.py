@@ -35,8 +35,7 @@ INTEGRATORS = ("volpath_phase", "volpath")
 def run(spp: int, seed: int, out, workers=None) -> list[dict]:
     """Render every step with both integrators; write the figure and the table."""
     from mitsuba_refs.compare import default_params
-    from pathtracer import load_scene
-    from pathtracer.render import driver as render
+    from pathtracer import load_scene, render
     out = common.out_dir(out)
     panels, table = {}, []
     for scene_name in STEPS:

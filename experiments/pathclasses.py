@@ -169,9 +169,8 @@ def compare_bounces(args, bar):
 def main(argv=None) -> int:
     """Run the path-class experiment (command line); exit code."""
     args = build_parser().parse_args(argv)
-    from pathtracer import load_scene
+    from pathtracer import load_scene, render
     from pathtracer.core.pathclasses import compile_classes, is_partition
-    from pathtracer.render import driver as render
     from pathtracer.render.driver import render_classes
     out = common.out_dir(args.out)
     args.workers = args.workers or common.cpu_count()

@@ -68,7 +68,7 @@ def stage_seconds(stats: pstats.Stats) -> dict:
 
 def profile_scene(stem: str, integrator: str, width: int, height: int, spp: int) -> dict:
     """Stage seconds of one profiled render of the benchmark scene ``stem``."""
-    from pathtracer.render import driver as render
+    from pathtracer import render
     scene = warmed_scene(stem, integrator, width, height)
     profiler = cProfile.Profile()
     start = time.perf_counter()

@@ -156,8 +156,7 @@ def main(argv=None) -> int:
         spp = args.spp[0] if len(args.spp) == 1 else 64
         lecture_media.run(spp, args.seed, args.out or "out/lecture-media", args.workers)
         return 0
-    from pathtracer import load_scene
-    from pathtracer.render import driver as render
+    from pathtracer import load_scene, render
     levels = sorted(set(args.spp))
     out = common.out_dir(args.out)
     params = {"width": args.size[0], "height": args.size[1], **dict(args.defines)}

@@ -72,7 +72,7 @@ def _default_integrators(scene):
 
 
 def _resolution(text):
-    from pathtracer.scene import parse_resolution
+    from pathtracer.scene.load import parse_resolution
     try:
         return parse_resolution(text)
     except ValueError as error:

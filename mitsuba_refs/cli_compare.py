@@ -31,7 +31,7 @@ def _positive_ints(text: str) -> tuple[int, ...]:
 def _resolution(text: str) -> tuple[int, int]:
     import argparse
 
-    from pathtracer.scene import parse_resolution
+    from pathtracer.scene.load import parse_resolution
     try:
         return parse_resolution(text)
     except ValueError as error:

@@ -148,7 +148,7 @@ def render_ours(scene, integrator, params, spp, seed, processes=None, resolution
                 **options):
     """Our render of ``scene`` with ``params`` (film size ``resolution`` if given):
     (mean, variance)."""
-    from pathtracer.render import driver as render
+    from pathtracer import render
     result = render(loaded_scene(scene, params, resolution), integrator, spp=spp, seed=seed,
                     processes=processes, progress=False, **options)
     return result.mean, result.variance

@@ -31,7 +31,7 @@ Per-bounce references
     ``max_depth`` = 1 (emitters seen directly), 2 (direct lighting),
     3 (one indirect bounce).
 """
-from pathtracer.scene import builtin_scene_names
+from pathtracer.scene.load import builtin_scene_names
 
 TEST_WIDTH = 64
 TEST_HEIGHT = 64

@@ -10,7 +10,7 @@ import math
 import os
 from pathlib import Path
 
-from pathtracer.scene import builtin_scene_names
+from pathtracer.scene.load import builtin_scene_names
 
 from .cache import parse_xml, scene_hash
 from .errors import RefsInputError

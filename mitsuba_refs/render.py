@@ -95,7 +95,8 @@ def resolve_scene(scene):
     """Return the file of ``scene``: a file path, or a built-in name
     (``cornell-box`` -> ``pathtracer/data/scenes/cornell-box.xml``), by the tracer's rule
     (:func:`pathtracer.scene.scene_file`); ``FileNotFoundError`` with its message otherwise."""
-    from pathtracer.scene import SceneError, scene_file
+    from pathtracer.scene.errors import SceneError
+    from pathtracer.scene.load import scene_file
     try:
         return Path(scene_file(scene)).resolve()
     except SceneError as error:
@@ -200,7 +201,7 @@ def reference_settings(path, params, options=None, resolution=None):
         ``settings``: :class:`pathtracer.scene.settings.SceneSettings`.
     """
     from pathtracer.render.driver import transport_options
-    from pathtracer.scene import scene_settings
+    from pathtracer.scene.settings import scene_settings
     scene_kw = {str(k): str(v) for k, v in (params or {}).items()}
     settings = scene_settings(path, resolution=resolution, **scene_kw)
     transport = transport_options(settings.integrator, **(options or {}))

@@ -13,7 +13,8 @@ smallpt, direct lighting), so that each can be checked against Mitsuba 3.
 from . import _console  # noqa: F401  (first: a Ctrl-C while the commands start)
 from .integrators import INTEGRATORS, Integrator, make_integrator
 from .render.driver import RenderResult, render
-from .scene import SceneError, load_scene
+from .scene.errors import SceneError
+from .scene.load import load_scene
 
 __all__ = ["load_scene", "render", "RenderResult", "SceneError", "make_integrator",
            "Integrator", "INTEGRATORS"]

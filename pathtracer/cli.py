@@ -85,7 +85,7 @@ def _finite(text: str) -> float:
 
 
 def _resolution(text: str) -> tuple[int, int]:
-    from .scene import parse_resolution
+    from .scene.load import parse_resolution
     try:
         return parse_resolution(text)
     except ValueError as error:
@@ -147,7 +147,7 @@ def main(argv=None) -> int:
     """Run one ``pathtracer`` command; its exit code (README, "Exit codes")."""
     args = build_parser().parse_args(argv)
     if args.command == "scenes":
-        from .scene import builtin_scene_names
+        from .scene.load import builtin_scene_names
         for name in builtin_scene_names():
             print(name)
         return 0
@@ -209,11 +209,11 @@ def _render_checked(args) -> int:
     from concurrent.futures.process import BrokenProcessPool
 
     from .io.output import output_paths, write_exr, write_png
-    from .render import driver as render
     from .render import resources
-    from .render.driver import DEFAULT_BATCH, integrator_for
-    from .scene import SceneError, load_scene
+    from .render.driver import DEFAULT_BATCH, integrator_for, render
     from .scene.defines import parse_defines
+    from .scene.errors import SceneError
+    from .scene.load import load_scene
 
     options = dict(max_depth=args.max_depth, rr_depth=args.rr_depth, roulette=args.roulette,
                    rr_q=args.rr_q, hemisphere=args.hemisphere, branches=args.branches,

@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 
 from mitsuba_refs.stats import compare_means
-from pathtracer import INTEGRATORS, load_scene
-from pathtracer.render import driver as render
+from pathtracer import INTEGRATORS, load_scene, render
 from pathtracer.sensors.perspective import camera_rays
 from pathtracer.shapes.intersect import intersect
 from tests.budget import ALPHA

@@ -165,9 +165,8 @@ def _load_alternative(name, monkeypatch):
 def test_alternatives_equal_the_reference_where_not_graded(name, monkeypatch):
     """Where an alternative is not graded because its estimator is the reference's there, its
     renders (at each such check's settings, small) equal the reference's bit for bit."""
-    from pathtracer import load_scene
+    from pathtracer import load_scene, render
     from pathtracer.integrators import INTEGRATORS as REFERENCE
-    from pathtracer.render import driver as render
     module = _load_alternative(name, monkeypatch)
     checks = [c for c in grading.CHECKS if c.integrator in module.CHANGES and not c.camera
               and c.scene in module.SAME_AS_REFERENCE]
@@ -308,7 +307,7 @@ def test_student_runtime_has_no_solution(tmp_path):
     references = {p.name for p in (ROOT / "mitsuba_refs" / "references").iterdir()}
     assert not names & references
     # The only images are built-in scenes' inputs (an environment map, a texture).
-    assert {p.parent for p in folder.rglob("*.exr")} <= {folder / "pathtracer" / "scenes"}
+    assert {p.parent for p in folder.rglob("*.exr")} <= {folder / "pathtracer" / "data" / "scenes"}
     assert "mitsuba_refs" not in names and "autograder" not in names
     assert {p.name for p in (folder / "grading_child").iterdir()} >= {"child.py", "wire.py"}
 
@@ -372,8 +371,7 @@ def test_media_skeleton_builds_on_its_own_volpath_phase(tmp_path):
     the runtime's stub), and the reference written in the skeleton's layout renders in the
     student runtime exactly what the reference renders."""
     from autograder.skeleton import generate
-    from pathtracer import load_scene
-    from pathtracer.render import driver as render
+    from pathtracer import load_scene, render
     skeleton = generate(tmp_path / "skeleton", assignment="media")
     assert "from .volpath_phase import VolPathPhaseIntegrator" in (skeleton / "volpath.py").read_text()
     assert refusal(str(skeleton)) == ""
@@ -511,8 +509,7 @@ def test_light_tracer_written_as_a_student_renders_in_the_student_runtime(tmp_pa
     what pathtracer.render gives; the skeleton itself is 'not implemented'."""
     from autograder.isolation import StudentFailure
     from autograder.skeleton import generate
-    from pathtracer import load_scene
-    from pathtracer.render import driver as render
+    from pathtracer import load_scene, render
     filled = generate(tmp_path / "filled", stubs=False, assignment="light-tracing")
     assert "from .camera_connection import connect_to_camera" in (filled / "light.py").read_text()
     with StudentProcess(str(filled), Limits(60 * CI_TIME_SCALE)) as student:
@@ -575,8 +572,7 @@ def test_sandboxed_render_is_the_direct_render():
     max_depth 8) applied to the submission's integrator."""
     import numpy as np
 
-    from pathtracer import load_scene
-    from pathtracer.render import driver as render
+    from pathtracer import load_scene, render
     params = {"width": 64, "height": 64}
     with StudentProcess("autograder.solution", Limits(60 * CI_TIME_SCALE)) as student:
         mean, variance = student.render("glass-cube", "path_bsdf", params, 2, 5)

@@ -15,11 +15,10 @@ import pathtracer
 from experiments.caustics import first_hits
 from mitsuba_refs.cache import get_reference
 from mitsuba_refs.stats import compare_means
-from pathtracer import load_scene
+from pathtracer import load_scene, render
 from pathtracer.cli import main
 from pathtracer.core.rng import RandomStream, sample_keys
 from pathtracer.integrators.bdpt import BDPTIntegrator, render_strategies
-from pathtracer.render import driver as render
 from tests.budget import ALPHA
 from tests.test_analytic import assert_matches, quad_light_case
 
@@ -166,7 +165,7 @@ def test_cli_renders_bdpt(tmp_path, capsys):
 def test_scene_file_selects_bdpt(tmp_path):
     """``<integrator type="bdpt">`` with its own parameters (no Mitsuba counterpart)."""
     xml = tmp_path / "scene.xml"
-    builtin = Path(pathtracer.__file__).parent / "scenes" / "quad-light.xml"
+    builtin = Path(pathtracer.__file__).parent / "data" / "scenes" / "quad-light.xml"
     xml.write_text(builtin.read_text().replace(
         '<integrator type="path">', '<integrator type="bdpt"><string name="mis" value="balance"/>'))
     result = render(load_scene(str(xml), width=4, height=4), spp=2, seed=1, processes=1)

@@ -401,8 +401,7 @@ def test_smallpt_renders_every_material_as_path_does():
     dielectrics and conductors it must find one (thindielectric's ``reflectance`` is a method,
     which crashed it) and keep path's expectation."""
     from mitsuba_refs.stats import compare_means
-    from pathtracer import load_scene
-    from pathtracer.render import driver as render
+    from pathtracer import load_scene, render
     from tests.budget import ALPHA
     scene = load_scene("materials", width=16, height=16)
     smallpt = render(scene, "smallpt", spp=64, seed=3, processes=1)

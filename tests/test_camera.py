@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from pathtracer.scene import load_scene
+from pathtracer.scene.load import load_scene
 from pathtracer.sensors.perspective import camera_rays
 
 SENSOR_XML = """<scene version="3.0.0">

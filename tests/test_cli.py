@@ -88,7 +88,7 @@ def test_scene_names_resolve_to_the_same_file_on_both_sides(tmp_path, monkeypatc
     """A built-in name, a path with or without .xml: the tracer and mitsuba_refs agree."""
     from mitsuba_refs.config import BUILTIN_SCENES, FEATURE_SCENES, GRADING_SCENES, OWN_TEST_SCENES
     from mitsuba_refs.render import resolve_scene
-    from pathtracer.scene import builtin_scene_names, scene_file
+    from pathtracer.scene.load import builtin_scene_names, scene_file
     scene = tmp_path / "sub" / "mine"
     scene.parent.mkdir()
     scene.write_text("<scene version='3.0.0'/>")

@@ -14,9 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pathtracer import load_scene
+from pathtracer import load_scene, render
 from pathtracer.io.output import OutputError, PrecisionWarning, atomic_path, output_paths, read_exr, write_exr
-from pathtracer.render import driver as render
 from pathtracer.render.resources import check_memory
 from pathtracer.render.workers import set_parent_death_signal
 
@@ -187,7 +186,7 @@ def test_huge_radiance_and_an_unused_define_give_warning_lines_and_a_finite_exr(
     """1e30 radiance: the variance (~1e58) overflows float32; it is clamped and said so.
     ``-D`` of a ``<default>`` nothing uses is one clean warning line, not a Python
     UserWarning; a ``-D`` the file does not declare at all (a typo) is an error."""
-    from pathtracer.scene import builtin_scene_path
+    from pathtracer.scene.load import builtin_scene_path
     scene = tmp_path / "quad.xml"
     text = Path(builtin_scene_path("quad-light")).read_text()
     scene.write_text(text.replace("<default ", '<default name="unused_knob" value="1"/>\n    <default ', 1))

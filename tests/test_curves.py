@@ -4,8 +4,8 @@ pieces' error bound, the loader's errors, and hits / normals / uv against Mitsub
 import numpy as np
 import pytest
 
-from pathtracer.scene import load_scene
 from pathtracer.scene.errors import SceneError
+from pathtracer.scene.load import load_scene
 from pathtracer.shapes.curves import CurveFileError, CurveShape, bspline, chord_error, read_control_points
 
 # A zigzag (the control points of Mitsuba's documentation curve) and a closed loop.

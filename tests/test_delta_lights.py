@@ -13,7 +13,7 @@ import pytest
 
 from pathtracer import load_scene
 from pathtracer.emitters.dispatch import pdf_emitter_direction, sample_emitter
-from pathtracer.scene import SceneError
+from pathtracer.scene.errors import SceneError
 from pathtracer.shapes.intersect import Hit, intersect
 
 SCENE = """<scene version="3.0.0">

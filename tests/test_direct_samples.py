@@ -4,9 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pathtracer import load_scene, make_integrator
-from pathtracer.render import driver as render
-from pathtracer.scene import SceneError
+from pathtracer import load_scene, make_integrator, render
+from pathtracer.scene.errors import SceneError
 
 SMALL = dict(width=16, height=12)
 

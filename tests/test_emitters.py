@@ -14,7 +14,7 @@ import pytest
 
 from pathtracer import load_scene
 from pathtracer.emitters.dispatch import pdf_emitter_direction, sample_emitter
-from pathtracer.scene import builtin_scene_path
+from pathtracer.scene.load import builtin_scene_path
 from pathtracer.shapes.intersect import Hit, intersect
 from tests.chi2 import chi2_sphere
 

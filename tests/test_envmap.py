@@ -14,12 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pathtracer import INTEGRATORS, load_scene
+from pathtracer import INTEGRATORS, load_scene, render
 from pathtracer.core.sampling import Distribution2D
 from pathtracer.emitters.envmap import EnvironmentMap
 from pathtracer.io.bitmap import BitmapError, read_bitmap, srgb_to_linear
-from pathtracer.render import driver as render
-from pathtracer.scene import SceneError, builtin_scene_path, transform
+from pathtracer.scene import transform
+from pathtracer.scene.errors import SceneError
+from pathtracer.scene.load import builtin_scene_path
 from tests.chi2 import chi2_plane, chi2_sphere
 from tools.scenes.make_envmap import sky
 

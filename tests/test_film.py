@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 from mitsuba_refs.stats.correlation import pixel_correlation
-from pathtracer import load_scene
-from pathtracer.render import driver as render
+from pathtracer import load_scene, render
 from pathtracer.sensors.film import ReconstructionFilter, effective_counts, lag_correlations, splat
 from tests.budget import ALPHA
 

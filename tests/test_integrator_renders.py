@@ -31,9 +31,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pathtracer import load_scene
+from pathtracer import load_scene, render
 from pathtracer.integrators.pathclass import PathClassIntegrator
-from pathtracer.render import driver as render
 from pathtracer.render.driver import render_classes
 
 DATA = Path(__file__).resolve().parent / "data" / "integrator_renders.npz"

@@ -8,14 +8,13 @@ in test_agreement.py / test_convergence.py (tests/scenes.py: ``LIGHT_SCENES`` an
 import numpy as np
 import pytest
 
-from pathtracer import load_scene
+from pathtracer import load_scene, render
 from pathtracer.bsdfs.dielectric import Dielectric
 from pathtracer.bsdfs.roughdielectric import RoughDielectric
 from pathtracer.bsdfs.shading import importance_scale
 from pathtracer.cli import main
 from pathtracer.core.sampling import square_to_uniform_sphere
 from pathtracer.emitters.dispatch import EmitterPosition, emitted_towards, pdf_emitter_ray, sample_emitter_ray
-from pathtracer.render import driver as render
 from pathtracer.sensors.importance import connect_to_camera, pdf_camera
 from pathtracer.sensors.perspective import camera_rays
 from tests.chi2 import chi2_sphere

@@ -17,11 +17,10 @@ import numpy as np
 import pytest
 
 from mitsuba_refs.compare import check_convergence, compare
-from pathtracer import load_scene
+from pathtracer import load_scene, render
 from pathtracer.core.rng import RandomStream, sample_keys
 from pathtracer.media.homogeneous import shadow_transmittance
 from pathtracer.media.phase import HenyeyGreensteinPhase, IsotropicPhase
-from pathtracer.render import driver as render
 from tests.budget import ALPHA
 from tests.chi2 import chi2_sphere
 from tests.test_analytic import assert_matches, footprint_average

@@ -3,7 +3,7 @@ classes of light tracing and BDPT (automata read from the light end and joined).
 import numpy as np
 import pytest
 
-from pathtracer import load_scene
+from pathtracer import load_scene, render
 from pathtracer.core.pathclasses import (
     PathRegexError,
     bsdf_letter,
@@ -15,7 +15,6 @@ from pathtracer.core.pathclasses import (
 )
 from pathtracer.integrators import make_integrator
 from pathtracer.integrators.pathclass import PathClassIntegrator
-from pathtracer.render import driver as render
 from pathtracer.render.driver import render_classes
 
 PARTITION = ["LE", "LDE", "LD.+E", "LS.*E", "LG.*E"]

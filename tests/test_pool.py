@@ -11,11 +11,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from pathtracer import load_scene
+from pathtracer import load_scene, render
 from pathtracer.core.rng import RandomStream, sample_keys
 from pathtracer.integrators import INTEGRATORS
 from pathtracer.integrators.wavefront import Paths, pooled
-from pathtracer.render import driver as render
 from pathtracer.render.driver import group_units, plan_units
 from pathtracer.sensors.perspective import Rays
 

@@ -33,7 +33,7 @@ from mitsuba_refs.render import Reference
 from tests.test_cli_faults import restore_sigint
 
 REPO = Path(__file__).resolve().parent.parent
-QUAD_LIGHT = REPO / "pathtracer" / "scenes" / "quad-light.xml"
+QUAD_LIGHT = REPO / "pathtracer" / "data" / "scenes" / "quad-light.xml"
 COMMITTED = REPO / "mitsuba_refs" / "references"
 
 def write_scenes(folder: Path) -> None:

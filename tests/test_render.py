@@ -2,8 +2,7 @@
 import numpy as np
 import pytest
 
-from pathtracer import load_scene
-from pathtracer.render import driver as render
+from pathtracer import load_scene, render
 from pathtracer.render.driver import block_statistics, plan_units
 
 

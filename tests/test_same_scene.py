@@ -19,8 +19,9 @@ from mitsuba_refs.batch import SampleStatistics, copies_per_call
 from mitsuba_refs.cache import _identity, reference_key, reference_stem
 from pathtracer import SceneError, load_scene
 from pathtracer.render.driver import integrator_for
-from pathtracer.scene import parse_resolution, scene_settings
 from pathtracer.scene.build import x_fov_from
+from pathtracer.scene.load import parse_resolution
+from pathtracer.scene.settings import scene_settings
 from tests.budget import ALPHA
 
 SCENE = Path(__file__).resolve().parent / "data" / "literal_depth.xml"
@@ -170,7 +171,7 @@ def mitsuba_variant(mi):
 
 
 def our_render(path, resolution, spp, seed, **options):
-    from pathtracer.render import driver as render
+    from pathtracer import render
     result = render(load_scene(path, resolution=resolution), "path", spp=spp, seed=seed,
                     processes=1, progress=False, **options)
     return result.mean, result.variance

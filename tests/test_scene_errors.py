@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from pathtracer.scene import SceneError, load_scene
+from pathtracer.scene.errors import SceneError
+from pathtracer.scene.load import load_scene
 
 FILM = ('<film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="32"/>'
         '<rfilter type="box"/></film>')

@@ -16,7 +16,8 @@ import os
 import numpy as np
 import pytest
 
-from pathtracer.scene import SceneError, load_scene
+from pathtracer.scene.errors import SceneError
+from pathtracer.scene.load import load_scene
 
 FILM = ('<film type="hdrfilm"><integer name="width" value="$res"/><integer name="height" '
         'value="$res"/><rfilter type="box"/></film>')

@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 
 from pathtracer.io.meshes import read_obj, read_ply, smooth_vertex_normals
-from pathtracer.scene import SceneError, load_scene, transform
+from pathtracer.scene import transform
 from pathtracer.scene.build import x_fov_from
+from pathtracer.scene.errors import SceneError
+from pathtracer.scene.load import load_scene
 
 DATA = os.path.join(os.path.dirname(__file__), "data")
 
@@ -177,7 +179,7 @@ def test_bsdf_parameters(tmp_path):
 
 def test_builtin_scene_by_name():
     names = [f[:-4] for f in os.listdir(os.path.join(os.path.dirname(__file__), "..",
-                                                      "pathtracer", "scenes")) if f.endswith(".xml")]
+                                                      "pathtracer", "data", "scenes")) if f.endswith(".xml")]
     assert "cornell-box" in names      # shipped with the package: missing is a defect
     s = load_scene("cornell-box")
     assert s.num_triangles > 0 and s.source == "cornell-box"
@@ -453,7 +455,7 @@ def test_transforms_match_mitsuba(tmp_path, mi):
 def test_builtin_scenes_match_mitsuba(mi):
     """Every shipped scene: same total area, camera, film, spp and emitter count.
     (Mitsuba merges meshes that share a BSDF, so shapes are compared in total.)"""
-    from pathtracer.scene import BUILTIN_DIR, builtin_scene_path
+    from pathtracer.scene.load import BUILTIN_DIR, builtin_scene_path
     names = sorted(f[:-4] for f in os.listdir(BUILTIN_DIR) if f.endswith(".xml"))
     if not names:
         pytest.skip("no built-in scenes yet")

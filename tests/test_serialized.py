@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from pathtracer.io.meshes import MeshFormatError, read_serialized
-from pathtracer.scene import SceneError, load_scene
+from pathtracer.scene.errors import SceneError
+from pathtracer.scene.load import load_scene
 
 SENSOR = ('<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>'
           '<integer name="height" value="8"/><rfilter type="box"/></film></sensor>')

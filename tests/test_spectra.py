@@ -6,7 +6,9 @@ import warnings
 import numpy as np
 import pytest
 
-from pathtracer.scene import SceneError, cie, load_scene, spectra
+from pathtracer.scene import cie, spectra
+from pathtracer.scene.errors import SceneError
+from pathtracer.scene.load import load_scene
 
 CASES = ["0.5", "2.0", "400:0.1, 500:0.5, 600:0.9", "400:0.78 500:0.78 600:0.78 700:0.78",
          "400:0, 500:8, 600:15.6, 700:18.4", "360:0.2, 830:0.2", "450:0.3, 451:0.9, 452:0.3"]

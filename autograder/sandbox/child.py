@@ -48,8 +48,8 @@ def main(runtime: str, config_json: str) -> None:
     import numpy  # noqa: F401  (loaded before the sandbox closes: it reads its libraries)
 
     import pathtracer  # noqa: F401  (likewise loaded while files can still be read)
+    from pathtracer import render  # noqa: F401  (likewise)
     from pathtracer.accel.bvh import single_threaded_blas
-    from pathtracer.render import driver as render  # noqa: F401  (likewise)
 
     from . import wire
     single_threaded_blas()     # reads /proc/self/maps to find BLAS: done before the hook
@@ -361,7 +361,7 @@ class Server:
         return Rays(arrays["o"], arrays["d"], arrays["tmax"])
 
     def render(self, request: dict) -> dict:
-        from pathtracer.render import driver as render
+        from pathtracer import render
         scene = self.scene(request["scene"], request["params"])
         integrator = self.integrator(scene, request["integrator"])
         # An explicit max_depth must override the scene file's, so it goes to render().

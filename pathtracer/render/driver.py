@@ -180,7 +180,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
         Integrator options (max_depth, rr_depth, roulette, hemisphere, ...).
     """
     if not isinstance(scene, Scene):
-        from ..scene import load_scene
+        from ..scene.load import load_scene
         scene = load_scene(scene)
     integrator = integrator_for(scene, integrator, **options)
     spp = int(scene.spp if spp is None else spp)
@@ -579,7 +579,7 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
     from ..integrators.pathclass import PathClassIntegrator
 
     if not isinstance(scene, Scene):
-        from ..scene import load_scene
+        from ..scene.load import load_scene
         scene = load_scene(scene)
     integrator = PathClassIntegrator(classes, glossy=glossy, **options)
     K = len(integrator.classes)

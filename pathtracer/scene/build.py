@@ -15,7 +15,17 @@ from ..core.rng import SEED_MAX
 from ..io import meshes
 from ..sensors.film import FILTER_PARAMS, ReconstructionFilter
 from ..shapes import instances
-from . import spectra, transform
+from . import transform
+from .properties import (
+    FLOAT_TAGS,
+    SUPPORTED,
+    VARIANT_ONLY,
+    Props,
+    build_texture,
+    children,
+    unsupported,
+)
+from .registry import register
 from .types import (
     AreaEmitter,
     Camera,
@@ -38,29 +48,6 @@ IOR_BY_NAME = {
     "polypropylene": 1.49, "bk7": 1.5046, "sodium chloride": 1.544, "amber": 1.55,
     "pet": 1.5750, "diamond": 2.419,
 }
-SUPPORTED = {
-    "shape": ("rectangle", "cube", "disk", "sphere", "cylinder", "obj", "ply", "serialized",
-              "bsplinecurve", "linearcurve", "shapegroup", "instance"),
-    "bsdf": ("diffuse", "twosided", "conductor", "roughconductor", "dielectric",
-             "thindielectric", "roughdielectric", "plastic", "roughplastic", "null", "blendbsdf",
-             "mask", "bumpmap", "normalmap"),
-    "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
-    "sensor": ("perspective",),
-    "integrator": ("path", "direct", "ptracer", "recursive", "path_bsdf", "path_nee", "smallpt",
-                   "light", "volpath", "volpath_phase", "bdpt"),
-    "texture": ("bitmap", "checkerboard", "rawconstant"),
-    "medium": ("homogeneous",),
-    "phase": ("isotropic", "hg"),
-}
-# Media and phase functions of Mitsuba 3 refused, with the reason.
-NOT_IMPLEMENTED_MEDIA = {
-    "heterogeneous": "heterogeneous (grid volume) media are not implemented: only homogeneous",
-    "rayleigh": "the Rayleigh phase function exists only in Mitsuba's spectral variants",
-    "sggx": "the SGGX microflake phase function is not implemented (isotropic and hg are)",
-    "blendphase": "blended phase functions are not implemented (isotropic and hg are)",
-    "tabphase": "tabulated phase functions are not implemented (isotropic and hg are)",
-    "volpathmis": "the spectral-MIS volumetric path tracer is not implemented; use volpath",
-}
 # BSDFs that only make sense in Mitsuba's polarised variants: refused with the reason.
 VARIANT_ONLY_BSDFS = {
     "polarizer": "is a polarisation filter (only meaningful in Mitsuba's *_polarized variants)",
@@ -70,9 +57,6 @@ VARIANT_ONLY_BSDFS = {
     "measured_polarized": "is a measured polarised BSDF (only meaningful in Mitsuba's "
                           "*_polarized variants)",
 }
-# BSDF parameters that take a <texture> (and the checkerboard's colours).
-TEXTURED_PARAMS = ("reflectance", "specular_reflectance", "specular_transmittance",
-                   "diffuse_reflectance", "alpha", "alpha_u", "alpha_v", "color0", "color1")
 # Integrator parameters we validate; the project's own integrators take any.
 INTEGRATOR_PARAMS = {
     "path": {"max_depth", "rr_depth", "hide_emitters"},
@@ -86,222 +70,6 @@ INTEGRATOR_ALIASES = {"ptracer": "light"}
 INTEGRATOR_PARAM_TAGS = {"max_depth": "integer", "rr_depth": "integer",
                          "hide_emitters": "boolean", "emitter_samples": "integer",
                          "bsdf_samples": "integer", "shading_samples": "integer"}
-COLOR_TAGS = ("rgb", "float", "integer", "spectrum")
-# Plugins that exist in Mitsuba 3 but only make sense in other variants or
-# renderers, with the reason shown to the user (merged into the errors of
-# every plugin kind).
-VARIANT_ONLY = {
-    "polarizer": "a polarization filter: only meaningful in Mitsuba's *_polarized variants",
-    "retarder": "a polarization retarder: only meaningful in Mitsuba's *_polarized variants",
-    "measured_polarized": "measured polarized BSDF data: only meaningful in Mitsuba's "
-                          "*_polarized variants",
-    "pplastic": "a polarized plastic: only meaningful in Mitsuba's *_polarized variants",
-    "stokes": "an integrator of Stokes vectors: only meaningful in Mitsuba's *_polarized variants",
-    "specfilm": "a film of spectral sensitivity bands: only meaningful in Mitsuba's spectral "
-                "variants",
-    "prb": "a differentiable (path replay backpropagation) integrator: it renders what path "
-           "renders, but only for gradients in Mitsuba's *_ad variants; use path",
-    "prb_basic": "a differentiable integrator for Mitsuba's *_ad variants; use path",
-    "prbvolpath": "a differentiable volumetric integrator for Mitsuba's *_ad variants",
-    "direct_projective": "a projective-sampling differentiable integrator for Mitsuba's "
-                         "*_ad variants; use direct",
-    "prb_projective": "a projective-sampling differentiable integrator for Mitsuba's *_ad "
-                      "variants; use path",
-}
-# Shapes that are valid in RGB variants but not implemented here (like Nori's
-# stubs, the message says so rather than pretending the type is unknown).
-NOT_IMPLEMENTED_SHAPES = {
-    "sdfgrid": "signed-distance-field grids",
-    "ellipsoids": "ellipsoid point clouds",
-    "ellipsoidsmesh": "ellipsoid point clouds",
-    "merge": "shape merging",
-}
-FLOAT_TAGS = ("float", "integer")
-
-
-class Props:
-    """Typed, checked access to a plugin's properties.
-
-    Call :meth:`finish` after reading: any property not read is reported.
-    """
-
-    def __init__(self, plugin: Plugin):
-        self.plugin = plugin
-        self.used: set[str] = set()
-        # Where texture files are looked up and the textures built so far (set by the
-        # BSDF builder, for parameters that take textures).
-        self.folders: list[str] = ["."]
-        self.texture_cache: dict = {}
-        # Nested <texture> children by parameter name (read by reflectance_or_texture).
-        self.textures: dict[str, Plugin] = {}
-        for name, child in plugin.named_children():
-            if child.kind != "texture":
-                continue
-            if not name:
-                raise child.error(f"a <texture> inside {plugin.label} needs a name "
-                                  "(the parameter it gives, e.g. name=\"reflectance\")")
-            if name in plugin.props or name in self.textures:
-                raise child.error(f"parameter \"{name}\" given twice")
-            self.textures[name] = child
-
-    def _get(self, name: str, tags: tuple, what: str):
-        if name in self.textures:
-            self._no_texture(name)
-        prop = self.plugin.props.get(name)
-        self.used.add(name)
-        if prop is None:
-            return None
-        if prop.tag not in tags:
-            raise self.plugin.error(f"property \"{name}\" must be {what}, not <{prop.tag}>",
-                                    prop.line)
-        return prop.value
-
-    def has(self, name: str) -> bool:
-        return name in self.plugin.props
-
-    def line(self, name: str) -> int:
-        return self.plugin.props[name].line
-
-    def line_of(self, name: str) -> int:
-        """The line of a property or of the nested texture that gives it."""
-        if name in self.textures:
-            return self.textures[name].line
-        return self.line(name)
-
-    def color(self, name: str, default: float, kind: str | None = None) -> np.ndarray:
-        """An RGB colour from ``<rgb>``, ``<float>`` or ``<spectrum>``.
-
-        ``kind`` says how a ``<spectrum>`` becomes RGB (see
-        :func:`pathtracer.scene.spectra.to_rgb`): by default ``'emission'``
-        inside an ``<emitter>`` and ``'reflectance'`` elsewhere, as Mitsuba's
-        emitters and BSDFs read their colours; pass ``'unbounded'`` for
-        values that may exceed 1 but are not emitted (indices of refraction).
-        """
-        v = self._get(name, COLOR_TAGS, "an <rgb> (or <float>, <spectrum>) colour")
-        if isinstance(v, spectra.Spectrum):
-            if kind is None:
-                kind = "emission" if self.plugin.kind == "emitter" else "reflectance"
-            return spectra.to_rgb(v, kind)
-        return np.full(3, float(default)) if v is None else np.broadcast_to(
-            np.asarray(v, dtype=float), (3,)).copy()
-
-    def reflectance(self, name: str, default: float) -> np.ndarray:
-        """A colour that scales reflected or transmitted light: each channel in [0, 1].
-
-        Mitsuba refuses an ``<rgb>`` outside [0, 1] here; a ``<float>`` it does not check,
-        but above 1 a surface creates energy, so both are refused.
-        """
-        value = self.color(name, default)
-        if not np.all((value >= 0.0) & (value <= 1.0)):
-            raise self.plugin.error(f"\"{name}\" must lie in [0, 1] (as Mitsuba requires of a "
-                                    f"reflectance), got {', '.join(f'{v:g}' for v in value)}",
-                                    self.line(name))
-        return value
-
-    def reflectance_or_texture(self, name: str, default: float, folders: list[str],
-                               cache: dict):
-        """A :meth:`reflectance` that may also be a nested ``<texture>``.
-
-        Returns a (3,) array for an ``<rgb>``/``<float>`` value (or the
-        default), else the built :class:`~pathtracer.textures.Texture`
-        (whose values are not range-checked: Mitsuba only warns about them).
-        """
-        child = self.textures.get(name)
-        self.used.add(name)
-        if child is None:
-            return self.reflectance(name, default)
-        return build_texture(child, folders, cache)
-
-    def float(self, name: str, default):
-        v = self._get(name, FLOAT_TAGS, "a <float>")
-        return default if v is None else float(v)
-
-    def int(self, name: str, default):
-        v = self._get(name, ("integer",), "an <integer>")
-        return default if v is None else int(v)
-
-    def bool(self, name: str, default: bool) -> bool:
-        v = self._get(name, ("boolean",), "a <boolean>")
-        return default if v is None else bool(v)
-
-    def string(self, name: str, default):
-        return self._get(name, ("string",), "a <string>") or default
-
-    def point(self, name: str, default):
-        v = self._get(name, ("point", "vector"), "a <point>")
-        return default if v is None else np.asarray(v, dtype=float)
-
-    def transform(self, name: str = "to_world") -> np.ndarray:
-        v = self._get(name, ("transform",), "a <transform>")
-        return np.eye(4) if v is None else v
-
-    def normal_matrix(self, name: str = "to_world"):
-        """The matrix Mitsuba transforms this transform's normals with when it
-        is not the true inverse transpose (a ``<rotate>`` about a non-unit
-        axis), else None."""
-        p = self.plugin.props.get(name)
-        return None if p is None else p.normal_matrix
-
-    def raw(self, name: str):
-        """The value whatever its type (for pass-through parameters)."""
-        if name in self.textures:
-            self._no_texture(name)
-        self.used.add(name)
-        p = self.plugin.props.get(name)
-        return None if p is None else p.value
-
-    def ignore(self, *names: str) -> None:
-        """Accept properties that do not change the rendered values."""
-        self.used.update(names)
-
-    def _no_texture(self, name: str):
-        if self.plugin.type == "roughplastic" and name == "alpha":
-            raise self.textures[name].error(
-                "roughplastic takes a number for \"alpha\", not a texture (its coating "
-                "tables depend on it; Mitsuba refuses a texture too)")
-        raise self.textures[name].error(
-            f"a texture for \"{name}\" is not supported (this tracer takes textures for: "
-            f"{', '.join(TEXTURED_PARAMS)})")
-
-    def finish(self) -> None:
-        for name in self.textures:
-            if name not in self.used:
-                self._no_texture(name)
-        for name, prop in self.plugin.props.items():
-            if name not in self.used:
-                known = sorted(self.used)
-                raise self.plugin.error(
-                    f"unsupported property \"{name}\" (this tracer understands: "
-                    f"{', '.join(known) or 'none'})", prop.line)
-
-
-def _children(plugin: Plugin, allowed: dict[str, int]) -> dict[str, list[Plugin]]:
-    """Nested plugins grouped by kind; ``allowed`` maps kind -> max count."""
-    out: dict[str, list[Plugin]] = {k: [] for k in allowed}
-    for child in plugin.children:
-        if child.kind not in allowed:
-            raise child.error(f"<{child.kind}> is not allowed inside {plugin.label}")
-        out[child.kind].append(child)
-        if len(out[child.kind]) > allowed[child.kind]:
-            raise child.error(f"{plugin.label} accepts at most {allowed[child.kind]} "
-                              f"<{child.kind}>")
-    return out
-
-
-def _unsupported(plugin: Plugin, what: str) -> Exception:
-    if plugin.type in NOT_IMPLEMENTED_MEDIA:
-        return plugin.error(f"{what} \"{plugin.type}\" is not supported: "
-                            f"{NOT_IMPLEMENTED_MEDIA[plugin.type]}")
-    if plugin.type in VARIANT_ONLY:
-        return plugin.error(f"{what} \"{plugin.type}\" is not supported: it is "
-                            f"{VARIANT_ONLY[plugin.type]}")
-    if plugin.kind == "shape" and plugin.type in NOT_IMPLEMENTED_SHAPES:
-        return plugin.error(f"shape \"{plugin.type}\" is not implemented in this tracer "
-                            f"({NOT_IMPLEMENTED_SHAPES[plugin.type]}); it is valid in Mitsuba's "
-                            "RGB variants, so the scene cannot be compared")
-    return plugin.error(f"unsupported {what} (supported: {', '.join(SUPPORTED[plugin.kind])})")
-
-
 # -- BSDFs -------------------------------------------------------------------
 
 def _ior(props: Props, name: str, default: str) -> float:
@@ -449,7 +217,7 @@ def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | Non
         result = _build_perturbed(props, bsdfs)
         props.finish()
         return result
-    _children(plugin, {"texture": 10**9})
+    children(plugin, {"texture": 10**9})
 
     def colour(name, default):
         return props.reflectance_or_texture(name, default, folders, textures)
@@ -482,7 +250,7 @@ def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | Non
     elif kind in VARIANT_ONLY_BSDFS:
         raise plugin.error(f"BSDF \"{kind}\" {VARIANT_ONLY_BSDFS[kind]}")
     else:
-        raise _unsupported(plugin, "BSDF")
+        raise unsupported(plugin, "BSDF")
     props.finish()
     return result
 
@@ -497,7 +265,7 @@ def _build_composite(props: Props, bsdfs):
     (two BSDFs and a ``weight``) and ``mask`` (one BSDF and an ``opacity``)."""
     plugin = props.plugin
     (least, most), scalar, default = COMPOSITE_BSDFS[plugin.type]
-    nested = _children(plugin, {"bsdf": most, "texture": 1 if scalar else 0})["bsdf"]
+    nested = children(plugin, {"bsdf": most, "texture": 1 if scalar else 0})["bsdf"]
     if len(nested) < least:
         raise plugin.error(f"{plugin.type} needs {'exactly' if least == most else 'at least'} "
                            f"{least} nested <bsdf>, got {len(nested)}")
@@ -528,7 +296,7 @@ def _build_perturbed(props: Props, bsdfs):
     from pathtracer.textures.base import BitmapTexture
 
     plugin = props.plugin
-    kids = _children(plugin, {"bsdf": 1, "texture": 1})
+    kids = children(plugin, {"bsdf": 1, "texture": 1})
     if not kids["bsdf"]:
         raise plugin.error(f"{plugin.type} needs exactly one nested <bsdf>")
     nested = build_bsdf(kids["bsdf"][0], props.folders, props.texture_cache)
@@ -554,20 +322,13 @@ def _build_perturbed(props: Props, bsdfs):
 
 # -- textures ----------------------------------------------------------------
 
-def build_texture(plugin: Plugin, folders: list[str], cache: dict):
-    """The :mod:`pathtracer.textures` object of a ``<texture>`` (built once per plugin)."""
-    key = id(plugin)
-    if key not in cache:
-        cache[key] = _build_texture(plugin, folders, cache)
-    return cache[key]
-
-
+@register("texture", "bitmap", "checkerboard", "rawconstant")
 def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
     from pathtracer.io.bitmap import read_bitmap
     from pathtracer.textures import base as textures
 
     props = Props(plugin)
-    _children(plugin, {"texture": 2})
+    children(plugin, {"texture": 2})
     to_uv = props.transform("to_uv")
     if plugin.type == "checkerboard":
         result = textures.Checkerboard(props.reflectance_or_texture("color0", 0.4, folders, cache),
@@ -599,7 +360,7 @@ def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
             raise plugin.error(f"{os.path.basename(path)}: {e}", props.line("filename")) from None
         result = textures.BitmapTexture(data, filter_type, wrap_mode, to_uv)
     else:
-        raise _unsupported(plugin, "texture")
+        raise unsupported(plugin, "texture")
     props.finish()
     return result
 
@@ -788,7 +549,7 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
     shape's own (:mod:`pathtracer.scene.instances`).
     """
     props = Props(plugin)
-    kids = _children(plugin, {"bsdf": 1, "emitter": 1, "medium": 2})
+    kids = children(plugin, {"bsdf": 1, "emitter": 1, "medium": 2})
     m = props.transform("to_world")
     if parent is not None:
         m = parent @ m
@@ -842,7 +603,7 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
     elif kind == "cylinder":
         _add_cylinder(plugin, props, geo, shape_id, m, flip, kids["emitter"])
     else:
-        raise _unsupported(plugin, "shape")
+        raise unsupported(plugin, "shape")
     props.finish()
     geo.name.append(_shape_label(plugin))
     return (kids["bsdf"][0] if kids["bsdf"] else None,
@@ -906,7 +667,7 @@ def build_area(plugin: Plugin, shape_id: int) -> AreaEmitter:
     if plugin.type != "area":
         raise plugin.error("only an area emitter can be nested in a shape")
     props = Props(plugin)
-    _children(plugin, {})
+    children(plugin, {})
     radiance = props.color("radiance", 1.0)
     props.finish()
     return AreaEmitter(shape=shape_id, radiance=radiance)
@@ -918,9 +679,9 @@ def build_emitter(plugin: Plugin, folders: list[str] = (".",)):
     builders = {"point": _build_point, "spot": _build_spot, "directional": _build_directional,
                 "constant": _build_constant, "envmap": _build_envmap}
     if plugin.type not in builders:
-        raise _unsupported(plugin, "emitter")
+        raise unsupported(plugin, "emitter")
     if plugin.type != "spot":
-        _children(plugin, {})
+        children(plugin, {})
     result = builders[plugin.type](plugin, props, folders)
     props.finish()
     return result
@@ -940,7 +701,7 @@ def _build_constant(plugin, props, folders):
 
 
 def _build_spot(plugin, props, folders):
-    kids = _children(plugin, {"texture": 1})
+    kids = children(plugin, {"texture": 1})
     if kids["texture"]:
         raise kids["texture"][0].error("a spot light's projected \"texture\" is not supported "
                                        "(only a uniform intensity)")
@@ -1044,7 +805,7 @@ def _rfilter(plugin: Plugin | None) -> ReconstructionFilter:
                            "box, tent, gaussian; Mitsuba's lanczos and mitchell have negative "
                            "lobes, not implemented here)")
     props = Props(plugin)
-    _children(plugin, {})
+    children(plugin, {})
     name, default = FILTER_PARAMS[plugin.type]
     value = props.float(name, default)
     if plugin.type == "box" and value != 0.5:
@@ -1058,11 +819,11 @@ def _rfilter(plugin: Plugin | None) -> ReconstructionFilter:
 
 def _film(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
     if plugin.type in VARIANT_ONLY:
-        raise _unsupported(plugin, "film")
+        raise unsupported(plugin, "film")
     if plugin.type != "hdrfilm":
         raise plugin.error("unsupported film (supported: hdrfilm)")
     props = Props(plugin)
-    filters = _children(plugin, {"rfilter": 1})["rfilter"]
+    filters = children(plugin, {"rfilter": 1})["rfilter"]
     rfilter = _rfilter(filters[0] if filters else None)
     width, height = props.int("width", 768), props.int("height", 576)
     if width <= 0 or height <= 0:
@@ -1093,11 +854,11 @@ _warned_samplers: set = set()
 
 def _sampler(plugin: Plugin) -> tuple[int, int]:
     if plugin.type in VARIANT_ONLY:
-        raise _unsupported(plugin, "sampler")
+        raise unsupported(plugin, "sampler")
     if plugin.type not in SAMPLER_PARAMS:
         raise plugin.error(f"unsupported sampler (supported: {', '.join(SAMPLER_PARAMS)})")
     props = Props(plugin)
-    _children(plugin, {})
+    children(plugin, {})
     props.ignore(*SAMPLER_PARAMS[plugin.type])
     _warn_sampler(plugin)
     spp, seed = props.int("sample_count", 4), props.int("seed", 0)
@@ -1132,9 +893,9 @@ def build_sensor(plugin: Plugin, resolution: tuple[int, int] | None = None,
     aspect, as Mitsuba does for a film of that size (``fov_axis`` keeps its meaning).
     """
     if plugin.type != "perspective":
-        raise _unsupported(plugin, "sensor")
+        raise unsupported(plugin, "sensor")
     props = Props(plugin)
-    kids = _children(plugin, {"film": 1, "sampler": 1, "medium": 1})
+    kids = children(plugin, {"film": 1, "sampler": 1, "medium": 1})
     if kids["film"]:
         width, height, rfilter = _film(kids["film"][0])
     else:   # Mitsuba's default film
@@ -1187,16 +948,16 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
     if plugin.type == "moment":
         # Mitsuba's moment integrator renders its nested integrator and adds the second
         # moment as an AOV (which the statistics here compute anyway): the nested one renders.
-        kids = _children(plugin, {"integrator": 1})
+        kids = children(plugin, {"integrator": 1})
         if not kids["integrator"] or plugin.props:
             raise plugin.error("a moment integrator takes exactly one nested <integrator> "
                                "and no properties")
         return build_integrator(kids["integrator"][0])
     if plugin.type not in SUPPORTED["integrator"]:
-        raise _unsupported(plugin, "integrator")
+        raise unsupported(plugin, "integrator")
     if plugin.type == "direct":
         _check_direct_samples(plugin)
-    _children(plugin, {})
+    children(plugin, {})
     allowed = INTEGRATOR_PARAMS.get(plugin.type)
     params = {}
     for name, prop in plugin.props.items():
@@ -1304,7 +1065,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     """
     from .build_media import MediaTable
 
-    kids = _children(root, {"shape": 10**9, "bsdf": 10**9, "emitter": 10**9,
+    kids = children(root, {"shape": 10**9, "bsdf": 10**9, "emitter": 10**9,
                             "sensor": 1, "integrator": 1, "texture": 10**9, "medium": 10**9,
                             "sampler": 10**9})
     media = MediaTable()
@@ -1339,7 +1100,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         media.index(plugin)
     for plugin, parent in instances.flatten(kids["shape"]):
         if plugin.type not in SUPPORTED["shape"]:
-            raise _unsupported(plugin, "shape")
+            raise unsupported(plugin, "shape")
         shape_id = len(shape_bsdf)
         bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, folders, parent)
         shape_media.append(media.shape_media(plugin))

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..media.homogeneous import HomogeneousMedium
 from ..media.phase import HenyeyGreensteinPhase, IsotropicPhase
-from .build import Props, _children, _unsupported
+from .properties import Props, children, unsupported
 from .xml import Plugin
 
 SHAPE_MEDIUM_NAMES = ("interior", "exterior")
@@ -60,9 +60,9 @@ class MediaTable:
 def build_medium(plugin: Plugin) -> HomogeneousMedium:
     """The :class:`~pathtracer.media.HomogeneousMedium` of a ``<medium>`` element."""
     if plugin.type not in ("homogeneous",):
-        raise _unsupported(plugin, "medium")
+        raise unsupported(plugin, "medium")
     props = Props(plugin)
-    kids = _children(plugin, {"phase": 1})
+    kids = children(plugin, {"phase": 1})
     if props.has("sigma_a") or props.has("sigma_s"):
         raise _mitsuba06_coefficients(plugin, props)
     sigma_t = props.color("sigma_t", 1.0)
@@ -105,9 +105,9 @@ def _mitsuba06_coefficients(plugin: Plugin, props: Props):
 def build_phase(plugin: Plugin):
     """The :mod:`pathtracer.phase` object of a ``<phase>`` element."""
     if plugin.type not in ("isotropic", "hg"):
-        raise _unsupported(plugin, "phase function")
+        raise unsupported(plugin, "phase function")
     props = Props(plugin)
-    _children(plugin, {})
+    children(plugin, {})
     if plugin.type == "isotropic":
         props.finish()
         return IsotropicPhase()

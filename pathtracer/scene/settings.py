@@ -13,6 +13,7 @@ import os
 from dataclasses import dataclass
 
 from .build import build_integrator, build_sensor
+from .load import check_overrides, scene_file
 from .types import Camera, IntegratorSpec
 from .xml import parse_file
 
@@ -53,7 +54,6 @@ def scene_settings(path: str | os.PathLike, resolution: tuple[int, int] | None =
     Parameters are those of :func:`pathtracer.load_scene`; errors are the same
     :class:`~pathtracer.scene.SceneError` (for the parts read here).
     """
-    from . import check_overrides, scene_file
     file = scene_file(path)
     resolution, sample_count = check_overrides(resolution, sample_count)
     root = parse_file(file, params)

@@ -1,0 +1,267 @@
+"""Typed, checked access to a plugin's properties, and the refusals every plugin kind shares.
+
+Every plugin is read through :class:`Props`, which remembers which properties were
+consumed: a property the tracer does not know is an error rather than being silently
+ignored, because it would make the two renderers disagree. :func:`children` checks the
+nested elements a plugin may have, :func:`unsupported` says why a plugin type is refused.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import spectra
+from .registry import factory
+from .xml import Plugin
+
+SUPPORTED = {
+    "shape": ("rectangle", "cube", "disk", "sphere", "cylinder", "obj", "ply", "serialized",
+              "bsplinecurve", "linearcurve", "shapegroup", "instance"),
+    "bsdf": ("diffuse", "twosided", "conductor", "roughconductor", "dielectric",
+             "thindielectric", "roughdielectric", "plastic", "roughplastic", "null", "blendbsdf",
+             "mask", "bumpmap", "normalmap"),
+    "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
+    "sensor": ("perspective",),
+    "integrator": ("path", "direct", "ptracer", "recursive", "path_bsdf", "path_nee", "smallpt",
+                   "light", "volpath", "volpath_phase", "bdpt"),
+    "texture": ("bitmap", "checkerboard", "rawconstant"),
+    "medium": ("homogeneous",),
+    "phase": ("isotropic", "hg"),
+}
+# Media and phase functions of Mitsuba 3 refused, with the reason.
+NOT_IMPLEMENTED_MEDIA = {
+    "heterogeneous": "heterogeneous (grid volume) media are not implemented: only homogeneous",
+    "rayleigh": "the Rayleigh phase function exists only in Mitsuba's spectral variants",
+    "sggx": "the SGGX microflake phase function is not implemented (isotropic and hg are)",
+    "blendphase": "blended phase functions are not implemented (isotropic and hg are)",
+    "tabphase": "tabulated phase functions are not implemented (isotropic and hg are)",
+    "volpathmis": "the spectral-MIS volumetric path tracer is not implemented; use volpath",
+}
+# BSDF parameters that take a <texture> (and the checkerboard's colours).
+TEXTURED_PARAMS = ("reflectance", "specular_reflectance", "specular_transmittance",
+                   "diffuse_reflectance", "alpha", "alpha_u", "alpha_v", "color0", "color1")
+COLOR_TAGS = ("rgb", "float", "integer", "spectrum")
+# Plugins that exist in Mitsuba 3 but only make sense in other variants or
+# renderers, with the reason shown to the user (merged into the errors of
+# every plugin kind).
+VARIANT_ONLY = {
+    "polarizer": "a polarization filter: only meaningful in Mitsuba's *_polarized variants",
+    "retarder": "a polarization retarder: only meaningful in Mitsuba's *_polarized variants",
+    "measured_polarized": "measured polarized BSDF data: only meaningful in Mitsuba's "
+                          "*_polarized variants",
+    "pplastic": "a polarized plastic: only meaningful in Mitsuba's *_polarized variants",
+    "stokes": "an integrator of Stokes vectors: only meaningful in Mitsuba's *_polarized variants",
+    "specfilm": "a film of spectral sensitivity bands: only meaningful in Mitsuba's spectral "
+                "variants",
+    "prb": "a differentiable (path replay backpropagation) integrator: it renders what path "
+           "renders, but only for gradients in Mitsuba's *_ad variants; use path",
+    "prb_basic": "a differentiable integrator for Mitsuba's *_ad variants; use path",
+    "prbvolpath": "a differentiable volumetric integrator for Mitsuba's *_ad variants",
+    "direct_projective": "a projective-sampling differentiable integrator for Mitsuba's "
+                         "*_ad variants; use direct",
+    "prb_projective": "a projective-sampling differentiable integrator for Mitsuba's *_ad "
+                      "variants; use path",
+}
+# Shapes that are valid in RGB variants but not implemented here (like Nori's
+# stubs, the message says so rather than pretending the type is unknown).
+NOT_IMPLEMENTED_SHAPES = {
+    "sdfgrid": "signed-distance-field grids",
+    "ellipsoids": "ellipsoid point clouds",
+    "ellipsoidsmesh": "ellipsoid point clouds",
+    "merge": "shape merging",
+}
+FLOAT_TAGS = ("float", "integer")
+
+
+class Props:
+    """Typed, checked access to a plugin's properties.
+
+    Call :meth:`finish` after reading: any property not read is reported.
+    """
+
+    def __init__(self, plugin: Plugin):
+        self.plugin = plugin
+        self.used: set[str] = set()
+        # Where texture files are looked up and the textures built so far (set by the
+        # BSDF builder, for parameters that take textures).
+        self.folders: list[str] = ["."]
+        self.texture_cache: dict = {}
+        # Nested <texture> children by parameter name (read by reflectance_or_texture).
+        self.textures: dict[str, Plugin] = {}
+        for name, child in plugin.named_children():
+            if child.kind != "texture":
+                continue
+            if not name:
+                raise child.error(f"a <texture> inside {plugin.label} needs a name "
+                                  "(the parameter it gives, e.g. name=\"reflectance\")")
+            if name in plugin.props or name in self.textures:
+                raise child.error(f"parameter \"{name}\" given twice")
+            self.textures[name] = child
+
+    def _get(self, name: str, tags: tuple, what: str):
+        if name in self.textures:
+            self._no_texture(name)
+        prop = self.plugin.props.get(name)
+        self.used.add(name)
+        if prop is None:
+            return None
+        if prop.tag not in tags:
+            raise self.plugin.error(f"property \"{name}\" must be {what}, not <{prop.tag}>",
+                                    prop.line)
+        return prop.value
+
+    def has(self, name: str) -> bool:
+        return name in self.plugin.props
+
+    def line(self, name: str) -> int:
+        return self.plugin.props[name].line
+
+    def line_of(self, name: str) -> int:
+        """The line of a property or of the nested texture that gives it."""
+        if name in self.textures:
+            return self.textures[name].line
+        return self.line(name)
+
+    def color(self, name: str, default: float, kind: str | None = None) -> np.ndarray:
+        """An RGB colour from ``<rgb>``, ``<float>`` or ``<spectrum>``.
+
+        ``kind`` says how a ``<spectrum>`` becomes RGB (see
+        :func:`pathtracer.scene.spectra.to_rgb`): by default ``'emission'``
+        inside an ``<emitter>`` and ``'reflectance'`` elsewhere, as Mitsuba's
+        emitters and BSDFs read their colours; pass ``'unbounded'`` for
+        values that may exceed 1 but are not emitted (indices of refraction).
+        """
+        v = self._get(name, COLOR_TAGS, "an <rgb> (or <float>, <spectrum>) colour")
+        if isinstance(v, spectra.Spectrum):
+            if kind is None:
+                kind = "emission" if self.plugin.kind == "emitter" else "reflectance"
+            return spectra.to_rgb(v, kind)
+        return np.full(3, float(default)) if v is None else np.broadcast_to(
+            np.asarray(v, dtype=float), (3,)).copy()
+
+    def reflectance(self, name: str, default: float) -> np.ndarray:
+        """A colour that scales reflected or transmitted light: each channel in [0, 1].
+
+        Mitsuba refuses an ``<rgb>`` outside [0, 1] here; a ``<float>`` it does not check,
+        but above 1 a surface creates energy, so both are refused.
+        """
+        value = self.color(name, default)
+        if not np.all((value >= 0.0) & (value <= 1.0)):
+            raise self.plugin.error(f"\"{name}\" must lie in [0, 1] (as Mitsuba requires of a "
+                                    f"reflectance), got {', '.join(f'{v:g}' for v in value)}",
+                                    self.line(name))
+        return value
+
+    def reflectance_or_texture(self, name: str, default: float, folders: list[str],
+                               cache: dict):
+        """A :meth:`reflectance` that may also be a nested ``<texture>``.
+
+        Returns a (3,) array for an ``<rgb>``/``<float>`` value (or the
+        default), else the built :class:`~pathtracer.textures.Texture`
+        (whose values are not range-checked: Mitsuba only warns about them).
+        """
+        child = self.textures.get(name)
+        self.used.add(name)
+        if child is None:
+            return self.reflectance(name, default)
+        return build_texture(child, folders, cache)
+
+    def float(self, name: str, default):
+        v = self._get(name, FLOAT_TAGS, "a <float>")
+        return default if v is None else float(v)
+
+    def int(self, name: str, default):
+        v = self._get(name, ("integer",), "an <integer>")
+        return default if v is None else int(v)
+
+    def bool(self, name: str, default: bool) -> bool:
+        v = self._get(name, ("boolean",), "a <boolean>")
+        return default if v is None else bool(v)
+
+    def string(self, name: str, default):
+        return self._get(name, ("string",), "a <string>") or default
+
+    def point(self, name: str, default):
+        v = self._get(name, ("point", "vector"), "a <point>")
+        return default if v is None else np.asarray(v, dtype=float)
+
+    def transform(self, name: str = "to_world") -> np.ndarray:
+        v = self._get(name, ("transform",), "a <transform>")
+        return np.eye(4) if v is None else v
+
+    def normal_matrix(self, name: str = "to_world"):
+        """The matrix Mitsuba transforms this transform's normals with when it
+        is not the true inverse transpose (a ``<rotate>`` about a non-unit
+        axis), else None."""
+        p = self.plugin.props.get(name)
+        return None if p is None else p.normal_matrix
+
+    def raw(self, name: str):
+        """The value whatever its type (for pass-through parameters)."""
+        if name in self.textures:
+            self._no_texture(name)
+        self.used.add(name)
+        p = self.plugin.props.get(name)
+        return None if p is None else p.value
+
+    def ignore(self, *names: str) -> None:
+        """Accept properties that do not change the rendered values."""
+        self.used.update(names)
+
+    def _no_texture(self, name: str):
+        if self.plugin.type == "roughplastic" and name == "alpha":
+            raise self.textures[name].error(
+                "roughplastic takes a number for \"alpha\", not a texture (its coating "
+                "tables depend on it; Mitsuba refuses a texture too)")
+        raise self.textures[name].error(
+            f"a texture for \"{name}\" is not supported (this tracer takes textures for: "
+            f"{', '.join(TEXTURED_PARAMS)})")
+
+    def finish(self) -> None:
+        for name in self.textures:
+            if name not in self.used:
+                self._no_texture(name)
+        for name, prop in self.plugin.props.items():
+            if name not in self.used:
+                known = sorted(self.used)
+                raise self.plugin.error(
+                    f"unsupported property \"{name}\" (this tracer understands: "
+                    f"{', '.join(known) or 'none'})", prop.line)
+
+
+def children(plugin: Plugin, allowed: dict[str, int]) -> dict[str, list[Plugin]]:
+    """Nested plugins grouped by kind; ``allowed`` maps kind -> max count."""
+    out: dict[str, list[Plugin]] = {k: [] for k in allowed}
+    for child in plugin.children:
+        if child.kind not in allowed:
+            raise child.error(f"<{child.kind}> is not allowed inside {plugin.label}")
+        out[child.kind].append(child)
+        if len(out[child.kind]) > allowed[child.kind]:
+            raise child.error(f"{plugin.label} accepts at most {allowed[child.kind]} "
+                              f"<{child.kind}>")
+    return out
+
+
+def unsupported(plugin: Plugin, what: str) -> Exception:
+    """The error for a plugin type this tracer refuses: why, where it is known, else what is supported."""
+    if plugin.type in NOT_IMPLEMENTED_MEDIA:
+        return plugin.error(f"{what} \"{plugin.type}\" is not supported: "
+                            f"{NOT_IMPLEMENTED_MEDIA[plugin.type]}")
+    if plugin.type in VARIANT_ONLY:
+        return plugin.error(f"{what} \"{plugin.type}\" is not supported: it is "
+                            f"{VARIANT_ONLY[plugin.type]}")
+    if plugin.kind == "shape" and plugin.type in NOT_IMPLEMENTED_SHAPES:
+        return plugin.error(f"shape \"{plugin.type}\" is not implemented in this tracer "
+                            f"({NOT_IMPLEMENTED_SHAPES[plugin.type]}); it is valid in Mitsuba's "
+                            "RGB variants, so the scene cannot be compared")
+    return plugin.error(f"unsupported {what} (supported: {', '.join(SUPPORTED[plugin.kind])})")
+
+
+def build_texture(plugin: Plugin, folders: list[str], cache: dict):
+    """The :mod:`pathtracer.textures` object of a ``<texture>`` (built once per plugin)."""
+    key = id(plugin)
+    if key not in cache:
+        create = factory("texture", plugin.type)
+        if create is None:
+            raise unsupported(plugin, "texture")
+        cache[key] = create(plugin, folders, cache)
+    return cache[key]
