@@ -23,6 +23,8 @@ from .properties import (
     Props,
     build_texture,
     children,
+    find_file,
+    search_folders,
     unsupported,
 )
 from .registry import register
@@ -470,28 +472,6 @@ def _cube_local():
             uv = [[0.5 + 0.5 * su * c[au], 0.5 + 0.5 * sv * c[av]] for c in quad]
             uvs += [[uv[0], uv[1], uv[2]], [uv[0], uv[2], uv[3]]]
     return np.array(tris), np.array(normals), np.array(uvs)
-
-
-def search_folders(root: Plugin, base_dir: str) -> list[str]:
-    """Where relative file names (meshes, spectra, textures) are looked up,
-    first match wins, as Mitsuba's file resolver: the top-level file's
-    ``<path>`` folders (the last one first), the scene file's folder, then
-    the current working directory."""
-    return list(root.search_paths) + [base_dir, os.getcwd()]
-
-
-def find_file(plugin: Plugin, props: Props, name: str, folders: list[str]) -> str:
-    """The file ``props`` names in its string property ``name``, looked up in ``folders``."""
-    filename = props.string(name, None)
-    if filename is None:
-        raise plugin.error(f"missing <string name=\"{name}\">")
-    candidates = [filename] if os.path.isabs(filename) else [
-        os.path.join(folder, filename) for folder in folders]
-    for path in candidates:
-        if os.path.isfile(path):
-            return path
-    raise plugin.error(f"file not found: \"{filename}\" (looked for {', '.join(candidates)})",
-                       props.line(name))
 
 
 def _load_mesh(plugin: Plugin, props: Props, folders: list[str]) -> meshes.MeshData:

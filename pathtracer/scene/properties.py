@@ -7,6 +7,8 @@ nested elements a plugin may have, :func:`unsupported` says why a plugin type is
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from . import spectra
@@ -265,3 +267,25 @@ def build_texture(plugin: Plugin, folders: list[str], cache: dict):
             raise unsupported(plugin, "texture")
         cache[key] = create(plugin, folders, cache)
     return cache[key]
+
+
+def search_folders(root: Plugin, base_dir: str) -> list[str]:
+    """Where relative file names (meshes, spectra, textures) are looked up,
+    first match wins, as Mitsuba's file resolver: the top-level file's
+    ``<path>`` folders (the last one first), the scene file's folder, then
+    the current working directory."""
+    return list(root.search_paths) + [base_dir, os.getcwd()]
+
+
+def find_file(plugin: Plugin, props: Props, name: str, folders: list[str]) -> str:
+    """The file ``props`` names in its string property ``name``, looked up in ``folders``."""
+    filename = props.string(name, None)
+    if filename is None:
+        raise plugin.error(f"missing <string name=\"{name}\">")
+    candidates = [filename] if os.path.isabs(filename) else [
+        os.path.join(folder, filename) for folder in folders]
+    for path in candidates:
+        if os.path.isfile(path):
+            return path
+    raise plugin.error(f"file not found: \"{filename}\" (looked for {', '.join(candidates)})",
+                       props.line(name))
