@@ -32,8 +32,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mitsuba_refs import config as refs_config
-from mitsuba_refs.stats import MAX_VARIANCE_RATIO, ErrorBudget
+from mitsuba_refs.cache import get_reference
+from mitsuba_refs.compare import (
+    BOUNCE_REFERENCE,
+    SPLATTING,
+    TEST_SEED,
+    compare,
+    default_params,
+    reference_integrator,
+    write_pictures,
+)
+from mitsuba_refs.stats import MAX_VARIANCE_RATIO, ErrorBudget, compare_means
 
+from . import hints
 from .contract import refusal
 from .isolation import SOLUTION, Limits, StudentFailure, StudentProcess
 
@@ -147,7 +158,6 @@ def _lights(integrator, seconds, title, max_depth=3, spp=SPP, scene="cornell-lig
 def check_params(check: Check) -> dict:
     """Scene parameters of a check: the references' film size, and its max_depth and rr_depth
     if set."""
-    from mitsuba_refs.compare import default_params
     params = default_params(check.scene)
     if check.max_depth is not None:
         params["max_depth"] = check.max_depth
@@ -347,8 +357,6 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
     trusted : bool  grade in the solution runtime without the refusal check (the reference
         solution, the bug zoo and the correct alternatives; never a student's submission)
     """
-    from mitsuba_refs.compare import compare
-
     start = time.perf_counter()
     alpha = alpha_of(check) if alpha is None else alpha
     limits = limits or Limits(check.seconds * TIME_SCALE, MEMORY_MB, OUTPUT_BYTES)
@@ -356,7 +364,6 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
     camera = "student" if check.camera else "reference"
     run_as = f"reference:{check.integrator}" if check.camera else check.integrator
 
-    from mitsuba_refs.compare import SPLATTING, TEST_SEED, default_params
     main_render = {}
 
     trusted = trusted or impl == SOLUTION
@@ -388,7 +395,6 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
             return _failed(result, failure, start)
         result.comparison = comparison
         result.parts = score_parts(check, comparison)
-        from . import hints
         camera_geometry = None
         if check.camera:
             # The camera's geometry is measured on every submission (a few rays, no render):
@@ -473,8 +479,6 @@ def score_parts(check: Check, comparison) -> list:
 
 def _images(check: Check, main_render) -> dict | None:
     """The scored render and its reference, for the rules that read images (light tracing)."""
-    from mitsuba_refs.cache import get_reference
-    from mitsuba_refs.compare import reference_integrator
     if "image" not in main_render:
         return None
     reference = get_reference(check.scene, check_params(check),
@@ -488,10 +492,6 @@ def _bounce_sweep(check: Check, render, alpha: float) -> dict:
     """{max_depth: (MeanAgreement, test mean, reference mean)}: the student's integrator vs
     Mitsuba's per-bounce references, ``path`` (``volpath`` for the volumetric integrators;
     explanations only, never scored)."""
-    from mitsuba_refs.cache import get_reference
-    from mitsuba_refs.compare import BOUNCE_REFERENCE, TEST_SEED, default_params
-    from mitsuba_refs.stats import compare_means
-
     params = default_params(check.scene)
     estimator = BOUNCE_REFERENCE.get(check.integrator, "path")   # volpath for the media checks
     depths = [d for d in BOUNCE_DEPTHS if not (check.integrator == "direct" and d > 2)
@@ -508,8 +508,6 @@ def _bounce_sweep(check: Check, render, alpha: float) -> dict:
 
 def _pictures(result: CheckResult, comparison, main_render, out_dir: Path) -> dict:
     """The z-map (and variance / convergence) pictures of a failed check."""
-    from mitsuba_refs.cache import get_reference
-    from mitsuba_refs.compare import reference_integrator, write_pictures
     if "image" not in main_render:
         return {}
     check = result.check

@@ -33,6 +33,8 @@ import sys
 import zipfile
 from pathlib import Path
 
+from .grading import ASSIGNMENTS, checks_of
+
 ROOT = Path(__file__).resolve().parent.parent
 INCLUDE = ("pyproject.toml", "README.md", "pathtracer", "mitsuba_refs", "autograder")
 SKIP_SUFFIXES = (".pyc",)
@@ -129,7 +131,6 @@ def _files():
 
 def build(out_zip, assignment: str = "path-tracing") -> Path:
     """Write the Gradescope zip that grades ``assignment``; return its path."""
-    from .grading import checks_of
     checks_of(assignment)                       # an unknown name fails here, not on Gradescope
     out_zip = Path(out_zip)
     out_zip.parent.mkdir(parents=True, exist_ok=True)
@@ -149,7 +150,6 @@ def main(argv=None) -> int:
     """Build the Gradescope upload (command line); exit code."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out_zip")
-    from .grading import ASSIGNMENTS
     parser.add_argument("--assignment", choices=list(ASSIGNMENTS), default="path-tracing",
                         help="the assignment the zip grades (default: %(default)s)")
     args = parser.parse_args(argv)

@@ -34,6 +34,8 @@ import time
 import numpy as np
 from scipy.stats import norm
 
+from mitsuba_refs.cache import get_reference
+from mitsuba_refs.compare import SPLATTING, reference_integrator, render_ours
 from mitsuba_refs.stats import VARIANCE_BOUND, compare_means, detectable_bias
 from mitsuba_refs.stats.power import gross_error_bound, tile_gross_error_bound
 
@@ -48,15 +50,12 @@ def reference_of(check):
     """The committed reference a check compares with (no rendering): at the check's own
     parameters (:func:`autograder.grading.check_params`: film size, max_depth and rr_depth
     if set)."""
-    from mitsuba_refs.cache import get_reference
-    from mitsuba_refs.compare import reference_integrator
     return get_reference(check.scene, grading.check_params(check),
                          reference_integrator(check.integrator), render=False)
 
 
 def splats(check) -> bool:
     """Whether ``check`` grades an integrator that splats (its mean test has tiles only)."""
-    from mitsuba_refs.compare import SPLATTING
     return check.integrator in SPLATTING
 
 
@@ -143,7 +142,6 @@ def injected_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float, 
 def rendered_power(check, b: float, renders: int, *, alpha: float, seed: int = 70_000) -> float:
     """Fraction of ``renders`` real renders of the reference solution at ``check.spp``,
     multiplied by ``1+b``, whose mean part fails against the committed reference."""
-    from mitsuba_refs.compare import render_ours
     reference = reference_of(check)
     rejected = 0
     for k in range(renders):
