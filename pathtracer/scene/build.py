@@ -295,7 +295,7 @@ def _build_perturbed(props: Props, bsdfs):
     """``normalmap`` (an RGB texture named ``normalmap``) and ``bumpmap`` (one height
     texture of any name, ``scale`` 1), each around one nested BSDF; both take
     ``flip_invalid_normals`` and ``use_shadowing_function`` (true), as in Mitsuba."""
-    from pathtracer.textures.base import BitmapTexture
+    from pathtracer.textures.bitmap import BitmapTexture
 
     plugin = props.plugin
     kids = children(plugin, {"bsdf": 1, "texture": 1})
@@ -327,13 +327,13 @@ def _build_perturbed(props: Props, bsdfs):
 @register("texture", "bitmap", "checkerboard", "rawconstant")
 def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
     from pathtracer.io.bitmap import read_bitmap
-    from pathtracer.textures import base as textures
+    from pathtracer.textures import base, bitmap, checkerboard
 
     props = Props(plugin)
     children(plugin, {"texture": 2})
     to_uv = props.transform("to_uv")
     if plugin.type == "checkerboard":
-        result = textures.Checkerboard(props.reflectance_or_texture("color0", 0.4, folders, cache),
+        result = checkerboard.Checkerboard(props.reflectance_or_texture("color0", 0.4, folders, cache),
                                        props.reflectance_or_texture("color1", 0.2, folders, cache),
                                        to_uv)
     elif plugin.type == "rawconstant":
@@ -342,12 +342,12 @@ def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
                            "a <float> or a <vector>")
         if value is None:
             raise plugin.error("missing \"value\" (a <float> or a <vector>)")
-        result = textures.ConstantTexture(np.asarray(value, dtype=float))
+        result = base.ConstantTexture(np.asarray(value, dtype=float))
     elif plugin.type == "bitmap":
         filter_type = props.string("filter_type", "bilinear").strip().lower()
         wrap_mode = props.string("wrap_mode", "repeat").strip().lower()
-        for name, value, allowed in (("filter_type", filter_type, textures.FILTER_TYPES),
-                                     ("wrap_mode", wrap_mode, textures.WRAP_MODES)):
+        for name, value, allowed in (("filter_type", filter_type, bitmap.FILTER_TYPES),
+                                     ("wrap_mode", wrap_mode, bitmap.WRAP_MODES)):
             if value not in allowed:
                 raise plugin.error(f"unknown {name} \"{value}\" (supported: "
                                    f"{', '.join(allowed)})", props.line(name))
@@ -360,7 +360,7 @@ def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
             data = read_bitmap(path, raw=raw)
         except ValueError as e:
             raise plugin.error(f"{os.path.basename(path)}: {e}", props.line("filename")) from None
-        result = textures.BitmapTexture(data, filter_type, wrap_mode, to_uv)
+        result = bitmap.BitmapTexture(data, filter_type, wrap_mode, to_uv)
     else:
         raise unsupported(plugin, "texture")
     props.finish()
