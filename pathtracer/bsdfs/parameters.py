@@ -1,10 +1,17 @@
-"""How a ``<bsdf>`` element becomes a :mod:`pathtracer.bsdfs` object (moved from the loader)."""
+"""What the BSDF plugins share in parsing their properties, and the builder of a ``<bsdf>``.
+
+Each BSDF module registers a factory beside its class (``@register("bsdf", name)``)
+that reads its properties with these helpers; :func:`build_bsdf` looks the element's
+type up in the registry, for the loader and for the BSDFs that nest others.
+"""
 from __future__ import annotations
 
 import numpy as np
 
 from ..scene.properties import FLOAT_TAGS, Props, build_texture, children, unsupported
+from ..scene.registry import factory
 from ..scene.xml import Plugin
+from .conductor_presets import CONDUCTOR_PRESETS
 
 # Mitsuba's table of named indices of refraction (Hecht, Optics; ~589 nm).
 IOR_BY_NAME = {
@@ -27,8 +34,50 @@ VARIANT_ONLY_BSDFS = {
 }
 
 
+def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | None = None):
+    """Construct the :mod:`pathtracer.bsdfs` object for a ``<bsdf>`` element.
 
-def _ior(props: Props, name: str, default: str) -> float:
+    The factory registered for its type is called with the element's :class:`Props`
+    (whose ``folders`` and ``texture_cache`` are set) and returns the BSDF; the
+    properties it left unread are then refused.
+
+    Parameters
+    ----------
+    plugin : Plugin
+    folders : list of str
+        Where texture files are looked up (:func:`~pathtracer.scene.properties.search_folders`).
+    textures : dict, optional
+        Textures already built, by ``id`` of their plugin (textures shared by ``<ref>``
+        read the image once).
+    """
+    textures = {} if textures is None else textures
+    props = Props(plugin)
+    props.folders, props.texture_cache = folders, textures
+    create = factory("bsdf", plugin.type)
+    if create is None:
+        textures_only(props)
+        if plugin.type in VARIANT_ONLY_BSDFS:
+            raise plugin.error(f"BSDF \"{plugin.type}\" {VARIANT_ONLY_BSDFS[plugin.type]}")
+        raise unsupported(plugin, "BSDF")
+    result = create(props)
+    props.finish()
+    return result
+
+
+def textures_only(props: Props) -> None:
+    """Refuse nested elements other than (named) textures: a BSDF that wraps no other."""
+    children(props.plugin, {"texture": 10**9})
+
+
+def colour_or_texture(props: Props, name: str, default: float):
+    """A reflectance (a colour in [0, 1]) or a nested texture (see
+    :meth:`~pathtracer.scene.properties.Props.reflectance_or_texture`)."""
+    return props.reflectance_or_texture(name, default, props.folders, props.texture_cache)
+
+
+def ior(props: Props, name: str, default: str) -> float:
+    """An index of refraction: a positive ``<float>``, or a ``<string>`` name of
+    :data:`IOR_BY_NAME` (as is ``default``)."""
     if name in props.textures:
         props._no_texture(name)
     p = props.plugin.props.get(name)
@@ -50,15 +99,13 @@ def _ior(props: Props, name: str, default: str) -> float:
     return value
 
 
-def _conductor_ior(props: Props) -> tuple[np.ndarray, np.ndarray]:
+def conductor_ior(props: Props) -> tuple[np.ndarray, np.ndarray]:
     """Complex IOR ``(eta, k)`` of a conductor: Mitsuba's ``material`` preset or explicit values.
 
     As Mitsuba: ``material="none"`` (the default) is ``0 + 1i``, a perfect
     mirror; explicit ``eta`` / ``k`` default to 0 / 1 and cannot be combined
     with another material.
     """
-    from pathtracer.bsdfs.conductor_presets import CONDUCTOR_PRESETS
-
     material = props.string("material", "none").strip()
     if material == "none" or props.has("eta"):
         if material != "none":
@@ -76,7 +123,7 @@ def _conductor_ior(props: Props) -> tuple[np.ndarray, np.ndarray]:
     return np.array(eta), np.array(k)
 
 
-def _microfacet(props: Props, anisotropic: bool = True) -> tuple[str, float, float, bool]:
+def microfacet_parameters(props: Props, anisotropic: bool = True) -> tuple[str, float, float, bool]:
     """``distribution``, ``alpha_u``, ``alpha_v``, ``sample_visible`` of a microfacet BSDF
     (Mitsuba's rules and defaults)."""
     plugin = props.plugin
@@ -103,13 +150,13 @@ def _microfacet(props: Props, anisotropic: bool = True) -> tuple[str, float, flo
     if "alpha_u" in given and not anisotropic:
         raise plugin.error(f"{plugin.type} supports only isotropic roughness (alpha), as in "
                            "Mitsuba", props.line_of("alpha_u"))
-    alpha = _roughness(props, "alpha", 0.1, anisotropic)
-    alpha_u = _roughness(props, "alpha_u", alpha, anisotropic)
-    alpha_v = _roughness(props, "alpha_v", alpha, anisotropic)
+    alpha = roughness(props, "alpha", 0.1, anisotropic)
+    alpha_u = roughness(props, "alpha_u", alpha, anisotropic)
+    alpha_v = roughness(props, "alpha_v", alpha, anisotropic)
     return distribution, alpha_u, alpha_v, sample_visible
 
 
-def _roughness(props: Props, name: str, default, textured: bool):
+def roughness(props: Props, name: str, default, textured: bool):
     """A roughness: a number (>= 0), or, where Mitsuba takes one (``roughconductor``,
     ``roughdielectric``), a nested texture read per hit with ``eval_1``."""
     if textured and name in props.textures:
@@ -121,120 +168,35 @@ def _roughness(props: Props, name: str, default, textured: bool):
     return value
 
 
-def _distinct_iors(props: Props, default_int: str) -> tuple[float, float]:
+def distinct_iors(props: Props, default_int: str) -> tuple[float, float]:
     """``int_ior`` and ``ext_ior``, which the rough interfaces need to differ (Mitsuba's check)."""
-    int_ior, ext_ior = _ior(props, "int_ior", default_int), _ior(props, "ext_ior", "air")
+    int_ior, ext_ior = ior(props, "int_ior", default_int), ior(props, "ext_ior", "air")
     if int_ior == ext_ior:
         raise props.plugin.error(f"{props.plugin.type} needs int_ior != ext_ior (both {int_ior:g})",
                                  props.line("int_ior") if props.has("int_ior") else None)
     return int_ior, ext_ior
 
 
-def _build_plastic(props: Props, bsdfs, colour):
-    """``plastic`` / ``roughplastic``: shared parameters, then the smooth or rough model."""
-    rough = props.plugin.type == "roughplastic"
-    if rough:
-        int_ior, ext_ior = _distinct_iors(props, "polypropylene")
-    else:
-        int_ior, ext_ior = _ior(props, "int_ior", "polypropylene"), _ior(props, "ext_ior", "air")
+def plastic_parameters(props: Props, int_ior: float, ext_ior: float) -> dict:
+    """The arguments ``plastic`` and ``roughplastic`` share, given their IORs."""
     # A texture's mean (Texture.mean) sets the lobe-selection weight, as in Mitsuba.
-    common = dict(diffuse_reflectance=colour("diffuse_reflectance", 0.5),
-                  specular_reflectance=colour("specular_reflectance", 1.0),
-                  int_ior=int_ior, ext_ior=ext_ior, nonlinear=props.bool("nonlinear", False))
-    if not rough:
-        return bsdfs.Plastic(**common)
-    distribution, alpha, _, sample_visible = _microfacet(props, anisotropic=False)
-    return bsdfs.RoughPlastic(distribution, alpha, **common, sample_visible=sample_visible)
+    return dict(diffuse_reflectance=colour_or_texture(props, "diffuse_reflectance", 0.5),
+                specular_reflectance=colour_or_texture(props, "specular_reflectance", 1.0),
+                int_ior=int_ior, ext_ior=ext_ior, nonlinear=props.bool("nonlinear", False))
 
 
-def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | None = None):
-    """Construct the :mod:`pathtracer.bsdfs` object for a ``<bsdf>`` element.
-
-    Parameters
-    ----------
-    plugin : Plugin
-    folders : list of str
-        Where texture files are looked up (:func:`search_folders`).
-    textures : dict, optional
-        Textures already built, by ``id`` of their plugin (textures shared by ``<ref>``
-        read the image once).
-    """
-    from pathtracer import bsdfs  # imported lazily: written concurrently
-
-    textures = {} if textures is None else textures
-    props = Props(plugin)
-    props.folders, props.texture_cache = folders, textures
-    kind = plugin.type
-    if kind in COMPOSITE_BSDFS:
-        result = _build_composite(props, bsdfs)
-        props.finish()
-        return result
-    if kind in ("bumpmap", "normalmap"):
-        result = _build_perturbed(props, bsdfs)
-        props.finish()
-        return result
-    children(plugin, {"texture": 10**9})
-
-    def colour(name, default):
-        return props.reflectance_or_texture(name, default, folders, textures)
-
-    if kind == "diffuse":
-        result = bsdfs.Diffuse(colour("reflectance", 0.5))
-    elif kind == "conductor":
-        eta, k = _conductor_ior(props)
-        result = bsdfs.Conductor(colour("specular_reflectance", 1.0), eta, k)
-    elif kind in ("dielectric", "thindielectric"):
-        cls = bsdfs.Dielectric if kind == "dielectric" else bsdfs.ThinDielectric
-        result = cls(_ior(props, "int_ior", "bk7"), _ior(props, "ext_ior", "air"),
-                     colour("specular_reflectance", 1.0), colour("specular_transmittance", 1.0))
-    elif kind == "roughdielectric":
-        int_ior, ext_ior = _distinct_iors(props, "bk7")
-        distribution, alpha_u, alpha_v, _ = _microfacet(props)
-        result = bsdfs.RoughDielectric(distribution, alpha_u, alpha_v, int_ior, ext_ior,
-                                       colour("specular_reflectance", 1.0),
-                                       colour("specular_transmittance", 1.0))
-    elif kind == "roughconductor":
-        eta, k = _conductor_ior(props)
-        distribution, alpha_u, alpha_v, sample_visible = _microfacet(props)
-        result = bsdfs.RoughConductor(distribution, alpha_u, alpha_v,
-                                      colour("specular_reflectance", 1.0), eta, k,
-                                      sample_visible)
-    elif kind in ("plastic", "roughplastic"):
-        result = _build_plastic(props, bsdfs, colour)
-    elif kind == "null":
-        result = bsdfs.NullBSDF()
-    elif kind in VARIANT_ONLY_BSDFS:
-        raise plugin.error(f"BSDF \"{kind}\" {VARIANT_ONLY_BSDFS[kind]}")
-    else:
-        raise unsupported(plugin, "BSDF")
-    props.finish()
-    return result
-
-
-# BSDFs built of nested BSDFs: how many they take, and their scalar texture parameter.
-COMPOSITE_BSDFS = {"twosided": ((1, 2), None, None), "blendbsdf": ((2, 2), "weight", None),
-                   "mask": ((1, 1), "opacity", 0.5)}
-
-
-def _build_composite(props: Props, bsdfs):
-    """``twosided`` (one BSDF for both sides, or front and back), ``blendbsdf``
-    (two BSDFs and a ``weight``) and ``mask`` (one BSDF and an ``opacity``)."""
+def nested_bsdfs(props: Props, least: int, most: int, textures: int = 0) -> list:
+    """The built BSDFs nested in a composite (``least`` to ``most`` of them, beside at
+    most ``textures`` nested textures)."""
     plugin = props.plugin
-    (least, most), scalar, default = COMPOSITE_BSDFS[plugin.type]
-    nested = children(plugin, {"bsdf": most, "texture": 1 if scalar else 0})["bsdf"]
+    nested = children(plugin, {"bsdf": most, "texture": textures})["bsdf"]
     if len(nested) < least:
         raise plugin.error(f"{plugin.type} needs {'exactly' if least == most else 'at least'} "
                            f"{least} nested <bsdf>, got {len(nested)}")
-    inner = [build_bsdf(child, props.folders, props.texture_cache) for child in nested]
-    if plugin.type == "twosided":
-        return bsdfs.TwoSided(*inner)
-    value = _scalar_or_texture(props, scalar, default)
-    if plugin.type == "blendbsdf":
-        return bsdfs.BlendBSDF(inner[0], inner[1], value)
-    return bsdfs.MaskBSDF(inner[0], value)
+    return [build_bsdf(child, props.folders, props.texture_cache) for child in nested]
 
 
-def _scalar_or_texture(props: Props, name: str, default):
+def scalar_or_texture(props: Props, name: str, default):
     """A number or a nested texture read per hit with ``eval_1`` (Mitsuba clips both to
     [0, 1] for a blend weight or an opacity); ``default`` None means required."""
     if name in props.textures:
@@ -243,34 +205,3 @@ def _scalar_or_texture(props: Props, name: str, default):
     if default is None and not props.has(name):
         raise props.plugin.error(f"missing \"{name}\" (a <float> or a <texture>)")
     return props.float(name, default)
-
-
-def _build_perturbed(props: Props, bsdfs):
-    """``normalmap`` (an RGB texture named ``normalmap``) and ``bumpmap`` (one height
-    texture of any name, ``scale`` 1), each around one nested BSDF; both take
-    ``flip_invalid_normals`` and ``use_shadowing_function`` (true), as in Mitsuba."""
-    from pathtracer.textures.bitmap import BitmapTexture
-
-    plugin = props.plugin
-    kids = children(plugin, {"bsdf": 1, "texture": 1})
-    if not kids["bsdf"]:
-        raise plugin.error(f"{plugin.type} needs exactly one nested <bsdf>")
-    nested = build_bsdf(kids["bsdf"][0], props.folders, props.texture_cache)
-    flags = dict(flip_invalid_normals=props.bool("flip_invalid_normals", True),
-                 use_shadowing_function=props.bool("use_shadowing_function", True))
-    if plugin.type == "normalmap":
-        if "normalmap" not in props.textures:
-            raise plugin.error("normalmap needs a <texture name=\"normalmap\">")
-        props.used.add("normalmap")
-        texture = build_texture(props.textures["normalmap"], props.folders, props.texture_cache)
-        return bsdfs.NormalMap(nested, texture, **flags)
-    if not kids["texture"]:
-        raise plugin.error("bumpmap needs one nested <texture> (the height)")
-    name = next(iter(props.textures))
-    props.used.add(name)
-    texture = build_texture(props.textures[name], props.folders, props.texture_cache)
-    if not isinstance(texture, BitmapTexture):
-        raise props.textures[name].error(
-            f"a bumpmap's height must be a bitmap: Mitsuba differentiates only bitmaps "
-            f"(eval_1_grad), not \"{props.textures[name].type}\"")
-    return bsdfs.BumpMap(nested, texture, props.float("scale", 1.0), **flags)

@@ -32,8 +32,12 @@ import copy
 
 import numpy as np
 
+from ..scene.properties import Props, build_texture, children
+from ..scene.registry import register
 from ..textures.base import Texture
+from ..textures.bitmap import BitmapTexture
 from .base import BSDF, BSDFSample, make_sample
+from .parameters import build_bsdf
 
 
 def _normalize(v: np.ndarray) -> np.ndarray:
@@ -193,3 +197,43 @@ class BumpMap(PerturbedNormal):
                          normal[:, 2]), axis=1)
         s = _gram_schmidt(self._geometry.dp_du_world, to_m)
         return np.stack((c * s[:, 0] - d * s[:, 1], d * s[:, 0] + c * s[:, 1], s[:, 2]), axis=1)
+
+
+def _nested_and_flags(props: Props) -> tuple[dict, BSDF, dict]:
+    """What ``normalmap`` and ``bumpmap`` share: the nested elements, the one BSDF built,
+    and ``flip_invalid_normals`` and ``use_shadowing_function`` (true), as in Mitsuba."""
+    plugin = props.plugin
+    kids = children(plugin, {"bsdf": 1, "texture": 1})
+    if not kids["bsdf"]:
+        raise plugin.error(f"{plugin.type} needs exactly one nested <bsdf>")
+    nested = build_bsdf(kids["bsdf"][0], props.folders, props.texture_cache)
+    flags = dict(flip_invalid_normals=props.bool("flip_invalid_normals", True),
+                 use_shadowing_function=props.bool("use_shadowing_function", True))
+    return kids, nested, flags
+
+
+@register("bsdf", "bumpmap")
+def create_bumpmap(props: Props) -> BumpMap:
+    """One nested BSDF, one height texture of any name (a bitmap), ``scale`` (1)."""
+    kids, nested, flags = _nested_and_flags(props)
+    if not kids["texture"]:
+        raise props.plugin.error("bumpmap needs one nested <texture> (the height)")
+    name = next(iter(props.textures))
+    props.used.add(name)
+    texture = build_texture(props.textures[name], props.folders, props.texture_cache)
+    if not isinstance(texture, BitmapTexture):
+        raise props.textures[name].error(
+            f"a bumpmap's height must be a bitmap: Mitsuba differentiates only bitmaps "
+            f"(eval_1_grad), not \"{props.textures[name].type}\"")
+    return BumpMap(nested, texture, props.float("scale", 1.0), **flags)
+
+
+@register("bsdf", "normalmap")
+def create_normalmap(props: Props) -> NormalMap:
+    """One nested BSDF and an RGB texture named ``normalmap``."""
+    _, nested, flags = _nested_and_flags(props)
+    if "normalmap" not in props.textures:
+        raise props.plugin.error("normalmap needs a <texture name=\"normalmap\">")
+    props.used.add("normalmap")
+    texture = build_texture(props.textures["normalmap"], props.folders, props.texture_cache)
+    return NormalMap(nested, texture, **flags)

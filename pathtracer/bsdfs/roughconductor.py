@@ -26,10 +26,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..scene.properties import Props
+from ..scene.registry import register
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .conductor import complex_ior, conductor_reflectance
 from .fresnel import reflect_about
 from .microfacet import RoughSurface, _dot, reflection_half_vector, textured_distribution
+from .parameters import colour_or_texture, conductor_ior, microfacet_parameters, textures_only
 
 
 class RoughConductor(RoughSurface, BSDF):
@@ -117,3 +120,15 @@ class RoughConductor(RoughSurface, BSDF):
             return self.distr.smith_g1(wo, m)
         with np.errstate(divide="ignore", invalid="ignore"):
             return self.distr.G(wi, wo, m) * _dot(wi, m) / (wi[:, 2] * m[:, 2])
+
+
+@register("bsdf", "roughconductor")
+def create(props: Props) -> RoughConductor:
+    """A ``conductor``'s parameters and the microfacet ones (``distribution``, ``alpha`` or
+    ``alpha_u``/``alpha_v``, each a number or a texture, ``sample_visible``)."""
+    textures_only(props)
+    eta, k = conductor_ior(props)
+    distribution, alpha_u, alpha_v, sample_visible = microfacet_parameters(props)
+    return RoughConductor(distribution, alpha_u, alpha_v,
+                          colour_or_texture(props, "specular_reflectance", 1.0), eta, k,
+                          sample_visible)

@@ -34,10 +34,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..scene.properties import Props
+from ..scene.registry import register
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR, BK7_IOR
 from .fresnel import fresnel_dielectric, reflect_about, refract_about
 from .microfacet import RoughSurface, _dot, _normalize, textured_distribution
+from .parameters import colour_or_texture, distinct_iors, microfacet_parameters, textures_only
 
 
 def _mulsign_z(v: np.ndarray, sign_of: np.ndarray) -> np.ndarray:
@@ -142,3 +145,14 @@ class RoughDielectric(RoughSurface, BSDF):
         eta = np.where(selected_r, 1.0, eta_it)
         valid = active & (g1 > 0.0) & (pdf > 0.0) & np.isfinite(pdf)
         return make_sample(wo, weight, pdf, delta=False, eta=eta, valid=valid)
+
+
+@register("bsdf", "roughdielectric")
+def create(props: Props) -> RoughDielectric:
+    """A ``dielectric``'s parameters (``int_ior`` != ``ext_ior``) and the microfacet ones."""
+    textures_only(props)
+    int_ior, ext_ior = distinct_iors(props, "bk7")
+    distribution, alpha_u, alpha_v, _ = microfacet_parameters(props)
+    return RoughDielectric(distribution, alpha_u, alpha_v, int_ior, ext_ior,
+                           colour_or_texture(props, "specular_reflectance", 1.0),
+                           colour_or_texture(props, "specular_transmittance", 1.0))

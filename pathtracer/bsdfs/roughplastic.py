@@ -36,12 +36,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import sampling
+from ..scene.properties import Props
+from ..scene.registry import register
 from ..textures.base import Texture
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR
 from .fresnel import fresnel_dielectric, reflect_about
 from .microfacet import MicrofacetDistribution, _dot, reflection_half_vector
 from .microfacet_albedo import coating_tables, interpolate
+from .parameters import distinct_iors, microfacet_parameters, plastic_parameters, textures_only
 from .plastic import POLYPROPYLENE_IOR, internal_scattering, specular_sampling_weight
 
 
@@ -139,3 +142,14 @@ class RoughPlastic(BSDF):
         with np.errstate(divide="ignore", invalid="ignore"):
             weight = self.eval(wi_up, wo) / np.where(valid, pdf, 1.0)[:, None]
         return make_sample(wo, weight, pdf, delta=False, eta=1.0, valid=valid)
+
+
+@register("bsdf", "roughplastic")
+def create(props: Props) -> RoughPlastic:
+    """A ``plastic``'s parameters (``int_ior`` != ``ext_ior``) and the microfacet ones,
+    with a number for an isotropic ``alpha`` only."""
+    textures_only(props)
+    int_ior, ext_ior = distinct_iors(props, "polypropylene")
+    common = plastic_parameters(props, int_ior, ext_ior)
+    distribution, alpha, _, sample_visible = microfacet_parameters(props, anisotropic=False)
+    return RoughPlastic(distribution, alpha, **common, sample_visible=sample_visible)

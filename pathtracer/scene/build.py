@@ -11,6 +11,7 @@ import warnings
 
 import numpy as np
 
+from .. import bsdfs  # importing it registers the BSDF plugins and (through it) the textures
 from ..bsdfs.parameters import build_bsdf
 from ..core.rng import SEED_MAX
 from ..io import meshes
@@ -27,7 +28,6 @@ from .properties import (
     search_folders,
     unsupported,
 )
-from .registry import register
 from .types import (
     AreaEmitter,
     Camera,
@@ -53,51 +53,6 @@ INTEGRATOR_ALIASES = {"ptracer": "light"}
 INTEGRATOR_PARAM_TAGS = {"max_depth": "integer", "rr_depth": "integer",
                          "hide_emitters": "boolean", "emitter_samples": "integer",
                          "bsdf_samples": "integer", "shading_samples": "integer"}
-
-# -- textures ----------------------------------------------------------------
-
-@register("texture", "bitmap", "checkerboard", "rawconstant")
-def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
-    from pathtracer.io.bitmap import read_bitmap
-    from pathtracer.textures import base, bitmap, checkerboard
-
-    props = Props(plugin)
-    children(plugin, {"texture": 2})
-    to_uv = props.transform("to_uv")
-    if plugin.type == "checkerboard":
-        result = checkerboard.Checkerboard(props.reflectance_or_texture("color0", 0.4, folders, cache),
-                                       props.reflectance_or_texture("color1", 0.2, folders, cache),
-                                       to_uv)
-    elif plugin.type == "rawconstant":
-        # A value used as given (no colour conversion, no range check): a float or a vector.
-        value = props._get("value", ("float", "integer", "vector", "point", "rgb"),
-                           "a <float> or a <vector>")
-        if value is None:
-            raise plugin.error("missing \"value\" (a <float> or a <vector>)")
-        result = base.ConstantTexture(np.asarray(value, dtype=float))
-    elif plugin.type == "bitmap":
-        filter_type = props.string("filter_type", "bilinear").strip().lower()
-        wrap_mode = props.string("wrap_mode", "repeat").strip().lower()
-        for name, value, allowed in (("filter_type", filter_type, bitmap.FILTER_TYPES),
-                                     ("wrap_mode", wrap_mode, bitmap.WRAP_MODES)):
-            if value not in allowed:
-                raise plugin.error(f"unknown {name} \"{value}\" (supported: "
-                                   f"{', '.join(allowed)})", props.line(name))
-        raw = props.bool("raw", False)
-        # accel only picks hardware texture units on GPUs, format the storage precision
-        # (half or the variant's float): the values are the same up to rounding.
-        props.ignore("accel", "format")
-        path = find_file(plugin, props, "filename", folders)
-        try:
-            data = read_bitmap(path, raw=raw)
-        except ValueError as e:
-            raise plugin.error(f"{os.path.basename(path)}: {e}", props.line("filename")) from None
-        result = bitmap.BitmapTexture(data, filter_type, wrap_mode, to_uv)
-    else:
-        raise unsupported(plugin, "texture")
-    props.finish()
-    return result
-
 
 # -- shapes ------------------------------------------------------------------
 
@@ -796,7 +751,6 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         key = ("default", emitter) if plugin is None else id(plugin)
         if key not in bsdf_index:
             if plugin is None:
-                from pathtracer import bsdfs
                 bsdf_objects.append(bsdfs.Diffuse(np.full(3, 0.0 if emitter else 0.5)))
             else:
                 bsdf_objects.append(build_bsdf(plugin, folders, textures))

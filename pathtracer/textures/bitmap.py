@@ -13,8 +13,14 @@ takes ``i mod N``, ``clamp`` clips to the edge, ``mirror`` reflects
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
+from ..io.bitmap import read_bitmap
+from ..scene.properties import Props, children, find_file
+from ..scene.registry import register
+from ..scene.xml import Plugin
 from .base import LUMINANCE, Texture, _finite_uv
 
 FILTER_TYPES = ("bilinear", "nearest")
@@ -123,3 +129,30 @@ class BitmapTexture(Texture):
     def mean(self) -> float:
         """Mean texel luminance, as Mitsuba's RGB variants compute a bitmap's mean."""
         return float(np.mean(self.texels.astype(np.float64) @ LUMINANCE))
+
+
+@register("texture", "bitmap")
+def create(plugin: Plugin, folders: list[str], cache: dict) -> BitmapTexture:
+    """``filename`` (looked up in ``folders``), ``filter_type``, ``wrap_mode``, ``raw``
+    (false), ``to_uv``."""
+    props = Props(plugin)
+    children(plugin, {"texture": 2})
+    to_uv = props.transform("to_uv")
+    filter_type = props.string("filter_type", "bilinear").strip().lower()
+    wrap_mode = props.string("wrap_mode", "repeat").strip().lower()
+    for name, value, allowed in (("filter_type", filter_type, FILTER_TYPES),
+                                 ("wrap_mode", wrap_mode, WRAP_MODES)):
+        if value not in allowed:
+            raise plugin.error(f"unknown {name} \"{value}\" (supported: "
+                               f"{', '.join(allowed)})", props.line(name))
+    raw = props.bool("raw", False)
+    # accel only picks hardware texture units on GPUs, format the storage precision
+    # (half or the variant's float): the values are the same up to rounding.
+    props.ignore("accel", "format")
+    path = find_file(plugin, props, "filename", folders)
+    try:
+        data = read_bitmap(path, raw=raw)
+    except ValueError as e:
+        raise plugin.error(f"{os.path.basename(path)}: {e}", props.line("filename")) from None
+    props.finish()
+    return BitmapTexture(data, filter_type, wrap_mode, to_uv)

@@ -3,6 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..scene.properties import Props, children
+from ..scene.registry import register
+from ..scene.xml import Plugin
 from .base import ConstantTexture, Texture, _finite_uv
 
 
@@ -66,3 +69,15 @@ class Checkerboard(Texture):
     def mean(self) -> float:
         """Half the sum of the two colours' means (the cells cover equal areas)."""
         return 0.5 * (self.color0.mean() + self.color1.mean())
+
+
+@register("texture", "checkerboard")
+def create(plugin: Plugin, folders: list[str], cache: dict) -> Checkerboard:
+    """``color0`` (0.4), ``color1`` (0.2), each a colour or a nested texture; ``to_uv``."""
+    props = Props(plugin)
+    children(plugin, {"texture": 2})
+    to_uv = props.transform("to_uv")
+    texture = Checkerboard(props.reflectance_or_texture("color0", 0.4, folders, cache),
+                           props.reflectance_or_texture("color1", 0.2, folders, cache), to_uv)
+    props.finish()
+    return texture
