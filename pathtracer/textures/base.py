@@ -17,9 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-# Rec. 709 luminance weights, Mitsuba's ``luminance()``: how an RGB texture becomes one
-# number (``eval_1``: a roughness, a blend weight, an opacity) and a bitmap's ``mean``.
-LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
+from ..core.color import LUMINANCE
 
 
 class Texture:
@@ -67,7 +65,8 @@ class Texture:
 
     def eval_1(self, uv: np.ndarray) -> np.ndarray:
         """One value per hit (n,), Mitsuba's ``eval_1``: the luminance of :meth:`eval`
-        (for a grey texture, its value)."""
+        (for a grey texture, its value): how a texture gives a roughness, a blend weight
+        or an opacity."""
         return self.eval(uv) @ LUMINANCE
 
     def mean(self) -> float:

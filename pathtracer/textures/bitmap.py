@@ -17,11 +17,12 @@ import os
 
 import numpy as np
 
+from ..core.color import LUMINANCE
 from ..io.bitmap import read_bitmap
 from ..scene.properties import Props, children, find_file
 from ..scene.registry import register
 from ..scene.xml import Plugin
-from .base import LUMINANCE, Texture, _finite_uv
+from .base import Texture, _finite_uv
 
 FILTER_TYPES = ("bilinear", "nearest")
 WRAP_MODES = ("repeat", "mirror", "clamp")
