@@ -49,7 +49,7 @@ class Texture:
 
     def eval(self, uv: np.ndarray) -> np.ndarray:
         """RGB values (n, 3) at surface coordinates ``uv`` (n, 2); 0 where ``uv`` is not finite."""
-        uv, undefined = _finite_uv(uv)
+        uv, undefined = finite_uv(uv)
         value = self.eval_uv(self.transform_uv(uv))
         if undefined is not None:
             value[undefined] = 0.0
@@ -74,7 +74,7 @@ class Texture:
         raise NotImplementedError
 
 
-def _finite_uv(uv):
+def finite_uv(uv):
     """(n, 2) float64 coordinates with non-finite rows set to 0, and the mask of those
     rows (None if there are none). Mesh corners without texture coordinates have NaN
     uv; Mitsuba's lookup is undefined there, ours gives black."""

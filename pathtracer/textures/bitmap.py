@@ -22,7 +22,7 @@ from ..io.bitmap import read_bitmap
 from ..scene.properties import Props, children, find_file
 from ..scene.registry import register
 from ..scene.xml import Plugin
-from .base import Texture, _finite_uv
+from .base import Texture, finite_uv
 
 FILTER_TYPES = ("bilinear", "nearest")
 WRAP_MODES = ("repeat", "mirror", "clamp")
@@ -105,7 +105,7 @@ class BitmapTexture(Texture):
         """Gradient (n, 2) of :meth:`eval_1` with respect to the surface ``uv``, as Mitsuba's
         ``eval_1_grad``: the derivative of the bilinear interpolation of the four texels'
         luminances (0 for ``nearest`` filtering), through ``to_uv`` by its transpose."""
-        uv, undefined = _finite_uv(uv)
+        uv, undefined = finite_uv(uv)
         if self.filter_type == "nearest":
             return np.zeros((len(uv), 2))
         t = self.transform_uv(uv)

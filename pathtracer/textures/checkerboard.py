@@ -6,7 +6,7 @@ import numpy as np
 from ..scene.properties import Props, children
 from ..scene.registry import register
 from ..scene.xml import Plugin
-from .base import ConstantTexture, Texture, _finite_uv
+from .base import ConstantTexture, Texture, finite_uv
 
 
 def _as_texture(value) -> Texture:
@@ -33,7 +33,7 @@ class Checkerboard(Texture):
 
     def eval(self, uv: np.ndarray) -> np.ndarray:
         """RGB values (n, 3) at surface coordinates ``uv`` (n, 2); 0 where ``uv`` is not finite."""
-        uv, undefined = _finite_uv(uv)
+        uv, undefined = finite_uv(uv)
         t = self.transform_uv(uv)
         upper = (t - np.floor(t)) > 0.5
         first = upper[:, 0] == upper[:, 1]
@@ -55,7 +55,7 @@ class Checkerboard(Texture):
         (``color0`` where exactly one fractional part is above 1/2); a roughness, blend
         weight or opacity from a checkerboard follows that, so we do the same.
         """
-        uv, undefined = _finite_uv(uv)
+        uv, undefined = finite_uv(uv)
         t = self.transform_uv(uv)
         upper = (t - np.floor(t)) > 0.5
         first = upper[:, 0] != upper[:, 1]
