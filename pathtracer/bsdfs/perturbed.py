@@ -32,6 +32,7 @@ import copy
 
 import numpy as np
 
+from ..core.vec import dot_einsum
 from ..scene.properties import Props, build_texture, children
 from ..scene.registry import register
 from ..textures.base import Texture
@@ -46,7 +47,7 @@ def _normalize(v: np.ndarray) -> np.ndarray:
 
 def _gram_schmidt(v: np.ndarray, n: np.ndarray) -> np.ndarray:
     """``v`` made orthogonal to the unit vectors ``n`` and normalised (rows)."""
-    return _normalize(v - np.einsum("ij,ij->i", v, n)[:, None] * n)
+    return _normalize(v - dot_einsum(v, n)[:, None] * n)
 
 
 def _tan_theta_2(v: np.ndarray) -> np.ndarray:
@@ -105,7 +106,7 @@ class PerturbedNormal(BSDF):
         """(s', t', n') rows for the query directions ``wi`` (after the flip of invalid normals)."""
         n = self.normal
         if self.flip_invalid_normals:
-            flip = wi[:, 2] * np.einsum("ij,ij->i", wi, n) <= 0.0
+            flip = wi[:, 2] * dot_einsum(wi, n) <= 0.0
             n = np.where(flip[:, None], n * np.array([-1.0, -1.0, 1.0]), n)
         n = _normalize(n)
         s = self._tangent(n)
@@ -114,7 +115,7 @@ class PerturbedNormal(BSDF):
     @staticmethod
     def _into(v, frame):
         s, t, n = frame
-        return np.stack([np.einsum("ij,ij->i", v, a) for a in (s, t, n)], axis=1)
+        return np.stack([dot_einsum(v, a) for a in (s, t, n)], axis=1)
 
     @staticmethod
     def _out_of(v, frame):
@@ -186,7 +187,7 @@ class BumpMap(PerturbedNormal):
         dp_du = geometry.dp_du + (grad[:, 0] - geometry.dp_du[:, 2])[:, None] * up
         dp_dv = geometry.dp_dv + (grad[:, 1] - geometry.dp_dv[:, 2])[:, None] * up
         n = _normalize(np.cross(dp_du, dp_dv))
-        return np.where((np.einsum("ij,ij->i", geometry.n_geo, n) < 0.0)[:, None], -n, n)
+        return np.where((dot_einsum(geometry.n_geo, n) < 0.0)[:, None], -n, n)
 
     def _tangent(self, normal: np.ndarray) -> np.ndarray:
         # Mitsuba 3.9.1 orthogonalises the world dp/du against the local n' and reads the
