@@ -24,7 +24,7 @@ from pathtracer.bsdfs import (
     TwoSided,
 )
 from pathtracer.io.bitmap import read_bitmap
-from pathtracer.textures.base import BitmapTexture, Checkerboard
+from pathtracer.textures import BitmapTexture, Checkerboard
 from tests.chi2 import chi2_sphere
 from tests.test_bsdfs import _assert_close, _f32, direction, random_directions, tile
 

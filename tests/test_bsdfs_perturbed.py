@@ -15,7 +15,7 @@ from PIL import Image
 from pathtracer.bsdfs import BumpMap, Diffuse, NormalMap, RoughConductor, RoughPlastic
 from pathtracer.io.bitmap import read_bitmap
 from pathtracer.shapes.tangents import LocalGeometry
-from pathtracer.textures.base import BitmapTexture
+from pathtracer.textures import BitmapTexture
 from tests.chi2 import chi2_sphere
 from tests.test_bsdfs import _assert_close, _f32, direction, random_directions, tile
 

@@ -16,7 +16,7 @@ from pathtracer.bsdfs import Conductor, Dielectric, Diffuse, RoughConductor, Two
 from pathtracer.io.bitmap import BitmapError, read_bitmap, srgb_to_linear
 from pathtracer.scene import transform
 from pathtracer.shapes.intersect import intersect, texture_uv
-from pathtracer.textures.base import BitmapTexture, Checkerboard, ConstantTexture, wrap_index
+from pathtracer.textures import BitmapTexture, Checkerboard, ConstantTexture, wrap_index
 from tests.test_serialized import shape_record, write_serialized
 
 FILM = ('<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>'

@@ -1,23 +1,29 @@
 """BSDFs in the local shading frame (Mitsuba 3 conventions, vectorized over (n, 3) arrays).
 
-See :mod:`pathtracer.bsdfs.base` for the conventions shared by every BSDF.
+See :mod:`pathtracer.bsdfs.base` for the conventions shared by every BSDF. Each plugin
+module registers the factory that builds it from a ``<bsdf>`` element (see
+:mod:`pathtracer.bsdfs.parameters`) when it is imported here.
 """
 from .base import BSDF, BSDFSample
-from .blend import BlendBSDF
-from .conductor import Conductor
-from .dielectric import Dielectric
-from .diffuse import Diffuse
 from .fresnel import fresnel_conductor, fresnel_dielectric, fresnel_schlick, reflect, refract
-from .mask import MaskBSDF
 from .microfacet import MicrofacetDistribution
-from .null import NullBSDF
-from .perturbed import BumpMap, NormalMap
-from .plastic import Plastic
-from .roughconductor import RoughConductor
-from .roughdielectric import RoughDielectric
-from .roughplastic import RoughPlastic
-from .thindielectric import ThinDielectric
+
+# isort: off
+# The plugins in the order the loader's "supported" list names them (registration order).
+from .diffuse import Diffuse
 from .twosided import TwoSided
+from .conductor import Conductor
+from .roughconductor import RoughConductor
+from .dielectric import Dielectric
+from .thindielectric import ThinDielectric
+from .roughdielectric import RoughDielectric
+from .plastic import Plastic
+from .roughplastic import RoughPlastic
+from .null import NullBSDF
+from .blend import BlendBSDF
+from .mask import MaskBSDF
+from .perturbed import BumpMap, NormalMap
+# isort: on
 
 __all__ = [
     "BSDF", "BSDFSample", "BlendBSDF", "BumpMap", "Conductor", "Dielectric", "Diffuse", "MaskBSDF",

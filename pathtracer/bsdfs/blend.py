@@ -20,8 +20,11 @@ import copy
 
 import numpy as np
 
+from ..scene.properties import Props
+from ..scene.registry import register
 from ..textures.base import Texture
 from .base import BSDF, BSDFSample, make_sample
+from .parameters import nested_bsdfs, scalar_or_texture
 
 
 class BlendBSDF(BSDF):
@@ -108,3 +111,10 @@ class BlendBSDF(BSDF):
         valid = pick(samples[0].valid, samples[1].valid) & (pdf > 0.0)
         return make_sample(wo, weight, pdf, delta=pick(samples[0].delta, samples[1].delta),
                            eta=pick(samples[0].eta, samples[1].eta), valid=valid)
+
+
+@register("bsdf", "blendbsdf")
+def create(props: Props) -> BlendBSDF:
+    """Two nested BSDFs and a ``weight`` (required: a number or a texture)."""
+    first, second = nested_bsdfs(props, 2, 2, textures=1)
+    return BlendBSDF(first, second, scalar_or_texture(props, "weight", None))

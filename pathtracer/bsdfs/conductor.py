@@ -18,8 +18,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..scene.properties import Props
+from ..scene.registry import register
 from .base import BSDFSample, DeltaBSDF, as_colour, as_colour_or_texture, make_sample
 from .fresnel import fresnel_conductor, reflect
+from .parameters import colour_or_texture, conductor_ior, textures_only
 
 
 def complex_ior(eta, k) -> np.ndarray:
@@ -59,3 +62,11 @@ class Conductor(DeltaBSDF):
         valid = wi[:, 2] > 0.0
         weight = self.fresnel(np.maximum(wi[:, 2], 0.0))
         return make_sample(reflect(wi), weight, np.ones(n), delta=True, eta=1.0, valid=valid)
+
+
+@register("bsdf", "conductor")
+def create(props: Props) -> Conductor:
+    """``material`` or ``eta``/``k`` (a perfect mirror by default), ``specular_reflectance`` (1)."""
+    textures_only(props)
+    eta, k = conductor_ior(props)
+    return Conductor(colour_or_texture(props, "specular_reflectance", 1.0), eta, k)

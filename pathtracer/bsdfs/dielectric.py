@@ -28,8 +28,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..scene.properties import Props
+from ..scene.registry import register
 from .base import BSDFSample, DeltaBSDF, as_colour_or_texture, make_sample
 from .fresnel import fresnel_dielectric, reflect, refract
+from .parameters import colour_or_texture, ior, textures_only
 
 BK7_IOR = 1.5046
 AIR_IOR = 1.000277
@@ -79,3 +82,13 @@ class Dielectric(DeltaBSDF):
         weight_r = F[:, None] * self.specular_reflectance
         weight_t = ((1.0 - F) * eta_ti * eta_ti)[:, None] * self.specular_transmittance
         return F, reflect(wi), weight_r, refract(wi, cos_theta_t, eta_ti), weight_t
+
+
+@register("bsdf", "dielectric")
+def create(props: Props) -> Dielectric:
+    """``int_ior`` (``bk7``), ``ext_ior`` (``air``), ``specular_reflectance`` and
+    ``specular_transmittance`` (1)."""
+    textures_only(props)
+    return Dielectric(ior(props, "int_ior", "bk7"), ior(props, "ext_ior", "air"),
+                      colour_or_texture(props, "specular_reflectance", 1.0),
+                      colour_or_texture(props, "specular_transmittance", 1.0))

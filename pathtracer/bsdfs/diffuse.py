@@ -12,7 +12,10 @@ import numpy as np
 
 from ..core import sampling
 from ..core.vec import scale
+from ..scene.properties import Props
+from ..scene.registry import register
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
+from .parameters import colour_or_texture, textures_only
 
 
 class Diffuse(BSDF):
@@ -82,3 +85,10 @@ def _hemisphere_pdf(wo: np.ndarray, hemisphere: str) -> np.ndarray:
     if hemisphere == "uniform":
         return sampling.square_to_uniform_hemisphere_pdf(wo)
     raise ValueError(f"hemisphere must be 'cosine' or 'uniform', not {hemisphere!r}")
+
+
+@register("bsdf", "diffuse")
+def create(props: Props) -> Diffuse:
+    """``reflectance`` (0.5), a colour or a texture."""
+    textures_only(props)
+    return Diffuse(colour_or_texture(props, "reflectance", 0.5))

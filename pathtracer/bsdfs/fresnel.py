@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.vec import dot_einsum
+
 
 def fresnel_dielectric(cos_theta_i: np.ndarray, eta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     r"""Unpolarized Fresnel reflectance of a smooth dielectric interface.
@@ -191,7 +193,7 @@ def reflect(wi: np.ndarray) -> np.ndarray:
 
 def reflect_about(wi: np.ndarray, m: np.ndarray) -> np.ndarray:
     r"""Mirror reflection about the unit normals ``m``: :math:`2\,(w_i\cdot m)\,m - w_i`."""
-    d = np.einsum("ij,ij->i", wi, m)
+    d = dot_einsum(wi, m)
     return 2.0 * d[:, None] * m - wi
 
 
@@ -205,7 +207,7 @@ def refract_about(wi: np.ndarray, m: np.ndarray, cos_theta_t: np.ndarray,
     :math:`w_i\cdot m` (so :math:`\cos\theta_t` has the sign opposite to
     :math:`w_i\cdot m`). For :math:`m = (0, 0, 1)` this is :func:`refract`.
     """
-    d = np.einsum("ij,ij->i", wi, m)
+    d = dot_einsum(wi, m)
     eta_ti = np.asarray(eta_ti, dtype=np.float64)
     return m * (eta_ti * d + cos_theta_t)[:, None] - eta_ti[:, None] * wi
 

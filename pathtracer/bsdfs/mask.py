@@ -20,8 +20,11 @@ import copy
 
 import numpy as np
 
+from ..scene.properties import Props
+from ..scene.registry import register
 from ..textures.base import Texture
 from .base import BSDF, BSDFSample, make_sample
+from .parameters import nested_bsdfs, scalar_or_texture
 
 
 class MaskBSDF(BSDF):
@@ -87,3 +90,10 @@ class MaskBSDF(BSDF):
         valid = np.where(surface, bs.valid, pdf > 0.0)
         return make_sample(wo, weight, pdf, delta=np.where(surface, bs.delta, True),
                            eta=np.where(surface, bs.eta, 1.0), valid=valid)
+
+
+@register("bsdf", "mask")
+def create(props: Props) -> MaskBSDF:
+    """One nested BSDF and an ``opacity`` (0.5: a number or a texture)."""
+    nested, = nested_bsdfs(props, 1, 1, textures=1)
+    return MaskBSDF(nested, scalar_or_texture(props, "opacity", 0.5))

@@ -42,6 +42,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.sampling import square_to_uniform_disk_concentric
+from ..core.vec import dot_einsum
 from ..textures.base import Texture
 
 SQRT_PI = np.sqrt(np.pi)
@@ -104,14 +105,9 @@ class RoughSurface:
                                                 self.sample_visible)
 
 
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise dot product of two (n, 3) arrays."""
-    return np.einsum("ij,ij->i", a, b)
-
-
 def _normalize(v: np.ndarray) -> np.ndarray:
     """Rows of ``v`` scaled to unit length."""
-    return v / np.sqrt(_dot(v, v))[:, None]
+    return v / np.sqrt(dot_einsum(v, v))[:, None]
 
 
 class MicrofacetDistribution:
@@ -183,7 +179,7 @@ class MicrofacetDistribution:
                  xy_alpha_2: np.ndarray) -> np.ndarray:
         """Normal incidence -> 1; back of the microfacet visible (v.m and v_z of opposite sign) -> 0."""
         g1 = np.where(xy_alpha_2 == 0.0, 1.0, g1)
-        return np.where(_dot(v, m) * v[:, 2] <= 0.0, 0.0, g1)
+        return np.where(dot_einsum(v, m) * v[:, 2] <= 0.0, 0.0, g1)
 
     def smith_g1(self, v: np.ndarray, m: np.ndarray) -> np.ndarray:
         r"""Mitsuba's Smith :math:`G_1(v, m)` -> (n,) (rational approximation for Beckmann)."""
@@ -227,14 +223,14 @@ class MicrofacetDistribution:
 
     def _pdf_visible(self, wi: np.ndarray, m: np.ndarray) -> np.ndarray:
         with np.errstate(divide="ignore", invalid="ignore"):
-            return self.eval(m) * self.smith_g1(wi, m) * np.abs(_dot(wi, m)) / wi[:, 2]
+            return self.eval(m) * self.smith_g1(wi, m) * np.abs(dot_einsum(wi, m)) / wi[:, 2]
 
     def pdf_exact(self, wi: np.ndarray, m: np.ndarray) -> np.ndarray:
         r"""Density :meth:`sample` actually draws from (exact :math:`G_1`)."""
         if not self.sample_visible:
             return self.pdf(wi, m)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return self.eval(m) * self.smith_g1_exact(wi, m) * np.abs(_dot(wi, m)) / wi[:, 2]
+            return self.eval(m) * self.smith_g1_exact(wi, m) * np.abs(dot_einsum(wi, m)) / wi[:, 2]
 
     def sample(self, wi: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """A microfacet normal and its density: :meth:`sample_visible_normal` or :meth:`sample_all`."""

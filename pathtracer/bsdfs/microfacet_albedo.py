@@ -26,8 +26,9 @@ import functools
 
 import numpy as np
 
+from ..core.vec import dot_einsum
 from .fresnel import fresnel_dielectric, reflect_about, refract_about
-from .microfacet import MicrofacetDistribution, _dot
+from .microfacet import MicrofacetDistribution
 
 #: Number of tabulated cosines (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES).
 TABLE_SIZE = 64
@@ -55,7 +56,7 @@ def _integrate(distr: MicrofacetDistribution, eta: float, transmitted: bool) -> 
     for j, mu in enumerate(table_cosines()):
         wi = np.tile([np.sqrt(1.0 - mu * mu), 0.0, mu], (nodes.shape[0], 1))
         m, _ = distr.sample(wi, nodes)
-        F, cos_theta_t, _, eta_ti = fresnel_dielectric(_dot(wi, m), eta)
+        F, cos_theta_t, _, eta_ti = fresnel_dielectric(dot_einsum(wi, m), eta)
         if transmitted:
             wo = refract_about(wi, m, cos_theta_t, eta_ti)
             value = (1.0 - F) * distr.smith_g1(wo, m)

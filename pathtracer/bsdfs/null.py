@@ -13,7 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..scene.properties import Props
+from ..scene.registry import register
 from .base import DeltaBSDF, make_sample
+from .parameters import textures_only
 
 
 class NullBSDF(DeltaBSDF):
@@ -32,3 +35,10 @@ class NullBSDF(DeltaBSDF):
         """``wo = -wi`` with weight 1 and probability 1 (a Dirac event)."""
         n = wi.shape[0]
         return make_sample(-wi, np.ones((n, 3)), np.ones(n), True, 1.0, np.ones(n, dtype=bool))
+
+
+@register("bsdf", "null")
+def create(props: Props) -> NullBSDF:
+    """No parameters."""
+    textures_only(props)
+    return NullBSDF()

@@ -32,8 +32,13 @@ import copy
 
 import numpy as np
 
+from ..core.vec import dot_einsum
+from ..scene.properties import Props, build_texture, children
+from ..scene.registry import register
 from ..textures.base import Texture
+from ..textures.bitmap import BitmapTexture
 from .base import BSDF, BSDFSample, make_sample
+from .parameters import build_bsdf
 
 
 def _normalize(v: np.ndarray) -> np.ndarray:
@@ -42,7 +47,7 @@ def _normalize(v: np.ndarray) -> np.ndarray:
 
 def _gram_schmidt(v: np.ndarray, n: np.ndarray) -> np.ndarray:
     """``v`` made orthogonal to the unit vectors ``n`` and normalised (rows)."""
-    return _normalize(v - np.einsum("ij,ij->i", v, n)[:, None] * n)
+    return _normalize(v - dot_einsum(v, n)[:, None] * n)
 
 
 def _tan_theta_2(v: np.ndarray) -> np.ndarray:
@@ -101,7 +106,7 @@ class PerturbedNormal(BSDF):
         """(s', t', n') rows for the query directions ``wi`` (after the flip of invalid normals)."""
         n = self.normal
         if self.flip_invalid_normals:
-            flip = wi[:, 2] * np.einsum("ij,ij->i", wi, n) <= 0.0
+            flip = wi[:, 2] * dot_einsum(wi, n) <= 0.0
             n = np.where(flip[:, None], n * np.array([-1.0, -1.0, 1.0]), n)
         n = _normalize(n)
         s = self._tangent(n)
@@ -110,7 +115,7 @@ class PerturbedNormal(BSDF):
     @staticmethod
     def _into(v, frame):
         s, t, n = frame
-        return np.stack([np.einsum("ij,ij->i", v, a) for a in (s, t, n)], axis=1)
+        return np.stack([dot_einsum(v, a) for a in (s, t, n)], axis=1)
 
     @staticmethod
     def _out_of(v, frame):
@@ -182,7 +187,7 @@ class BumpMap(PerturbedNormal):
         dp_du = geometry.dp_du + (grad[:, 0] - geometry.dp_du[:, 2])[:, None] * up
         dp_dv = geometry.dp_dv + (grad[:, 1] - geometry.dp_dv[:, 2])[:, None] * up
         n = _normalize(np.cross(dp_du, dp_dv))
-        return np.where((np.einsum("ij,ij->i", geometry.n_geo, n) < 0.0)[:, None], -n, n)
+        return np.where((dot_einsum(geometry.n_geo, n) < 0.0)[:, None], -n, n)
 
     def _tangent(self, normal: np.ndarray) -> np.ndarray:
         # Mitsuba 3.9.1 orthogonalises the world dp/du against the local n' and reads the
@@ -193,3 +198,43 @@ class BumpMap(PerturbedNormal):
                          normal[:, 2]), axis=1)
         s = _gram_schmidt(self._geometry.dp_du_world, to_m)
         return np.stack((c * s[:, 0] - d * s[:, 1], d * s[:, 0] + c * s[:, 1], s[:, 2]), axis=1)
+
+
+def _nested_and_flags(props: Props) -> tuple[dict, BSDF, dict]:
+    """What ``normalmap`` and ``bumpmap`` share: the nested elements, the one BSDF built,
+    and ``flip_invalid_normals`` and ``use_shadowing_function`` (true), as in Mitsuba."""
+    plugin = props.plugin
+    kids = children(plugin, {"bsdf": 1, "texture": 1})
+    if not kids["bsdf"]:
+        raise plugin.error(f"{plugin.type} needs exactly one nested <bsdf>")
+    nested = build_bsdf(kids["bsdf"][0], props.folders, props.texture_cache)
+    flags = dict(flip_invalid_normals=props.bool("flip_invalid_normals", True),
+                 use_shadowing_function=props.bool("use_shadowing_function", True))
+    return kids, nested, flags
+
+
+@register("bsdf", "bumpmap")
+def create_bumpmap(props: Props) -> BumpMap:
+    """One nested BSDF, one height texture of any name (a bitmap), ``scale`` (1)."""
+    kids, nested, flags = _nested_and_flags(props)
+    if not kids["texture"]:
+        raise props.plugin.error("bumpmap needs one nested <texture> (the height)")
+    name = next(iter(props.textures))
+    props.used.add(name)
+    texture = build_texture(props.textures[name], props.folders, props.texture_cache)
+    if not isinstance(texture, BitmapTexture):
+        raise props.textures[name].error(
+            f"a bumpmap's height must be a bitmap: Mitsuba differentiates only bitmaps "
+            f"(eval_1_grad), not \"{props.textures[name].type}\"")
+    return BumpMap(nested, texture, props.float("scale", 1.0), **flags)
+
+
+@register("bsdf", "normalmap")
+def create_normalmap(props: Props) -> NormalMap:
+    """One nested BSDF and an RGB texture named ``normalmap``."""
+    _, nested, flags = _nested_and_flags(props)
+    if "normalmap" not in props.textures:
+        raise props.plugin.error("normalmap needs a <texture name=\"normalmap\">")
+    props.used.add("normalmap")
+    texture = build_texture(props.textures["normalmap"], props.folders, props.texture_cache)
+    return NormalMap(nested, texture, **flags)

@@ -34,10 +34,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import sampling
+from ..scene.properties import Props
+from ..scene.registry import register
 from ..textures.base import Texture
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR
 from .fresnel import fresnel_dielectric, fresnel_diffuse_reflectance, reflect
+from .parameters import ior, plastic_parameters, textures_only
 
 POLYPROPYLENE_IOR = 1.49
 
@@ -145,3 +148,12 @@ class Plastic(BSDF):
         pdf = np.where(selected_s, p_specular, pdf_diffuse)
         valid = active & (pdf > 0.0) & np.all(np.isfinite(weight), axis=1)
         return make_sample(wo, weight, pdf, delta=selected_s, eta=1.0, valid=valid)
+
+
+@register("bsdf", "plastic")
+def create(props: Props) -> Plastic:
+    """``diffuse_reflectance`` (0.5), ``specular_reflectance`` (1), ``int_ior``
+    (``polypropylene``), ``ext_ior`` (``air``), ``nonlinear`` (false)."""
+    textures_only(props)
+    int_ior, ext_ior = ior(props, "int_ior", "polypropylene"), ior(props, "ext_ior", "air")
+    return Plastic(**plastic_parameters(props, int_ior, ext_ior))

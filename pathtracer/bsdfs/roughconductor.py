@@ -26,10 +26,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.vec import dot_einsum
+from ..scene.properties import Props
+from ..scene.registry import register
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .conductor import complex_ior, conductor_reflectance
 from .fresnel import reflect_about
-from .microfacet import RoughSurface, _dot, reflection_half_vector, textured_distribution
+from .microfacet import RoughSurface, reflection_half_vector, textured_distribution
+from .parameters import colour_or_texture, conductor_ior, microfacet_parameters, textures_only
 
 
 class RoughConductor(RoughSurface, BSDF):
@@ -76,7 +80,7 @@ class RoughConductor(RoughSurface, BSDF):
         with np.errstate(divide="ignore", invalid="ignore"):
             value = D * G / (4.0 * wi[:, 2])
         value = np.where(active & (D != 0.0), value, 0.0)
-        return value[:, None] * self.fresnel(_dot(wi, h))
+        return value[:, None] * self.fresnel(dot_einsum(wi, h))
 
     def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
         r""":math:`D(h)\,G_1(w_i, h)/(4\cos\theta_i)` (Mitsuba's :math:`G_1`) -> (n,)."""
@@ -89,12 +93,12 @@ class RoughConductor(RoughSurface, BSDF):
     def _pdf(self, wi: np.ndarray, wo: np.ndarray, smith_g1) -> np.ndarray:
         """Reflection pdf with the given masking function; 0 where micro- and macro-surface disagree."""
         h, active = reflection_half_vector(wi, wo)
-        active &= (_dot(wi, h) > 0.0) & (_dot(wo, h) > 0.0)
+        active &= (dot_einsum(wi, h) > 0.0) & (dot_einsum(wo, h) > 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             if self.distr.sample_visible:
                 result = self.distr.eval(h) * smith_g1(wi, h) / (4.0 * wi[:, 2])
             else:
-                result = self.distr.pdf(wi, h) / (4.0 * _dot(wo, h))
+                result = self.distr.pdf(wi, h) / (4.0 * dot_einsum(wo, h))
         return np.where(active, result, 0.0)
 
     def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
@@ -104,11 +108,11 @@ class RoughConductor(RoughSurface, BSDF):
         wi_up = np.where(up[:, None], wi, np.array([0.0, 0.0, 1.0]))
         m, pdf_m = self.distr.sample(wi_up, u2)
         wo = reflect_about(wi_up, m)
-        cos_o_m = _dot(wo, m)
+        cos_o_m = dot_einsum(wo, m)
         with np.errstate(divide="ignore", invalid="ignore"):
             pdf = pdf_m / (4.0 * cos_o_m)
         valid = up & (pdf_m > 0.0) & (wo[:, 2] > 0.0) & np.isfinite(pdf) & np.all(np.isfinite(m), axis=1)
-        weight = self._sample_weight(wi_up, wo, m)[:, None] * self.fresnel(_dot(wi_up, m))
+        weight = self._sample_weight(wi_up, wo, m)[:, None] * self.fresnel(dot_einsum(wi_up, m))
         return make_sample(wo, weight, pdf, delta=False, eta=1.0, valid=valid)
 
     def _sample_weight(self, wi: np.ndarray, wo: np.ndarray, m: np.ndarray) -> np.ndarray:
@@ -116,4 +120,16 @@ class RoughConductor(RoughSurface, BSDF):
         if self.distr.sample_visible:
             return self.distr.smith_g1(wo, m)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return self.distr.G(wi, wo, m) * _dot(wi, m) / (wi[:, 2] * m[:, 2])
+            return self.distr.G(wi, wo, m) * dot_einsum(wi, m) / (wi[:, 2] * m[:, 2])
+
+
+@register("bsdf", "roughconductor")
+def create(props: Props) -> RoughConductor:
+    """A ``conductor``'s parameters and the microfacet ones (``distribution``, ``alpha`` or
+    ``alpha_u``/``alpha_v``, each a number or a texture, ``sample_visible``)."""
+    textures_only(props)
+    eta, k = conductor_ior(props)
+    distribution, alpha_u, alpha_v, sample_visible = microfacet_parameters(props)
+    return RoughConductor(distribution, alpha_u, alpha_v,
+                          colour_or_texture(props, "specular_reflectance", 1.0), eta, k,
+                          sample_visible)

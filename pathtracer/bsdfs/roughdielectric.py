@@ -34,10 +34,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.vec import dot_einsum
+from ..scene.properties import Props
+from ..scene.registry import register
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR, BK7_IOR
 from .fresnel import fresnel_dielectric, reflect_about, refract_about
-from .microfacet import RoughSurface, _dot, _normalize, textured_distribution
+from .microfacet import RoughSurface, _normalize, textured_distribution
+from .parameters import colour_or_texture, distinct_iors, microfacet_parameters, textures_only
 
 
 def _mulsign_z(v: np.ndarray, sign_of: np.ndarray) -> np.ndarray:
@@ -82,9 +86,9 @@ class RoughDielectric(RoughSurface, BSDF):
         reflect, eta, m, active = self._geometry(wi, wo)
         cos_i = np.where(active, wi[:, 2], 1.0)
         D = self.distr.eval(m)
-        F = fresnel_dielectric(_dot(wi, m), self.eta)[0]
+        F = fresnel_dielectric(dot_einsum(wi, m), self.eta)[0]
         G = self.distr.G(wi, wo, m)
-        dot_i, dot_o = _dot(wi, m), _dot(wo, m)
+        dot_i, dot_o = dot_einsum(wi, m), dot_einsum(wo, m)
         with np.errstate(divide="ignore", invalid="ignore"):
             value_r = F * D * G / (4.0 * np.abs(cos_i))
             value_t = np.abs((1.0 - F) * D * G * dot_i * dot_o
@@ -104,14 +108,14 @@ class RoughDielectric(RoughSurface, BSDF):
 
     def _pdf(self, wi: np.ndarray, wo: np.ndarray, smith_g1) -> np.ndarray:
         reflect, eta, m, active = self._geometry(wi, wo)
-        dot_i, dot_o = _dot(wi, m), _dot(wo, m)
+        dot_i, dot_o = dot_einsum(wi, m), dot_einsum(wo, m)
         # The micro- and macro-surface must agree on the side of both directions.
         active &= (dot_i * wi[:, 2] > 0.0) & (dot_o * wo[:, 2] > 0.0)
         wi_up = _mulsign_z(wi, wi[:, 2])
         with np.errstate(divide="ignore", invalid="ignore"):
             jacobian = np.where(reflect, 1.0 / (4.0 * dot_o),
                                 eta * eta * dot_o / (dot_i + eta * dot_o) ** 2)
-            visible = self.distr.eval(m) * smith_g1(wi_up, m) * np.abs(_dot(wi_up, m)) / wi_up[:, 2]
+            visible = self.distr.eval(m) * smith_g1(wi_up, m) * np.abs(dot_einsum(wi_up, m)) / wi_up[:, 2]
         F = fresnel_dielectric(dot_i, self.eta)[0]
         result = visible * np.where(reflect, F, 1.0 - F) * np.abs(jacobian)
         return np.where(active & np.isfinite(result), result, 0.0)
@@ -127,11 +131,11 @@ class RoughDielectric(RoughSurface, BSDF):
         active &= (pdf_m != 0.0) & np.all(np.isfinite(m), axis=1)
         m = np.where(active[:, None], m, np.array([0.0, 0.0, 1.0]))
 
-        F, cos_theta_t, eta_it, eta_ti = fresnel_dielectric(_dot(wi, m), self.eta)
+        F, cos_theta_t, eta_it, eta_ti = fresnel_dielectric(dot_einsum(wi, m), self.eta)
         selected_r = u1 <= F
         wo = np.where(selected_r[:, None], reflect_about(wi, m),
                       refract_about(wi, m, cos_theta_t, eta_ti))
-        dot_i, dot_o = _dot(wi, m), _dot(wo, m)
+        dot_i, dot_o = dot_einsum(wi, m), dot_einsum(wo, m)
         with np.errstate(divide="ignore", invalid="ignore"):
             jacobian = np.where(selected_r, 1.0 / (4.0 * dot_o),
                                 eta_it * eta_it * dot_o / (dot_i + eta_it * dot_o) ** 2)
@@ -142,3 +146,14 @@ class RoughDielectric(RoughSurface, BSDF):
         eta = np.where(selected_r, 1.0, eta_it)
         valid = active & (g1 > 0.0) & (pdf > 0.0) & np.isfinite(pdf)
         return make_sample(wo, weight, pdf, delta=False, eta=eta, valid=valid)
+
+
+@register("bsdf", "roughdielectric")
+def create(props: Props) -> RoughDielectric:
+    """A ``dielectric``'s parameters (``int_ior`` != ``ext_ior``) and the microfacet ones."""
+    textures_only(props)
+    int_ior, ext_ior = distinct_iors(props, "bk7")
+    distribution, alpha_u, alpha_v, _ = microfacet_parameters(props)
+    return RoughDielectric(distribution, alpha_u, alpha_v, int_ior, ext_ior,
+                           colour_or_texture(props, "specular_reflectance", 1.0),
+                           colour_or_texture(props, "specular_transmittance", 1.0))

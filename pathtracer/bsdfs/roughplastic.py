@@ -36,12 +36,16 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import sampling
+from ..core.vec import dot_einsum
+from ..scene.properties import Props
+from ..scene.registry import register
 from ..textures.base import Texture
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR
 from .fresnel import fresnel_dielectric, reflect_about
-from .microfacet import MicrofacetDistribution, _dot, reflection_half_vector
+from .microfacet import MicrofacetDistribution, reflection_half_vector
 from .microfacet_albedo import coating_tables, interpolate
+from .parameters import distinct_iors, microfacet_parameters, plastic_parameters, textures_only
 from .plastic import POLYPROPYLENE_IOR, internal_scattering, specular_sampling_weight
 
 
@@ -96,7 +100,7 @@ class RoughPlastic(BSDF):
         """Glossy coating reflection plus the diffuse base -> (n, 3)."""
         h, active = reflection_half_vector(wi, wo)
         cos_i = np.where(active, wi[:, 2], 1.0)
-        F = fresnel_dielectric(_dot(wi, h), self.eta)[0]
+        F = fresnel_dielectric(dot_einsum(wi, h), self.eta)[0]
         specular = F * self.distr.eval(h) * self.distr.G(wi, wo, h) / (4.0 * cos_i)
         t_i = interpolate(self.transmittance, np.maximum(wi[:, 2], 0.0))
         t_o = interpolate(self.transmittance, np.maximum(wo[:, 2], 0.0))
@@ -119,7 +123,7 @@ class RoughPlastic(BSDF):
         if self.distr.sample_visible:
             glossy = self.distr.eval(h) * smith_g1(wi, h) / (4.0 * cos_i)
         else:
-            glossy = self.distr.pdf(wi, h) / (4.0 * np.where(active, _dot(wo, h), 1.0))
+            glossy = self.distr.pdf(wi, h) / (4.0 * np.where(active, dot_einsum(wo, h), 1.0))
         diffuse = sampling.INV_PI * np.maximum(wo[:, 2], 0.0)
         return np.where(active, p_specular * glossy + (1.0 - p_specular) * diffuse, 0.0)
 
@@ -139,3 +143,14 @@ class RoughPlastic(BSDF):
         with np.errstate(divide="ignore", invalid="ignore"):
             weight = self.eval(wi_up, wo) / np.where(valid, pdf, 1.0)[:, None]
         return make_sample(wo, weight, pdf, delta=False, eta=1.0, valid=valid)
+
+
+@register("bsdf", "roughplastic")
+def create(props: Props) -> RoughPlastic:
+    """A ``plastic``'s parameters (``int_ior`` != ``ext_ior``) and the microfacet ones,
+    with a number for an isotropic ``alpha`` only."""
+    textures_only(props)
+    int_ior, ext_ior = distinct_iors(props, "polypropylene")
+    common = plastic_parameters(props, int_ior, ext_ior)
+    distribution, alpha, _, sample_visible = microfacet_parameters(props, anisotropic=False)
+    return RoughPlastic(distribution, alpha, **common, sample_visible=sample_visible)

@@ -19,9 +19,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..scene.properties import Props
+from ..scene.registry import register
 from .base import BSDFSample, DeltaBSDF, as_colour_or_texture, make_sample
 from .dielectric import AIR_IOR, BK7_IOR
 from .fresnel import fresnel_dielectric, reflect
+from .parameters import colour_or_texture, ior, textures_only
 
 
 class ThinDielectric(DeltaBSDF):
@@ -59,3 +62,12 @@ class ThinDielectric(DeltaBSDF):
         weight = np.where(selected_r[:, None], self.specular_reflectance, self.specular_transmittance)
         pdf = np.where(selected_r, r, 1.0 - r)
         return make_sample(wo, weight, pdf, delta=True, eta=1.0, valid=np.ones(wi.shape[0], dtype=bool))
+
+
+@register("bsdf", "thindielectric")
+def create(props: Props) -> ThinDielectric:
+    """A ``dielectric``'s parameters."""
+    textures_only(props)
+    return ThinDielectric(ior(props, "int_ior", "bk7"), ior(props, "ext_ior", "air"),
+                          colour_or_texture(props, "specular_reflectance", 1.0),
+                          colour_or_texture(props, "specular_transmittance", 1.0))

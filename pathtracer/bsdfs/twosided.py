@@ -20,7 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..scene.properties import Props
+from ..scene.registry import register
 from .base import BSDF, BSDFSample, make_sample
+from .parameters import nested_bsdfs
 
 
 def _flip_z(v: np.ndarray, flip: np.ndarray) -> np.ndarray:
@@ -111,3 +114,9 @@ class TwoSided(BSDF):
             fields[name] = np.where(front.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)
         fields["valid"] &= wi[:, 2] != 0.0
         return make_sample(**fields)
+
+
+@register("bsdf", "twosided")
+def create(props: Props) -> TwoSided:
+    """One nested BSDF for both sides, or two: front and back."""
+    return TwoSided(*nested_bsdfs(props, 1, 2))

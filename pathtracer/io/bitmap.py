@@ -18,6 +18,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import OpenEXR
+from PIL import Image, UnidentifiedImageError
 
 
 class BitmapError(ValueError):
@@ -65,8 +67,6 @@ def read_bitmap(path, *, raw: bool = False) -> np.ndarray:
 
 
 def _read_exr(path: Path) -> np.ndarray:
-    import OpenEXR
-
     try:
         with OpenEXR.File(str(path), separate_channels=True) as exr:
             channels = {name: np.asarray(c.pixels, dtype=np.float64)
@@ -133,8 +133,6 @@ def _rgbe_scanlines(data, width: int, height: int) -> np.ndarray:
 
 
 def _read_pillow(path: Path, raw: bool) -> np.ndarray:
-    from PIL import Image, UnidentifiedImageError
-
     try:
         with Image.open(path) as image:
             image.load()

@@ -1,0 +1,23 @@
+"""Mitsuba's ``rawconstant`` texture: one value everywhere, used as given."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..scene.properties import Props, children
+from ..scene.registry import register
+from ..scene.xml import Plugin
+from .base import ConstantTexture
+
+
+@register("texture", "rawconstant")
+def create(plugin: Plugin, folders: list[str], cache: dict) -> ConstantTexture:
+    """``value``: used as given (no colour conversion, no range check), a float or a vector."""
+    props = Props(plugin)
+    children(plugin, {"texture": 2})
+    props.transform("to_uv")   # accepted: a constant is the same under any transform
+    value = props._get("value", ("float", "integer", "vector", "point", "rgb"),
+                       "a <float> or a <vector>")
+    if value is None:
+        raise plugin.error("missing \"value\" (a <float> or a <vector>)")
+    props.finish()
+    return ConstantTexture(np.asarray(value, dtype=float))
