@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..accel.bvh import BVH, SMALL_MAX, SmallMesh, SplitMesh, small_shapes
+from ..accel.bvh import BVH
+from ..accel.small_mesh import SMALL_MAX, SmallMesh, SplitMesh, small_shapes
 from ..core.vec import dot, max_abs, normalize, put_rows, scale, unscale
 from .cylinder import cylinder_surface, cylinder_t
 
