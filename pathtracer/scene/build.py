@@ -15,6 +15,13 @@ from ..core.rng import SEED_MAX
 from ..io import meshes
 from ..sensors.film import FILTER_PARAMS, ReconstructionFilter
 from ..shapes import instances
+from ..shapes.accumulator import _bbox, _Geometry, _shape_label
+from ..shapes.cube import _cube_local
+from ..shapes.curves import _build_curve
+from ..shapes.cylinder import _add_cylinder
+from ..shapes.mesh import _mesh_triangles
+from ..shapes.normals import _flip, _normals
+from ..shapes.rectangle import _RECT_LOCAL, _planar_mesh
 from . import transform
 from .properties import (
     FLOAT_TAGS,
@@ -369,156 +376,6 @@ def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
 
 # -- shapes ------------------------------------------------------------------
 
-class _Geometry:
-    """Accumulates primitives of all shapes before they become arrays."""
-
-    def __init__(self):
-        self.tri_p, self.tri_n, self.tri_uv, self.tri_shape = [], [], [], []
-        self.ntri = 0
-        self.spheres, self.disks, self.curves, self.cylinders = [], [], [], []
-        self.kind, self.prim, self.area, self.cdf, self.name = [], [], [], [], []
-
-    def add_mesh(self, shape_id: int, p: np.ndarray, n: np.ndarray, uv: np.ndarray) -> None:
-        """Add a mesh shape: (k, 3, 3) vertices, normals and (k, 3, 2) texture coordinates."""
-        areas = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-        total = areas.sum()
-        cdf = np.cumsum(areas) / total if total > 0 else np.arange(1, len(p) + 1) / len(p)
-        cdf[-1] = 1.0
-        self.tri_p.append(p)
-        self.tri_n.append(n)
-        self.tri_uv.append(uv)
-        self.tri_shape.append(np.full(len(p), shape_id, dtype=np.int32))
-        self.kind.append("mesh")
-        self.prim.append((self.ntri, self.ntri + len(p)))
-        self.area.append(total)
-        self.cdf.append(cdf)
-        self.ntri += len(p)
-
-    def add_analytic(self, kind: str, table: list, entry, area: float) -> None:
-        """Add one analytic shape (sphere, disk, curve, cylinder): ``entry`` goes into its
-        ``table`` (e.g. ``self.spheres``); its primitive range is that one row."""
-        table.append(entry)
-        self.kind.append(kind)
-        self.prim.append((len(table) - 1, len(table)))
-        self.area.append(area)
-        self.cdf.append(None)
-
-
-def _shape_label(plugin: Plugin) -> str:
-    ident = f' "{plugin.id}"' if plugin.id else ""
-    return f"{plugin.type}{ident} ({plugin.file}:{plugin.line})"
-
-
-def _flip(p: np.ndarray, n: np.ndarray, uv: np.ndarray):
-    """Reverse the winding (flips the geometric normal) and negate the
-    shading normals: Mitsuba's ``flip_normals`` on meshes. The texture
-    coordinates follow their vertices."""
-    return p[:, ::-1].copy(), -n[:, ::-1], uv[:, ::-1].copy()
-
-
-def _normals(props: "Props", m: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Object-space normals to world space as Mitsuba does: by the inverse
-    transpose of ``to_world``, or by the matrix it tracks instead after a
-    ``<rotate>`` about a non-unit axis."""
-    normal_m = props.normal_matrix("to_world")
-    if normal_m is None:
-        return transform.apply_normals(m, n)
-    return transform.apply_normal_matrix(normal_m, n)
-
-
-def _planar_mesh(corners_local, normal_local, m, flip, props):
-    """Triangles of a flat shape whose normal is the transformed local normal
-    (Mitsuba's rectangle: normal by the inverse transpose, even when ``m``
-    mirrors; the winding follows the true geometric normal). Texture
-    coordinates: Mitsuba's rectangle maps local (x, y) in [-1, 1]^2 to
-    ((x + 1) / 2, (y + 1) / 2)."""
-    p = transform.apply_points(m, corners_local.reshape(-1, 3)).reshape(-1, 3, 3)
-    uv = 0.5 * (corners_local[:, :, :2] + 1.0)
-    n = _normals(props, m, normal_local[None])[0]
-    geo = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    if np.dot(geo[0], n) < 0:
-        p, uv = p[:, ::-1].copy(), uv[:, ::-1].copy()
-    nn = np.broadcast_to(n, p.shape).copy()
-    return _flip(p, nn, uv) if flip else (p, nn, uv)
-
-
-_RECT_LOCAL = np.array([[[-1, -1, 0], [1, -1, 0], [1, 1, 0]],
-                        [[-1, -1, 0], [1, 1, 0], [-1, 1, 0]]], dtype=float)
-
-
-# Texture coordinates of Mitsuba's cube, per face (axis, sign): u and v as
-# 0.5 + 0.5 * (sign_u * x[axis_u]), 0.5 + 0.5 * (sign_v * x[axis_v]) of the local
-# corner x (measured with Mitsuba 3.9.1: SurfaceInteraction3f.uv of cube hits).
-_CUBE_UV = {(0, 1.0): ((1, 1.0), (2, -1.0)), (0, -1.0): ((1, 1.0), (2, 1.0)),
-            (1, 1.0): ((0, -1.0), (2, -1.0)), (1, -1.0): ((2, 1.0), (0, 1.0)),
-            (2, 1.0): ((1, 1.0), (0, 1.0)), (2, -1.0): ((1, -1.0), (0, 1.0))}
-
-
-def _cube_local():
-    """12 triangles of [-1, 1]^3, counter-clockwise seen from outside, the
-    outward face normal of each corner and Mitsuba's texture coordinates."""
-    tris, normals, uvs = [], [], []
-    for axis in range(3):
-        for sign in (1.0, -1.0):
-            n = np.zeros(3)
-            n[axis] = sign
-            u = np.zeros(3)
-            u[(axis + 1) % 3] = 1.0
-            v = np.cross(n, u)  # (u, v, n) right-handed: u x v = n
-            quad = [n - u - v, n + u - v, n + u + v, n - u + v]
-            tris += [[quad[0], quad[1], quad[2]], [quad[0], quad[2], quad[3]]]
-            normals += [[n, n, n]] * 2
-            (au, su), (av, sv) = _CUBE_UV[(axis, sign)]
-            uv = [[0.5 + 0.5 * su * c[au], 0.5 + 0.5 * sv * c[av]] for c in quad]
-            uvs += [[uv[0], uv[1], uv[2]], [uv[0], uv[2], uv[3]]]
-    return np.array(tris), np.array(normals), np.array(uvs)
-
-
-def _load_mesh(plugin: Plugin, props: Props, folders: list[str]) -> meshes.MeshData:
-    path = find_file(plugin, props, "filename", folders)
-    try:
-        if plugin.type == "obj":
-            return meshes.read_obj(path)
-        if plugin.type == "ply":
-            return meshes.read_ply(path)
-        index = props.int("shape_index", 0)
-        return meshes.read_serialized(path, index)
-    except meshes.MeshFormatError as e:
-        raise plugin.error(str(e), props.line("filename")) from None
-    except OSError as e:
-        raise plugin.error(f"cannot read mesh file \"{os.path.basename(path)}\": "
-                           f"{e.strerror or e}", props.line("filename")) from None
-
-
-def _mesh_triangles(plugin, props, folders, m):
-    """World-space triangles and shading normals of an obj/ply/serialized shape."""
-    data = _load_mesh(plugin, props, folders)
-    face_normals = props.bool("face_normals", False)
-    # Mitsuba flips v (v -> 1 - v) by default for OBJ files only; its serialized
-    # shape has no flip_tex_coords parameter (never flips).
-    flip_v = plugin.type != "serialized" and props.bool("flip_tex_coords", plugin.type == "obj")
-    pos = transform.apply_points(m, data.positions)
-    p = pos[data.faces]
-    if data.texcoords is None:
-        # Without stored coordinates Mitsuba's uv is the barycentrics (b1, b2).
-        uv = np.broadcast_to(_BARYCENTRIC_UV, (len(p), 3, 2)).copy()
-    else:
-        uv = data.texcoords[data.faces]
-        if flip_v:
-            uv[:, :, 1] = 1.0 - uv[:, :, 1]
-    if face_normals:
-        geo = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-        n = np.repeat(meshes._unit(geo)[:, None], 3, axis=1)
-    elif data.normals is not None:
-        n = _normals(props, m, data.normals)[data.faces]
-    else:
-        # Mitsuba recomputes after applying to_world, so angles are world angles.
-        n = meshes.smooth_vertex_normals(pos, data.faces)[data.faces]
-    return p, n, uv
-
-
-_BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
-
 
 def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str],
                 parent: np.ndarray | None = None):
@@ -588,56 +445,6 @@ def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str
     geo.name.append(_shape_label(plugin))
     return (kids["bsdf"][0] if kids["bsdf"] else None,
             kids["emitter"][0] if kids["emitter"] else None)
-
-
-def _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids):
-    """A ``bsplinecurve`` or ``linearcurve``: control points read and moved to world space."""
-    from ..shapes.curves import CurveFileError, CurveShape, read_control_points
-    if flip:
-        raise plugin.error("flip_normals is not supported on curves (Mitsuba only ever "
-                           "hits their outside)", props.line("flip_normals"))
-    if kids["emitter"]:
-        raise kids["emitter"][0].error("an area emitter on a curve is not supported (this "
-                                       "tracer cannot sample points on curves)")
-    transform.check_affine(m)
-    path = find_file(plugin, props, "filename", folders)
-    bspline = plugin.type == "bsplinecurve"
-    try:
-        curves = read_control_points(path, 4 if bspline else 2)
-    except CurveFileError as e:
-        raise plugin.error(f"{os.path.basename(path)}: {e}", props.line("filename")) from None
-    except OSError as e:
-        raise plugin.error(f"cannot read curve file \"{os.path.basename(path)}\": "
-                           f"{e.strerror or e}", props.line("filename")) from None
-    world = [np.column_stack([transform.apply_points(m, c[:, :3]), c[:, 3]]) for c in curves]
-    if any(np.any(c[:, 3] < 0) for c in world):
-        raise plugin.error(f"{os.path.basename(path)}: a control point has a negative radius",
-                           props.line("filename"))
-    shape = CurveShape(world, "bspline" if bspline else "linear", shape_id)
-    geo.add_analytic("curve", geo.curves, shape, shape.area())
-
-
-def _add_cylinder(plugin, props, geo, shape_id, m, flip, emitters) -> None:
-    """Mitsuba's analytic ``cylinder`` (:mod:`pathtracer.cylinder`): ``p0`` (0, 0, 0),
-    ``p1`` (0, 0, 1), ``radius`` (1), open at both ends."""
-    from pathtracer.shapes.cylinder import cylinder_matrix
-
-    if emitters:
-        raise emitters[0].error("an area emitter on a cylinder is not supported (this tracer "
-                                "samples area lights on meshes, spheres and disks only)")
-    p0, p1 = props.point("p0", np.zeros(3)), props.point("p1", np.array([0.0, 0.0, 1.0]))
-    radius = props.float("radius", 1.0)
-    if not radius > 0 or not np.linalg.norm(p1 - p0) > 0:
-        raise plugin.error("a cylinder needs radius > 0 and p0 != p1")
-    transform.check_affine(m)
-    full = cylinder_matrix(m, p0, p1, radius)
-    if np.linalg.det(full[:3, :3]) <= 0:
-        raise plugin.error("a mirroring to_world is not supported on a cylinder (Mitsuba flips "
-                           "its normals by a rule this tracer does not reproduce)",
-                           props.line("to_world"))
-    # Mitsuba: 2 pi r l, r and l the lengths of the images of local x and z.
-    geo.add_analytic("cylinder", geo.cylinders, (full, flip, shape_id),
-                     2.0 * np.pi * np.linalg.norm(full[:3, 0]) * np.linalg.norm(full[:3, 2]))
 
 
 # -- emitters, sensor, integrator -----------------------------------------
@@ -976,31 +783,6 @@ def _check_direct_samples(plugin: Plugin) -> None:
 
 
 # -- the scene -----------------------------------------------------------------
-
-def _bbox(geo: _Geometry, tri_p: np.ndarray) -> np.ndarray:
-    lo, hi = [], []
-    if len(tri_p):
-        lo.append(tri_p.reshape(-1, 3).min(0))
-        hi.append(tri_p.reshape(-1, 3).max(0))
-    for c, r, *_ in geo.spheres:
-        lo.append(c - r)
-        hi.append(c + r)
-    for m, _, _ in geo.disks:
-        extent = np.sqrt(m[:3, 0] ** 2 + m[:3, 1] ** 2)
-        lo.append(m[:3, 3] - extent)
-        hi.append(m[:3, 3] + extent)
-    for curve in geo.curves:
-        curve_lo, curve_hi = curve.bounds()
-        lo.append(curve_lo)
-        hi.append(curve_hi)
-    for m, _, _ in geo.cylinders:
-        corners = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (0, 1)])
-        world = corners @ m.T
-        lo.append(world[:, :3].min(0))
-        hi.append(world[:, :3].max(0))
-    if not lo:
-        return np.zeros((2, 3))
-    return np.array([np.min(lo, axis=0), np.max(hi, axis=0)])
 
 
 def _attach(emitter: Plugin, shape: Plugin, attached: dict) -> None:

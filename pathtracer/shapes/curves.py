@@ -39,10 +39,13 @@ test pieces instead of triangles.
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
 from ..accel.bvh import BVH
+from ..scene import transform
+from ..scene.properties import find_file
 
 #: Largest allowed distance between the pieces and the true B-spline tube, relative to
 #: the diagonal of the curve's bounding box.
@@ -367,3 +370,40 @@ class CurveShape(BVH):
 def _unit(v: np.ndarray) -> np.ndarray:
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     return v / np.where(n > 0, n, 1.0)
+
+
+def _fill_curve(curve, hit, sel, o, d, piece, s):
+    # The hit point stays on the ray: it lies within the pieces' tolerance of the tube.
+    p = o + hit.t[sel, None] * d
+    nrm, uv = curve.surface(p, piece, s)
+    hit.p[sel] = p
+    hit.n[sel] = nrm
+    hit.sh_n[sel] = nrm
+    hit.shape[sel] = curve.shape
+    hit.uv[sel] = uv
+
+
+def _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids):
+    """A ``bsplinecurve`` or ``linearcurve``: control points read and moved to world space."""
+    if flip:
+        raise plugin.error("flip_normals is not supported on curves (Mitsuba only ever "
+                           "hits their outside)", props.line("flip_normals"))
+    if kids["emitter"]:
+        raise kids["emitter"][0].error("an area emitter on a curve is not supported (this "
+                                       "tracer cannot sample points on curves)")
+    transform.check_affine(m)
+    path = find_file(plugin, props, "filename", folders)
+    bspline = plugin.type == "bsplinecurve"
+    try:
+        curves = read_control_points(path, 4 if bspline else 2)
+    except CurveFileError as e:
+        raise plugin.error(f"{os.path.basename(path)}: {e}", props.line("filename")) from None
+    except OSError as e:
+        raise plugin.error(f"cannot read curve file \"{os.path.basename(path)}\": "
+                           f"{e.strerror or e}", props.line("filename")) from None
+    world = [np.column_stack([transform.apply_points(m, c[:, :3]), c[:, 3]]) for c in curves]
+    if any(np.any(c[:, 3] < 0) for c in world):
+        raise plugin.error(f"{os.path.basename(path)}: a control point has a negative radius",
+                           props.line("filename"))
+    shape = CurveShape(world, "bspline" if bspline else "linear", shape_id)
+    geo.add_analytic("curve", geo.curves, shape, shape.area())

@@ -19,7 +19,10 @@ import numpy as np
 from ..accel.bvh import BVH
 from ..accel.small_mesh import SMALL_MAX, SmallMesh, SplitMesh, small_shapes
 from ..core.vec import dot, max_abs, normalize, put_rows, scale, unscale
-from .cylinder import cylinder_surface, cylinder_t
+from .curves import _fill_curve
+from .cylinder import _fill_cylinders, cylinder_t
+from .disk import _disk_t, _fill_disks
+from .sphere import _fill_spheres, _sphere_t
 
 RAY_EPSILON = 1500 * 2.0 ** -24  # Mitsuba's math::RayEpsilon for float32 (8.94e-5)
 SHADOW_EPSILON = 10 * RAY_EPSILON  # math::ShadowEpsilon
@@ -232,56 +235,6 @@ def spawn_ray_to(p: np.ndarray, n: np.ndarray, target: np.ndarray):
 
 
 # ----------------------------------------------------------------------
-# Analytic shapes
-
-
-def _sphere_t(center, radius, o, d, tmax):
-    """Nearest root ``0 < t < tmax`` of the ray-sphere quadratic (inf if none).
-
-    Like Mitsuba, the ray origin is first moved to the point of the ray
-    closest to the center, which keeps the discriminant accurate for rays
-    starting far away or grazing the sphere.
-    """
-    # Per component: (n, 3) arrays broadcast against (3,) or (n, 1) ones run ~5x slower.
-    dx, dy, dz = d[:, 0], d[:, 1], d[:, 2]
-    lx, ly, lz = o[:, 0] - center[0], o[:, 1] - center[1], o[:, 2] - center[2]
-    dd = dx * dx
-    dd += dy * dy
-    dd += dz * dz
-    t_mid = lx * dx
-    t_mid += ly * dy
-    t_mid += lz * dz
-    t_mid = -t_mid / dd  # parameter of the point closest to the center
-    qx, qy, qz = lx + t_mid * dx, ly + t_mid * dy, lz + t_mid * dz
-    c = qx * qx
-    c += qy * qy
-    c += qz * qz
-    c -= radius * radius
-    disc = -dd * c  # (B/2)^2 - A C, with B = 0 at the closest point
-    with np.errstate(invalid="ignore"):
-        half = np.sqrt(disc) / dd
-    t0, t1 = t_mid - half, t_mid + half
-    t = np.where(t0 > 0, t0, t1)
-    ok = (disc >= 0) & (t > 0) & (t < tmax)
-    return np.where(ok, t, np.inf)
-
-
-def _disk_t(to_local, o, d, tmax):
-    """Ray parameter where rays meet the unit disk z = 0 of a local frame (inf if not)."""
-    m, shift = to_local[:3, :3], to_local[:3, 3]
-
-    def local(v, k, offset=0.0):   # component k of v in the disk's frame, per column
-        return v[:, 0] * m[k, 0] + v[:, 1] * m[k, 1] + v[:, 2] * m[k, 2] + offset
-
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = -local(o, 2, shift[2]) / local(d, 2)
-        x = local(o, 0, shift[0]) + t * local(d, 0)
-        y = local(o, 1, shift[1]) + t * local(d, 1)
-        ok = (t > 0) & (t < tmax) & (x * x + y * y <= 1.0)
-    return np.where(ok, t, np.inf)
-
-
-# ----------------------------------------------------------------------
 # Surface data of the hits
 
 
@@ -353,60 +306,6 @@ def _fill_triangles(scene, hit, sel, b1, b2):
     put_rows(hit.sh_n, sel, sh_n)
     put_rows(hit.uv, sel, uv)
     hit.shape[sel] = shape
-
-
-def _fill_spheres(scene, hit, sel, o, d):
-    i = hit.prim[sel]
-    c, r = scene.sphere_center[i], scene.sphere_radius[i]
-    # Reproject onto the sphere (Mitsuba: p = c + r * normalize(ray(t) - c)).
-    nrm = normalize(o + hit.t[sel, None] * d - c)
-    p = c + scale(nrm, r)
-    put_rows(hit.p, sel, p)
-    local = unscale(p - c, r)
-    nrm = scale(nrm, np.where(scene.sphere_flip[i], -1.0, 1.0))
-    put_rows(hit.n, sel, nrm)
-    put_rows(hit.sh_n, sel, nrm)
-    hit.shape[sel] = scene.sphere_shape[i]
-    phi = np.arctan2(local[:, 1], local[:, 0])
-    phi = np.where(phi < 0, phi + 2 * np.pi, phi)
-    hit.uv[sel, 0] = phi / (2 * np.pi)
-    hit.uv[sel, 1] = np.arccos(np.clip(local[:, 2], -1.0, 1.0)) / np.pi
-
-
-def _fill_disks(scene, hit, sel, o, d):
-    i = hit.prim[sel]
-    to_world, to_local = scene.disk_to_world[i], scene.disk_to_local[i]
-    # Normal transform = inverse transpose: row 2 of to_local's linear part.
-    nrm = normalize(to_local[:, 2, :3])
-    p = o + hit.t[sel, None] * d
-    # Reproject onto the plane through the disk center (as Mitsuba does).
-    center = to_world[:, :3, 3]
-    p = p + scale(nrm, dot(center - p, nrm))
-    put_rows(hit.p, sel, p)
-    local = np.einsum("kij,kj->ki", to_local[:, :3, :3], p) + to_local[:, :3, 3]
-    put_rows(hit.uv, sel, local[:, :2])
-    nrm = scale(nrm, np.where(scene.disk_flip[i], -1.0, 1.0))
-    put_rows(hit.n, sel, nrm)
-    put_rows(hit.sh_n, sel, nrm)
-    hit.shape[sel] = scene.disk_shape[i]
-
-
-def _fill_curve(curve, hit, sel, o, d, piece, s):
-    # The hit point stays on the ray: it lies within the pieces' tolerance of the tube.
-    p = o + hit.t[sel, None] * d
-    nrm, uv = curve.surface(p, piece, s)
-    hit.p[sel] = p
-    hit.n[sel] = nrm
-    hit.sh_n[sel] = nrm
-    hit.shape[sel] = curve.shape
-    hit.uv[sel] = uv
-def _fill_cylinders(scene, hit, sel, o, d):
-    i = hit.prim[sel]
-    p, n, uv = cylinder_surface(scene.cylinder_to_world[i], scene.cylinder_to_local[i],
-                                scene.cylinder_flip[i], o + hit.t[sel, None] * d)
-    hit.p[sel], hit.n[sel], hit.sh_n[sel] = p, n, n
-    hit.uv[sel] = uv
-    hit.shape[sel] = scene.cylinder_shape[i]
 
 
 # ----------------------------------------------------------------------
