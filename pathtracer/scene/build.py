@@ -12,16 +12,9 @@ import warnings
 import numpy as np
 
 from ..core.rng import SEED_MAX
-from ..io import meshes
 from ..sensors.film import FILTER_PARAMS, ReconstructionFilter
-from ..shapes import instances
-from ..shapes.accumulator import _bbox, _Geometry, _shape_label
-from ..shapes.cube import _cube_local
-from ..shapes.curves import _build_curve
-from ..shapes.cylinder import _add_cylinder
-from ..shapes.mesh import _mesh_triangles
-from ..shapes.normals import _flip, _normals
-from ..shapes.rectangle import _RECT_LOCAL, _planar_mesh
+from ..shapes import instances  # the shapes package registers every shape kind
+from ..shapes.accumulator import GeometryAccumulator, ShapeParams, shape_label
 from . import transform
 from .properties import (
     FLOAT_TAGS,
@@ -34,7 +27,7 @@ from .properties import (
     search_folders,
     unsupported,
 )
-from .registry import register
+from .registry import factory, register
 from .types import (
     AreaEmitter,
     Camera,
@@ -377,74 +370,30 @@ def _build_texture(plugin: Plugin, folders: list[str], cache: dict):
 # -- shapes ------------------------------------------------------------------
 
 
-def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str],
+def build_shape(plugin: Plugin, geo: GeometryAccumulator, shape_id: int, folders: list[str],
                 parent: np.ndarray | None = None):
     """Add one shape's primitives to ``geo``; returns its nested bsdf and emitter plugins.
 
-    ``folders`` are where mesh files are looked up (:func:`search_folders`). ``parent``
-    is the ``to_world`` of the ``instance`` the shape is drawn by, applied after the
-    shape's own (:mod:`pathtracer.scene.instances`).
+    The shape kind's factory, from the registry, reads the kind's own properties and
+    adds the primitives (:mod:`pathtracer.shapes.accumulator`). ``folders`` are where
+    mesh files are looked up (:func:`search_folders`). ``parent`` is the ``to_world`` of
+    the ``instance`` the shape is drawn by, applied after the shape's own
+    (:mod:`pathtracer.shapes.instances`).
     """
+    create = factory("shape", plugin.type)
+    if create is None:
+        raise unsupported(plugin, "shape")
     props = Props(plugin)
     kids = children(plugin, {"bsdf": 1, "emitter": 1, "medium": 2})
     m = props.transform("to_world")
     if parent is not None:
         m = parent @ m
     flip = props.bool("flip_normals", False)
-    kind = plugin.type
-    if kind in ("rectangle", "cube", "obj", "ply", "serialized"):
-        if kind == "rectangle":
-            p, n, uv = _planar_mesh(_RECT_LOCAL, np.array([0.0, 0.0, 1.0]), m, flip, props)
-        else:
-            if kind == "cube":
-                local_p, local_n, uv = _cube_local()
-                p = transform.apply_points(m, local_p.reshape(-1, 3)).reshape(-1, 3, 3)
-                if props.bool("face_normals", False):
-                    geo_n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-                    n = np.repeat(meshes._unit(geo_n)[:, None], 3, axis=1)
-                else:
-                    n = _normals(props, m, local_n.reshape(-1, 3)).reshape(-1, 3, 3)
-            else:
-                p, n, uv = _mesh_triangles(plugin, props, folders, m)
-            if flip:
-                p, n, uv = _flip(p, n, uv)
-        geo.add_mesh(shape_id, p, n, uv)
-    elif kind == "sphere":
-        center = props.point("center", np.zeros(3))
-        radius = props.float("radius", 1.0)
-        full = m @ transform.translate(center) @ transform.scale([radius] * 3)
-        lin = full[:3, :3]
-        s2 = np.trace(lin.T @ lin) / 3.0
-        if s2 == 0 or not np.allclose(lin.T @ lin, s2 * np.eye(3), rtol=0, atol=1e-6 * s2):
-            raise plugin.error("a sphere's to_world may only translate, rotate and scale "
-                               "uniformly (non-uniform scale or shear would make an ellipsoid)")
-        if np.linalg.det(lin) < 0:
-            flip = not flip  # Mitsuba: a mirroring transform turns the sphere inside out
-        # Object frame for texture coordinates: the inverse of the rotation (a
-        # mirror included) left after dividing out the radius.
-        to_local = (lin / np.sqrt(s2)).T
-        geo.add_analytic("sphere", geo.spheres,
-                         (full[:3, 3].copy(), float(np.sqrt(s2)), flip, shape_id, to_local),
-                         4.0 * np.pi * s2)
-    elif kind in ("bsplinecurve", "linearcurve"):
-        _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids)
-    elif kind == "disk":
-        transform.check_affine(m)
-        if props.normal_matrix("to_world") is not None:
-            raise plugin.error("a disk rotated about a non-unit axis is not supported (Mitsuba "
-                               "then transforms its normal inconsistently with its surface)",
-                               props.line("to_world"))
-        # The unit disk maps to an ellipse of area pi |u x v| (u, v = images of x, y).
-        geo.add_analytic("disk", geo.disks, (m, flip, shape_id),
-                         np.pi * np.linalg.norm(np.cross(m[:3, 0], m[:3, 1])))
-    elif kind == "cylinder":
-        _add_cylinder(plugin, props, geo, shape_id, m, flip, kids["emitter"])
-    else:
-        raise unsupported(plugin, "shape")
+    emitter = kids["emitter"][0] if kids["emitter"] else None
+    create(ShapeParams(plugin, props, m, flip, emitter, shape_id, folders), geo)
     props.finish()
-    geo.name.append(_shape_label(plugin))
-    return (kids["bsdf"][0] if kids["bsdf"] else None,
-            kids["emitter"][0] if kids["emitter"] else None)
+    geo.name.append(shape_label(plugin))
+    return kids["bsdf"][0] if kids["bsdf"] else None, emitter
 
 
 # -- emitters, sensor, integrator -----------------------------------------
@@ -834,7 +783,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     shape_media = []
     for plugin in kids["sampler"]:   # top-level samplers: referenced by a sensor, or unused
         _sampler(plugin)
-    geo = _Geometry()
+    geo = GeometryAccumulator()
     bsdf_objects, bsdf_index, textures = [], {}, {}
     emitters, environment = [], None
     shape_bsdf, shape_emitter = [], []
@@ -861,8 +810,6 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     for plugin in kids["medium"]:
         media.index(plugin)
     for plugin, parent in instances.flatten(kids["shape"]):
-        if plugin.type not in SUPPORTED["shape"]:
-            raise unsupported(plugin, "shape")
         shape_id = len(shape_bsdf)
         bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, folders, parent)
         shape_media.append(media.shape_media(plugin))
@@ -890,37 +837,13 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     camera_medium = media.sensor_medium(kids["sensor"][0])
     integrator = build_integrator(kids["integrator"][0] if kids["integrator"] else None)
 
-    tri_p = np.concatenate(geo.tri_p) if geo.tri_p else np.zeros((0, 3, 3))
-    tri_n = np.concatenate(geo.tri_n) if geo.tri_n else np.zeros((0, 3, 3))
-    tri_uv = np.concatenate(geo.tri_uv) if geo.tri_uv else np.zeros((0, 3, 2))
-    tri_shape = np.concatenate(geo.tri_shape) if geo.tri_shape else np.zeros(0, np.int32)
-    sph = geo.spheres
-    dsk = geo.disks
     return Scene(
-        tri_p=tri_p, tri_n=tri_n, tri_shape=tri_shape, tri_uv=tri_uv,
-        sphere_center=np.array([s[0] for s in sph]).reshape(-1, 3),
-        sphere_radius=np.array([s[1] for s in sph], dtype=float),
-        sphere_flip=np.array([s[2] for s in sph], dtype=bool),
-        sphere_shape=np.array([s[3] for s in sph], dtype=np.int32),
-        sphere_to_local=np.array([s[4] for s in sph]).reshape(-1, 3, 3),
-        disk_to_world=np.array([d[0] for d in dsk]).reshape(-1, 4, 4),
-        disk_to_local=np.array([np.linalg.inv(d[0]) for d in dsk]).reshape(-1, 4, 4),
-        disk_flip=np.array([d[1] for d in dsk], dtype=bool),
-        disk_shape=np.array([d[2] for d in dsk], dtype=np.int32),
-        curves=geo.curves,
-        cylinder_to_world=np.array([c[0] for c in geo.cylinders]).reshape(-1, 4, 4),
-        cylinder_to_local=np.array([np.linalg.inv(c[0]) for c in geo.cylinders]).reshape(-1, 4, 4),
-        cylinder_flip=np.array([c[1] for c in geo.cylinders], dtype=bool),
-        cylinder_shape=np.array([c[2] for c in geo.cylinders], dtype=np.int32),
-        shape_kind=geo.kind,
-        shape_prim=np.array(geo.prim, dtype=np.int64).reshape(-1, 2),
+        **geo.scene_fields(),
         shape_bsdf=np.array(shape_bsdf, dtype=np.int32),
         shape_emitter=np.array(shape_emitter, dtype=np.int32),
-        shape_area=np.array(geo.area, dtype=float),
-        shape_tri_cdf=geo.cdf, shape_name=geo.name,
         bsdfs=bsdf_objects, emitters=emitters, environment=environment,
         camera=camera, spp=spp, seed=seed, integrator=integrator,
-        source=source, bbox=_bbox(geo, tri_p), **_media_fields(media, shape_media, camera_medium))
+        source=source, **_media_fields(media, shape_media, camera_medium))
 
 
 def _media_fields(media, shape_media: list, camera_medium: int) -> dict:

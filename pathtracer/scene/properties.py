@@ -12,12 +12,10 @@ import os
 import numpy as np
 
 from . import spectra
-from .registry import factory
+from .registry import factory, names
 from .xml import Plugin
 
 SUPPORTED = {
-    "shape": ("rectangle", "cube", "disk", "sphere", "cylinder", "obj", "ply", "serialized",
-              "bsplinecurve", "linearcurve", "shapegroup", "instance"),
     "bsdf": ("diffuse", "twosided", "conductor", "roughconductor", "dielectric",
              "thindielectric", "roughdielectric", "plastic", "roughplastic", "null", "blendbsdf",
              "mask", "bumpmap", "normalmap"),
@@ -255,7 +253,9 @@ def unsupported(plugin: Plugin, what: str) -> Exception:
         return plugin.error(f"shape \"{plugin.type}\" is not implemented in this tracer "
                             f"({NOT_IMPLEMENTED_SHAPES[plugin.type]}); it is valid in Mitsuba's "
                             "RGB variants, so the scene cannot be compared")
-    return plugin.error(f"unsupported {what} (supported: {', '.join(SUPPORTED[plugin.kind])})")
+    # A kind that registers its plugins lists them from its registry; the others from SUPPORTED.
+    supported = names(plugin.kind) or SUPPORTED[plugin.kind]
+    return plugin.error(f"unsupported {what} (supported: {', '.join(supported)})")
 
 
 def build_texture(plugin: Plugin, folders: list[str], cache: dict):

@@ -3,6 +3,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..io import meshes
+from ..scene import transform
+from ..scene.registry import register
+from .accumulator import GeometryAccumulator, ShapeParams
+from .normals import flip_winding, world_normals
+
 # Texture coordinates of Mitsuba's cube, per face (axis, sign): u and v as
 # 0.5 + 0.5 * (sign_u * x[axis_u]), 0.5 + 0.5 * (sign_v * x[axis_v]) of the local
 # corner x (measured with Mitsuba 3.9.1: SurfaceInteraction3f.uv of cube hits).
@@ -29,3 +35,20 @@ def _cube_local():
             uv = [[0.5 + 0.5 * su * c[au], 0.5 + 0.5 * sv * c[av]] for c in quad]
             uvs += [[uv[0], uv[1], uv[2]], [uv[0], uv[2], uv[3]]]
     return np.array(tris), np.array(normals), np.array(uvs)
+
+
+@register("shape", "cube")
+def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+    """A ``cube``: its twelve triangles; ``face_normals`` (false) shades each face flat
+    with its geometric normal."""
+    m, props = shape.to_world, shape.props
+    local_p, local_n, uv = _cube_local()
+    p = transform.apply_points(m, local_p.reshape(-1, 3)).reshape(-1, 3, 3)
+    if props.bool("face_normals", False):
+        geo_n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        n = np.repeat(meshes._unit(geo_n)[:, None], 3, axis=1)
+    else:
+        n = world_normals(props, m, local_n.reshape(-1, 3)).reshape(-1, 3, 3)
+    if shape.flip:
+        p, n, uv = flip_winding(p, n, uv)
+    geometry.add_mesh(shape.shape_id, p, n, uv)

@@ -46,6 +46,8 @@ import numpy as np
 from ..accel.bvh import BVH
 from ..scene import transform
 from ..scene.properties import find_file
+from ..scene.registry import register
+from .accumulator import GeometryAccumulator, ShapeParams
 
 #: Largest allowed distance between the pieces and the true B-spline tube, relative to
 #: the diagonal of the curve's bounding box.
@@ -372,7 +374,9 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.where(n > 0, n, 1.0)
 
 
-def _fill_curve(curve, hit, sel, o, d, piece, s):
+def fill_curve(curve, hit, sel, o, d, piece, s):
+    """Surface data of the hits ``sel`` on ``curve`` (rays ``o``, ``d``, pieces and piece
+    parameters of those rows)."""
     # The hit point stays on the ray: it lies within the pieces' tolerance of the tube.
     p = o + hit.t[sel, None] * d
     nrm, uv = curve.surface(p, piece, s)
@@ -383,16 +387,19 @@ def _fill_curve(curve, hit, sel, o, d, piece, s):
     hit.uv[sel] = uv
 
 
-def _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids):
-    """A ``bsplinecurve`` or ``linearcurve``: control points read and moved to world space."""
-    if flip:
+@register("shape", "bsplinecurve", "linearcurve")
+def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+    """A ``bsplinecurve`` or ``linearcurve``: control points read from ``filename`` and
+    moved to world space."""
+    plugin, props, m = shape.plugin, shape.props, shape.to_world
+    if shape.flip:
         raise plugin.error("flip_normals is not supported on curves (Mitsuba only ever "
                            "hits their outside)", props.line("flip_normals"))
-    if kids["emitter"]:
-        raise kids["emitter"][0].error("an area emitter on a curve is not supported (this "
-                                       "tracer cannot sample points on curves)")
+    if shape.emitter is not None:
+        raise shape.emitter.error("an area emitter on a curve is not supported (this "
+                                  "tracer cannot sample points on curves)")
     transform.check_affine(m)
-    path = find_file(plugin, props, "filename", folders)
+    path = find_file(plugin, props, "filename", shape.folders)
     bspline = plugin.type == "bsplinecurve"
     try:
         curves = read_control_points(path, 4 if bspline else 2)
@@ -405,5 +412,5 @@ def _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids):
     if any(np.any(c[:, 3] < 0) for c in world):
         raise plugin.error(f"{os.path.basename(path)}: a control point has a negative radius",
                            props.line("filename"))
-    shape = CurveShape(world, "bspline" if bspline else "linear", shape_id)
-    geo.add_analytic("curve", geo.curves, shape, shape.area())
+    curve = CurveShape(world, "bspline" if bspline else "linear", shape.shape_id)
+    geometry.add_analytic("curve", geometry.curves, curve, curve.area())

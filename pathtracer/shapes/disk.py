@@ -5,9 +5,26 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.vec import dot, normalize, put_rows, scale
+from ..scene import transform
+from ..scene.registry import register
+from .accumulator import GeometryAccumulator, ShapeParams
 
 
-def _disk_t(to_local, o, d, tmax):
+@register("shape", "disk")
+def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+    """A ``disk`` (no properties of its own): the unit disk moved by an affine ``to_world``."""
+    plugin, props, m = shape.plugin, shape.props, shape.to_world
+    transform.check_affine(m)
+    if props.normal_matrix("to_world") is not None:
+        raise plugin.error("a disk rotated about a non-unit axis is not supported (Mitsuba "
+                           "then transforms its normal inconsistently with its surface)",
+                           props.line("to_world"))
+    # The unit disk maps to an ellipse of area pi |u x v| (u, v = images of x, y).
+    geometry.add_analytic("disk", geometry.disks, (m, shape.flip, shape.shape_id),
+                          np.pi * np.linalg.norm(np.cross(m[:3, 0], m[:3, 1])))
+
+
+def disk_t(to_local, o, d, tmax):
     """Ray parameter where rays meet the unit disk z = 0 of a local frame (inf if not)."""
     m, shift = to_local[:3, :3], to_local[:3, 3]
 
@@ -22,7 +39,8 @@ def _disk_t(to_local, o, d, tmax):
     return np.where(ok, t, np.inf)
 
 
-def _fill_disks(scene, hit, sel, o, d):
+def fill_disks(scene, hit, sel, o, d):
+    """Surface data of the hits ``sel`` on disks (rays ``o``, ``d`` of those rows)."""
     i = hit.prim[sel]
     to_world, to_local = scene.disk_to_world[i], scene.disk_to_local[i]
     # Normal transform = inverse transpose: row 2 of to_local's linear part.

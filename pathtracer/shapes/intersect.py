@@ -1,9 +1,12 @@
 """Ray-scene intersection for wavefronts of rays, and ray spawning.
 
-Triangles go through the BVH of :mod:`pathtracer.accel` (built once per
-scene, cached in ``scene._accel``); spheres and disks are few, so they are
+Triangles go through the accelerators of :mod:`pathtracer.accel` (built once per
+scene, cached in ``scene._accel``); spheres, disks and cylinders are few, so they are
 intersected analytically one shape at a time, each over all rays; each curve
-shape has its own tree of pieces (:mod:`pathtracer.curves`).
+shape has its own tree of pieces. Each analytic kind's intersection and the surface
+data of its hits live in the kind's module (:mod:`.sphere`, :mod:`.disk`,
+:mod:`.cylinder`, :mod:`.curves`); this module dispatches over the kinds, keeps the
+triangles' tables and spawns rays.
 
 Ray spawning follows Mitsuba 3 (``Interaction::offset_p``, ``spawn_ray``,
 ``spawn_ray_to`` in include/mitsuba/render/interaction.h): there is no
@@ -19,10 +22,10 @@ import numpy as np
 from ..accel.bvh import BVH
 from ..accel.small_mesh import SMALL_MAX, SmallMesh, SplitMesh, small_shapes
 from ..core.vec import dot, max_abs, normalize, put_rows, scale, unscale
-from .curves import _fill_curve
-from .cylinder import _fill_cylinders, cylinder_t
-from .disk import _disk_t, _fill_disks
-from .sphere import _fill_spheres, _sphere_t
+from .curves import fill_curve
+from .cylinder import cylinder_t, fill_cylinders
+from .disk import disk_t, fill_disks
+from .sphere import fill_spheres, sphere_t
 
 RAY_EPSILON = 1500 * 2.0 ** -24  # Mitsuba's math::RayEpsilon for float32 (8.94e-5)
 SHADOW_EPSILON = 10 * RAY_EPSILON  # math::ShadowEpsilon
@@ -76,11 +79,11 @@ class Hit:
 def prepare(scene) -> BVH | SmallMesh | SplitMesh:
     """Build (once) and return the scene's triangle accelerator, cached in ``scene._accel``.
 
-    Up to :data:`pathtracer.accel.SMALL_MAX` triangles (rooms built of
+    Up to :data:`pathtracer.accel.small_mesh.SMALL_MAX` triangles (rooms built of
     rectangles and cubes) every ray is tested against every triangle by
-    :class:`pathtracer.accel.SmallMesh`. Larger scenes whose small shapes
+    :class:`pathtracer.accel.small_mesh.SmallMesh`. Larger scenes whose small shapes
     hold some of the triangles (a mesh in a room) get a
-    :class:`pathtracer.accel.SplitMesh`; the others a :class:`BVH`.
+    :class:`pathtracer.accel.small_mesh.SplitMesh`; the others a :class:`BVH`.
     """
     if scene._accel is None:
         tri = scene.tri_p
@@ -115,12 +118,12 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
     kind = np.where(prim >= 0, 0, -1)  # 0 triangle, 1 sphere, 2 disk, 3 curve, 4 cylinder
     t = np.where(kind >= 0, t, tmax)  # the far end for the analytic shapes
     for i in range(len(scene.sphere_radius)):
-        ts = _sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, t)
+        ts = sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, t)
         closer = ts < t
         np.minimum(t, ts, out=t)
         kind[closer], prim[closer] = 1, i
     for i in range(len(scene.disk_shape)):
-        td = _disk_t(scene.disk_to_local[i], o, d, t)
+        td = disk_t(scene.disk_to_local[i], o, d, t)
         closer = td < t
         np.minimum(t, td, out=t)
         kind[closer], prim[closer] = 2, i
@@ -148,17 +151,17 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
             _fill_triangles(scene, hit, sel, b1[sel], b2[sel])
     sel = np.flatnonzero(kind == 1)
     if len(sel):
-        _fill_spheres(scene, hit, sel, np.take(o, sel, axis=0), np.take(d, sel, axis=0))
+        fill_spheres(scene, hit, sel, np.take(o, sel, axis=0), np.take(d, sel, axis=0))
     sel = np.flatnonzero(kind == 2)
     if len(sel):
-        _fill_disks(scene, hit, sel, np.take(o, sel, axis=0), np.take(d, sel, axis=0))
+        fill_disks(scene, hit, sel, np.take(o, sel, axis=0), np.take(d, sel, axis=0))
     for i, (piece, s) in enumerate(curve_hits):
         sel = np.flatnonzero((kind == 3) & (prim == i))
         if len(sel):
-            _fill_curve(scene.curves[i], hit, sel, o[sel], d[sel], piece[sel], s[sel])
+            fill_curve(scene.curves[i], hit, sel, o[sel], d[sel], piece[sel], s[sel])
     sel = np.flatnonzero(kind == 4)
     if len(sel):
-        _fill_cylinders(scene, hit, sel, o[sel], d[sel])
+        fill_cylinders(scene, hit, sel, o[sel], d[sel])
     return hit
 
 
@@ -169,9 +172,9 @@ def occluded(scene, o: np.ndarray, d: np.ndarray, tmax) -> np.ndarray:
     tmax = np.array(np.broadcast_to(np.asarray(tmax, np.float64), (len(o),)))
     occ = prepare(scene).occluded(o, d, tmax)
     for i in range(len(scene.sphere_radius)):
-        occ |= _sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, tmax) < tmax
+        occ |= sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, tmax) < tmax
     for i in range(len(scene.disk_shape)):
-        occ |= _disk_t(scene.disk_to_local[i], o, d, tmax) < tmax
+        occ |= disk_t(scene.disk_to_local[i], o, d, tmax) < tmax
     for curve in scene.curves:
         occ |= curve.occluded(o, d, tmax)
     for i in range(len(scene.cylinder_shape)):
@@ -323,8 +326,8 @@ def texture_uv(scene, hit, rows: np.ndarray) -> np.ndarray:
       when that is None), phi in [0, 2pi).
     * Disks: ``(r, phi / 2pi)`` of the local point, phi in [0, 2pi).
     * Curves: Mitsuba's ``(angle around the centre line / 2pi, v along the file's
-      segments)``, computed at the hit (:mod:`pathtracer.curves`).
-    * Cylinders: ``(phi / 2pi, z)`` in the unit tube's frame (:mod:`pathtracer.cylinder`).
+      segments)``, computed at the hit (:mod:`pathtracer.shapes.curves`).
+    * Cylinders: ``(phi / 2pi, z)`` in the unit tube's frame (:mod:`pathtracer.shapes.cylinder`).
 
     Computed only where a texture needs it, so untextured scenes never pay.
     """

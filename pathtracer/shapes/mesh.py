@@ -8,11 +8,27 @@ import numpy as np
 from ..io import meshes
 from ..scene import transform
 from ..scene.properties import Props, find_file
+from ..scene.registry import register
 from ..scene.xml import Plugin
-from .normals import _normals
+from .accumulator import GeometryAccumulator, ShapeParams
+from .normals import flip_winding, world_normals
+
+_BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+
+
+@register("shape", "obj", "ply", "serialized")
+def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+    """An ``obj``, ``ply`` or ``serialized`` mesh: ``filename``, ``face_normals`` (false),
+    ``flip_tex_coords`` (true for obj files, false for ply; not for serialized) and the
+    serialized file's ``shape_index`` (0)."""
+    p, n, uv = _mesh_triangles(shape.plugin, shape.props, shape.folders, shape.to_world)
+    if shape.flip:
+        p, n, uv = flip_winding(p, n, uv)
+    geometry.add_mesh(shape.shape_id, p, n, uv)
 
 
 def _load_mesh(plugin: Plugin, props: Props, folders: list[str]) -> meshes.MeshData:
+    """The file's mesh (format by the shape's type), its errors located at ``filename``."""
     path = find_file(plugin, props, "filename", folders)
     try:
         if plugin.type == "obj":
@@ -48,11 +64,8 @@ def _mesh_triangles(plugin, props, folders, m):
         geo = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
         n = np.repeat(meshes._unit(geo)[:, None], 3, axis=1)
     elif data.normals is not None:
-        n = _normals(props, m, data.normals)[data.faces]
+        n = world_normals(props, m, data.normals)[data.faces]
     else:
         # Mitsuba recomputes after applying to_world, so angles are world angles.
         n = meshes.smooth_vertex_normals(pos, data.faces)[data.faces]
     return p, n, uv
-
-
-_BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])

@@ -1,12 +1,43 @@
-"""Mitsuba's ``sphere``: its ray intersection and the surface data of its hits."""
+"""Mitsuba's ``sphere``: its ray intersection and the surface data of its hits.
+
+The loader keeps each sphere as its world centre and radius, whether its normals point
+inward (``flip_normals``, or a mirroring ``to_world``), its shape id and the rotation to
+its object frame (for texture coordinates): the scene's ``sphere_*`` arrays.
+"""
 from __future__ import annotations
 
 import numpy as np
 
 from ..core.vec import normalize, put_rows, scale, unscale
+from ..scene import transform
+from ..scene.registry import register
+from .accumulator import GeometryAccumulator, ShapeParams
 
 
-def _sphere_t(center, radius, o, d, tmax):
+@register("shape", "sphere")
+def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+    """A ``sphere``: ``center`` (0, 0, 0) and ``radius`` (1), moved by a ``to_world`` that
+    may only translate, rotate and scale uniformly."""
+    plugin, props, m, flip = shape.plugin, shape.props, shape.to_world, shape.flip
+    center = props.point("center", np.zeros(3))
+    radius = props.float("radius", 1.0)
+    full = m @ transform.translate(center) @ transform.scale([radius] * 3)
+    lin = full[:3, :3]
+    s2 = np.trace(lin.T @ lin) / 3.0
+    if s2 == 0 or not np.allclose(lin.T @ lin, s2 * np.eye(3), rtol=0, atol=1e-6 * s2):
+        raise plugin.error("a sphere's to_world may only translate, rotate and scale "
+                           "uniformly (non-uniform scale or shear would make an ellipsoid)")
+    if np.linalg.det(lin) < 0:
+        flip = not flip  # Mitsuba: a mirroring transform turns the sphere inside out
+    # Object frame for texture coordinates: the inverse of the rotation (a
+    # mirror included) left after dividing out the radius.
+    to_local = (lin / np.sqrt(s2)).T
+    geometry.add_analytic("sphere", geometry.spheres,
+                          (full[:3, 3].copy(), float(np.sqrt(s2)), flip, shape.shape_id, to_local),
+                          4.0 * np.pi * s2)
+
+
+def sphere_t(center, radius, o, d, tmax):
     """Nearest root ``0 < t < tmax`` of the ray-sphere quadratic (inf if none).
 
     Like Mitsuba, the ray origin is first moved to the point of the ray
@@ -37,7 +68,8 @@ def _sphere_t(center, radius, o, d, tmax):
     return np.where(ok, t, np.inf)
 
 
-def _fill_spheres(scene, hit, sel, o, d):
+def fill_spheres(scene, hit, sel, o, d):
+    """Surface data of the hits ``sel`` on spheres (rays ``o``, ``d`` of those rows)."""
     i = hit.prim[sel]
     c, r = scene.sphere_center[i], scene.sphere_radius[i]
     # Reproject onto the sphere (Mitsuba: p = c + r * normalize(ray(t) - c)).
