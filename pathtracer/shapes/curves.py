@@ -33,7 +33,7 @@ a radius that varies along the curve, the cone pieces approximate the sweep of s
 rather than of orthogonal circles; the two differ by ``r r'^2 / (2 |c'|^2)`` in radius.
 
 A linear curve is intersected exactly (each segment is one piece with its two spheres).
-The pieces' bounds go into a :class:`pathtracer.accel.BVH`-style wide tree; its leaves
+The pieces' bounds go into a :class:`pathtracer.accel.bvh.BVH`-style wide tree; its leaves
 test pieces instead of triangles.
 """
 from __future__ import annotations
@@ -212,7 +212,7 @@ def piece_hits(o, d, tmax, piece):
 class CurveShape(BVH):
     """One ``bsplinecurve`` or ``linearcurve`` shape: its pieces in a wide BVH.
 
-    The tree and its traversal are :class:`pathtracer.accel.BVH`'s (``intersect`` and
+    The tree and its traversal are :class:`pathtracer.accel.bvh.BVH`'s (``intersect`` and
     ``occluded`` return ``t, piece, s, 0`` in place of ``t, triangle, b1, b2``); only the
     leaf test differs.
 
