@@ -52,7 +52,7 @@ def test_bounded_work_lists_give_the_same_hits(monkeypatch):
     bvh = BVH(tri)
     t, prim, b1, b2 = bvh.intersect(o, d)
     occ = bvh.occluded(o, d, np.full(len(o), 5.0))
-    monkeypatch.setattr("pathtracer.accel.MAX_PAIRS", 64)
+    monkeypatch.setattr("pathtracer.accel.bvh.MAX_PAIRS", 64)
     t_small, prim_small, b1_small, b2_small = bvh.intersect(o, d)
     np.testing.assert_array_equal(t_small, t)
     assert np.all((prim_small == prim) | (t_small == t))
@@ -171,7 +171,7 @@ def test_small_mesh_limits_blas_to_one_thread():
     with the other cores busy, made a render cost 17x the CPU time."""
     import threadpoolctl  # a dependency of the project
 
-    from pathtracer.accel.bvh import SmallMesh
+    from pathtracer.accel.small_mesh import SmallMesh
     SmallMesh(np.random.default_rng(0).random((4, 3, 3)))
     blas = threadpoolctl.threadpool_info()
     assert blas and all(lib["num_threads"] == 1 for lib in blas if lib["user_api"] == "blas")
@@ -181,7 +181,7 @@ def test_split_mesh_equals_one_bvh():
     """A closed mesh inside a room of big triangles: the room in a SmallMesh first, the mesh in
     a BVH, gives the hits of one BVH over both (indices of the whole scene) and the same
     occlusion, with and without tmax."""
-    from pathtracer.accel.bvh import SplitMesh, small_shapes
+    from pathtracer.accel.small_mesh import SplitMesh, small_shapes
     rng = np.random.default_rng(5)
     room = random_soup(rng, 12, size=6.0)
     mesh = lat_long_sphere(24) * 2.0 + 5.0
@@ -220,7 +220,7 @@ def test_small_mesh_pairs_parallelograms_and_matches_the_bvh():
     """SmallMesh tests each rectangle (two triangles forming a parallelogram, in any vertex
     order) as one primitive, lone triangles as before: the hits, triangle indices and
     barycentrics are those of the BVH (float64 Möller–Trumbore per triangle)."""
-    from pathtracer.accel.bvh import SmallMesh
+    from pathtracer.accel.small_mesh import SmallMesh
     rng = np.random.default_rng(11)
     lone = rng.normal(size=(7, 3, 3))
     kite = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[1, 0, 0], [0, 1, 0], [2, 2, 0]]], float)

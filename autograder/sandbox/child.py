@@ -49,7 +49,7 @@ def main(runtime: str, config_json: str) -> None:
 
     import pathtracer  # noqa: F401  (likewise loaded while files can still be read)
     from pathtracer import render  # noqa: F401  (likewise)
-    from pathtracer.accel.bvh import single_threaded_blas
+    from pathtracer.accel.blas import single_threaded_blas
 
     from . import wire
     single_threaded_blas()     # reads /proc/self/maps to find BLAS: done before the hook

@@ -6,7 +6,6 @@ being silently ignored, because it would make the two renderers disagree.
 """
 from __future__ import annotations
 
-import os
 import warnings
 
 import numpy as np
@@ -14,9 +13,9 @@ import numpy as np
 from .. import bsdfs  # importing it registers the BSDF plugins and (through it) the textures
 from ..bsdfs.parameters import build_bsdf
 from ..core.rng import SEED_MAX
-from ..io import meshes
 from ..sensors.film import FILTER_PARAMS, ReconstructionFilter
-from ..shapes import instances
+from ..shapes import instances  # the shapes package registers every shape kind
+from ..shapes.accumulator import GeometryAccumulator, ShapeParams, shape_label
 from . import transform
 from .properties import (
     SUPPORTED,
@@ -28,6 +27,7 @@ from .properties import (
     search_folders,
     unsupported,
 )
+from .registry import factory
 from .types import (
     AreaEmitter,
     Camera,
@@ -56,275 +56,31 @@ INTEGRATOR_PARAM_TAGS = {"max_depth": "integer", "rr_depth": "integer",
 
 # -- shapes ------------------------------------------------------------------
 
-class _Geometry:
-    """Accumulates primitives of all shapes before they become arrays."""
 
-    def __init__(self):
-        self.tri_p, self.tri_n, self.tri_uv, self.tri_shape = [], [], [], []
-        self.ntri = 0
-        self.spheres, self.disks, self.curves, self.cylinders = [], [], [], []
-        self.kind, self.prim, self.area, self.cdf, self.name = [], [], [], [], []
-
-    def add_mesh(self, shape_id: int, p: np.ndarray, n: np.ndarray, uv: np.ndarray) -> None:
-        """Add a mesh shape: (k, 3, 3) vertices, normals and (k, 3, 2) texture coordinates."""
-        areas = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-        total = areas.sum()
-        cdf = np.cumsum(areas) / total if total > 0 else np.arange(1, len(p) + 1) / len(p)
-        cdf[-1] = 1.0
-        self.tri_p.append(p)
-        self.tri_n.append(n)
-        self.tri_uv.append(uv)
-        self.tri_shape.append(np.full(len(p), shape_id, dtype=np.int32))
-        self.kind.append("mesh")
-        self.prim.append((self.ntri, self.ntri + len(p)))
-        self.area.append(total)
-        self.cdf.append(cdf)
-        self.ntri += len(p)
-
-    def add_analytic(self, kind: str, table: list, entry, area: float) -> None:
-        """Add one analytic shape (sphere, disk, curve, cylinder): ``entry`` goes into its
-        ``table`` (e.g. ``self.spheres``); its primitive range is that one row."""
-        table.append(entry)
-        self.kind.append(kind)
-        self.prim.append((len(table) - 1, len(table)))
-        self.area.append(area)
-        self.cdf.append(None)
-
-
-def _shape_label(plugin: Plugin) -> str:
-    ident = f' "{plugin.id}"' if plugin.id else ""
-    return f"{plugin.type}{ident} ({plugin.file}:{plugin.line})"
-
-
-def _flip(p: np.ndarray, n: np.ndarray, uv: np.ndarray):
-    """Reverse the winding (flips the geometric normal) and negate the
-    shading normals: Mitsuba's ``flip_normals`` on meshes. The texture
-    coordinates follow their vertices."""
-    return p[:, ::-1].copy(), -n[:, ::-1], uv[:, ::-1].copy()
-
-
-def _normals(props: "Props", m: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Object-space normals to world space as Mitsuba does: by the inverse
-    transpose of ``to_world``, or by the matrix it tracks instead after a
-    ``<rotate>`` about a non-unit axis."""
-    normal_m = props.normal_matrix("to_world")
-    if normal_m is None:
-        return transform.apply_normals(m, n)
-    return transform.apply_normal_matrix(normal_m, n)
-
-
-def _planar_mesh(corners_local, normal_local, m, flip, props):
-    """Triangles of a flat shape whose normal is the transformed local normal
-    (Mitsuba's rectangle: normal by the inverse transpose, even when ``m``
-    mirrors; the winding follows the true geometric normal). Texture
-    coordinates: Mitsuba's rectangle maps local (x, y) in [-1, 1]^2 to
-    ((x + 1) / 2, (y + 1) / 2)."""
-    p = transform.apply_points(m, corners_local.reshape(-1, 3)).reshape(-1, 3, 3)
-    uv = 0.5 * (corners_local[:, :, :2] + 1.0)
-    n = _normals(props, m, normal_local[None])[0]
-    geo = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    if np.dot(geo[0], n) < 0:
-        p, uv = p[:, ::-1].copy(), uv[:, ::-1].copy()
-    nn = np.broadcast_to(n, p.shape).copy()
-    return _flip(p, nn, uv) if flip else (p, nn, uv)
-
-
-_RECT_LOCAL = np.array([[[-1, -1, 0], [1, -1, 0], [1, 1, 0]],
-                        [[-1, -1, 0], [1, 1, 0], [-1, 1, 0]]], dtype=float)
-
-
-# Texture coordinates of Mitsuba's cube, per face (axis, sign): u and v as
-# 0.5 + 0.5 * (sign_u * x[axis_u]), 0.5 + 0.5 * (sign_v * x[axis_v]) of the local
-# corner x (measured with Mitsuba 3.9.1: SurfaceInteraction3f.uv of cube hits).
-_CUBE_UV = {(0, 1.0): ((1, 1.0), (2, -1.0)), (0, -1.0): ((1, 1.0), (2, 1.0)),
-            (1, 1.0): ((0, -1.0), (2, -1.0)), (1, -1.0): ((2, 1.0), (0, 1.0)),
-            (2, 1.0): ((1, 1.0), (0, 1.0)), (2, -1.0): ((1, -1.0), (0, 1.0))}
-
-
-def _cube_local():
-    """12 triangles of [-1, 1]^3, counter-clockwise seen from outside, the
-    outward face normal of each corner and Mitsuba's texture coordinates."""
-    tris, normals, uvs = [], [], []
-    for axis in range(3):
-        for sign in (1.0, -1.0):
-            n = np.zeros(3)
-            n[axis] = sign
-            u = np.zeros(3)
-            u[(axis + 1) % 3] = 1.0
-            v = np.cross(n, u)  # (u, v, n) right-handed: u x v = n
-            quad = [n - u - v, n + u - v, n + u + v, n - u + v]
-            tris += [[quad[0], quad[1], quad[2]], [quad[0], quad[2], quad[3]]]
-            normals += [[n, n, n]] * 2
-            (au, su), (av, sv) = _CUBE_UV[(axis, sign)]
-            uv = [[0.5 + 0.5 * su * c[au], 0.5 + 0.5 * sv * c[av]] for c in quad]
-            uvs += [[uv[0], uv[1], uv[2]], [uv[0], uv[2], uv[3]]]
-    return np.array(tris), np.array(normals), np.array(uvs)
-
-
-def _load_mesh(plugin: Plugin, props: Props, folders: list[str]) -> meshes.MeshData:
-    path = find_file(plugin, props, "filename", folders)
-    try:
-        if plugin.type == "obj":
-            return meshes.read_obj(path)
-        if plugin.type == "ply":
-            return meshes.read_ply(path)
-        index = props.int("shape_index", 0)
-        return meshes.read_serialized(path, index)
-    except meshes.MeshFormatError as e:
-        raise plugin.error(str(e), props.line("filename")) from None
-    except OSError as e:
-        raise plugin.error(f"cannot read mesh file \"{os.path.basename(path)}\": "
-                           f"{e.strerror or e}", props.line("filename")) from None
-
-
-def _mesh_triangles(plugin, props, folders, m):
-    """World-space triangles and shading normals of an obj/ply/serialized shape."""
-    data = _load_mesh(plugin, props, folders)
-    face_normals = props.bool("face_normals", False)
-    # Mitsuba flips v (v -> 1 - v) by default for OBJ files only; its serialized
-    # shape has no flip_tex_coords parameter (never flips).
-    flip_v = plugin.type != "serialized" and props.bool("flip_tex_coords", plugin.type == "obj")
-    pos = transform.apply_points(m, data.positions)
-    p = pos[data.faces]
-    if data.texcoords is None:
-        # Without stored coordinates Mitsuba's uv is the barycentrics (b1, b2).
-        uv = np.broadcast_to(_BARYCENTRIC_UV, (len(p), 3, 2)).copy()
-    else:
-        uv = data.texcoords[data.faces]
-        if flip_v:
-            uv[:, :, 1] = 1.0 - uv[:, :, 1]
-    if face_normals:
-        geo = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-        n = np.repeat(meshes._unit(geo)[:, None], 3, axis=1)
-    elif data.normals is not None:
-        n = _normals(props, m, data.normals)[data.faces]
-    else:
-        # Mitsuba recomputes after applying to_world, so angles are world angles.
-        n = meshes.smooth_vertex_normals(pos, data.faces)[data.faces]
-    return p, n, uv
-
-
-_BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
-
-
-def build_shape(plugin: Plugin, geo: _Geometry, shape_id: int, folders: list[str],
+def build_shape(plugin: Plugin, geo: GeometryAccumulator, shape_id: int, folders: list[str],
                 parent: np.ndarray | None = None):
     """Add one shape's primitives to ``geo``; returns its nested bsdf and emitter plugins.
 
-    ``folders`` are where mesh files are looked up (:func:`search_folders`). ``parent``
-    is the ``to_world`` of the ``instance`` the shape is drawn by, applied after the
-    shape's own (:mod:`pathtracer.scene.instances`).
+    The shape kind's factory, from the registry, reads the kind's own properties and
+    adds the primitives (:mod:`pathtracer.shapes.accumulator`). ``folders`` are where
+    mesh files are looked up (:func:`search_folders`). ``parent`` is the ``to_world`` of
+    the ``instance`` the shape is drawn by, applied after the shape's own
+    (:mod:`pathtracer.shapes.instances`).
     """
+    create = factory("shape", plugin.type)
+    if create is None:
+        raise unsupported(plugin, "shape")
     props = Props(plugin)
     kids = children(plugin, {"bsdf": 1, "emitter": 1, "medium": 2})
     m = props.transform("to_world")
     if parent is not None:
         m = parent @ m
     flip = props.bool("flip_normals", False)
-    kind = plugin.type
-    if kind in ("rectangle", "cube", "obj", "ply", "serialized"):
-        if kind == "rectangle":
-            p, n, uv = _planar_mesh(_RECT_LOCAL, np.array([0.0, 0.0, 1.0]), m, flip, props)
-        else:
-            if kind == "cube":
-                local_p, local_n, uv = _cube_local()
-                p = transform.apply_points(m, local_p.reshape(-1, 3)).reshape(-1, 3, 3)
-                if props.bool("face_normals", False):
-                    geo_n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-                    n = np.repeat(meshes._unit(geo_n)[:, None], 3, axis=1)
-                else:
-                    n = _normals(props, m, local_n.reshape(-1, 3)).reshape(-1, 3, 3)
-            else:
-                p, n, uv = _mesh_triangles(plugin, props, folders, m)
-            if flip:
-                p, n, uv = _flip(p, n, uv)
-        geo.add_mesh(shape_id, p, n, uv)
-    elif kind == "sphere":
-        center = props.point("center", np.zeros(3))
-        radius = props.float("radius", 1.0)
-        full = m @ transform.translate(center) @ transform.scale([radius] * 3)
-        lin = full[:3, :3]
-        s2 = np.trace(lin.T @ lin) / 3.0
-        if s2 == 0 or not np.allclose(lin.T @ lin, s2 * np.eye(3), rtol=0, atol=1e-6 * s2):
-            raise plugin.error("a sphere's to_world may only translate, rotate and scale "
-                               "uniformly (non-uniform scale or shear would make an ellipsoid)")
-        if np.linalg.det(lin) < 0:
-            flip = not flip  # Mitsuba: a mirroring transform turns the sphere inside out
-        # Object frame for texture coordinates: the inverse of the rotation (a
-        # mirror included) left after dividing out the radius.
-        to_local = (lin / np.sqrt(s2)).T
-        geo.add_analytic("sphere", geo.spheres,
-                         (full[:3, 3].copy(), float(np.sqrt(s2)), flip, shape_id, to_local),
-                         4.0 * np.pi * s2)
-    elif kind in ("bsplinecurve", "linearcurve"):
-        _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids)
-    elif kind == "disk":
-        transform.check_affine(m)
-        if props.normal_matrix("to_world") is not None:
-            raise plugin.error("a disk rotated about a non-unit axis is not supported (Mitsuba "
-                               "then transforms its normal inconsistently with its surface)",
-                               props.line("to_world"))
-        # The unit disk maps to an ellipse of area pi |u x v| (u, v = images of x, y).
-        geo.add_analytic("disk", geo.disks, (m, flip, shape_id),
-                         np.pi * np.linalg.norm(np.cross(m[:3, 0], m[:3, 1])))
-    elif kind == "cylinder":
-        _add_cylinder(plugin, props, geo, shape_id, m, flip, kids["emitter"])
-    else:
-        raise unsupported(plugin, "shape")
+    emitter = kids["emitter"][0] if kids["emitter"] else None
+    create(ShapeParams(plugin, props, m, flip, emitter, shape_id, folders), geo)
     props.finish()
-    geo.name.append(_shape_label(plugin))
-    return (kids["bsdf"][0] if kids["bsdf"] else None,
-            kids["emitter"][0] if kids["emitter"] else None)
-
-
-def _build_curve(plugin, props, geo, shape_id, folders, m, flip, kids):
-    """A ``bsplinecurve`` or ``linearcurve``: control points read and moved to world space."""
-    from ..shapes.curves import CurveFileError, CurveShape, read_control_points
-    if flip:
-        raise plugin.error("flip_normals is not supported on curves (Mitsuba only ever "
-                           "hits their outside)", props.line("flip_normals"))
-    if kids["emitter"]:
-        raise kids["emitter"][0].error("an area emitter on a curve is not supported (this "
-                                       "tracer cannot sample points on curves)")
-    transform.check_affine(m)
-    path = find_file(plugin, props, "filename", folders)
-    bspline = plugin.type == "bsplinecurve"
-    try:
-        curves = read_control_points(path, 4 if bspline else 2)
-    except CurveFileError as e:
-        raise plugin.error(f"{os.path.basename(path)}: {e}", props.line("filename")) from None
-    except OSError as e:
-        raise plugin.error(f"cannot read curve file \"{os.path.basename(path)}\": "
-                           f"{e.strerror or e}", props.line("filename")) from None
-    world = [np.column_stack([transform.apply_points(m, c[:, :3]), c[:, 3]]) for c in curves]
-    if any(np.any(c[:, 3] < 0) for c in world):
-        raise plugin.error(f"{os.path.basename(path)}: a control point has a negative radius",
-                           props.line("filename"))
-    shape = CurveShape(world, "bspline" if bspline else "linear", shape_id)
-    geo.add_analytic("curve", geo.curves, shape, shape.area())
-
-
-def _add_cylinder(plugin, props, geo, shape_id, m, flip, emitters) -> None:
-    """Mitsuba's analytic ``cylinder`` (:mod:`pathtracer.cylinder`): ``p0`` (0, 0, 0),
-    ``p1`` (0, 0, 1), ``radius`` (1), open at both ends."""
-    from pathtracer.shapes.cylinder import cylinder_matrix
-
-    if emitters:
-        raise emitters[0].error("an area emitter on a cylinder is not supported (this tracer "
-                                "samples area lights on meshes, spheres and disks only)")
-    p0, p1 = props.point("p0", np.zeros(3)), props.point("p1", np.array([0.0, 0.0, 1.0]))
-    radius = props.float("radius", 1.0)
-    if not radius > 0 or not np.linalg.norm(p1 - p0) > 0:
-        raise plugin.error("a cylinder needs radius > 0 and p0 != p1")
-    transform.check_affine(m)
-    full = cylinder_matrix(m, p0, p1, radius)
-    if np.linalg.det(full[:3, :3]) <= 0:
-        raise plugin.error("a mirroring to_world is not supported on a cylinder (Mitsuba flips "
-                           "its normals by a rule this tracer does not reproduce)",
-                           props.line("to_world"))
-    # Mitsuba: 2 pi r l, r and l the lengths of the images of local x and z.
-    geo.add_analytic("cylinder", geo.cylinders, (full, flip, shape_id),
-                     2.0 * np.pi * np.linalg.norm(full[:3, 0]) * np.linalg.norm(full[:3, 2]))
+    geo.name.append(shape_label(plugin))
+    return kids["bsdf"][0] if kids["bsdf"] else None, emitter
 
 
 # -- emitters, sensor, integrator -----------------------------------------
@@ -664,31 +420,6 @@ def _check_direct_samples(plugin: Plugin) -> None:
 
 # -- the scene -----------------------------------------------------------------
 
-def _bbox(geo: _Geometry, tri_p: np.ndarray) -> np.ndarray:
-    lo, hi = [], []
-    if len(tri_p):
-        lo.append(tri_p.reshape(-1, 3).min(0))
-        hi.append(tri_p.reshape(-1, 3).max(0))
-    for c, r, *_ in geo.spheres:
-        lo.append(c - r)
-        hi.append(c + r)
-    for m, _, _ in geo.disks:
-        extent = np.sqrt(m[:3, 0] ** 2 + m[:3, 1] ** 2)
-        lo.append(m[:3, 3] - extent)
-        hi.append(m[:3, 3] + extent)
-    for curve in geo.curves:
-        curve_lo, curve_hi = curve.bounds()
-        lo.append(curve_lo)
-        hi.append(curve_hi)
-    for m, _, _ in geo.cylinders:
-        corners = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (0, 1)])
-        world = corners @ m.T
-        lo.append(world[:, :3].min(0))
-        hi.append(world[:, :3].max(0))
-    if not lo:
-        return np.zeros((2, 3))
-    return np.array([np.min(lo, axis=0), np.max(hi, axis=0)])
-
 
 def _attach(emitter: Plugin, shape: Plugin, attached: dict) -> None:
     """Record that ``shape`` carries ``emitter`` (nested or by ``<ref>``); an
@@ -739,7 +470,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     shape_media = []
     for plugin in kids["sampler"]:   # top-level samplers: referenced by a sensor, or unused
         _sampler(plugin)
-    geo = _Geometry()
+    geo = GeometryAccumulator()
     bsdf_objects, bsdf_index, textures = [], {}, {}
     emitters, environment = [], None
     shape_bsdf, shape_emitter = [], []
@@ -765,8 +496,6 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     for plugin in kids["medium"]:
         media.index(plugin)
     for plugin, parent in instances.flatten(kids["shape"]):
-        if plugin.type not in SUPPORTED["shape"]:
-            raise unsupported(plugin, "shape")
         shape_id = len(shape_bsdf)
         bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, folders, parent)
         shape_media.append(media.shape_media(plugin))
@@ -794,37 +523,13 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     camera_medium = media.sensor_medium(kids["sensor"][0])
     integrator = build_integrator(kids["integrator"][0] if kids["integrator"] else None)
 
-    tri_p = np.concatenate(geo.tri_p) if geo.tri_p else np.zeros((0, 3, 3))
-    tri_n = np.concatenate(geo.tri_n) if geo.tri_n else np.zeros((0, 3, 3))
-    tri_uv = np.concatenate(geo.tri_uv) if geo.tri_uv else np.zeros((0, 3, 2))
-    tri_shape = np.concatenate(geo.tri_shape) if geo.tri_shape else np.zeros(0, np.int32)
-    sph = geo.spheres
-    dsk = geo.disks
     return Scene(
-        tri_p=tri_p, tri_n=tri_n, tri_shape=tri_shape, tri_uv=tri_uv,
-        sphere_center=np.array([s[0] for s in sph]).reshape(-1, 3),
-        sphere_radius=np.array([s[1] for s in sph], dtype=float),
-        sphere_flip=np.array([s[2] for s in sph], dtype=bool),
-        sphere_shape=np.array([s[3] for s in sph], dtype=np.int32),
-        sphere_to_local=np.array([s[4] for s in sph]).reshape(-1, 3, 3),
-        disk_to_world=np.array([d[0] for d in dsk]).reshape(-1, 4, 4),
-        disk_to_local=np.array([np.linalg.inv(d[0]) for d in dsk]).reshape(-1, 4, 4),
-        disk_flip=np.array([d[1] for d in dsk], dtype=bool),
-        disk_shape=np.array([d[2] for d in dsk], dtype=np.int32),
-        curves=geo.curves,
-        cylinder_to_world=np.array([c[0] for c in geo.cylinders]).reshape(-1, 4, 4),
-        cylinder_to_local=np.array([np.linalg.inv(c[0]) for c in geo.cylinders]).reshape(-1, 4, 4),
-        cylinder_flip=np.array([c[1] for c in geo.cylinders], dtype=bool),
-        cylinder_shape=np.array([c[2] for c in geo.cylinders], dtype=np.int32),
-        shape_kind=geo.kind,
-        shape_prim=np.array(geo.prim, dtype=np.int64).reshape(-1, 2),
+        **geo.scene_fields(),
         shape_bsdf=np.array(shape_bsdf, dtype=np.int32),
         shape_emitter=np.array(shape_emitter, dtype=np.int32),
-        shape_area=np.array(geo.area, dtype=float),
-        shape_tri_cdf=geo.cdf, shape_name=geo.name,
         bsdfs=bsdf_objects, emitters=emitters, environment=environment,
         camera=camera, spp=spp, seed=seed, integrator=integrator,
-        source=source, bbox=_bbox(geo, tri_p), **_media_fields(media, shape_media, camera_medium))
+        source=source, **_media_fields(media, shape_media, camera_medium))
 
 
 def _media_fields(media, shape_media: list, camera_medium: int) -> dict:

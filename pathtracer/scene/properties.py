@@ -16,8 +16,6 @@ from .registry import factory, names
 from .xml import Plugin
 
 SUPPORTED = {
-    "shape": ("rectangle", "cube", "disk", "sphere", "cylinder", "obj", "ply", "serialized",
-              "bsplinecurve", "linearcurve", "shapegroup", "instance"),
     "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
     "sensor": ("perspective",),
     "integrator": ("path", "direct", "ptracer", "recursive", "path_bsdf", "path_nee", "smallpt",
@@ -251,7 +249,8 @@ def unsupported(plugin: Plugin, what: str) -> Exception:
         return plugin.error(f"shape \"{plugin.type}\" is not implemented in this tracer "
                             f"({NOT_IMPLEMENTED_SHAPES[plugin.type]}); it is valid in Mitsuba's "
                             "RGB variants, so the scene cannot be compared")
-    supported = SUPPORTED[plugin.kind] if plugin.kind in SUPPORTED else names(plugin.kind)
+    # A kind that registers its plugins lists them from its registry (all will).
+    supported = names(plugin.kind) or SUPPORTED.get(plugin.kind, ())
     return plugin.error(f"unsupported {what} (supported: {', '.join(supported)})")
 
 

@@ -1,2 +1,9 @@
-"""Shapes: the ray-scene intersection over every shape kind, each analytic shape's
-intersection and surface data, surface derivatives, and instancing."""
+"""Shapes: one module per shape kind, holding its intersection, the surface data of its hits
+and the factory that reads it from the scene file (registered with ``@register("shape",
+...)``, given a :class:`~.accumulator.ShapeParams`); the ray-scene intersection over
+every kind (:mod:`.intersect`), surface derivatives (:mod:`.tangents`) and instancing
+(:mod:`.instances`).
+
+Importing the package registers every shape kind (:mod:`pathtracer.scene.registry`).
+"""
+from . import cube, curves, cylinder, disk, instances, mesh, rectangle, sphere  # noqa: F401

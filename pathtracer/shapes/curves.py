@@ -33,16 +33,21 @@ a radius that varies along the curve, the cone pieces approximate the sweep of s
 rather than of orthogonal circles; the two differ by ``r r'^2 / (2 |c'|^2)`` in radius.
 
 A linear curve is intersected exactly (each segment is one piece with its two spheres).
-The pieces' bounds go into a :class:`pathtracer.accel.BVH`-style wide tree; its leaves
+The pieces' bounds go into a :class:`pathtracer.accel.bvh.BVH`-style wide tree; its leaves
 test pieces instead of triangles.
 """
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
 from ..accel.bvh import BVH
+from ..scene import transform
+from ..scene.properties import find_file
+from ..scene.registry import register
+from .accumulator import GeometryAccumulator, ShapeParams
 
 #: Largest allowed distance between the pieces and the true B-spline tube, relative to
 #: the diagonal of the curve's bounding box.
@@ -207,7 +212,7 @@ def piece_hits(o, d, tmax, piece):
 class CurveShape(BVH):
     """One ``bsplinecurve`` or ``linearcurve`` shape: its pieces in a wide BVH.
 
-    The tree and its traversal are :class:`pathtracer.accel.BVH`'s (``intersect`` and
+    The tree and its traversal are :class:`pathtracer.accel.bvh.BVH`'s (``intersect`` and
     ``occluded`` return ``t, piece, s, 0`` in place of ``t, triangle, b1, b2``); only the
     leaf test differs.
 
@@ -367,3 +372,45 @@ class CurveShape(BVH):
 def _unit(v: np.ndarray) -> np.ndarray:
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     return v / np.where(n > 0, n, 1.0)
+
+
+def fill_curve(curve, hit, sel, o, d, piece, s):
+    """Surface data of the hits ``sel`` on ``curve`` (rays ``o``, ``d``, pieces and piece
+    parameters of those rows)."""
+    # The hit point stays on the ray: it lies within the pieces' tolerance of the tube.
+    p = o + hit.t[sel, None] * d
+    nrm, uv = curve.surface(p, piece, s)
+    hit.p[sel] = p
+    hit.n[sel] = nrm
+    hit.sh_n[sel] = nrm
+    hit.shape[sel] = curve.shape
+    hit.uv[sel] = uv
+
+
+@register("shape", "bsplinecurve", "linearcurve")
+def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+    """A ``bsplinecurve`` or ``linearcurve``: control points read from ``filename`` and
+    moved to world space."""
+    plugin, props, m = shape.plugin, shape.props, shape.to_world
+    if shape.flip:
+        raise plugin.error("flip_normals is not supported on curves (Mitsuba only ever "
+                           "hits their outside)", props.line("flip_normals"))
+    if shape.emitter is not None:
+        raise shape.emitter.error("an area emitter on a curve is not supported (this "
+                                  "tracer cannot sample points on curves)")
+    transform.check_affine(m)
+    path = find_file(plugin, props, "filename", shape.folders)
+    bspline = plugin.type == "bsplinecurve"
+    try:
+        curves = read_control_points(path, 4 if bspline else 2)
+    except CurveFileError as e:
+        raise plugin.error(f"{os.path.basename(path)}: {e}", props.line("filename")) from None
+    except OSError as e:
+        raise plugin.error(f"cannot read curve file \"{os.path.basename(path)}\": "
+                           f"{e.strerror or e}", props.line("filename")) from None
+    world = [np.column_stack([transform.apply_points(m, c[:, :3]), c[:, 3]]) for c in curves]
+    if any(np.any(c[:, 3] < 0) for c in world):
+        raise plugin.error(f"{os.path.basename(path)}: a control point has a negative radius",
+                           props.line("filename"))
+    curve = CurveShape(world, "bspline" if bspline else "linear", shape.shape_id)
+    geometry.add_analytic("curve", geometry.curves, curve, curve.area())

@@ -18,7 +18,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.vec import normalize
+from ..core.vec import coordinate_system, normalize
+from ..scene import transform
+from ..scene.registry import register
+from .accumulator import GeometryAccumulator, ShapeParams
 
 
 def local_rays(to_local: np.ndarray, o: np.ndarray, d: np.ndarray):
@@ -83,7 +86,6 @@ def cylinder_surface(to_world: np.ndarray, to_local: np.ndarray, flip: np.ndarra
 
 def cylinder_matrix(to_world: np.ndarray, p0, p1, radius: float) -> np.ndarray:
     """Mitsuba's object-to-world map of a cylinder from ``p0`` to ``p1`` of ``radius``."""
-    from ..core.vec import coordinate_system
     axis = np.asarray(p1, np.float64) - np.asarray(p0, np.float64)
     length = float(np.linalg.norm(axis))
     z = axis / length
@@ -93,3 +95,36 @@ def cylinder_matrix(to_world: np.ndarray, p0, p1, radius: float) -> np.ndarray:
     move = np.eye(4)
     move[:3, 3] = p0
     return to_world @ move @ frame @ np.diag([radius, radius, length, 1.0])
+
+
+def fill_cylinders(scene, hit, sel, o, d):
+    """Surface data of the hits ``sel`` on cylinders (rays ``o``, ``d`` of those rows)."""
+    i = hit.prim[sel]
+    p, n, uv = cylinder_surface(scene.cylinder_to_world[i], scene.cylinder_to_local[i],
+                                scene.cylinder_flip[i], o + hit.t[sel, None] * d)
+    hit.p[sel], hit.n[sel], hit.sh_n[sel] = p, n, n
+    hit.uv[sel] = uv
+    hit.shape[sel] = scene.cylinder_shape[i]
+
+
+@register("shape", "cylinder")
+def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+    """Mitsuba's analytic ``cylinder``: ``p0`` (0, 0, 0), ``p1`` (0, 0, 1), ``radius`` (1),
+    open at both ends."""
+    plugin, props, m = shape.plugin, shape.props, shape.to_world
+    if shape.emitter is not None:
+        raise shape.emitter.error("an area emitter on a cylinder is not supported (this tracer "
+                                  "samples area lights on meshes, spheres and disks only)")
+    p0, p1 = props.point("p0", np.zeros(3)), props.point("p1", np.array([0.0, 0.0, 1.0]))
+    radius = props.float("radius", 1.0)
+    if not radius > 0 or not np.linalg.norm(p1 - p0) > 0:
+        raise plugin.error("a cylinder needs radius > 0 and p0 != p1")
+    transform.check_affine(m)
+    full = cylinder_matrix(m, p0, p1, radius)
+    if np.linalg.det(full[:3, :3]) <= 0:
+        raise plugin.error("a mirroring to_world is not supported on a cylinder (Mitsuba flips "
+                           "its normals by a rule this tracer does not reproduce)",
+                           props.line("to_world"))
+    # Mitsuba: 2 pi r l, r and l the lengths of the images of local x and z.
+    geometry.add_analytic("cylinder", geometry.cylinders, (full, shape.flip, shape.shape_id),
+                          2.0 * np.pi * np.linalg.norm(full[:3, 0]) * np.linalg.norm(full[:3, 2]))

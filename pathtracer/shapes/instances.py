@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..scene.registry import register
 from ..scene.xml import Plugin
+from .accumulator import GeometryAccumulator, ShapeParams
 
 
 def flatten(shapes: list[Plugin]):
@@ -27,6 +29,14 @@ def flatten(shapes: list[Plugin]):
                     yield child, to_world
         else:
             yield plugin, None
+
+
+@register("shape", "shapegroup", "instance")
+def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+    """Groups and instances have no primitives of their own: :func:`flatten` replaces them
+    by the shapes they draw before any shape is built, so none should reach here."""
+    raise shape.plugin.error(f"a {shape.plugin.type} is allowed only at the top level of the "
+                             "scene, where it is expanded into the shapes it draws")
 
 
 def _check_group(group: Plugin) -> None:

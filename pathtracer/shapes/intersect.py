@@ -1,9 +1,12 @@
 """Ray-scene intersection for wavefronts of rays, and ray spawning.
 
-Triangles go through the BVH of :mod:`pathtracer.accel` (built once per
-scene, cached in ``scene._accel``); spheres and disks are few, so they are
+Triangles go through the accelerators of :mod:`pathtracer.accel` (built once per
+scene, cached in ``scene._accel``); spheres, disks and cylinders are few, so they are
 intersected analytically one shape at a time, each over all rays; each curve
-shape has its own tree of pieces (:mod:`pathtracer.curves`).
+shape has its own tree of pieces. Each analytic kind's intersection and the surface
+data of its hits live in the kind's module (:mod:`.sphere`, :mod:`.disk`,
+:mod:`.cylinder`, :mod:`.curves`); this module dispatches over the kinds, keeps the
+triangles' tables and spawns rays.
 
 Ray spawning follows Mitsuba 3 (``Interaction::offset_p``, ``spawn_ray``,
 ``spawn_ray_to`` in include/mitsuba/render/interaction.h): there is no
@@ -16,9 +19,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..accel.bvh import BVH, SMALL_MAX, SmallMesh, SplitMesh, small_shapes
+from ..accel.bvh import BVH
+from ..accel.small_mesh import SMALL_MAX, SmallMesh, SplitMesh, small_shapes
 from ..core.vec import dot, max_abs, normalize, put_rows, scale, unscale
-from .cylinder import cylinder_surface, cylinder_t
+from .curves import fill_curve
+from .cylinder import cylinder_t, fill_cylinders
+from .disk import disk_t, fill_disks
+from .sphere import fill_spheres, sphere_t
 
 RAY_EPSILON = 1500 * 2.0 ** -24  # Mitsuba's math::RayEpsilon for float32 (8.94e-5)
 SHADOW_EPSILON = 10 * RAY_EPSILON  # math::ShadowEpsilon
@@ -72,11 +79,11 @@ class Hit:
 def prepare(scene) -> BVH | SmallMesh | SplitMesh:
     """Build (once) and return the scene's triangle accelerator, cached in ``scene._accel``.
 
-    Up to :data:`pathtracer.accel.SMALL_MAX` triangles (rooms built of
+    Up to :data:`pathtracer.accel.small_mesh.SMALL_MAX` triangles (rooms built of
     rectangles and cubes) every ray is tested against every triangle by
-    :class:`pathtracer.accel.SmallMesh`. Larger scenes whose small shapes
+    :class:`pathtracer.accel.small_mesh.SmallMesh`. Larger scenes whose small shapes
     hold some of the triangles (a mesh in a room) get a
-    :class:`pathtracer.accel.SplitMesh`; the others a :class:`BVH`.
+    :class:`pathtracer.accel.small_mesh.SplitMesh`; the others a :class:`BVH`.
     """
     if scene._accel is None:
         tri = scene.tri_p
@@ -111,12 +118,12 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
     kind = np.where(prim >= 0, 0, -1)  # 0 triangle, 1 sphere, 2 disk, 3 curve, 4 cylinder
     t = np.where(kind >= 0, t, tmax)  # the far end for the analytic shapes
     for i in range(len(scene.sphere_radius)):
-        ts = _sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, t)
+        ts = sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, t)
         closer = ts < t
         np.minimum(t, ts, out=t)
         kind[closer], prim[closer] = 1, i
     for i in range(len(scene.disk_shape)):
-        td = _disk_t(scene.disk_to_local[i], o, d, t)
+        td = disk_t(scene.disk_to_local[i], o, d, t)
         closer = td < t
         np.minimum(t, td, out=t)
         kind[closer], prim[closer] = 2, i
@@ -144,17 +151,17 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
             _fill_triangles(scene, hit, sel, b1[sel], b2[sel])
     sel = np.flatnonzero(kind == 1)
     if len(sel):
-        _fill_spheres(scene, hit, sel, np.take(o, sel, axis=0), np.take(d, sel, axis=0))
+        fill_spheres(scene, hit, sel, np.take(o, sel, axis=0), np.take(d, sel, axis=0))
     sel = np.flatnonzero(kind == 2)
     if len(sel):
-        _fill_disks(scene, hit, sel, np.take(o, sel, axis=0), np.take(d, sel, axis=0))
+        fill_disks(scene, hit, sel, np.take(o, sel, axis=0), np.take(d, sel, axis=0))
     for i, (piece, s) in enumerate(curve_hits):
         sel = np.flatnonzero((kind == 3) & (prim == i))
         if len(sel):
-            _fill_curve(scene.curves[i], hit, sel, o[sel], d[sel], piece[sel], s[sel])
+            fill_curve(scene.curves[i], hit, sel, o[sel], d[sel], piece[sel], s[sel])
     sel = np.flatnonzero(kind == 4)
     if len(sel):
-        _fill_cylinders(scene, hit, sel, o[sel], d[sel])
+        fill_cylinders(scene, hit, sel, o[sel], d[sel])
     return hit
 
 
@@ -165,9 +172,9 @@ def occluded(scene, o: np.ndarray, d: np.ndarray, tmax) -> np.ndarray:
     tmax = np.array(np.broadcast_to(np.asarray(tmax, np.float64), (len(o),)))
     occ = prepare(scene).occluded(o, d, tmax)
     for i in range(len(scene.sphere_radius)):
-        occ |= _sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, tmax) < tmax
+        occ |= sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, tmax) < tmax
     for i in range(len(scene.disk_shape)):
-        occ |= _disk_t(scene.disk_to_local[i], o, d, tmax) < tmax
+        occ |= disk_t(scene.disk_to_local[i], o, d, tmax) < tmax
     for curve in scene.curves:
         occ |= curve.occluded(o, d, tmax)
     for i in range(len(scene.cylinder_shape)):
@@ -228,56 +235,6 @@ def spawn_ray_to(p: np.ndarray, n: np.ndarray, target: np.ndarray):
     dist = np.sqrt(dot(d, d))
     d = unscale(d, np.where(dist > 0, dist, 1.0))
     return o, d, dist * (1.0 - SHADOW_EPSILON)
-
-
-# ----------------------------------------------------------------------
-# Analytic shapes
-
-
-def _sphere_t(center, radius, o, d, tmax):
-    """Nearest root ``0 < t < tmax`` of the ray-sphere quadratic (inf if none).
-
-    Like Mitsuba, the ray origin is first moved to the point of the ray
-    closest to the center, which keeps the discriminant accurate for rays
-    starting far away or grazing the sphere.
-    """
-    # Per component: (n, 3) arrays broadcast against (3,) or (n, 1) ones run ~5x slower.
-    dx, dy, dz = d[:, 0], d[:, 1], d[:, 2]
-    lx, ly, lz = o[:, 0] - center[0], o[:, 1] - center[1], o[:, 2] - center[2]
-    dd = dx * dx
-    dd += dy * dy
-    dd += dz * dz
-    t_mid = lx * dx
-    t_mid += ly * dy
-    t_mid += lz * dz
-    t_mid = -t_mid / dd  # parameter of the point closest to the center
-    qx, qy, qz = lx + t_mid * dx, ly + t_mid * dy, lz + t_mid * dz
-    c = qx * qx
-    c += qy * qy
-    c += qz * qz
-    c -= radius * radius
-    disc = -dd * c  # (B/2)^2 - A C, with B = 0 at the closest point
-    with np.errstate(invalid="ignore"):
-        half = np.sqrt(disc) / dd
-    t0, t1 = t_mid - half, t_mid + half
-    t = np.where(t0 > 0, t0, t1)
-    ok = (disc >= 0) & (t > 0) & (t < tmax)
-    return np.where(ok, t, np.inf)
-
-
-def _disk_t(to_local, o, d, tmax):
-    """Ray parameter where rays meet the unit disk z = 0 of a local frame (inf if not)."""
-    m, shift = to_local[:3, :3], to_local[:3, 3]
-
-    def local(v, k, offset=0.0):   # component k of v in the disk's frame, per column
-        return v[:, 0] * m[k, 0] + v[:, 1] * m[k, 1] + v[:, 2] * m[k, 2] + offset
-
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = -local(o, 2, shift[2]) / local(d, 2)
-        x = local(o, 0, shift[0]) + t * local(d, 0)
-        y = local(o, 1, shift[1]) + t * local(d, 1)
-        ok = (t > 0) & (t < tmax) & (x * x + y * y <= 1.0)
-    return np.where(ok, t, np.inf)
 
 
 # ----------------------------------------------------------------------
@@ -354,60 +311,6 @@ def _fill_triangles(scene, hit, sel, b1, b2):
     hit.shape[sel] = shape
 
 
-def _fill_spheres(scene, hit, sel, o, d):
-    i = hit.prim[sel]
-    c, r = scene.sphere_center[i], scene.sphere_radius[i]
-    # Reproject onto the sphere (Mitsuba: p = c + r * normalize(ray(t) - c)).
-    nrm = normalize(o + hit.t[sel, None] * d - c)
-    p = c + scale(nrm, r)
-    put_rows(hit.p, sel, p)
-    local = unscale(p - c, r)
-    nrm = scale(nrm, np.where(scene.sphere_flip[i], -1.0, 1.0))
-    put_rows(hit.n, sel, nrm)
-    put_rows(hit.sh_n, sel, nrm)
-    hit.shape[sel] = scene.sphere_shape[i]
-    phi = np.arctan2(local[:, 1], local[:, 0])
-    phi = np.where(phi < 0, phi + 2 * np.pi, phi)
-    hit.uv[sel, 0] = phi / (2 * np.pi)
-    hit.uv[sel, 1] = np.arccos(np.clip(local[:, 2], -1.0, 1.0)) / np.pi
-
-
-def _fill_disks(scene, hit, sel, o, d):
-    i = hit.prim[sel]
-    to_world, to_local = scene.disk_to_world[i], scene.disk_to_local[i]
-    # Normal transform = inverse transpose: row 2 of to_local's linear part.
-    nrm = normalize(to_local[:, 2, :3])
-    p = o + hit.t[sel, None] * d
-    # Reproject onto the plane through the disk center (as Mitsuba does).
-    center = to_world[:, :3, 3]
-    p = p + scale(nrm, dot(center - p, nrm))
-    put_rows(hit.p, sel, p)
-    local = np.einsum("kij,kj->ki", to_local[:, :3, :3], p) + to_local[:, :3, 3]
-    put_rows(hit.uv, sel, local[:, :2])
-    nrm = scale(nrm, np.where(scene.disk_flip[i], -1.0, 1.0))
-    put_rows(hit.n, sel, nrm)
-    put_rows(hit.sh_n, sel, nrm)
-    hit.shape[sel] = scene.disk_shape[i]
-
-
-def _fill_curve(curve, hit, sel, o, d, piece, s):
-    # The hit point stays on the ray: it lies within the pieces' tolerance of the tube.
-    p = o + hit.t[sel, None] * d
-    nrm, uv = curve.surface(p, piece, s)
-    hit.p[sel] = p
-    hit.n[sel] = nrm
-    hit.sh_n[sel] = nrm
-    hit.shape[sel] = curve.shape
-    hit.uv[sel] = uv
-def _fill_cylinders(scene, hit, sel, o, d):
-    i = hit.prim[sel]
-    p, n, uv = cylinder_surface(scene.cylinder_to_world[i], scene.cylinder_to_local[i],
-                                scene.cylinder_flip[i], o + hit.t[sel, None] * d)
-    hit.p[sel], hit.n[sel], hit.sh_n[sel] = p, n, n
-    hit.uv[sel] = uv
-    hit.shape[sel] = scene.cylinder_shape[i]
-
-
 # ----------------------------------------------------------------------
 # Texture coordinates
 
@@ -423,8 +326,8 @@ def texture_uv(scene, hit, rows: np.ndarray) -> np.ndarray:
       when that is None), phi in [0, 2pi).
     * Disks: ``(r, phi / 2pi)`` of the local point, phi in [0, 2pi).
     * Curves: Mitsuba's ``(angle around the centre line / 2pi, v along the file's
-      segments)``, computed at the hit (:mod:`pathtracer.curves`).
-    * Cylinders: ``(phi / 2pi, z)`` in the unit tube's frame (:mod:`pathtracer.cylinder`).
+      segments)``, computed at the hit (:mod:`pathtracer.shapes.curves`).
+    * Cylinders: ``(phi / 2pi, z)`` in the unit tube's frame (:mod:`pathtracer.shapes.cylinder`).
 
     Computed only where a texture needs it, so untextured scenes never pay.
     """
