@@ -38,11 +38,13 @@ from ..bsdfs.shading import eval_bsdf, has_smooth
 from ..core.sampling import power_heuristic
 from ..emitters.dispatch import emitted_radiance, pdf_emitter_direction, sample_emitter
 from ..media.homogeneous import next_medium, phase_eval, phase_sample, samples_emitters, shadow_transmittance
+from ..scene.registry import register
 from .base import subset_hit
 from .volpath_phase import VolPathPhaseIntegrator
 from .volume import SLOT_DIRECTION, SLOT_LIGHT, SLOT_SHADOW, move
 
 
+@register("integrator", "volpath")
 class VolPathIntegrator(VolPathPhaseIntegrator):
     """Volumetric path tracing with NEE through media and MIS, Mitsuba's ``volpath``.
 

@@ -28,10 +28,12 @@ import numpy as np
 from ..bsdfs.shading import sample_bsdf
 from ..emitters.dispatch import emitted_radiance
 from ..media.homogeneous import next_medium, null_event, phase_sample, sample_free_flight
+from ..scene.registry import register
 from .base import subset_hit
 from .volume import MAX_SEGMENTS, SLOT_DIRECTION, SLOT_FLIGHT, SLOT_LOBE, PathBatch, VolumeIntegrator, move
 
 
+@register("integrator", "volpath_phase")
 class VolPathPhaseIntegrator(VolumeIntegrator):
     """Volumetric path tracing with phase and BSDF sampling only."""
 

@@ -28,7 +28,7 @@ import numpy as np
 from ..media.homogeneous import camera_medium, choose_channel
 from ..sensors.perspective import Rays
 from ..shapes.intersect import offset_p
-from .base import Integrator, replace_hits, skip_emitters, subset_hit, trace
+from .base import CameraIntegrator, replace_hits, skip_emitters, subset_hit, trace
 
 #: Counters reserved per segment; shadow rays use SLOT_SHADOW + k for their k-th crossing.
 SLOTS = 512
@@ -70,7 +70,7 @@ class PathBatch:
         return len(self.row)
 
 
-class VolumeIntegrator(Integrator):
+class VolumeIntegrator(CameraIntegrator):
     """Base of ``volpath`` and ``volpath_phase``: path setup, random numbers, roulette."""
 
     #: Renders participating media (render() refuses media scenes for the others).

@@ -264,20 +264,27 @@ class _Waiting:
 def refills(radiance):
     """Mark an integrator's ``radiance`` as safe to run on a refilled pool.
 
-    The renderer then hands it several batches of camera rays at once, and
-    :meth:`Integrator.camera_paths` returns a :meth:`Paths.pool`. Safe means: per-path
-    arrays live in the :class:`Paths` (or are recomputed after :meth:`Paths.next_hit`),
-    and ``depth`` is used as an array (masks, not ``if depth > ...``). A subclass that
-    overrides ``radiance`` is not marked.
+    The class that defines the marked ``radiance`` gets ``refills = True`` when it is created
+    (:meth:`Integrator.__init_subclass__`); the renderer then hands it several batches of
+    camera rays at once, and :meth:`Integrator.camera_paths` returns a :meth:`Paths.pool`.
+    Safe means: per-path arrays live in the :class:`Paths` (or are recomputed after
+    :meth:`Paths.next_hit`), and ``depth`` is used as an array (masks, not ``if depth >
+    ...``). A subclass that overrides ``radiance`` is not marked.
     """
     radiance.refills = True
     return radiance
 
 
+def marked_refills(radiance) -> bool:
+    """Whether the function ``radiance`` is marked with :func:`refills`."""
+    return getattr(radiance, "refills", False) is True
+
+
 def pooled(integrator) -> bool:
-    """Is ``integrator``'s ``radiance`` marked with :func:`refills`? A subclass that
-    overrides it (a student's integrator, say) is not, unless it marks its own."""
-    return getattr(type(integrator).radiance, "refills", False) is True
+    """Does ``integrator`` refill a pool of paths (its class's ``refills``, set where its
+    ``radiance`` is marked with :func:`refills`)? A subclass that overrides ``radiance``
+    (a student's integrator, say) does not, unless it marks its own."""
+    return integrator.refills
 
 
 def trace(scene, rays: Rays):
