@@ -95,8 +95,10 @@ are still alive (pathtracer/integrators/wavefront.py), so you write only the sli
     "media": """A path in a medium is a sequence of segments, each ending where the next event is sampled: a
 scattering point in the medium or the next surface. pathtracer/media.py has the building blocks
 (sample_free_flight, phase_sample / phase_eval, next_medium, null_event, shadow_transmittance);
-integrators/volume.py keeps the per-path arrays (PathBatch), random numbers per segment
-(self.uniform), roulette (self.survivors) and tracing (self.trace_segment). volpath_phase:
+integrators/volume.py keeps the bookkeeping: the per-path arrays (a Paths of
+integrators/wavefront.py, made by self.start, with the ray of each path's next segment, its
+medium, channel, depth ...), random numbers per segment (self.uniform), roulette
+(self.survivors) and tracing (self.trace_segment). volpath_phase:
 
     def radiance(self, scene, rays, rng):
         paths = self.start(scene, rays, rng)             # camera rays, in the sensor's medium
@@ -109,6 +111,9 @@ integrators/volume.py keeps the per-path arrays (PathBatch), random numbers per 
             # else: emission, BSDF sample and the    self.on_surface(...) -> self.bounce(...)
             #   medium on the other side (null
             #   boundaries too)                      next_medium(...)
+            # the paths that go on                   paths.keep(goes_on)
+        return paths.L                               # in_medium / on_surface add to it with
+                                                     # add_radiance(value, rows)
 
 volpath adds a shadow ray where a path scatters (in the medium and on smooth surfaces): the light
 sample times the transmittance to the light (shadow_transmittance), MIS-weighted against the
