@@ -4,27 +4,25 @@ Each module registers its integrator (``@register("integrator", name)``,
 :mod:`pathtracer.scene.registry`); importing the modules here fills the registry, and
 :data:`INTEGRATORS` (like the loader's supported names, the command line's choices and the
 harness's splatting integrators) is read from it: an integrator is added by its module, its
-test and its name in the import below.
+test and its line in the imports below.
 """
 from __future__ import annotations
 
 from ..scene.registry import factory, names
-
-# Each module registers its integrator when imported (a new integrator: its module, and its
-# name here; the import stays explicit so that the import graph shows it).
-from . import (  # noqa: F401
-    bdpt,
-    direct,
-    light,
-    path,
-    path_bsdf,
-    path_nee,
-    recursive,
-    smallpt,
-    volpath,
-    volpath_phase,
-)
 from .base import CameraIntegrator, Integrator, SplattingIntegrator
+
+# Importing a module registers its integrator (a new integrator: its module, and its line
+# here; explicit, so that the import graph shows it). The classes stay importable from here.
+from .bdpt import BDPTIntegrator
+from .direct import DirectIntegrator
+from .light import LightIntegrator
+from .path import PathIntegrator
+from .path_bsdf import PathBSDFIntegrator
+from .path_nee import PathNEEIntegrator
+from .recursive import RecursiveIntegrator
+from .smallpt import SmallptIntegrator
+from .volpath import VolPathIntegrator
+from .volpath_phase import VolPathPhaseIntegrator
 
 
 def _registered() -> dict:
@@ -63,4 +61,7 @@ def make_integrator(name: str, **options) -> Integrator:
         raise ValueError(f"integrator {name!r}: {error}") from None
 
 
-__all__ = ["Integrator", "CameraIntegrator", "SplattingIntegrator", "INTEGRATORS", "make_integrator"]
+__all__ = ["Integrator", "CameraIntegrator", "SplattingIntegrator", "INTEGRATORS", "make_integrator",
+           "BDPTIntegrator", "DirectIntegrator", "LightIntegrator", "PathIntegrator", "PathBSDFIntegrator",
+           "PathNEEIntegrator", "RecursiveIntegrator", "SmallptIntegrator", "VolPathIntegrator",
+           "VolPathPhaseIntegrator"]

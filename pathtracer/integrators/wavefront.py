@@ -67,6 +67,9 @@ class Paths:
         One stream per camera ray.
     hit : hit batch or None
         Their first hits; None makes a batch without live paths (``max_depth`` = 0).
+    untraced : bool
+        With ``hit`` None: the paths are alive all the same, before their first segment is
+        traced (:meth:`segments`).
     """
 
     def __init__(self, rays: Rays, rng: RandomStream, hit=None, *, untraced: bool = False):
