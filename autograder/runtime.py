@@ -19,7 +19,9 @@ private (references, the solution, the grader, results) is elsewhere.
 """
 from __future__ import annotations
 
+import argparse
 import ast
+import atexit
 import os
 import shutil
 import tempfile
@@ -83,27 +85,39 @@ def build(dest, flavour: str = "student", public: bool = True) -> Path:
     return dest
 
 
+#: The base classes an ungraded integrator's stub keeps, and the method its stub refuses.
+STUB_METHODS = {"CameraIntegrator": "radiance(self, scene, rays, rng)",
+                "SplattingIntegrator": "splat(self, scene, rng, *pixels)"}
+
+
 def ungraded_source(source: str) -> str:
     """A module with each integrator class of ``source`` reduced to a stub that says why.
 
-    The class keeps its ``name`` (the registry is built from it) and its base classes;
-    everything else of the module (the algorithm, its helpers) is left out.
+    The class keeps its ``name``, its registration (the registry is built from it) and its
+    kind (camera or splatting integrator); everything else of the module (the algorithm, its
+    helpers) is left out.
     """
     tree = ast.parse(source)
     classes = [node for node in tree.body if isinstance(node, ast.ClassDef)]
-    lines = ['"""Not part of the student runtime: an integrator the course does not grade."""',
-             "from .base import Integrator", ""]
+    lines, kinds = [], set()
     for node in classes:
         name = next((stmt.value.value for stmt in node.body if isinstance(stmt, ast.Assign)
                      and any(getattr(t, "id", None) == "name" for t in stmt.targets)
                      and isinstance(stmt.value, ast.Constant)), None)
-        if not isinstance(name, str):           # not a registered integrator: left out
+        registrations = [ast.get_source_segment(source, decorator) for decorator in node.decorator_list
+                         if isinstance(decorator, ast.Call) and getattr(decorator.func, "id", None) == "register"]
+        kind = next((base.id for base in node.bases if getattr(base, "id", None) in STUB_METHODS), None)
+        if not isinstance(name, str) or not registrations or kind is None:   # not a registered integrator
             continue
-        lines += ["", f"class {node.name}(Integrator):",
-                  f"    name = {name!r}", "",
-                  "    def radiance(self, scene, rays, rng):",
+        kinds.add(kind)
+        lines += [""] + [f"@{registration}" for registration in registrations]
+        lines += [f"class {node.name}({kind}):", f"    name = {name!r}", "",
+                  f"    def {STUB_METHODS[kind]}:",
                   f"        raise NotImplementedError(\"{name}: not part of the graded course\")", ""]
-    return "\n".join(lines)
+    header = ['"""Not part of the student runtime: an integrator the course does not grade."""',
+              "from ..scene.registry import register",
+              f"from .base import {', '.join(sorted(kinds))}", ""]
+    return "\n".join(header + lines)
 
 
 def _world_readable(root: Path) -> None:
@@ -123,7 +137,6 @@ def cached(flavour: str = "student", public: bool = True) -> Path:
     (removed at exit); see :func:`build` for ``public``."""
     key = (flavour, public)
     if key not in _BUILT:
-        import atexit
         folder = tempfile.mkdtemp(prefix=f"autograder-runtime-{flavour}-")
         atexit.register(shutil.rmtree, folder, True)
         _BUILT[key] = build(folder, flavour, public)
@@ -137,7 +150,6 @@ def public_solution_runtimes() -> list:
 
 def main(argv=None) -> int:
     """``python -m autograder.runtime DEST [--flavour student|solution]``."""
-    import argparse
     parser = argparse.ArgumentParser(description="write the student runtime")
     parser.add_argument("dest")
     parser.add_argument("--flavour", choices=FLAVOURS, default="student")

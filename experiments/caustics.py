@@ -35,6 +35,7 @@ import time
 import numpy as np
 
 from pathtracer.core.tonemap import auto_scale, tonemap
+from pathtracer.integrators import INTEGRATORS as REGISTERED
 
 from . import common
 
@@ -42,7 +43,7 @@ INTEGRATORS = ("path_bsdf", "path", "light", "bdpt")
 LIGHTS = ("area", "point")
 #: Integrators whose light subpaths splat into any pixel: pixels are correlated across the
 #: image, so the mean test leaves out its whole-image components (docs/statistics.md).
-SPLATTING = ("light", "bdpt")
+SPLATTING = tuple(name for name, cls in REGISTERED.items() if cls.splats)
 #: Where the sphere (centre (0, 0.8, 0), radius 0.5) focuses the light: around the floor
 #: point below it, within this distance.
 CAUSTIC_CENTRE = np.array([0.0, 0.0, 0.0])

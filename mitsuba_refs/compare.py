@@ -26,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pathtracer.integrators import INTEGRATORS
+
 from . import config
 from .cache import get_reference, scene_hash
 from .rfilter import pixel_value_counts, reference_correlation
@@ -51,7 +53,7 @@ CONVERGENCE_MAX_GROWTH = 16
 SAME_ESTIMATOR = ("path", "path_bsdf", "path_nee", "direct", "light", "volpath")
 #: Integrators whose paths splat into many pixels: pixels are correlated across the image,
 #: so the mean test leaves out its whole-image components (docs/statistics.md, section 8).
-SPLATTING = ("light", "bdpt")
+SPLATTING = tuple(name for name, cls in INTEGRATORS.items() if cls.splats)
 #: Mean-only integrators are compared with the Mitsuba estimator closest to theirs.
 #: The tile test pools both sides' variances; against a much smoother estimator, a
 #: tile where rare light hits happened not to occur (estimated variance 0) would look

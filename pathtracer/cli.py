@@ -8,12 +8,21 @@ import signal
 import sys
 import threading
 import warnings
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 from .core.rng import SEED_MAX
-from .integrators import INTEGRATORS
+from .integrators import INTEGRATORS, make_integrator
 from .integrators.base import HEMISPHERE_RULES, ROULETTE_RULES
+from .integrators.class_selection import ClassSelection
+from .integrators.pathclass import PathClassIntegrator
+from .io.output import output_paths, write_exr, write_png
+from .render import resources
+from .render.driver import DEFAULT_BATCH, integrator_for, render
 from .render.resources import SPP_MAX
+from .scene.defines import parse_defines
+from .scene.errors import SceneError
+from .scene.load import builtin_scene_names, load_scene, parse_resolution
 
 EPILOG = """\
 examples:
@@ -31,6 +40,11 @@ and renamed when complete: an interrupted render leaves no partial file.
 exit codes: 0 done, 1 failed while running (a worker died, the disk is full),
 2 bad input or usage (nothing rendered), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
 """
+
+#: The integrators that splat into the film (their variance comes from replicas).
+SPLATTING = tuple(name for name, cls in INTEGRATORS.items() if cls.splats)
+#: The integrators with a ``paths`` option of their own (the path tracer's is PathClassIntegrator).
+SELECTING_PATHS = tuple(name for name, cls in INTEGRATORS.items() if issubclass(cls, ClassSelection))
 
 #: Exit codes (README, "Exit codes").
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
@@ -85,7 +99,6 @@ def _finite(text: str) -> float:
 
 
 def _resolution(text: str) -> tuple[int, int]:
-    from .scene.load import parse_resolution
     try:
         return parse_resolution(text)
     except ValueError as error:
@@ -126,12 +139,13 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--branches", type=_positive, help="recursive: indirect rays per hit")
     render.add_argument("--branch-depth", type=_natural, help="recursive: depth down to which hits branch")
     render.add_argument("--replicas", type=_positive,
-                        help="light, bdpt: independent renders whose spread gives the variance (default 8)")
+                        help=f"{', '.join(SPLATTING)}: independent renders whose spread gives the variance "
+                             "(default 8)")
     render.add_argument("--mis", choices=("power", "balance"),
                         help="bdpt: heuristic combining the strategies (default power)")
     render.add_argument("--paths", metavar="REGEX",
                         help="render only the paths of a Heckbert class, light first, e.g. 'LS+DE' "
-                             "(caustics), 'LDE', 'L.*E' (with path, light or bdpt; "
+                             f"(caustics), 'LDE', 'L.*E' (with path, {' or '.join(SELECTING_PATHS)}; "
                              "see docs/experiments.md)")
     render.add_argument("--glossy", default="G",
                         help="--paths: letter of rough conductors, G, D, S or an alpha threshold")
@@ -147,7 +161,6 @@ def main(argv=None) -> int:
     """Run one ``pathtracer`` command; its exit code (README, "Exit codes")."""
     args = build_parser().parse_args(argv)
     if args.command == "scenes":
-        from .scene.load import builtin_scene_names
         for name in builtin_scene_names():
             print(name)
         return 0
@@ -189,15 +202,13 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 
 def _integrator_choice(args, options: dict):
     """The ``integrator`` argument of :func:`render`: a name, None, or the --paths integrator
-    (the class-splitting path tracer, or ``light`` / ``bdpt`` with their ``paths`` option)."""
+    (the class-splitting path tracer, or one of :data:`SELECTING_PATHS` with its ``paths`` option)."""
     if not args.paths:
         return args.integrator
-    from .integrators import make_integrator
-    from .integrators.pathclass import PathClassIntegrator
-    if args.integrator in ("light", "bdpt"):
+    if args.integrator in SELECTING_PATHS:
         return make_integrator(args.integrator, paths=args.paths, glossy=args.glossy)
     if args.integrator not in (None, "path"):
-        raise ValueError("--paths works with the path, light and bdpt integrators only")
+        raise ValueError(f"--paths works with the path, {' and '.join(SELECTING_PATHS)} integrators only")
     return PathClassIntegrator(args.paths, glossy=args.glossy,
                                **{k: v for k, v in options.items()
                                   if v is not None and k not in ("branches", "branch_depth",
@@ -206,15 +217,6 @@ def _integrator_choice(args, options: dict):
 
 def _render_checked(args) -> int:
     """Check everything (scene, options, memory, output), render, write; exit code."""
-    from concurrent.futures.process import BrokenProcessPool
-
-    from .io.output import output_paths, write_exr, write_png
-    from .render import resources
-    from .render.driver import DEFAULT_BATCH, integrator_for, render
-    from .scene.defines import parse_defines
-    from .scene.errors import SceneError
-    from .scene.load import load_scene
-
     options = dict(max_depth=args.max_depth, rr_depth=args.rr_depth, roulette=args.roulette,
                    rr_q=args.rr_q, hemisphere=args.hemisphere, branches=args.branches,
                    branch_depth=args.branch_depth, replicas=args.replicas, mis=args.mis)

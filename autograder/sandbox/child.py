@@ -243,7 +243,7 @@ def check_splats(out, n_pixels: int, name: str):
 
 def graded_method(cls) -> str:
     """The method a student writes: ``splat`` for an integrator that splats, else ``radiance``."""
-    return "splat" if getattr(cls, "splats", False) else "radiance"
+    return "splat" if cls.splats else "radiance"
 
 
 def checked_class(cls, name: str):
@@ -340,6 +340,9 @@ class Server:
             raise ContractError(f"your implementation has no integrator named {name!r} (it has: "
                                 f"{', '.join(sorted(self.integrators)) or 'none'})")
         method = graded_method(cls)
+        if not hasattr(cls, method):     # pathtracer.Integrator itself has neither method
+            raise ContractError(f"INTEGRATORS[{name!r}] has no {method}: implement {method} in your "
+                                "own class")
         written = getattr(cls, method)
         if not self.trusted and not own_code(written, self.root):
             raise ContractError(

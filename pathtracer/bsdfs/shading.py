@@ -7,6 +7,18 @@ frame (z = shading normal); directions go in and out of that
 frame here, so integrators never see local coordinates. A BSDF with a
 texture is bound to its hits' texture coordinates first (:meth:`BSDF.at
 <pathtracer.bsdfs.base.BSDF.at>`); constant BSDFs are used as they are.
+
+The grouping of the last hit batch is kept (per thread, keyed by the scene and a weak
+reference to the batch, :func:`_groups`), because an integrator asks several questions of
+the same hits (``has_smooth`` and ``eval_bsdf`` for a shadow ray, then ``sample_bsdf``)
+and grouping costs as much as a simple BSDF's evaluation. It stays a cache rather than
+state an integrator passes or the batch carries, because these functions' signature
+``(scene, hit, ...)`` is the students' contract (submissions and the bug zoo call and
+replace them with exactly these arguments), and a hit batch is a dataclass of arrays that
+:func:`~pathtracer.integrators.wavefront.subset_hit` and the submissions copy field by
+field, so an attribute on it would travel into every copy. It is exact because a batch is
+never changed in place once traced (subsets and replacements make new batches), and a
+batch that cannot be weakly referenced is simply not cached.
 """
 from __future__ import annotations
 

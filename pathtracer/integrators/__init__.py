@@ -1,7 +1,18 @@
-"""The lecture's algorithms, one module each, and a registry by name."""
+"""The lecture's algorithms, one module each, and the table of them by name.
+
+Each module registers its integrator (``@register("integrator", name)``,
+:mod:`pathtracer.scene.registry`); importing the modules here fills the registry, and
+:data:`INTEGRATORS` (like the loader's supported names, the command line's choices and the
+harness's splatting integrators) is read from it: an integrator is added by its module, its
+test and its line in the imports below.
+"""
 from __future__ import annotations
 
-from .base import Integrator
+from ..scene.registry import factory, names
+from .base import CameraIntegrator, Integrator, SplattingIntegrator
+
+# Importing a module registers its integrator (a new integrator: its module, and its line
+# here; explicit, so that the import graph shows it). The classes stay importable from here.
 from .bdpt import BDPTIntegrator
 from .direct import DirectIntegrator
 from .light import LightIntegrator
@@ -13,10 +24,25 @@ from .smallpt import SmallptIntegrator
 from .volpath import VolPathIntegrator
 from .volpath_phase import VolPathPhaseIntegrator
 
-INTEGRATORS = {cls.name: cls for cls in (
-    PathIntegrator, PathBSDFIntegrator, PathNEEIntegrator, RecursiveIntegrator,
-    SmallptIntegrator, DirectIntegrator, LightIntegrator, VolPathIntegrator,
-    VolPathPhaseIntegrator, BDPTIntegrator)}
+
+def _registered() -> dict:
+    """name -> class of every registered integrator, under its own ``name``, in registration
+    order (the Mitsuba names a class also renders, such as ``ptracer`` for ``light``, are the
+    loader's business)."""
+    table = {}
+    for registered in names("integrator"):
+        cls = factory("integrator", registered)
+        if cls.name == registered:
+            table[registered] = cls
+    unnamed = {factory("integrator", n).__name__ for n in names("integrator")} - {
+        cls.__name__ for cls in table.values()}
+    if unnamed:
+        raise RuntimeError(f"integrators registered without their own name: {sorted(unnamed)}")
+    return table
+
+
+#: name -> class of every integrator of the tracer.
+INTEGRATORS = _registered()
 
 
 def make_integrator(name: str, **options) -> Integrator:
@@ -35,4 +61,7 @@ def make_integrator(name: str, **options) -> Integrator:
         raise ValueError(f"integrator {name!r}: {error}") from None
 
 
-__all__ = ["Integrator", "INTEGRATORS", "make_integrator"] + [c.__name__ for c in INTEGRATORS.values()]
+__all__ = ["Integrator", "CameraIntegrator", "SplattingIntegrator", "INTEGRATORS", "make_integrator",
+           "BDPTIntegrator", "DirectIntegrator", "LightIntegrator", "PathIntegrator", "PathBSDFIntegrator",
+           "PathNEEIntegrator", "RecursiveIntegrator", "SmallptIntegrator", "VolPathIntegrator",
+           "VolPathPhaseIntegrator"]

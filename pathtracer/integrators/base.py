@@ -1,10 +1,27 @@
 """What every integrator shares: the contract, options, tracing, roulette and shadow rays.
 
-The contract (also what a student implements)::
+Three classes, one contract. :class:`Integrator` holds the options, the steps every
+estimator of the lecture shares and the capabilities the renderer reads (class
+attributes, each with its default here). The two kinds of integrator are its subclasses:
 
-    class MyIntegrator(Integrator):
-        name = "my_integrator"
-        def radiance(self, scene, rays, rng) -> np.ndarray:  # (n, 3)
+* :class:`CameraIntegrator`: one radiance sample per camera ray (``path``, ``direct``,
+  ``volpath`` ...)::
+
+      class MyIntegrator(CameraIntegrator):
+          name = "my_integrator"
+          def radiance(self, scene, rays, rng) -> np.ndarray:  # (n, 3)
+
+* :class:`SplattingIntegrator`: light paths whose vertices land on any pixel (``light``,
+  ``bdpt``)::
+
+      class MyLightTracer(SplattingIntegrator):
+          name = "my_light_tracer"
+          def splat(self, scene, rng) -> tuple[np.ndarray, np.ndarray]:  # pixels, values
+
+A student subclasses :class:`Integrator` itself (``pathtracer.Integrator``, the contract
+of :mod:`autograder.contract`) and writes ``radiance``, or sets ``splats = True`` and
+writes ``splat``: the renderer reads only ``splats`` to know which, so both kinds work on
+the shared base as they do on the two subclasses.
 
 ``rays`` is a :class:`pathtracer.camera.Rays` batch of camera rays and ``rng``
 a :class:`pathtracer.rng.RandomStream` with one independent stream per ray.
@@ -17,6 +34,10 @@ started by :meth:`Integrator.camera_paths`; the steps every estimator of the
 lecture shares are methods here: :meth:`~Integrator.emission`,
 :meth:`~Integrator.sample_direct` (a shadow ray, pbrt-v4's ``SampleLd``) and
 :meth:`~Integrator.russian_roulette`.
+
+An integrator of the tracer registers itself under its name (and any Mitsuba name it
+renders) with ``@register("integrator", name)`` of :mod:`pathtracer.scene.registry`;
+``pathtracer.INTEGRATORS``, the loader, the command lines and the harness read that table.
 """
 from __future__ import annotations
 
@@ -29,7 +50,7 @@ from ..scene.types import Scene
 from ..sensors.perspective import Rays
 
 # trace, spawn, subset_hit and replace_hits lived here first: submissions import them from here.
-from .wavefront import Paths, replace_hits, spawn, subset_hit, trace
+from .wavefront import Paths, marked_refills, replace_hits, spawn, subset_hit, trace
 
 #: Hard cap on the number of bounces when ``max_depth`` is infinite, so that a
 #: path inside a closed, white furnace without roulette still ends. Its bias is
@@ -41,7 +62,8 @@ HEMISPHERE_RULES = ("cosine", "uniform")
 
 
 class Integrator:
-    """Base class holding the options the lecture discusses.
+    """Base class of every integrator: the options the lecture discusses, the shared steps
+    and the capabilities the renderer reads.
 
     Parameters
     ----------
@@ -65,6 +87,14 @@ class Integrator:
     """
 
     name = "base"
+    #: Writes ``splat(scene, rng)`` instead of ``radiance``: light paths splat into the film.
+    splats = False
+    #: ``splat`` also takes the pixel of each sample (its camera subpath starts there).
+    camera_subpaths = False
+    #: Renders participating media (the renderer refuses media scenes for the others).
+    handles_media = False
+    #: ``radiance`` may run on a refilled pool of paths (set from :func:`~.wavefront.refills`).
+    refills = False
     #: Live paths at once when ``radiance`` runs on more camera rays than that (a
     #: :meth:`Paths.pool`); None: all of them. The renderer sets it on its own copy of an
     #: integrator whose ``radiance`` is marked :func:`~.wavefront.refills`.
@@ -97,9 +127,13 @@ class Integrator:
         return dict(max_depth=self.max_depth, rr_depth=self.rr_depth, roulette=self.roulette,
                     rr_q=self.rr_q, hemisphere=self.hemisphere, hide_emitters=self.hide_emitters)
 
-    def radiance(self, scene: Scene, rays: Rays, rng) -> np.ndarray:
-        """One radiance sample per ray -> (n, 3). Subclasses implement it."""
-        raise NotImplementedError
+    def __init_subclass__(cls, **kwargs):
+        """A class that writes its own ``radiance`` refills exactly when that ``radiance`` is
+        marked with :func:`~.wavefront.refills` (or the class sets ``refills`` itself): an
+        unmarked override of a marked ``radiance`` (a student's subclass) is not pooled."""
+        super().__init_subclass__(**kwargs)
+        if "radiance" in vars(cls) and "refills" not in vars(cls):
+            cls.refills = marked_refills(vars(cls)["radiance"])
 
     # -- shared steps ---------------------------------------------------------
 
@@ -197,6 +231,33 @@ class Integrator:
             contribution = scale(contribution, w_light)
         usable = has_smooth(scene, paths.hit) & (light.pdf > 0)
         return select(usable, contribution)
+
+
+class CameraIntegrator(Integrator):
+    """An integrator that estimates the radiance along camera rays: it writes ``radiance``."""
+
+    def radiance(self, scene: Scene, rays: Rays, rng) -> np.ndarray:
+        """One radiance sample per ray -> (n, 3). Subclasses implement it."""
+        raise NotImplementedError
+
+
+class SplattingIntegrator(Integrator):
+    """An integrator whose paths start at the lights and splat into any pixel: it writes
+    ``splat``, and the renderer adds the splats to the film (:func:`pathtracer.render.render`)."""
+
+    splats = True
+
+    def splat(self, scene: Scene, rng) -> tuple[np.ndarray, np.ndarray]:
+        """One light path per random stream -> splats ``(pixel (m,), value (m, 3))``.
+        Subclasses implement it; one that sets ``camera_subpaths`` takes a third argument,
+        the pixel of each sample (``bdpt``)."""
+        raise NotImplementedError
+
+    def radiance(self, scene: Scene, rays: Rays, rng):
+        """Refused with the reason: a splatting integrator has no radiance per camera ray
+        (its paths reach pixels other than the ray's)."""
+        raise ValueError(f"the {self.name} integrator splats into the film: render it with "
+                         "pathtracer.render, not per camera ray")
 
 
 def skip_emitters(scene: Scene, rays: Rays, hit):

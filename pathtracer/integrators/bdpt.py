@@ -90,9 +90,10 @@ from ..emitters.dispatch import (
     sample_emitter_ray,
     shadowed,
 )
+from ..scene.registry import register
 from ..sensors.importance import connect_to_camera
 from ..sensors.perspective import camera_rays
-from .base import Integrator
+from .base import SplattingIntegrator
 from .class_selection import ClassSelection
 from .light import leaving, shading_correction
 from .wavefront import Paths, concatenate_hits, subset_hit, trace
@@ -186,7 +187,8 @@ def _remap0(pdf: np.ndarray) -> np.ndarray:
     return np.where(pdf > 0, pdf, 1.0)
 
 
-class BDPTIntegrator(ClassSelection, Integrator):
+@register("integrator", "bdpt")
+class BDPTIntegrator(ClassSelection, SplattingIntegrator):
     """Bidirectional path tracer with multiple importance sampling (Veach's BDPT).
 
     Parameters
@@ -206,7 +208,6 @@ class BDPTIntegrator(ClassSelection, Integrator):
     """
 
     name = "bdpt"
-    splats = True
     #: render_splats passes each sample's pixel (its camera subpath starts there).
     camera_subpaths = True
 
@@ -230,10 +231,6 @@ class BDPTIntegrator(ClassSelection, Integrator):
         if self.hide_emitters:
             raise ValueError("bdpt does not support hide_emitters: light subpaths would still "
                              "reach the camera through the hidden lights")
-
-    def radiance(self, scene, rays, rng):
-        raise ValueError("bdpt splats into the film: render it with pathtracer.render, "
-                         "not per camera ray")
 
     # -- the estimator ---------------------------------------------------------
 

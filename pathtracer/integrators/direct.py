@@ -36,10 +36,12 @@ import numpy as np
 from ..bsdfs.shading import sample_bsdf
 from ..core.sampling import power_heuristic
 from ..emitters.dispatch import emitted_radiance, pdf_emitter_direction
-from .base import Integrator, spawn, subset_hit, trace
+from ..scene.registry import register
+from .base import CameraIntegrator, spawn, subset_hit, trace
 
 
-class DirectIntegrator(Integrator):
+@register("integrator", "direct")
+class DirectIntegrator(CameraIntegrator):
     """Direct lighting with multi-sample MIS (Mitsuba's ``direct``).
 
     Parameters

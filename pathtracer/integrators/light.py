@@ -35,15 +35,17 @@ import numpy as np
 from ..bsdfs.shading import eval_bsdf, sample_bsdf
 from ..core.vec import dot
 from ..emitters.dispatch import emitted_towards, sample_emitter_position, sample_emitter_ray, shadowed
+from ..scene.registry import register
 from ..sensors.importance import connect_to_camera
 from ..sensors.perspective import Rays
 from ..shapes.intersect import spawn_ray
-from .base import Integrator
+from .base import SplattingIntegrator
 from .class_selection import ClassSelection
 from .wavefront import Paths, trace
 
 
-class LightIntegrator(ClassSelection, Integrator):
+@register("integrator", "light", "ptracer")   # ptracer: Mitsuba's name for the light tracer
+class LightIntegrator(ClassSelection, SplattingIntegrator):
     """Light tracer (particle tracer), Mitsuba's ``ptracer``.
 
     Parameters
@@ -62,7 +64,6 @@ class LightIntegrator(ClassSelection, Integrator):
     """
 
     name = "light"
-    splats = True
 
     def __init__(self, replicas: int = 8, paths: str | None = None, glossy="G", **options):
         super().__init__(**options)
@@ -73,10 +74,6 @@ class LightIntegrator(ClassSelection, Integrator):
 
     def options(self) -> dict:
         return dict(super().options(), replicas=self.replicas, **self.class_options())
-
-    def radiance(self, scene, rays, rng):
-        raise ValueError("the light tracer splats into the film: render it with "
-                         "pathtracer.render, not per camera ray")
 
     def splat(self, scene, rng) -> tuple[np.ndarray, np.ndarray]:
         """One light path per random stream -> splats ``(pixel (m,), value (m, 3))``.

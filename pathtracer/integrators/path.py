@@ -24,11 +24,13 @@ import numpy as np
 from ..bsdfs.shading import sample_bsdf
 from ..core.sampling import power_heuristic
 from ..emitters.dispatch import pdf_emitter_direction
-from .base import Integrator
+from ..scene.registry import register
+from .base import CameraIntegrator
 from .wavefront import refills
 
 
-class PathIntegrator(Integrator):
+@register("integrator", "path")
+class PathIntegrator(CameraIntegrator):
     """MIS path tracer, Mitsuba's ``path``."""
 
     name = "path"

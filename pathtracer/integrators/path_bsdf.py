@@ -13,11 +13,13 @@ rays, so small lights are found only by chance), Russian roulette to stop::
 from __future__ import annotations
 
 from ..bsdfs.shading import sample_bsdf
-from .base import Integrator
+from ..scene.registry import register
+from .base import CameraIntegrator
 from .wavefront import refills
 
 
-class PathBSDFIntegrator(Integrator):
+@register("integrator", "path_bsdf")
+class PathBSDFIntegrator(CameraIntegrator):
     """Path tracing that only samples the BSDF."""
 
     name = "path_bsdf"

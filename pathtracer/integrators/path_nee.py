@@ -26,11 +26,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs.shading import sample_bsdf
-from .base import Integrator
+from ..scene.registry import register
+from .base import CameraIntegrator
 from .wavefront import refills
 
 
-class PathNEEIntegrator(Integrator):
+@register("integrator", "path_nee")
+class PathNEEIntegrator(CameraIntegrator):
     """Path tracing with shadow rays and the "last bounce not specular" rule."""
 
     name = "path_nee"

@@ -27,12 +27,12 @@ from ..bsdfs.shading import sample_bsdf
 from ..core.pathclasses import LETTER, _parse_glossy, bsdf_letters, compile_classes
 from ..core.sampling import power_heuristic
 from ..emitters.dispatch import pdf_emitter_direction
-from .base import Integrator
+from .base import CameraIntegrator
 
 _L, _E = LETTER["L"], LETTER["E"]
 
 
-class PathClassIntegrator(Integrator):
+class PathClassIntegrator(CameraIntegrator):
     """MIS path tracer that keeps one image per path class.
 
     Parameters

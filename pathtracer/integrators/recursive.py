@@ -25,10 +25,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs.shading import sample_bsdf
-from .base import Integrator
+from ..scene.registry import register
+from .base import CameraIntegrator
 
 
-class RecursiveIntegrator(Integrator):
+@register("integrator", "recursive")
+class RecursiveIntegrator(CameraIntegrator):
     """Recursive ray tracing with ``branches`` indirect rays per hit.
 
     Parameters

@@ -27,8 +27,9 @@ import numpy as np
 from ..bsdfs import Dielectric
 from ..bsdfs.shading import bsdf_index, dielectric_lobes, sample_bsdf
 from ..core.vec import max_component
+from ..scene.registry import register
 from ..textures.base import Texture
-from .base import Integrator, subset_hit
+from .base import CameraIntegrator, subset_hit
 from .wavefront import refills
 
 
@@ -47,7 +48,8 @@ def surface_colour(bsdf) -> np.ndarray:
     return np.ones(3)
 
 
-class SmallptIntegrator(Integrator):
+@register("integrator", "smallpt")
+class SmallptIntegrator(CameraIntegrator):
     """Beason's algorithm: roulette on max reflectance, glass split while shallow.
 
     Parameters

@@ -38,11 +38,13 @@ from ..bsdfs.shading import eval_bsdf, has_smooth
 from ..core.sampling import power_heuristic
 from ..emitters.dispatch import emitted_radiance, pdf_emitter_direction, sample_emitter
 from ..media.homogeneous import next_medium, phase_eval, phase_sample, samples_emitters, shadow_transmittance
+from ..scene.registry import register
 from .base import subset_hit
 from .volpath_phase import VolPathPhaseIntegrator
 from .volume import SLOT_DIRECTION, SLOT_LIGHT, SLOT_SHADOW, move
 
 
+@register("integrator", "volpath")
 class VolPathIntegrator(VolPathPhaseIntegrator):
     """Volumetric path tracing with NEE through media and MIS, Mitsuba's ``volpath``.
 
@@ -52,7 +54,7 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
 
     name = "volpath"
 
-    def in_medium(self, scene, paths, rows, t, segment, L):
+    def in_medium(self, scene, paths, rows, t, segment, add_radiance):
         """Scatter inside the medium: a shadow ray (phase MIS), then sample the phase function."""
         x = paths.o[rows] + t[:, None] * paths.d[rows]
         wi, medium = -paths.d[rows], paths.medium[rows]
@@ -60,14 +62,15 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
         alive = paths.depth[rows] < self.depth_limit
         nee = alive & samples_emitters(scene, medium) & np.any(paths.beta[rows] > 0, axis=1)
         self.shadow_ray(scene, paths, rows[nee], x[nee], np.zeros_like(x[nee]),
-                        lambda wo: medium[nee], phase_f_pdf(scene, medium[nee], wi[nee]), segment, L)
+                        lambda wo: medium[nee], phase_f_pdf(scene, medium[nee], wi[nee]), segment,
+                        add_radiance)
         wo, pdf = phase_sample(scene, medium, wi, self.uniform(paths, segment, SLOT_DIRECTION, 2)[rows])
         paths.last_p[rows], paths.last_pdf[rows] = x, pdf
         paths.specular[rows] = ~samples_emitters(scene, medium)
         move(paths, rows, x, np.zeros_like(x), wo)
         return alive & (pdf > 0)
 
-    def on_surface(self, scene, paths, rows, hit, segment, L):
+    def on_surface(self, scene, paths, rows, hit, segment, add_radiance):
         """Emission found (MIS against the light sample of the last scattering event), a
         shadow ray (BSDF MIS) on smooth BSDFs, then continue by BSDF sampling."""
         d = paths.d[rows]
@@ -78,7 +81,7 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
             pdf_light = pdf_emitter_direction(scene, paths.last_p[r], subset_hit(hit, lit), d[lit])
             full = (paths.depth[r] == 0) | paths.specular[r]
             w = np.where(full, 1.0, power_heuristic(paths.last_pdf[r], pdf_light))
-            L[paths.row[r]] += paths.beta[r] * Le[lit] * w[:, None]
+            add_radiance(paths.beta[r] * Le[lit] * w[:, None], r)
         smooth = np.flatnonzero(hit.valid & (paths.depth[rows] + 1 < self.depth_limit)
                                 & np.any(paths.beta[rows] > 0, axis=1))
         smooth = smooth[has_smooth(scene, subset_hit(hit, smooth))]
@@ -87,16 +90,18 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
             wi = -paths.d[r]
             self.shadow_ray(scene, paths, r, h.p, h.n,
                             lambda wo: next_medium(scene, h, paths.medium[r], wo),
-                            lambda wo: eval_bsdf(scene, h, wi, wo, self.hemisphere), segment, L)
+                            lambda wo: eval_bsdf(scene, h, wi, wo, self.hemisphere), segment,
+                            add_radiance)
         return self.bounce(scene, paths, rows, hit, segment)
 
-    def shadow_ray(self, scene, paths, rows, x, n, start_medium, f_pdf, segment, L):
+    def shadow_ray(self, scene, paths, rows, x, n, start_medium, f_pdf, segment, add_radiance):
         """Next-event estimation from points ``x`` (normals ``n``, zero inside a medium) of
         paths ``rows``, weighted against sampling ``f`` by the power heuristic.
 
         ``start_medium(wo)``: the medium a shadow ray along ``wo`` starts in (on a medium
         boundary it depends on the side); ``f_pdf(wo)``: ``(f, pdf)``, the BSDF's
-        ``f cos`` or the phase function's value, and the density of sampling ``wo``.
+        ``f cos`` or the phase function's value, and the density of sampling ``wo``;
+        ``add_radiance(value, rows)`` adds the estimates to the paths' radiance.
         """
         if not len(rows):
             return
@@ -112,9 +117,9 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
         stream = paths.rng.subset(rows[live])
         Tr = shadow_transmittance(scene, x[live], n[live], light.wo[live], light.dist[live],
                                   start[live], paths.channel[rows[live]], stream,
-                                  self.counter(segment, SLOT_SHADOW))
+                                  self.counter(paths, segment, SLOT_SHADOW))
         w = np.where(light.delta[live], 1.0, power_heuristic(light.pdf[live], pdf_f[live]))
-        L[paths.row[rows[live]]] += contribution[live] * Tr * w[:, None]
+        add_radiance(contribution[live] * Tr * w[:, None], rows[live])
 
 
 def phase_f_pdf(scene, medium, wi):

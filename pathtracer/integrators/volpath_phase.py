@@ -28,10 +28,13 @@ import numpy as np
 from ..bsdfs.shading import sample_bsdf
 from ..emitters.dispatch import emitted_radiance
 from ..media.homogeneous import next_medium, null_event, phase_sample, sample_free_flight
+from ..scene.registry import register
 from .base import subset_hit
-from .volume import MAX_SEGMENTS, SLOT_DIRECTION, SLOT_FLIGHT, SLOT_LOBE, PathBatch, VolumeIntegrator, move
+from .volume import MAX_SEGMENTS, SLOT_DIRECTION, SLOT_FLIGHT, SLOT_LOBE, VolumeIntegrator, move
+from .wavefront import Paths
 
 
+@register("integrator", "volpath_phase")
 class VolPathPhaseIntegrator(VolumeIntegrator):
     """Volumetric path tracing with phase and BSDF sampling only."""
 
@@ -42,16 +45,17 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
 
         Each segment: roulette, trace to the next surface, sample a free flight in the
         current medium; paths that scatter in the medium go to :meth:`in_medium`, the
-        others to :meth:`on_surface`. Both add their estimates to ``L`` and return which
-        of their paths continue.
+        others to :meth:`on_surface`. Both add their estimates with ``add_radiance(value,
+        rows)`` (the paths' :meth:`Paths.add_radiance`) and return which of their paths
+        continue.
         """
-        L = np.zeros((len(rays), 3))
         if self.max_depth == 0:
-            return L
+            return np.zeros((len(rays), 3))
         paths = self.start(scene, rays, rng)
+        add_radiance = paths.add_radiance
         for segment in range(MAX_SEGMENTS):
-            paths = paths.keep(self.survivors(paths, segment))
-            if not len(paths):
+            paths.keep(self.survivors(paths, segment))
+            if not paths:
                 break
             hit = self.trace_segment(scene, paths)
             # ---- Free flight: scatter in the medium before the surface, or reach it ----
@@ -62,15 +66,16 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
             medium_rows = np.flatnonzero(flight.scattered)
             if len(medium_rows):
                 goes_on[medium_rows] = self.in_medium(scene, paths, medium_rows,
-                                                      flight.t[medium_rows], segment, L)
+                                                      flight.t[medium_rows], segment, add_radiance)
             surface_rows = np.flatnonzero(~flight.scattered)
             if len(surface_rows):
                 goes_on[surface_rows] = self.on_surface(scene, paths, surface_rows,
-                                                        subset_hit(hit, surface_rows), segment, L)
-            paths = paths.keep(np.flatnonzero(goes_on))
-        return L
+                                                        subset_hit(hit, surface_rows), segment,
+                                                        add_radiance)
+            paths.keep(goes_on)
+        return paths.L
 
-    def in_medium(self, scene, paths, rows, t, segment, L):
+    def in_medium(self, scene, paths, rows, t, segment, add_radiance):
         """Scatter inside the medium: sample the phase function (weight 1)."""
         x = paths.o[rows] + t[:, None] * paths.d[rows]
         paths.depth[rows] += 1
@@ -79,13 +84,13 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
         move(paths, rows, x, np.zeros_like(x), wo)
         return (paths.depth[rows] < self.depth_limit) & (pdf > 0)
 
-    def on_surface(self, scene, paths, rows, hit, segment, L):
+    def on_surface(self, scene, paths, rows, hit, segment, add_radiance):
         """Add the emission found, then continue by BSDF sampling."""
         Le = emitted_radiance(scene, hit, -paths.d[rows])
-        L[paths.row[rows]] += paths.beta[rows] * self.visible_emission(paths.depth[rows], Le)
+        add_radiance(paths.beta[rows] * self.visible_emission(paths.depth[rows], Le), rows)
         return self.bounce(scene, paths, rows, hit, segment)
 
-    def bounce(self, scene, paths: PathBatch, rows: np.ndarray, hit, segment: int) -> np.ndarray:
+    def bounce(self, scene, paths: Paths, rows: np.ndarray, hit, segment: int) -> np.ndarray:
         """Continue paths ``rows`` at their surface hits by sampling the BSDF -> which go on.
 
         Updates throughput and eta, and the medium on the other side (medium tracking). A

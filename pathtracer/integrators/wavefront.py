@@ -50,8 +50,10 @@ class Paths:
 
     plus every array an integrator adds with :meth:`declare`. ``depth`` counts the
     segments before the current hit (0 on the camera ray's hit): one int for a batch
-    (its paths move in lock-step), an (m,) array in a pool. :attr:`L` (n, 3) is every
-    camera ray's radiance sample, live or not.
+    (its paths move in lock-step), an (m,) array in a pool; paths made by
+    :meth:`segments` (the volume integrators) have it per path too, and count in it
+    what their integrator counts (scattering events). :attr:`L` (n, 3) is every camera
+    ray's radiance sample, live or not.
 
     What :meth:`add_radiance` adds waits in ``gathered``, the path's own (m, 3) row,
     until the path ends (:meth:`keep`, :meth:`split`) or :attr:`L` is read: adding to a
@@ -65,22 +67,27 @@ class Paths:
         One stream per camera ray.
     hit : hit batch or None
         Their first hits; None makes a batch without live paths (``max_depth`` = 0).
+    untraced : bool
+        With ``hit`` None: the paths are alive all the same, before their first segment is
+        traced (:meth:`segments`).
     """
 
-    def __init__(self, rays: Rays, rng: RandomStream, hit=None):
+    def __init__(self, rays: Rays, rng: RandomStream, hit=None, *, untraced: bool = False):
         n = len(rays)
         self._L = np.zeros((n, 3))
-        live = n if hit is not None else 0
+        alive = hit is not None or untraced
+        live = n if alive else 0
         self.row, self.gathered, self.beta, self.eta, self.wi = _fresh(np.arange(live),
                                                                        rays.d[:live])
         self.wo = None
         self.hit = hit
-        self.rng = rng if hit is not None else rng.subset(self.row)
+        self.rng = rng if alive else rng.subset(self.row)
         self.depth = 0
         self._fields = ["row", "gathered", "beta", "eta", "wi", "wo"]
         self._rows_unique = True     # False once a path has split: rows of L repeat
         self._initial = {}           # declared fields' start values (for refills)
         self._waiting = None         # a pool's camera rays not started yet (see pool)
+        self.first_counter = None    # segments' counters start here (see segments)
 
     @classmethod
     def pool(cls, rays: Rays, rng: RandomStream, size: int, trace_camera) -> "Paths":
@@ -95,12 +102,37 @@ class Paths:
         camera = rays.subset(first)
         paths = cls(camera, rng.subset(first), trace_camera(camera))
         paths._L = np.zeros((len(rays), 3))
-        paths.depth = np.zeros(len(first), np.int64)
-        paths._fields.append("depth")
+        paths._depth_per_path()
         # The camera streams as they are now: the integrator draws from its own copy.
         paths._waiting = _Waiting(rays, rng.subset(np.arange(len(rays))), len(first), size,
                                   trace_camera)
         return paths
+
+    @classmethod
+    def segments(cls, rays: Rays, rng: RandomStream, first_counter: int) -> "Paths":
+        """Live paths on the camera rays ``rays``, not traced yet (``hit`` stays None), for an
+        integrator that traces and counts every segment itself (the volume integrators,
+        :mod:`.volume`).
+
+        ``depth`` is then a per-path array that the integrator advances, and the paths draw
+        their numbers at fixed counters (:meth:`numbers_at`), segment after segment, from
+        ``first_counter`` on: a path sees the same numbers whatever else is in its batch.
+        """
+        paths = cls(rays, rng, untraced=True)
+        paths._depth_per_path()
+        paths.first_counter = first_counter
+        return paths
+
+    def _depth_per_path(self) -> None:
+        """``depth`` as an (m,) array, one per path (pools, segments), carried like the others."""
+        self.depth = np.zeros(len(self.row), np.int64)
+        self._fields.append("depth")
+
+    def numbers_at(self, counter: int, dims: int = 1) -> np.ndarray:
+        """Every live path's uniform number ``counter`` of its stream (``dims`` = 2: that one
+        and the next, as (m, 2))."""
+        self.rng.counter = counter
+        return self.rng.next_1d() if dims == 1 else self.rng.next_2d()
 
     def __len__(self) -> int:
         return len(self.row)
@@ -233,7 +265,8 @@ class Paths:
             value = getattr(self, name)
             if value is not None:
                 setattr(self, name, np.take(value, rows, axis=0))
-        self.hit = subset_hit(self.hit, rows)
+        if self.hit is not None:      # None: paths not traced yet (segments)
+            self.hit = subset_hit(self.hit, rows)
 
 
 def _fresh(camera: np.ndarray, d: np.ndarray) -> tuple:
@@ -264,20 +297,27 @@ class _Waiting:
 def refills(radiance):
     """Mark an integrator's ``radiance`` as safe to run on a refilled pool.
 
-    The renderer then hands it several batches of camera rays at once, and
-    :meth:`Integrator.camera_paths` returns a :meth:`Paths.pool`. Safe means: per-path
-    arrays live in the :class:`Paths` (or are recomputed after :meth:`Paths.next_hit`),
-    and ``depth`` is used as an array (masks, not ``if depth > ...``). A subclass that
-    overrides ``radiance`` is not marked.
+    The class that defines the marked ``radiance`` gets ``refills = True`` when it is created
+    (:meth:`Integrator.__init_subclass__`); the renderer then hands it several batches of
+    camera rays at once, and :meth:`Integrator.camera_paths` returns a :meth:`Paths.pool`.
+    Safe means: per-path arrays live in the :class:`Paths` (or are recomputed after
+    :meth:`Paths.next_hit`), and ``depth`` is used as an array (masks, not ``if depth >
+    ...``). A subclass that overrides ``radiance`` is not marked.
     """
     radiance.refills = True
     return radiance
 
 
+def marked_refills(radiance) -> bool:
+    """Whether the function ``radiance`` is marked with :func:`refills`."""
+    return getattr(radiance, "refills", False) is True
+
+
 def pooled(integrator) -> bool:
-    """Is ``integrator``'s ``radiance`` marked with :func:`refills`? A subclass that
-    overrides it (a student's integrator, say) is not, unless it marks its own."""
-    return getattr(type(integrator).radiance, "refills", False) is True
+    """Does ``integrator`` refill a pool of paths (its class's ``refills``, set where its
+    ``radiance`` is marked with :func:`refills`)? A subclass that overrides ``radiance``
+    (a student's integrator, say) does not, unless it marks its own."""
+    return integrator.refills
 
 
 def trace(scene, rays: Rays):

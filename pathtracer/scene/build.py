@@ -10,7 +10,10 @@ import warnings
 
 import numpy as np
 
-from .. import bsdfs  # importing it registers the BSDF plugins and (through it) the textures
+from .. import (
+    bsdfs,  # importing it registers the BSDF plugins and (through it) the textures
+    integrators,  # noqa: F401  (imported to fill the integrator registry)
+)
 from ..bsdfs.parameters import build_bsdf
 from ..core.rng import SEED_MAX
 from ..sensors.film import FILTER_PARAMS, ReconstructionFilter
@@ -18,7 +21,6 @@ from ..shapes import instances  # the shapes package registers every shape kind
 from ..shapes.accumulator import GeometryAccumulator, ShapeParams, shape_label
 from . import transform
 from .properties import (
-    SUPPORTED,
     VARIANT_ONLY,
     Props,
     build_texture,
@@ -47,8 +49,6 @@ INTEGRATOR_PARAMS = {
     "direct": {"emitter_samples", "bsdf_samples", "shading_samples", "hide_emitters"},
     "ptracer": {"max_depth", "rr_depth", "hide_emitters"},
 }
-#: Mitsuba integrators rendered by this tracer's integrator of another name.
-INTEGRATOR_ALIASES = {"ptracer": "light"}
 # Types of the integrator parameters with a Mitsuba meaning (any integrator).
 INTEGRATOR_PARAM_TAGS = {"max_depth": "integer", "rr_depth": "integer",
                          "hide_emitters": "boolean", "emitter_samples": "integer",
@@ -376,7 +376,8 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
             raise plugin.error("a moment integrator takes exactly one nested <integrator> "
                                "and no properties")
         return build_integrator(kids["integrator"][0])
-    if plugin.type not in SUPPORTED["integrator"]:
+    integrator = factory("integrator", plugin.type)
+    if integrator is None:
         raise unsupported(plugin, "integrator")
     if plugin.type == "direct":
         _check_direct_samples(plugin)
@@ -397,7 +398,8 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
             raise plugin.error(f"max_depth must be -1 (unlimited) or >= 0, as in Mitsuba, got "
                                f"{prop.value}", prop.line)
         params[name] = prop.value
-    return IntegratorSpec(INTEGRATOR_ALIASES.get(plugin.type, plugin.type), params)
+    # A Mitsuba name (ptracer) is rendered by the integrator registered under it (light).
+    return IntegratorSpec(integrator.name, params)
 
 
 def _check_direct_samples(plugin: Plugin) -> None:

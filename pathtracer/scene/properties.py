@@ -18,8 +18,6 @@ from .xml import Plugin
 SUPPORTED = {
     "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
     "sensor": ("perspective",),
-    "integrator": ("path", "direct", "ptracer", "recursive", "path_bsdf", "path_nee", "smallpt",
-                   "light", "volpath", "volpath_phase", "bdpt"),
     "medium": ("homogeneous",),
     "phase": ("isotropic", "hg"),
 }
