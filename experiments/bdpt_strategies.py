@@ -73,7 +73,8 @@ def main(argv=None) -> int:
     """Render both triangles and write the figures and the table."""
     args = build_parser().parse_args(argv)
     from pathtracer import load_scene
-    from pathtracer.integrators.bdpt import BDPTIntegrator, render_strategies
+    from pathtracer.integrators.bdpt import BDPTIntegrator
+    from pathtracer.render.strategies import render_strategies
     params = common.scene_params(args.scene, args.defines)
     scene = load_scene(args.scene, max_depth=args.longest,
                        **{k: v for k, v in params.items() if k != "max_depth"})
