@@ -5,14 +5,16 @@ from __future__ import annotations
 import os
 import time
 
+from ..integrators.pathclass import PathClassIntegrator
+from ..scene.load import load_scene
 from ..scene.types import Scene
 from ..shapes import intersect as geometry
-from .jobs import _Job
+from .jobs import CameraJob
 from .moments import mean_and_variance, pixel_statistics
 from .scheduling import DEFAULT_BATCH, plan_units, run_units
 
 
-class _ClassJob(_Job):
+class _ClassJob(CameraJob):
     """Renders one unit of all path classes: (n, 3 K) values per camera ray."""
 
     def estimate(self, rays, rng):
@@ -48,10 +50,7 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
         ``classes`` (list of str), ``mean`` and ``variance`` ((n_classes, H, W, 3) each),
         ``spp``, ``seed``, ``seconds``, ``options``.
     """
-    from ..integrators.pathclass import PathClassIntegrator
-
     if not isinstance(scene, Scene):
-        from ..scene.load import load_scene
         scene = load_scene(scene)
     integrator = PathClassIntegrator(classes, glossy=glossy, **options)
     K = len(integrator.classes)

@@ -27,13 +27,14 @@ import time
 from ..integrators import Integrator, make_integrator
 from ..integrators.wavefront import pooled
 from ..media.homogeneous import has_media
+from ..scene.load import load_scene
 from ..scene.types import Scene
 from ..sensors.film import effective_counts
 from ..sensors.perspective import camera_rays
 from ..shapes import intersect as geometry
 from .allocator import keep_freed_memory
-from .jobs import _FilteredJob, _Job
-from .moments import _merge_sums, film_sums, filtered_mean_and_variance, mean_and_variance, pixel_statistics
+from .jobs import CameraJob, FilteredJob
+from .moments import film_sums, filtered_mean_and_variance, mean_and_variance, merge_sums, pixel_statistics
 from .resources import POOL_UNITS
 from .result import RenderResult
 from .scheduling import DEFAULT_BATCH, group_units, plan_units, run_units
@@ -135,7 +136,6 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
         Integrator options (max_depth, rr_depth, roulette, hemisphere, ...).
     """
     if not isinstance(scene, Scene):
-        from ..scene.load import load_scene
         scene = load_scene(scene)
     integrator = integrator_for(scene, integrator, **options)
     spp = int(scene.spp if spp is None else spp)
@@ -158,14 +158,14 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
         integrator = copy.copy(integrator)      # the caller's integrator stays as it was
         integrator.pool_size = batch_size
         groups = group_units(units, POOL_UNITS, processes)
-    job = _Job(scene, integrator, spp, seed, camera or camera_rays)
+    job = CameraJob(scene, integrator, spp, seed, camera or camera_rays)
     if scene.camera.rfilter.is_box:
         stats = run_units(job, groups, pixel_statistics(n_pixels),
                           processes, progress)
         mean, variance = mean_and_variance(stats)
     else:
-        sums = run_units(_FilteredJob(job), groups, film_sums(n_pixels), processes, progress,
-                         merge=_merge_sums)
+        sums = run_units(FilteredJob(job), groups, film_sums(n_pixels), processes, progress,
+                         merge=merge_sums)
         mean, variance = filtered_mean_and_variance(sums, effective_counts(
             scene.camera.rfilter, scene.camera.width, scene.camera.height, spp).reshape(-1, 1))
     shape = (scene.camera.height, scene.camera.width, 3)

@@ -18,10 +18,8 @@ from ..sensors.perspective import camera_rays
 from .moments import block_statistics
 
 
-class _Job:
+class CameraJob:
     """Everything a worker needs to render a group of units (inherited through fork)."""
-
-    current = None     # the job (any object with ``run(group)``), set in each worker by _install_job
 
     def __init__(self, scene, integrator, spp, seed, camera=camera_rays):
         self.scene, self.integrator, self.spp, self.seed = scene, integrator, spp, seed
@@ -53,7 +51,7 @@ def _per_unit(rows: np.ndarray, group) -> list[np.ndarray]:
     return np.split(rows, ends[:-1])
 
 
-class _FilteredJob:
+class FilteredJob:
     """Renders a unit exactly as ``job`` does, then splats it through the film's filter."""
 
     def __init__(self, job):

@@ -14,7 +14,8 @@ def film_sums(n_pixels: int, channels: int = 3) -> tuple[np.ndarray, np.ndarray,
     return np.zeros(n_pixels), np.zeros((n_pixels, channels)), np.zeros((n_pixels, channels))
 
 
-def _merge_sums(sums, unit, block) -> None:
+def merge_sums(sums, unit, block) -> None:
+    """Add a unit's block ``(lo, hi, sum w, sum w f, sum w f^2)`` to the film's sums over ``lo:hi``."""
     lo, hi, *parts = block
     for total, part in zip(sums, parts):
         total[lo:hi] += part
@@ -66,7 +67,7 @@ def mean_and_variance(stats) -> tuple[np.ndarray, np.ndarray]:
     return mean, m2
 
 
-def _merge(stats, unit, block) -> None:
+def merge_block(stats, unit, block) -> None:
     """Chan et al.'s parallel update of (count, mean, M2) for the unit's pixels."""
     p0, p1 = unit[0], unit[1]
     n_b, mean_b, m2_b = block

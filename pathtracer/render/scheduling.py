@@ -15,20 +15,24 @@ import sys
 from concurrent.futures import ProcessPoolExecutor
 
 from . import workers
-from .jobs import _Job
-from .moments import _merge
+from .moments import merge_block
 
 #: Samples of one pixel reduced together; fixed so results never depend on batching.
 SAMPLE_BLOCK = 256
 #: Camera paths per batch (bounded memory: about 1 KB per path in flight).
 DEFAULT_BATCH = 1 << 15
 
+#: The job of this worker process (any object with ``run(group)``): set by
+#: :func:`_install_job` in each forked worker, never in the parent process.
+_worker_job = None
+
 
 def run_units(job, groups, stats, processes: int, progress: bool, merge=None):
     """Run ``job.run(group)`` for every group of units and merge the blocks it returns (one
     per unit) into ``stats`` (returned).
 
-    ``merge(stats, unit, block)`` defaults to the per-pixel (count, mean, M2) update.
+    ``merge(stats, unit, block)`` defaults to the per-pixel (count, mean, M2) update
+    (:func:`.moments.merge_block`).
 
     With ``processes`` > 1 the groups go to forked workers that receive ``job`` at fork
     (inherited, never pickled, no global in this process: renders running concurrently
@@ -39,7 +43,7 @@ def run_units(job, groups, stats, processes: int, progress: bool, merge=None):
     """
     bar = _progress_bar(sum(map(len, groups)), progress)
     try:
-        _run_units(job, groups, stats, processes, bar, merge or _merge)
+        _run_units(job, groups, stats, processes, bar, merge or merge_block)
     finally:
         bar.close()
     return stats
@@ -88,12 +92,13 @@ def group_units(units: list, per_group: int, processes: int) -> list[tuple]:
 
 
 def _install_job(job, parent_pid):
+    global _worker_job
     workers.init_worker(parent_pid)
-    _Job.current = job
+    _worker_job = job
 
 
 def _run_current(group):
-    return _Job.current.run(group)
+    return _worker_job.run(group)
 
 
 class _NoBar:
@@ -107,5 +112,6 @@ class _NoBar:
 def _progress_bar(total: int, enabled: bool):
     if not enabled:
         return _NoBar()
+    # Imported only when a bar is shown: tqdm's import takes ~80 ms, a seventh of the package's.
     from tqdm import tqdm
     return tqdm(total=total, unit="batch", desc="rendering", file=sys.stderr)
