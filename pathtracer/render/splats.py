@@ -16,6 +16,7 @@ import numpy as np
 
 from ..core.rng import RandomStream, sample_keys
 from ..emitters.dispatch import check_light_paths
+from .moments import add_sample
 from .result import RenderResult
 from .scheduling import DEFAULT_BATCH, run_units
 
@@ -113,11 +114,7 @@ class _ReplicaStatistics:
 
     def _close_replica(self) -> None:
         """Welford's update with the finished replica's image (splat sums / paths per pixel)."""
-        value = self.image / self.per_pixel
-        self.count += 1
-        delta = value - self.mean
-        self.mean += delta / self.count
-        self.m2 += delta * (value - self.mean)
+        self.count = add_sample(self.count, self.mean, self.m2, self.image / self.per_pixel)
         self.image[:] = 0.0
 
     def result(self) -> tuple[np.ndarray, np.ndarray]:

@@ -6,11 +6,13 @@ import numpy as np
 
 from ..core.rng import RandomStream, sample_keys
 from ..integrators.bdpt import BDPTIntegrator
+from .moments import add_power_sums, mean_and_variance_from_sums, power_sums
+from .scheduling import DEFAULT_BATCH
 from .splats import replica_count
 
 
 def render_strategies(scene, integrator: BDPTIntegrator, spp: int, seed: int,
-                      weighted: bool = True, batch_size: int = 1 << 15) -> dict:
+                      weighted: bool = True, batch_size: int = DEFAULT_BATCH) -> dict:
     """The image of every strategy (s, t): ``{(s, t): (mean, variance)}``, (H, W, 3) arrays.
 
     The samples and their random numbers are those of :func:`pathtracer.render.render`
@@ -39,15 +41,11 @@ def render_strategies(scene, integrator: BDPTIntegrator, spp: int, seed: int,
                     total[:, c] += np.bincount(pixel[rows], weights=value[rows, c],
                                                minlength=n_pixels)
         for key, total in image.items():
-            value = total / per_pixel
-            acc = sums.setdefault(key, [np.zeros((n_pixels, 3)), np.zeros((n_pixels, 3))])
-            acc[0] += value
-            acc[1] += value * value
+            add_power_sums(sums.setdefault(key, power_sums(n_pixels)), total / per_pixel)
     shape = (camera.height, camera.width, 3)
     out = {}
-    for key, (first, second) in sums.items():
-        mean = first / replicas
-        variance = (np.maximum(second - replicas * mean * mean, 0.0) / max(replicas - 1, 1)
-                    * per_pixel if replicas > 1 else np.zeros_like(mean))
+    for key, moments in sums.items():
+        mean, variance = mean_and_variance_from_sums(moments, replicas)
+        variance = variance * per_pixel if replicas > 1 else np.zeros_like(mean)
         out[key] = (mean.reshape(shape), variance.reshape(shape))
     return dict(sorted(out.items()))
