@@ -88,7 +88,7 @@ def integrator_for(scene: Scene, integrator=None, **options) -> Integrator:
         chosen = _with_options(integrator, params)
     else:
         chosen = make_integrator(integrator or spec.name, **params)
-    if has_media(scene) and not getattr(chosen, "handles_media", False):
+    if has_media(scene) and not chosen.handles_media:
         raise ValueError(f"{scene.source} has participating media or null boundaries, which "
                          f"integrator {chosen.name!r} does not render: use volpath or "
                          "volpath_phase")
@@ -149,7 +149,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
         progress = sys.stderr.isatty() and n_pixels * spp >= 1 << 20
     geometry.prepare(scene)   # build the BVH once, before workers fork
     keep_freed_memory()       # before the fork too: the workers inherit it
-    if getattr(integrator, "splats", False):
+    if integrator.splats:
         return render_splats(scene, integrator, spp, seed, processes, batch_size, progress)
 
     start = time.perf_counter()

@@ -82,7 +82,7 @@ class _SplatJob:
         replica, b0, b1 = unit
         ids = replica * self.paths + np.arange(b0, b1, dtype=np.int64)
         rng = RandomStream(sample_keys(self.seed, ids))
-        if getattr(self.integrator, "camera_subpaths", False):
+        if self.integrator.camera_subpaths:
             # Sample i of a replica starts its camera subpath in pixel i mod (W H).
             camera = self.scene.camera
             pixels = np.arange(b0, b1, dtype=np.int64) % (camera.width * camera.height)
