@@ -26,7 +26,7 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
                    batch_size: int | None = None, progress: bool = False, glossy="G", **options):
     """Render one image per Heckbert path class in a single pass.
 
-    Random numbers are keyed exactly as in :func:`render`, so with the same ``seed`` and
+    Random numbers are keyed exactly as in :func:`.driver.render`, so with the same ``seed`` and
     options the classes are a split of the ``path`` image (of its box-filtered image: the
     classes ignore the film's reconstruction filter).
 
@@ -35,9 +35,9 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
     scene : Scene or str
         A loaded scene, or a path / built-in name passed to ``load_scene``.
     classes : str or list of str
-        Path-class expressions, light first (``"LS+DE"``; :mod:`pathtracer.pathclasses`).
+        Path-class expressions, light first (``"LS+DE"``; :mod:`pathtracer.core.pathclasses`).
     spp, seed, processes, batch_size, progress
-        As for :func:`render` (``batch_size`` None: smaller batches for many classes).
+        As for :func:`.driver.render` (``batch_size`` None: smaller batches for many classes).
     glossy : str
         Letter of rough conductors, or an alpha threshold
         (:class:`~pathtracer.integrators.pathclass.PathClassIntegrator`).

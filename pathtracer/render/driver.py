@@ -64,7 +64,7 @@ def transport_options(spec, **options) -> dict:
     Parameters
     ----------
     spec : IntegratorSpec
-        ``scene.integrator`` (or :func:`pathtracer.scene.scene_settings`'s).
+        ``scene.integrator`` (or :func:`pathtracer.scene.settings.scene_settings`'s).
     **options
         Render options; only :data:`SCENE_OPTIONS` are read.
     """
@@ -131,7 +131,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
         Show a progress bar (default: when stderr is a terminal and the render is long).
     camera : callable, optional
         ``camera(camera, pixel, u_film) -> Rays``, the primary rays (default
-        :func:`pathtracer.camera.camera_rays`); the autograder passes a student's camera.
+        :func:`pathtracer.sensors.perspective.camera_rays`); the autograder passes a student's camera.
     **options
         Integrator options (max_depth, rr_depth, roulette, hemisphere, ...).
     """

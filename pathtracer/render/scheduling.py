@@ -39,7 +39,7 @@ def run_units(job, groups, stats, processes: int, progress: bool, merge=None):
     in threads cannot swap jobs). Blocks are merged in unit order, so the result does not
     depend on the number of processes or on the grouping. The workers die with this
     process and are killed at once when the render is interrupted
-    (:mod:`pathtracer.workers`).
+    (:mod:`.workers`).
     """
     bar = _progress_bar(sum(map(len, groups)), progress)
     try:
