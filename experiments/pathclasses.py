@@ -136,7 +136,7 @@ def compare_bounces(args, bar):
     from mitsuba_refs.cache import ReferenceUnavailable, get_reference
     from mitsuba_refs.stats import compare_means
     from pathtracer import load_scene
-    from pathtracer.render.driver import render_classes
+    from pathtracer.render.classes import render_classes
     params = common.scene_params(args.scene, args.defines)
     try:
         refs = [get_reference(args.scene, {**params, "max_depth": d}, "path") for d in (1, 2, 3)]
@@ -171,7 +171,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     from pathtracer import load_scene, render
     from pathtracer.core.pathclasses import compile_classes, is_partition
-    from pathtracer.render.driver import render_classes
+    from pathtracer.render.classes import render_classes
     out = common.out_dir(args.out)
     args.workers = args.workers or common.cpu_count()
     compile_classes(args.classes)          # fail early on a malformed expression

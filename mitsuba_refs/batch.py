@@ -26,6 +26,8 @@ import math
 
 import numpy as np
 
+from pathtracer.render.moments import merge_statistics, two_pass_block_statistics
+
 #: Film pixels per render call (``k * W * H``): bounded memory, and large enough that the
 #: per-call cost (block setup, developing the film) is small next to the path tracing.
 BATCH_PIXELS = 1 << 18
@@ -52,25 +54,16 @@ def batch_sensor(sensor, k, width, height):
 
 
 class SampleStatistics:
-    """Running per-pixel count, mean and M2 of blocks of single samples (Chan's merge)."""
+    """Running per-pixel count, mean and M2 of blocks of single samples (Chan's merge,
+    :mod:`pathtracer.render.moments`)."""
 
     def __init__(self):
         self.n, self.mean, self.m2 = 0, None, None
 
     def add(self, samples):
         """Add ``samples`` of shape (H, k, W, 3): ``k`` samples of every pixel."""
-        samples = np.asarray(samples, dtype=np.float64)
-        k = samples.shape[1]
-        block_mean = samples.mean(axis=1)
-        block_m2 = ((samples - block_mean[:, None]) ** 2).sum(axis=1)
-        if self.n == 0:
-            self.n, self.mean, self.m2 = k, block_mean, block_m2
-            return
-        n = self.n + k
-        delta = block_mean - self.mean
-        self.mean = self.mean + delta * (k / n)
-        self.m2 = self.m2 + block_m2 + delta * delta * (self.n * k / n)
-        self.n = n
+        block = two_pass_block_statistics(np.asarray(samples, dtype=np.float64))
+        self.n, self.mean, self.m2 = merge_statistics((self.n, self.mean, self.m2), block)
 
     def variance(self):
         """Unbiased per-sample variance ``M2 / (n - 1)``."""

@@ -29,6 +29,8 @@ combine exactly: :math:`\bar m_k = \sum_j n_j \bar m_{k,j} / \sum_j n_j`.
 
 import numpy as np
 
+from pathtracer.render.moments import combine_power_means, variance_from_power_means
+
 MOMENT_AOVS = ("m1.R", "m1.G", "m1.B", "m2.R", "m2.G", "m2.B")
 NAME = "rgb_moments"
 
@@ -103,11 +105,9 @@ def read_moments(film):
 
 
 def combine(passes):
-    """Combine passes ``[(m1, m2, n), ...]`` into ``(m1, m2, n)``."""
-    n = sum(p[2] for p in passes)
-    m1 = sum(p[0] * p[2] for p in passes) / n
-    m2 = sum(p[1] * p[2] for p in passes) / n
-    return m1, m2, n
+    """Combine passes ``[(m1, m2, n), ...]`` into ``(m1, m2, n)``
+    (:func:`pathtracer.render.moments.combine_power_means`)."""
+    return combine_power_means(passes)
 
 
 def sample_variance(m1, m2, n):
@@ -115,4 +115,4 @@ def sample_variance(m1, m2, n):
     (rounding can make it slightly negative where all samples agree)."""
     if n < 2:
         raise ValueError("variance needs at least 2 samples per pixel")
-    return np.maximum(m2 - m1 * m1, 0.0) * (n / (n - 1))
+    return variance_from_power_means(m1, m2, n)

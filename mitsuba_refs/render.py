@@ -494,7 +494,7 @@ def _render_replicas(scene, nested, spp, seed, stream, log):
     """
     import mitsuba as mi
 
-    from pathtracer.render.driver import replica_count
+    from pathtracer.render.splats import replica_count
     film = scene.sensors()[0].film()
     width, height = (int(v) for v in film.crop_size())
     replicas = replica_count(spp, config.REF_REPLICAS)

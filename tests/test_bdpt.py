@@ -18,7 +18,8 @@ from mitsuba_refs.stats import compare_means
 from pathtracer import load_scene, render
 from pathtracer.cli import main
 from pathtracer.core.rng import RandomStream, sample_keys
-from pathtracer.integrators.bdpt import BDPTIntegrator, render_strategies
+from pathtracer.integrators.bdpt import BDPTIntegrator
+from pathtracer.render.strategies import render_strategies
 from tests.budget import ALPHA
 from tests.test_analytic import assert_matches, quad_light_case
 

@@ -48,7 +48,7 @@ def test_samples_are_clipped_at_the_image_edge_and_edge_pixels_normalised():
     h, w, n = 6, 8, 5
     sums = splat(GAUSSIAN, w, h, np.arange(h * w), rng.random((h * w, n, 2)),
                  np.full((h * w, n, 3), 0.7))
-    from pathtracer.render.driver import filtered_mean_and_variance
+    from pathtracer.render.moments import filtered_mean_and_variance
     mean, var = filtered_mean_and_variance(sums, effective_counts(GAUSSIAN, w, h, n).reshape(-1, 1))
     np.testing.assert_allclose(mean, 0.7, rtol=1e-14)
     assert not var.any()

@@ -48,7 +48,7 @@ from numpy.lib.introspect import opt_func_info
 
 from pathtracer import load_scene, render
 from pathtracer.integrators.pathclass import PathClassIntegrator
-from pathtracer.render.driver import render_classes
+from pathtracer.render.classes import render_classes
 
 DATA = Path(__file__).resolve().parent / "data" / "integrator_renders.npz"
 SEED = 7

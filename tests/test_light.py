@@ -187,7 +187,7 @@ def test_light_render_is_the_same_for_any_number_of_processes():
 
 
 def test_replicas_divide_spp():
-    from pathtracer.render.driver import replica_count
+    from pathtracer.render.splats import replica_count
     assert [replica_count(spp, 8) for spp in (1, 4, 6, 16, 64, 7)] == [1, 4, 6, 8, 8, 7]
     single = render(load_scene("cornell-box", width=8, height=8), "light", spp=1, seed=1, processes=1)
     assert not single.variance.any()    # one replica: no spread to measure

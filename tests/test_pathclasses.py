@@ -15,7 +15,7 @@ from pathtracer.core.pathclasses import (
 )
 from pathtracer.integrators import make_integrator
 from pathtracer.integrators.pathclass import PathClassIntegrator
-from pathtracer.render.driver import render_classes
+from pathtracer.render.classes import render_classes
 
 PARTITION = ["LE", "LDE", "LD.+E", "LS.*E", "LG.*E"]
 

@@ -15,7 +15,7 @@ from pathtracer import load_scene, render
 from pathtracer.core.rng import RandomStream, sample_keys
 from pathtracer.integrators import INTEGRATORS
 from pathtracer.integrators.wavefront import Paths, pooled
-from pathtracer.render.driver import group_units, plan_units
+from pathtracer.render.scheduling import group_units, plan_units
 from pathtracer.sensors.perspective import Rays
 
 POOLED = ["path", "path_nee", "path_bsdf", "smallpt"]

@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 
 from pathtracer import load_scene, render
-from pathtracer.render.driver import block_statistics, plan_units
+from pathtracer.render.moments import block_statistics
+from pathtracer.render.scheduling import plan_units
 
 
 @pytest.fixture(scope="module")
@@ -28,7 +29,8 @@ def test_different_seeds_differ(cbox):
 
 def test_spp_beyond_one_sample_block_is_merged_exactly():
     """Pixels whose samples span several blocks: Chan's merge equals a direct computation."""
-    from pathtracer.render.driver import _merge, mean_and_variance, pixel_statistics
+    from pathtracer.render.moments import mean_and_variance, pixel_statistics
+    from pathtracer.render.moments import merge_block as _merge
     rng = np.random.default_rng(0)
     x = rng.exponential(size=(5, 700, 3))
     stats = pixel_statistics(5)

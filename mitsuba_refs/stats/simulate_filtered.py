@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pathtracer.render.driver import filtered_mean_and_variance
+from pathtracer.render.moments import filtered_mean_and_variance
 from pathtracer.sensors.film import ReconstructionFilter, effective_counts, splat
 
 from .simulate import SkewedScene
