@@ -253,12 +253,6 @@ class SplattingIntegrator(Integrator):
         the pixel of each sample (``bdpt``)."""
         raise NotImplementedError
 
-    def radiance(self, scene: Scene, rays: Rays, rng):
-        """Refused with the reason: a splatting integrator has no radiance per camera ray
-        (its paths reach pixels other than the ray's)."""
-        raise ValueError(f"the {self.name} integrator splats into the film: render it with "
-                         "pathtracer.render, not per camera ray")
-
 
 def skip_emitters(scene: Scene, rays: Rays, hit):
     """Continue rays through area emitters until they hit something else (hide_emitters)."""
