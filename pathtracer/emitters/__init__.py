@@ -2,7 +2,7 @@
 
 The names below are the student contract (submissions import them from ``pathtracer.emitters``).
 """
-from .dispatch import (
+from .scene_emitters import (
                        EmitterPosition,
                        EmitterRay,
                        EmitterSample,

@@ -55,9 +55,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.vec import dot
+from ..scene.properties import Props, children, unsupported
 from ..scene.types import Scene
+from ..scene.xml import Plugin
 from ..shapes import intersect as geometry
-from .phase import IsotropicPhase
+from .phase import IsotropicPhase, build_phase
 
 
 @dataclass
@@ -279,3 +281,48 @@ MAX_CROSSINGS = 256
 
 def _take(hit, rows):
     return type(hit)(**{k: np.take(v, rows, axis=0) for k, v in vars(hit).items()})
+
+
+def build_medium(plugin: Plugin) -> HomogeneousMedium:
+    """The :class:`~pathtracer.media.HomogeneousMedium` of a ``<medium>`` element."""
+    if plugin.type not in ("homogeneous",):
+        raise unsupported(plugin, "medium")
+    props = Props(plugin)
+    kids = children(plugin, {"phase": 1})
+    if props.has("sigma_a") or props.has("sigma_s"):
+        raise _mitsuba06_coefficients(plugin, props)
+    sigma_t = props.color("sigma_t", 1.0)
+    if props.has("sigma_t") and plugin.props["sigma_t"].tag == "rgb" and not np.all(
+            (sigma_t >= 0) & (sigma_t <= 1)):
+        raise plugin.error("an <rgb> sigma_t must lie in [0, 1] (Mitsuba reads it as a "
+                           "reflectance); give the extinction's colour there and its "
+                           "magnitude in <float name=\"scale\">", props.line("sigma_t"))
+    if not np.all(sigma_t >= 0):
+        raise plugin.error("sigma_t must be >= 0", props.line("sigma_t"))
+    albedo = props.reflectance("albedo", 0.75)
+    scale = props.float("scale", 1.0)
+    if not (np.isfinite(scale) and scale >= 0):
+        raise plugin.error(f"scale must be a finite number >= 0, got {scale}", props.line("scale"))
+    sample_emitters = props.bool("sample_emitters", True)
+    if not props.bool("has_spectral_extinction", True) and np.ptp(sigma_t) > 0:
+        raise plugin.error("has_spectral_extinction=false with a coloured sigma_t is not "
+                           "supported (Mitsuba then samples distances with the wrong "
+                           "weights); leave it true", props.line("has_spectral_extinction"))
+    props.finish()
+    phase = build_phase(kids["phase"][0]) if kids["phase"] else IsotropicPhase()
+    return HomogeneousMedium(sigma_t * scale, albedo, phase, sample_emitters,
+                             name=f"homogeneous ({plugin.file}:{plugin.line})")
+
+
+def _mitsuba06_coefficients(plugin: Plugin, props: Props):
+    """The error for Mitsuba 0.6's sigma_a / sigma_s, with the Mitsuba 3 equivalent."""
+    name = "sigma_a" if props.has("sigma_a") else "sigma_s"
+    text = ""
+    if props.has("sigma_a") and props.has("sigma_s"):
+        sigma_a, sigma_s = props.color("sigma_a", 0.0, "unbounded"), props.color("sigma_s", 0.0, "unbounded")
+        total = sigma_a + sigma_s
+        albedo = np.where(total > 0, sigma_s / np.where(total > 0, total, 1), 0)
+        text = (f": sigma_t = sigma_a + sigma_s = {', '.join(f'{v:g}' for v in total)}, "
+                f"albedo = sigma_s / sigma_t = {', '.join(f'{v:.6g}' for v in albedo)}")
+    return plugin.error(f"\"{name}\" is Mitsuba 0.6's; Mitsuba 3's homogeneous medium takes "
+                        f"sigma_t and albedo{text}", props.line(name))

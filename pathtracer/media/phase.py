@@ -21,6 +21,8 @@ import numpy as np
 
 from ..core.sampling import INV_FOUR_PI, square_to_uniform_sphere
 from ..core.vec import dot, to_world
+from ..scene.properties import Props, children, unsupported
+from ..scene.xml import Plugin
 
 
 class IsotropicPhase:
@@ -75,3 +77,19 @@ class HenyeyGreensteinPhase:
         local = np.stack((sin_dev * np.cos(phi), sin_dev * np.sin(phi), cos_dev), axis=1)
         wo = to_world(local, -wi)
         return wo, self.value(-cos_dev)
+
+
+def build_phase(plugin: Plugin):
+    """The :mod:`pathtracer.phase` object of a ``<phase>`` element."""
+    if plugin.type not in ("isotropic", "hg"):
+        raise unsupported(plugin, "phase function")
+    props = Props(plugin)
+    children(plugin, {})
+    if plugin.type == "isotropic":
+        props.finish()
+        return IsotropicPhase()
+    g = props.float("g", 0.8)
+    if not -1.0 < g < 1.0:
+        raise plugin.error(f"g must lie in (-1, 1), got {g}", props.line("g"))
+    props.finish()
+    return HenyeyGreensteinPhase(g)

@@ -29,6 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..scene.properties import VARIANT_ONLY, Props, children, unsupported
+from ..scene.xml import Plugin
+
 #: Filters the film accepts, with their parameter and its default.
 FILTER_PARAMS = {"box": ("radius", 0.5), "tent": ("radius", 1.0), "gaussian": ("stddev", 0.5)}
 
@@ -210,3 +213,52 @@ def tile_design_effect(rfilter: ReconstructionFilter, tile: int) -> float:
     pairs = np.maximum(tile - np.abs(lags), 0)        # pixel pairs at each lag along an axis
     per_axis = float(np.sum(rho * pairs)) / tile
     return per_axis * per_axis
+
+
+def _rfilter(plugin: Plugin | None) -> ReconstructionFilter:
+    """The film's ``<rfilter>``: box, tent or gaussian (Mitsuba's default when absent)."""
+    if plugin is None:
+        return ReconstructionFilter.make("gaussian")
+    if plugin.type not in FILTER_PARAMS:
+        raise plugin.error(f"unsupported reconstruction filter \"{plugin.type}\" (supported: "
+                           "box, tent, gaussian; Mitsuba's lanczos and mitchell have negative "
+                           "lobes, not implemented here)")
+    props = Props(plugin)
+    children(plugin, {})
+    name, default = FILTER_PARAMS[plugin.type]
+    value = props.float(name, default)
+    if plugin.type == "box" and value != 0.5:
+        raise plugin.error("box filter radius must be 0.5 (one pixel)", props.line(name))
+    if not 0.0 < value <= 64.0:
+        raise plugin.error(f"{plugin.type} filter {name} must lie in (0, 64] pixels",
+                           props.line(name))
+    props.finish()
+    return ReconstructionFilter.make(plugin.type, value)
+
+
+def _film(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
+    if plugin.type in VARIANT_ONLY:
+        raise unsupported(plugin, "film")
+    if plugin.type != "hdrfilm":
+        raise plugin.error("unsupported film (supported: hdrfilm)")
+    props = Props(plugin)
+    filters = children(plugin, {"rfilter": 1})["rfilter"]
+    rfilter = _rfilter(filters[0] if filters else None)
+    width, height = props.int("width", 768), props.int("height", 576)
+    if width <= 0 or height <= 0:
+        raise plugin.error("film width and height must be positive")
+    for name in ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height"):
+        if props.has(name):
+            raise plugin.error(f"{name} is not supported: the tracer renders the whole film "
+                               "(remove the crop, or render at the cropped size)",
+                               props.line(name))
+    # Mitsuba's sample border is ceil(radius - 0.5) pixels: empty for the box filter.
+    if props.bool("sample_border", False) and not rfilter.is_box:
+        raise plugin.error(f"sample_border = true is not supported with a {rfilter.kind} filter "
+                           "(samples are drawn inside the image only, Mitsuba's default)",
+                           props.line("sample_border"))
+    # Formats change storage, not values; compensate only changes summation accuracy; a
+    # banner is drawn on LDR output only.
+    props.ignore("pixel_format", "component_format", "file_format", "compensate", "banner")
+    props.finish()
+    return width, height, rfilter
