@@ -1,4 +1,12 @@
-"""Mitsuba's ``area`` emitter: a one-sided light attached to a shape."""
+"""Mitsuba's ``area`` emitter: a one-sided light attached to a shape.
+
+Area lights are one-sided: a point emits towards ``w`` only if ``dot(n_shading, w) > 0``.
+Next-event estimation samples a point on the shape as Mitsuba does: meshes pick a triangle
+proportionally to area, then a uniform point; disks a uniform point; a sphere seen from
+outside samples the cone it subtends, from inside a uniform point on its surface. The
+solid-angle pdf of an area sample is ``pdf_area * dist^2 / |cos theta_light|``. Light paths
+start at a uniform point of the shape, in a cosine-weighted direction on its emitting side.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -6,37 +14,103 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.sampling import (
+    square_to_cosine_hemisphere,
+    square_to_cosine_hemisphere_pdf,
     square_to_uniform_cone,
     square_to_uniform_cone_pdf,
     square_to_uniform_disk_concentric,
     square_to_uniform_sphere,
     square_to_uniform_triangle,
 )
-from ..core.vec import dot, norm, normalize, scale, select, to_world, unscale
-from ..scene.properties import Props, children
+from ..core.vec import dot, norm, normalize, scale, select, to_local, to_world, unscale
+from ..scene.properties import children
+from ..scene.registry import register
 from ..scene.types import Scene
-from ..scene.xml import Plugin
-from ..shapes import intersect as geometry
+from ..shapes import intersect
+from .base import Emitter, EmitterSample
 
 
 @dataclass
-class AreaEmitter:
-    """One-sided area light attached to a shape (front = along the shading normal)."""
+class AreaEmitter(Emitter):
+    """One-sided area light attached to a shape (front = along the shading normal).
+
+    Attributes
+    ----------
+    shape : int
+        Index of the shape it is attached to.
+    radiance : (3,) emitted radiance.
+    """
 
     shape: int
     radiance: np.ndarray  # (3,)
-    kind: str = "area"
+
+    kind = "area"
+    on_surface = True
+    starts_light_paths = True
+
+    def pdf_hit(self, scene, ref_p, p, n, d):
+        """Cone pdf from outside a sphere, else the area pdf converted to solid angle."""
+        dist2 = np.sum((p - ref_p) ** 2, axis=1)
+        cos_light = np.abs(dot(d, n))
+        if scene.shape_kind[self.shape] == "sphere":
+            return _sphere_pdf(scene, self.shape, ref_p, dist2, cos_light)
+        return dist2 / (cos_light * scene.shape_area[self.shape])
+
+    def sample_direction(self, scene, ref_p, u):
+        """A point on the shape (see the module's docstring); samples that see its back, or graze
+        it, get pdf and weight 0."""
+        shape = self.shape
+        kind = scene.shape_kind[shape]
+        if kind == "sphere":
+            point, normal, pdf = _sample_sphere(scene, shape, ref_p, u)
+        else:
+            point, normal = (_sample_disk if kind == "disk" else _sample_mesh)(scene, shape, u)
+            pdf = None
+        to_light = point - ref_p
+        dist = norm(to_light)
+        wo = unscale(to_light, np.where(dist > 0, dist, 1.0))
+        cos_light = dot(wo, normal)
+        if pdf is None:
+            # A grazing sample (cos_light = 0) has an infinite solid-angle pdf: dropped below.
+            with np.errstate(divide="ignore"):
+                pdf = dist ** 2 / (np.abs(cos_light) * scene.shape_area[shape])
+        # One-sided: the light emits only on the side its normal faces.
+        facing = (cos_light < 0) & (dist > 0) & np.isfinite(pdf) & (pdf > 0)
+        pdf = np.where(facing, pdf, 0.0)
+        weight = select(facing, unscale(self.radiance, np.where(facing, pdf, 1.0)))
+        return EmitterSample(wo, dist, pdf, weight, np.zeros(len(u), dtype=bool))
+
+    def sample_position(self, scene, u):
+        """A uniform point of the shape: meshes by area, disks concentric-mapped, spheres over
+        the whole sphere; area density ``1 / area``."""
+        p, n = _uniform_area_point(scene, self.shape, u)
+        return p, n, np.full(len(u), 1.0 / scene.shape_area[self.shape])
+
+    def sample_ray_direction(self, n, u):
+        """Cosine-weighted on the emitting side: ``pdf_dir = cos / pi``, weight ``Le pi``."""
+        d = to_world(square_to_cosine_hemisphere(u), n)
+        pdf_dir = square_to_cosine_hemisphere_pdf(to_local(d, n))
+        return d, pdf_dir, np.broadcast_to(self.radiance * np.pi, (len(u), 3))
+
+    def pdf_ray_direction(self, n, d):
+        return np.maximum(dot(d, n), 0.0) / np.pi
+
+    def eval_towards(self, n, d):
+        """The radiance on the emitting side, 0 behind."""
+        front = dot(d, n) > 0
+        return np.where(front[:, None], self.radiance, 0.0)
 
 
-def build_area(plugin: Plugin, shape_id: int) -> AreaEmitter:
-    """The ``<emitter type="area">`` nested in a shape."""
-    if plugin.type != "area":
-        raise plugin.error("only an area emitter can be nested in a shape")
-    props = Props(plugin)
+@register("emitter", "area")
+def create(props, folders, shape):
+    """An ``<emitter type="area">`` nested in (or referenced by) the shape of index ``shape``."""
+    plugin = props.plugin
+    if shape is None:
+        raise plugin.error("an area emitter emits from a shape: nest it in a <shape> or "
+                           "reference it there with <ref id=\"...\"/>")
     children(plugin, {})
     radiance = props.color("radiance", 1.0)
-    props.finish()
-    return AreaEmitter(shape=shape_id, radiance=radiance)
+    return AreaEmitter(shape=shape, radiance=radiance)
 
 
 def _sphere_pdf(scene, shape, ref_p, dist2, cos_light):
@@ -57,31 +131,6 @@ def _cone_pdf(cos_max: np.ndarray) -> np.ndarray:
     return square_to_uniform_cone_pdf(axis, cos_max)
 
 
-def _sample_area(scene, emitter, ref_p, u, sample, rows):
-    shape = emitter.shape
-    kind = scene.shape_kind[shape]
-    if kind == "sphere":
-        point, normal, pdf = _sample_sphere(scene, shape, ref_p, u)
-    else:
-        point, normal = (_sample_disk if kind == "disk" else _sample_mesh)(scene, shape, u)
-        pdf = None
-    to_light = point - ref_p
-    dist = norm(to_light)
-    wo = unscale(to_light, np.where(dist > 0, dist, 1.0))
-    cos_light = dot(wo, normal)
-    if pdf is None:
-        # A grazing sample (cos_light = 0) has an infinite solid-angle pdf: dropped below.
-        with np.errstate(divide="ignore"):
-            pdf = dist ** 2 / (np.abs(cos_light) * scene.shape_area[shape])
-    # One-sided: the light emits only on the side its normal faces.
-    facing = (cos_light < 0) & (dist > 0) & np.isfinite(pdf) & (pdf > 0)
-    pdf = np.where(facing, pdf, 0.0)
-    sample.wo[rows] = wo
-    sample.dist[rows] = dist
-    sample.pdf[rows] = pdf
-    sample.weight[rows] = select(facing, unscale(emitter.radiance, np.where(facing, pdf, 1.0)))
-
-
 def _sample_mesh(scene, shape, u):
     """Triangle chosen proportionally to area (u_x reused), then a uniform point on it."""
     cdf = scene.shape_tri_cdf[shape]
@@ -91,14 +140,14 @@ def _sample_mesh(scene, shape, u):
     u_x = np.clip((u[:, 0] - low) / np.maximum(cdf[local] - low, 1e-300), 0.0, 1.0 - 1e-16)
     tri = begin + local
     b = square_to_uniform_triangle(np.stack((u_x, u[:, 1]), axis=1))
-    tables = geometry.triangle_tables(scene)
+    tables = intersect.triangle_tables(scene)
     b1, b2 = b[:, 0], b[:, 1]
     point = np.take(tables.p0, tri, axis=0)   # p0 + b1 e1 + b2 e2, gathered with np.take
     point += scale(np.take(tables.e1, tri, axis=0), b1)
     point += scale(np.take(tables.e2, tri, axis=0), b2)
     if not tables.smooth[begin:begin + len(cdf)].any():   # flat lights: one normal each
         return point, np.take(tables.flat_n, tri, axis=0)
-    return point, geometry.smooth_normals(scene, tri, b1, b2)
+    return point, intersect.smooth_normals(scene, tri, b1, b2)
 
 
 def _sample_disk(scene, shape, u):

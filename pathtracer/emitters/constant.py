@@ -1,4 +1,4 @@
-"""Mitsuba's ``constant`` emitter: a uniform environment."""
+"""Mitsuba's ``constant`` emitter: a uniform environment, sampled uniformly on the sphere."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -6,14 +6,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.sampling import INV_FOUR_PI, square_to_uniform_sphere
+from ..scene.properties import children
+from ..scene.registry import register
+from .base import EnvironmentEmitter
 
 
 @dataclass
-class ConstantEmitter:
+class ConstantEmitter(EnvironmentEmitter):
     """Uniform environment: every escaped ray sees ``radiance``."""
 
     radiance: np.ndarray  # (3,)
-    kind: str = "constant"
+
+    kind = "constant"
 
     def eval(self, d_world: np.ndarray) -> np.ndarray:
         """Radiance (n, 3) arriving from the directions ``d_world``."""
@@ -29,5 +33,8 @@ class ConstantEmitter:
         return np.full(len(d_world), INV_FOUR_PI)
 
 
-def _build_constant(plugin, props, folders):
+@register("emitter", "constant")
+def create(props, folders, shape):
+    """``radiance``."""
+    children(props.plugin, {})
     return ConstantEmitter(radiance=props.color("radiance", 1.0))

@@ -14,7 +14,7 @@ frame; ``to_world`` rotates it into the scene):
 
 Importance sampling: the vertex grid of that interpolant (W + 1 columns,
 the first repeated at the end, H rows) weighted by the luminance of each
-pixel times :math:`\sin\theta` of its row is a :class:`~pathtracer.sampling.Distribution2D`;
+pixel times :math:`\sin\theta` of its row is a :class:`~pathtracer.core.sampling.Distribution2D`;
 a sampled :math:`(x, y)` maps to :math:`(u, v) = (x + \tfrac{1}{2W}, y)` and the
 solid-angle density is :math:`p(x, y) / (2 \pi^2 \sin\theta)`, where
 :math:`d\omega = 2\pi^2 \sin\theta\, du\, dv`.
@@ -23,18 +23,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.color import LUMINANCE
 from ..core.sampling import Distribution2D
 from ..io.bitmap import BitmapError, read_bitmap
-from ..scene.properties import find_file
-from .base import _rotation_only
+from ..scene.properties import children, find_file
+from ..scene.registry import register
+from .base import EnvironmentEmitter, rotation_only
 
-#: Rec. 709 / sRGB luminance weights (Mitsuba's ``luminance``).
-LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
 #: Floor on sin(theta) in the density (Mitsuba's: float32 epsilon).
 SIN_THETA_MIN = 2.0 ** -24
 
 
-class EnvironmentMap:
+class EnvironmentMap(EnvironmentEmitter):
     """Environment emitter with a latitude-longitude radiance image.
 
     Parameters
@@ -141,7 +141,12 @@ def _compensation_offset(luminance: np.ndarray) -> float:
     return 0.0 if mean - float(luminance.min()) <= 0.01 * mean else mean
 
 
-def _build_envmap(plugin, props, folders):
+@register("emitter", "envmap")
+def create(props, folders, shape):
+    """``filename`` (looked up in ``folders``), ``scale``, ``to_world`` (a rotation) and
+    ``mis_compensation``."""
+    plugin = props.plugin
+    children(plugin, {})
     if props.has("bitmap"):
         raise plugin.error("\"bitmap\" (a Bitmap object) exists only in Python dictionaries; "
                            "give a filename", props.line("bitmap"))
@@ -162,5 +167,5 @@ def _build_envmap(plugin, props, folders):
         raise plugin.error(f"\"{filename}\": radiance must be finite and non-negative",
                            props.line("filename"))
     return EnvironmentMap(image, scale=props.float("scale", 1.0),
-                          to_world=_rotation_only(plugin, props),
+                          to_world=rotation_only(props),
                           mis_compensation=props.bool("mis_compensation", False))

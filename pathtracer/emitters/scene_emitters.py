@@ -1,21 +1,19 @@
-"""Emitters: radiance seen on hits, next-event sampling and its pdf.
+"""The scene's emitters together: which one a ray hit, next-event estimation over all of
+them, and the rays that start light paths.
 
-Mitsuba's conventions (tests/test_emitters.py and tests/test_delta_lights.py compare them
-with Mitsuba's own emitters):
+Each function chooses the lights, gathers the rows of a batch that concern each one and asks
+it (:class:`pathtracer.emitters.base.Emitter`); what an emitter declares (its flags) says
+which question applies. Mitsuba's conventions (tests/test_emitters.py and
+tests/test_delta_lights.py compare them with Mitsuba's own emitters):
 
 * one emitter is chosen uniformly, with probability 1 / N_emitters;
-* area lights are one-sided: a point emits towards ``w`` only if
-  ``dot(n_shading, w) > 0``;
-* area sampling: meshes pick a triangle proportionally to area, then a
-  uniform point; disks a uniform point; a sphere seen from outside samples
-  the cone it subtends, from inside a uniform point on its surface;
-* the solid-angle pdf of an area sample is ``pdf_area * dist^2 / |cos theta_light|``;
+* area lights are one-sided (:mod:`pathtracer.emitters.area`);
 * point and spot lights are Dirac in position: weight ``I falloff / r^2``
   with pdf 1 (MIS weight 1); a directional light is Dirac in direction:
   weight ``E`` (its irradiance), a shadow ray to infinity, pdf 1;
 * the environment (``constant`` or ``envmap``) is seen by every ray that
   escapes; it samples its own directions (:class:`ConstantEmitter` uniformly,
-  :class:`pathtracer.envmap.EnvironmentMap` by luminance).
+  :class:`pathtracer.emitters.envmap.EnvironmentMap` by luminance).
 """
 from __future__ import annotations
 
@@ -23,40 +21,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.sampling import (
-    square_to_cosine_hemisphere,
-    square_to_cosine_hemisphere_pdf,
-    square_to_uniform_cone_pdf,
-    square_to_uniform_sphere,
-)
-from ..core.vec import dot, max_component, normalize, scale, to_local, to_world
+from ..core.vec import dot, max_component, scale
 from ..scene.types import Scene
-from ..shapes import intersect as geometry
-from .area import _sample_area, _sphere_pdf, _uniform_area_point
-from .base import _sample_environment
-from .directional import _sample_directional
-from .point import _sample_point
-from .spot import _spot_direction
+from ..shapes import intersect
+from .area import AreaEmitter
+from .base import EmitterSample
+from .constant import ConstantEmitter
+from .directional import DirectionalEmitter
+from .envmap import EnvironmentMap
+from .point import PointEmitter
+from .spot import SpotEmitter
 
-
-@dataclass
-class EmitterSample:
-    """A sampled light position seen from reference points.
-
-    Attributes
-    ----------
-    wo : (n, 3) unit direction from the reference point to the light.
-    dist : (n,) distance (inf for the environment).
-    pdf : (n,) solid-angle pdf, including the 1 / N_emitters choice (1 for Dirac lights).
-    weight : (n, 3) radiance / pdf, zero when the light faces away or is occluded.
-    delta : (n,) True for Dirac lights (point, spot, directional).
-    """
-
-    wo: np.ndarray
-    dist: np.ndarray
-    pdf: np.ndarray
-    weight: np.ndarray
-    delta: np.ndarray
+#: Every emitter class (the order of the supported list in the loader's messages).
+EMITTER_CLASSES = (AreaEmitter, PointEmitter, SpotEmitter, DirectionalEmitter, ConstantEmitter,
+                   EnvironmentMap)
 
 
 def hit_emitter(scene: Scene, hit) -> np.ndarray:
@@ -76,7 +54,7 @@ def emitted_radiance(scene: Scene, hit, wi: np.ndarray) -> np.ndarray:
     on_emitter = hit_emitter(scene, hit) >= 0
     front = on_emitter & (dot(hit.sh_n, wi) > 0)
     if front.any():
-        table = _area_radiance_table(scene)
+        table = _surface_radiance_table(scene)
         radiance[front] = table[scene.shape_emitter[hit.shape[front]]]
     miss = ~hit.valid
     if scene.environment is not None and miss.any():
@@ -84,9 +62,10 @@ def emitted_radiance(scene: Scene, hit, wi: np.ndarray) -> np.ndarray:
     return radiance
 
 
-def _area_radiance_table(scene: Scene) -> np.ndarray:
-    """Radiance of each emitter as an (N_emitters, 3) table (zero for non-area ones)."""
-    return np.array([e.radiance if e.kind == "area" else np.zeros(3) for e in scene.emitters])
+def _surface_radiance_table(scene: Scene) -> np.ndarray:
+    """Radiance of each emitter as an (N_emitters, 3) table (zero for those not on a surface):
+    one gather serves every light a batch hit."""
+    return np.array([e.radiance if e.on_surface else np.zeros(3) for e in scene.emitters])
 
 
 def pdf_emitter_direction(scene: Scene, ref_p: np.ndarray, hit, d: np.ndarray) -> np.ndarray:
@@ -112,12 +91,8 @@ def pdf_emitter_direction(scene: Scene, ref_p: np.ndarray, hit, d: np.ndarray) -
     lit = (hit_emitter(scene, hit) >= 0) & (dot(hit.sh_n, d) < 0)
     for s in np.unique(hit.shape[lit]):
         rows = np.flatnonzero(lit & (hit.shape == s))
-        dist2 = np.sum((hit.p[rows] - ref_p[rows]) ** 2, axis=1)
-        cos_light = np.abs(dot(d[rows], hit.sh_n[rows]))
-        if scene.shape_kind[s] == "sphere":
-            pdf[rows] = _sphere_pdf(scene, s, ref_p[rows], dist2, cos_light)
-        else:
-            pdf[rows] = dist2 / (cos_light * scene.shape_area[s])
+        light = scene.emitters[scene.shape_emitter[s]]
+        pdf[rows] = light.pdf_hit(scene, ref_p[rows], hit.p[rows], hit.sh_n[rows], d[rows])
     pdf[lit] /= n_emitters
     return pdf
 
@@ -151,15 +126,9 @@ def sample_emitter(scene: Scene, hit, u_choice: np.ndarray, u: np.ndarray,
     groups = [(which[0], slice(None))] if n_emitters == 1 or emitter is not None else \
         [(e, np.flatnonzero(which == e)) for e in np.unique(which)]
     for e, rows in groups:
-        light = scene.emitters[e]
-        if light.kind in ("point", "spot"):
-            _sample_point(light, hit.p[rows], sample, rows)
-        elif light.kind == "directional":
-            _sample_directional(light, sample, rows)
-        elif light.kind in ("constant", "envmap"):
-            _sample_environment(light, u[rows], sample, rows)
-        else:
-            _sample_area(scene, light, hit.p[rows], u[rows], sample, rows)
+        part = scene.emitters[e].sample_direction(scene, hit.p[rows], u[rows])
+        sample.wo[rows], sample.dist[rows], sample.pdf[rows] = part.wo, part.dist, part.pdf
+        sample.weight[rows], sample.delta[rows] = part.weight, part.delta
     if emitter is None:
         # Uniform emitter choice: pdf divided, weight multiplied, by N (Dirac pdf stays 1).
         sample.pdf = np.where(sample.delta, sample.pdf, sample.pdf / n_emitters)
@@ -181,16 +150,16 @@ def shadowed(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
     finite = np.isfinite(dist)
     if finite.all():   # lights at finite distance only: no gathers
         target = p + scale(wo, dist)
-        o, d, tmax = geometry.spawn_ray_to(p, n, target)
-        return geometry.occluded(scene, o, d, tmax)
+        o, d, tmax = intersect.spawn_ray_to(p, n, target)
+        return intersect.occluded(scene, o, d, tmax)
     blocked = np.zeros(len(dist), dtype=bool)
     if finite.any():
         target = p[finite] + wo[finite] * dist[finite, None]
-        o, d, tmax = geometry.spawn_ray_to(p[finite], n[finite], target)
-        blocked[finite] = geometry.occluded(scene, o, d, tmax)
+        o, d, tmax = intersect.spawn_ray_to(p[finite], n[finite], target)
+        blocked[finite] = intersect.occluded(scene, o, d, tmax)
     if (~finite).any():
-        o = geometry.spawn_ray(p[~finite], n[~finite], wo[~finite])
-        blocked[~finite] = geometry.occluded(scene, o, wo[~finite], np.full((~finite).sum(), np.inf))
+        o = intersect.spawn_ray(p[~finite], n[~finite], wo[~finite])
+        blocked[~finite] = intersect.occluded(scene, o, wo[~finite], np.full((~finite).sum(), np.inf))
     return blocked
 
 
@@ -198,7 +167,7 @@ def shadowed(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
 # Rays leaving the lights: the first vertex of light paths (light tracing, BDPT)
 
 #: Emitters a light path can start on (the others are refused by :func:`check_light_paths`).
-LIGHT_PATH_EMITTERS = ("area", "point", "spot")
+LIGHT_PATH_EMITTERS = tuple(cls.kind for cls in EMITTER_CLASSES if cls.starts_light_paths)
 
 
 def check_light_paths(scene: Scene) -> None:
@@ -208,7 +177,7 @@ def check_light_paths(scene: Scene) -> None:
     would have to start on a disk covering the scene, which is not implemented yet.
     """
     for light in scene.emitters:
-        if light.kind not in LIGHT_PATH_EMITTERS:
+        if not light.starts_light_paths:
             raise ValueError(f"light tracing does not support {light.kind} emitters yet "
                              f"(supported: {', '.join(LIGHT_PATH_EMITTERS)})")
 
@@ -274,11 +243,8 @@ def sample_emitter_position(scene: Scene, u_choice: np.ndarray,
     for e in np.unique(which):
         rows = np.flatnonzero(which == e)
         light = scene.emitters[e]
-        if light.kind in ("point", "spot"):
-            out.p[rows], out.pdf[rows], out.delta[rows] = light.position, 1.0, True
-            continue
-        out.p[rows], out.n[rows] = _uniform_area_point(scene, light.shape, u[rows])
-        out.pdf[rows] = 1.0 / scene.shape_area[light.shape]
+        out.p[rows], out.n[rows], out.pdf[rows] = light.sample_position(scene, u[rows])
+        out.delta[rows] = light.delta_position
     out.pdf /= scene.num_emitters
     return out
 
@@ -298,17 +264,7 @@ def sample_emitter_ray(scene: Scene, u_choice: np.ndarray, u_pos: np.ndarray,
     for e in np.unique(position.emitter):
         rows = np.flatnonzero(position.emitter == e)
         light = scene.emitters[e]
-        if light.kind == "area":
-            d[rows] = to_world(square_to_cosine_hemisphere(u_dir[rows]), position.n[rows])
-            pdf_dir[rows] = square_to_cosine_hemisphere_pdf(to_local(d[rows], position.n[rows]))
-            weight[rows] = light.radiance * np.pi
-        elif light.kind == "point":
-            d[rows] = square_to_uniform_sphere(u_dir[rows])
-            pdf_dir[rows] = 1.0 / (4.0 * np.pi)
-            weight[rows] = light.intensity * (4.0 * np.pi)
-        else:
-            d[rows], pdf_dir[rows] = _spot_direction(light, u_dir[rows])
-            weight[rows] = light.intensity * (light.falloff(d[rows]) / pdf_dir[rows])[:, None]
+        d[rows], pdf_dir[rows], weight[rows] = light.sample_ray_direction(position.n[rows], u_dir[rows])
     # Area lights: Le cos / (pdf_pos pdf_dir) = Le pi / pdf_pos; Dirac ones: / (1 / N).
     weight /= position.pdf[:, None]
     return EmitterRay(position, d, pdf_dir, weight)
@@ -319,14 +275,7 @@ def pdf_emitter_ray(scene: Scene, position: EmitterPosition, d: np.ndarray) -> n
     pdf = np.zeros(len(d))
     for e in np.unique(position.emitter):
         rows = np.flatnonzero(position.emitter == e)
-        light = scene.emitters[e]
-        if light.kind == "area":
-            pdf[rows] = np.maximum(dot(d[rows], position.n[rows]), 0.0) / np.pi
-        elif light.kind == "point":
-            pdf[rows] = 1.0 / (4.0 * np.pi)
-        else:
-            local = normalize(d[rows] @ light.to_local.T)
-            pdf[rows] = square_to_uniform_cone_pdf(local, np.cos(light.cutoff_angle))
+        pdf[rows] = scene.emitters[e].pdf_ray_direction(position.n[rows], d[rows])
     return pdf
 
 
@@ -338,14 +287,7 @@ def emitted_towards(scene: Scene, position: EmitterPosition, d: np.ndarray) -> n
     out = np.zeros((len(d), 3))
     for e in np.unique(position.emitter):
         rows = np.flatnonzero(position.emitter == e)
-        light = scene.emitters[e]
-        if light.kind == "area":
-            front = dot(d[rows], position.n[rows]) > 0
-            out[rows] = np.where(front[:, None], light.radiance, 0.0)
-        elif light.kind == "point":
-            out[rows] = light.intensity
-        else:
-            out[rows] = light.intensity * light.falloff(d[rows])[:, None]
+        out[rows] = scene.emitters[e].eval_towards(position.n[rows], d[rows])
     return out
 
 
@@ -360,7 +302,7 @@ def emitter_position_at(scene: Scene, hit) -> EmitterPosition:
     pdf = np.zeros(len(which))
     on_light = which >= 0
     if on_light.any():
-        area = np.array([scene.shape_area[e.shape] if e.kind == "area" else np.inf
+        area = np.array([scene.shape_area[e.shape] if e.on_surface else np.inf
                          for e in scene.emitters])
         pdf[on_light] = 1.0 / (area[which[on_light]] * scene.num_emitters)
     return EmitterPosition(hit.p, hit.sh_n, which, pdf, np.zeros(len(which), dtype=bool))

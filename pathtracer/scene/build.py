@@ -11,16 +11,15 @@ import warnings
 
 import numpy as np
 
-from ..emitters.area import build_area
-from ..emitters.constant import _build_constant
-from ..emitters.directional import _build_directional
-from ..emitters.envmap import _build_envmap
-from ..emitters.point import _build_point
-from ..emitters.spot import _build_spot
+# A plugin package registers its plugins when imported (pathtracer.scene.registry).
+from .. import emitters as _emitter_plugins  # noqa: F401
+from .. import media as _medium_plugins  # noqa: F401
+from .. import sensors as _sensor_plugins  # noqa: F401
+from ..emitters.base import Emitter
 from ..io import meshes
-from ..media.homogeneous import HomogeneousMedium, build_medium
-from ..sensors.perspective_sensor import build_sensor
-from ..sensors.sampler import _sampler
+from ..media.homogeneous import HomogeneousMedium
+from ..sensors.perspective_sensor import Camera
+from ..sensors.sampler import build_sampler
 from ..shapes import instances
 from . import transform
 from .properties import (
@@ -33,7 +32,7 @@ from .properties import (
     search_folders,
     unsupported,
 )
-from .registry import register
+from .registry import factory, register
 from .types import IntegratorSpec, Scene
 from .xml import Plugin
 
@@ -639,18 +638,35 @@ def _add_cylinder(plugin, props, geo, shape_id, m, flip, emitters) -> None:
 
 # -- emitters, sensor, integrator -----------------------------------------
 
-def build_emitter(plugin: Plugin, folders: list[str] = (".",)):
-    """A top-level ``point``, ``spot``, ``directional``, ``constant`` or ``envmap`` emitter."""
+def build_emitter(plugin: Plugin, folders: list[str] = (".",), shape: int | None = None) -> Emitter:
+    """The emitter of an ``<emitter>`` element: a top-level one, or (``shape`` given) the area
+    emitter of the shape of that index.
+
+    An emitter's factory is called as ``create(props, folders, shape)``: its :class:`Props`
+    (read by the factory, checked here when it returns), where files are looked up, and the
+    shape index (None at the top level).
+    """
+    if shape is not None and plugin.type != "area":
+        raise plugin.error("only an area emitter can be nested in a shape")
     props = Props(plugin)
-    builders = {"point": _build_point, "spot": _build_spot, "directional": _build_directional,
-                "constant": _build_constant, "envmap": _build_envmap}
-    if plugin.type not in builders:
+    create = factory("emitter", plugin.type)
+    if create is None:
         raise unsupported(plugin, "emitter")
-    if plugin.type != "spot":
-        children(plugin, {})
-    result = builders[plugin.type](plugin, props, folders)
+    result = create(props, folders, shape)
     props.finish()
     return result
+
+
+def build_sensor(plugin: Plugin, resolution: tuple[int, int] | None = None,
+                 spp: int | None = None) -> tuple[Camera, int, int]:
+    """The camera of the ``<sensor>``, with the film resolution and the sampler's sample count
+    and seed: its factory is called as ``create(plugin, resolution, spp)``, ``resolution``
+    (width, height) and ``spp`` replacing the file's when given."""
+    create = factory("sensor", plugin.type)
+    if create is None:
+        raise unsupported(plugin, "sensor")
+    return create(plugin, resolution, spp)
+
 
 def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
     """Name and parameters of the ``<integrator>`` (``path`` when absent)."""
@@ -780,7 +796,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     media = MediaTable()
     shape_media = []
     for plugin in kids["sampler"]:   # top-level samplers: referenced by a sensor, or unused
-        _sampler(plugin)
+        build_sampler(plugin)
     geo = _Geometry()
     bsdf_objects, bsdf_index, textures = [], {}, {}
     emitters, environment = [], None
@@ -816,7 +832,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         shape_bsdf.append(bsdf_id(bsdf_plugin, emitter=emitter_plugin is not None))
         if emitter_plugin is not None:
             _attach(emitter_plugin, plugin, attached)
-            emitters.append(build_area(emitter_plugin, shape_id))
+            emitters.append(build_emitter(emitter_plugin, folders, shape_id))
             shape_emitter.append(len(emitters) - 1)
         else:
             shape_emitter.append(-1)
@@ -825,7 +841,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
             _unattached_area(plugin, attached)
             continue
         emitter = build_emitter(plugin, folders)
-        if emitter.kind in ("constant", "envmap"):
+        if emitter.environment:
             if environment is not None:
                 raise plugin.error("at most one environment emitter (constant or envmap) "
                                    "is allowed, as in Mitsuba")
@@ -874,7 +890,12 @@ SHAPE_MEDIUM_NAMES = ("interior", "exterior")
 
 
 class MediaTable:
-    """The scene's media, each built once per ``<medium>`` element (shared by ``<ref>``)."""
+    """The scene's media, each built once per ``<medium>`` element (shared by ``<ref>``).
+
+    A shape takes the media on its two sides as ``<medium name="interior">`` /
+    ``name="exterior"`` (nested or ``<ref id=".." name=".."/>``); the sensor takes one
+    medium, the one the camera sits in. A medium's factory is called as ``create(plugin)``.
+    """
 
     def __init__(self):
         self.media: list[HomogeneousMedium] = []
@@ -906,6 +927,14 @@ class MediaTable:
         """The medium the camera is in, -1 for vacuum."""
         media = [c for c in sensor.children if c.kind == "medium"]
         return self.index(media[0]) if media else -1
+
+
+def build_medium(plugin: Plugin) -> HomogeneousMedium:
+    """The participating medium of a ``<medium>`` element."""
+    create = factory("medium", plugin.type)
+    if create is None:
+        raise unsupported(plugin, "medium")
+    return create(plugin)
 
 
 def _media_fields(media, shape_media: list, camera_medium: int) -> dict:

@@ -12,7 +12,7 @@ import os
 import numpy as np
 
 from . import spectra
-from .registry import factory
+from .registry import factory, names
 from .xml import Plugin
 
 SUPPORTED = {
@@ -21,13 +21,9 @@ SUPPORTED = {
     "bsdf": ("diffuse", "twosided", "conductor", "roughconductor", "dielectric",
              "thindielectric", "roughdielectric", "plastic", "roughplastic", "null", "blendbsdf",
              "mask", "bumpmap", "normalmap"),
-    "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
-    "sensor": ("perspective",),
     "integrator": ("path", "direct", "ptracer", "recursive", "path_bsdf", "path_nee", "smallpt",
                    "light", "volpath", "volpath_phase", "bdpt"),
     "texture": ("bitmap", "checkerboard", "rawconstant"),
-    "medium": ("homogeneous",),
-    "phase": ("isotropic", "hg"),
 }
 # Media and phase functions of Mitsuba 3 refused, with the reason.
 NOT_IMPLEMENTED_MEDIA = {
@@ -255,7 +251,9 @@ def unsupported(plugin: Plugin, what: str) -> Exception:
         return plugin.error(f"shape \"{plugin.type}\" is not implemented in this tracer "
                             f"({NOT_IMPLEMENTED_SHAPES[plugin.type]}); it is valid in Mitsuba's "
                             "RGB variants, so the scene cannot be compared")
-    return plugin.error(f"unsupported {what} (supported: {', '.join(SUPPORTED[plugin.kind])})")
+    # The kinds that register their plugins list what registered (the others, SUPPORTED).
+    supported = SUPPORTED[plugin.kind] if plugin.kind in SUPPORTED else names(plugin.kind)
+    return plugin.error(f"unsupported {what} (supported: {', '.join(supported)})")
 
 
 def build_texture(plugin: Plugin, folders: list[str], cache: dict):

@@ -85,9 +85,8 @@ class Scene:
     bsdfs : list
         BSDF objects from :mod:`pathtracer.bsdfs`.
     emitters : list
-        :class:`AreaEmitter`, :class:`PointEmitter`, :class:`SpotEmitter`,
-        :class:`DirectionalEmitter`, :class:`ConstantEmitter`,
-        :class:`pathtracer.envmap.EnvironmentMap`.
+        The :class:`pathtracer.emitters.base.Emitter` s: area, point, spot, directional,
+        constant and envmap lights (one module each in :mod:`pathtracer.emitters`).
     environment : ConstantEmitter, EnvironmentMap or None
         The environment emitter (``constant`` or ``envmap``), if any (at most one is allowed).
     camera : Camera

@@ -1,4 +1,4 @@
-"""Mitsuba's ``hdrfilm`` reconstruction filters: ``box``, ``tent`` and ``gaussian``.
+"""Mitsuba's ``hdrfilm`` and its reconstruction filters: ``box``, ``tent`` and ``gaussian``.
 
 A camera sample at film position ``(x, y)`` (pixels; pixel ``(i, j)`` spans
 ``[i, i + 1) x [j, j + 1)`` and has its centre at ``(i + 0.5, j + 0.5)``) adds
@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene.properties import VARIANT_ONLY, Props, children, unsupported
+from ..scene.registry import factory, names, register
 from ..scene.xml import Plugin
 
 #: Filters the film accepts, with their parameter and its default.
@@ -215,14 +216,21 @@ def tile_design_effect(rfilter: ReconstructionFilter, tile: int) -> float:
     return per_axis * per_axis
 
 
-def _rfilter(plugin: Plugin | None) -> ReconstructionFilter:
+def build_rfilter(plugin: Plugin | None) -> ReconstructionFilter:
     """The film's ``<rfilter>``: box, tent or gaussian (Mitsuba's default when absent)."""
     if plugin is None:
         return ReconstructionFilter.make("gaussian")
-    if plugin.type not in FILTER_PARAMS:
+    create = factory("rfilter", plugin.type)
+    if create is None:
         raise plugin.error(f"unsupported reconstruction filter \"{plugin.type}\" (supported: "
-                           "box, tent, gaussian; Mitsuba's lanczos and mitchell have negative "
-                           "lobes, not implemented here)")
+                           f"{', '.join(names('rfilter'))}; Mitsuba's lanczos and mitchell have "
+                           "negative lobes, not implemented here)")
+    return create(plugin)
+
+
+@register("rfilter", *FILTER_PARAMS)
+def create_rfilter(plugin: Plugin) -> ReconstructionFilter:
+    """A filter of :data:`FILTER_PARAMS` with its parameter (the box's radius must be 0.5)."""
     props = Props(plugin)
     children(plugin, {})
     name, default = FILTER_PARAMS[plugin.type]
@@ -236,14 +244,23 @@ def _rfilter(plugin: Plugin | None) -> ReconstructionFilter:
     return ReconstructionFilter.make(plugin.type, value)
 
 
-def _film(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
+def build_film(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
+    """``(width, height, rfilter)`` of a sensor's ``<film>``."""
     if plugin.type in VARIANT_ONLY:
         raise unsupported(plugin, "film")
-    if plugin.type != "hdrfilm":
-        raise plugin.error("unsupported film (supported: hdrfilm)")
+    create = factory("film", plugin.type)
+    if create is None:
+        raise plugin.error(f"unsupported film (supported: {', '.join(names('film'))})")
+    return create(plugin)
+
+
+@register("film", "hdrfilm")
+def create_hdrfilm(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
+    """``width`` (768), ``height`` (576) and the ``<rfilter>``; crops and a sample border
+    (with a filter wider than the box) are refused, storage formats accepted."""
     props = Props(plugin)
     filters = children(plugin, {"rfilter": 1})["rfilter"]
-    rfilter = _rfilter(filters[0] if filters else None)
+    rfilter = build_rfilter(filters[0] if filters else None)
     width, height = props.int("width", 768), props.int("height", 576)
     if width <= 0 or height <= 0:
         raise plugin.error("film width and height must be positive")

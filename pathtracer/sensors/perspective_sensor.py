@@ -12,10 +12,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene import transform
-from ..scene.properties import Props, children, unsupported
+from ..scene.properties import Props, children
+from ..scene.registry import register
 from ..scene.xml import Plugin
-from .film import BOX, ReconstructionFilter, _film
-from .sampler import _sampler
+from .film import BOX, ReconstructionFilter, build_film
+from .sampler import build_sampler
 
 
 @dataclass
@@ -35,7 +36,7 @@ class Camera:
     width, height : int
         Film resolution in pixels; row 0 is the top of the image.
     rfilter : ReconstructionFilter
-        The film's reconstruction filter (:mod:`pathtracer.film`).
+        The film's reconstruction filter (:mod:`pathtracer.sensors.film`).
     """
 
     to_world: np.ndarray
@@ -73,23 +74,22 @@ def x_fov_from(fov: float, axis: str, aspect: float) -> float:
     raise ValueError(f"fov_axis must be x, y, diagonal, smaller or larger, not \"{axis}\"")
 
 
-def build_sensor(plugin: Plugin, resolution: tuple[int, int] | None = None,
-                 spp: int | None = None) -> tuple[Camera, int, int]:
+@register("sensor", "perspective")
+def create(plugin: Plugin, resolution: tuple[int, int] | None = None,
+           spp: int | None = None) -> tuple[Camera, int, int]:
     """The perspective camera, with the film resolution and sampler settings.
 
     ``resolution`` (width, height) and ``spp`` replace the file's film size and
     sample count whatever it says; the field of view is then converted with the new
     aspect, as Mitsuba does for a film of that size (``fov_axis`` keeps its meaning).
     """
-    if plugin.type != "perspective":
-        raise unsupported(plugin, "sensor")
     props = Props(plugin)
     kids = children(plugin, {"film": 1, "sampler": 1, "medium": 1})
     if kids["film"]:
-        width, height, rfilter = _film(kids["film"][0])
+        width, height, rfilter = build_film(kids["film"][0])
     else:   # Mitsuba's default film
         width, height, rfilter = 768, 576, ReconstructionFilter.make("gaussian")
-    spp_file, seed = _sampler(kids["sampler"][0]) if kids["sampler"] else (4, 0)
+    spp_file, seed = build_sampler(kids["sampler"][0]) if kids["sampler"] else (4, 0)
     if resolution is not None:
         width, height = (int(v) for v in resolution)
     spp = spp_file if spp is None else int(spp)

@@ -1,26 +1,37 @@
-"""Mitsuba's samplers: the sample count and seed of a ``<sampler>``."""
+"""Mitsuba's samplers: the sample count and seed of a ``<sampler>``.
+
+Every Mitsuba sampler draws uniform samples whose expectation is the same image; this tracer
+draws independent ones whatever the type, and says so once per type
+(:func:`_warn_sampler`).
+"""
 from __future__ import annotations
 
 import warnings
 
 from ..core.rng import SEED_MAX
 from ..scene.properties import VARIANT_ONLY, Props, children, unsupported
+from ..scene.registry import factory, names, register
 from ..scene.xml import Plugin
 
-# Mitsuba's samplers and their parameters besides sample_count and seed. Every one draws
-# uniform samples whose expectation is the same image; the tracer uses independent ones.
+#: Mitsuba's samplers and their parameters besides sample_count and seed.
 SAMPLER_PARAMS = {"independent": (), "stratified": ("jitter",), "multijitter": ("jitter",),
                   "orthogonal": ("jitter", "strength"), "ldsampler": ()}
-
-
 _warned_samplers: set = set()
 
 
-def _sampler(plugin: Plugin) -> tuple[int, int]:
+def build_sampler(plugin: Plugin) -> tuple[int, int]:
+    """``(sample_count, seed)`` of a ``<sampler>`` (a sensor's or a top-level one)."""
     if plugin.type in VARIANT_ONLY:
         raise unsupported(plugin, "sampler")
-    if plugin.type not in SAMPLER_PARAMS:
-        raise plugin.error(f"unsupported sampler (supported: {', '.join(SAMPLER_PARAMS)})")
+    create = factory("sampler", plugin.type)
+    if create is None:
+        raise plugin.error(f"unsupported sampler (supported: {', '.join(names('sampler'))})")
+    return create(plugin)
+
+
+@register("sampler", *SAMPLER_PARAMS)
+def create(plugin: Plugin) -> tuple[int, int]:
+    """``sample_count`` (4) and ``seed`` (0); the type's own parameters are accepted and unused."""
     props = Props(plugin)
     children(plugin, {})
     props.ignore(*SAMPLER_PARAMS[plugin.type])
@@ -45,4 +56,4 @@ def _warn_sampler(plugin: Plugin) -> None:
                   "independent samples (same expected image); mitsuba-refs renders its reference "
                   f"with an independent sampler too, because {plugin.type} sampling has a lower "
                   "per-pixel variance than the comparison's independent-sample statistics assume",
-                  stacklevel=4)
+                  stacklevel=5)
