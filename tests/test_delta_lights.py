@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from pathtracer import load_scene
-from pathtracer.emitters.dispatch import pdf_emitter_direction, sample_emitter
+from pathtracer.emitters.scene_emitters import pdf_emitter_direction, sample_emitter
 from pathtracer.scene.errors import SceneError
 from pathtracer.shapes.intersect import Hit, intersect
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from pathtracer import load_scene
-from pathtracer.emitters.dispatch import pdf_emitter_direction, sample_emitter
+from pathtracer.emitters.scene_emitters import pdf_emitter_direction, sample_emitter
 from pathtracer.scene.load import builtin_scene_path
 from pathtracer.shapes.intersect import Hit, intersect
 from tests.chi2 import chi2_sphere

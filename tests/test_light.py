@@ -14,7 +14,7 @@ from pathtracer.bsdfs.roughdielectric import RoughDielectric
 from pathtracer.bsdfs.shading import importance_scale
 from pathtracer.cli import main
 from pathtracer.core.sampling import square_to_uniform_sphere
-from pathtracer.emitters.dispatch import EmitterPosition, emitted_towards, pdf_emitter_ray, sample_emitter_ray
+from pathtracer.emitters.scene_emitters import EmitterPosition, emitted_towards, pdf_emitter_ray, sample_emitter_ray
 from pathtracer.sensors.importance import connect_to_camera, pdf_camera
 from pathtracer.sensors.perspective import camera_rays
 from tests.chi2 import chi2_sphere

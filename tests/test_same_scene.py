@@ -19,9 +19,9 @@ from mitsuba_refs.batch import SampleStatistics, copies_per_call
 from mitsuba_refs.cache import _identity, reference_key, reference_stem
 from pathtracer import SceneError, load_scene
 from pathtracer.render.driver import integrator_for
-from pathtracer.scene.build import x_fov_from
 from pathtracer.scene.load import parse_resolution
 from pathtracer.scene.settings import scene_settings
+from pathtracer.sensors.perspective_sensor import x_fov_from
 from tests.budget import ALPHA
 
 SCENE = Path(__file__).resolve().parent / "data" / "literal_depth.xml"

@@ -10,9 +10,9 @@ import pytest
 
 from pathtracer.io.meshes import read_obj, read_ply, smooth_vertex_normals
 from pathtracer.scene import transform
-from pathtracer.scene.build import x_fov_from
 from pathtracer.scene.errors import SceneError
 from pathtracer.scene.load import load_scene
+from pathtracer.sensors.perspective_sensor import x_fov_from
 
 DATA = os.path.join(os.path.dirname(__file__), "data")
 

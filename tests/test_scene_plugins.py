@@ -118,8 +118,8 @@ def test_stratified_sampler_by_reference_renders_independently(tmp_path):
     path = tmp_path / "scene.xml"
     sensor = SENSOR.format(sampler='<ref id="s"/>')
     path.write_text(f'<scene version="3.0.0">{body}{sensor}{CYLINDERS}</scene>')
-    from pathtracer.scene import build
-    build._warned_samplers.discard("stratified")
+    from pathtracer.sensors import sampler
+    sampler._warned_samplers.discard("stratified")
     with pytest.warns(UserWarning, match="independent sampler too"):
         scene = load_scene(str(path))
     assert scene.spp == 9

@@ -14,7 +14,7 @@ frame; ``to_world`` rotates it into the scene):
 
 Importance sampling: the vertex grid of that interpolant (W + 1 columns,
 the first repeated at the end, H rows) weighted by the luminance of each
-pixel times :math:`\sin\theta` of its row is a :class:`~pathtracer.sampling.Distribution2D`;
+pixel times :math:`\sin\theta` of its row is a :class:`~pathtracer.core.sampling.Distribution2D`;
 a sampled :math:`(x, y)` maps to :math:`(u, v) = (x + \tfrac{1}{2W}, y)` and the
 solid-angle density is :math:`p(x, y) / (2 \pi^2 \sin\theta)`, where
 :math:`d\omega = 2\pi^2 \sin\theta\, du\, dv`.
@@ -23,15 +23,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.color import LUMINANCE
 from ..core.sampling import Distribution2D
+from ..io.bitmap import BitmapError, read_bitmap
+from ..scene.properties import children, find_file
+from ..scene.registry import register
+from .base import EnvironmentEmitter, rotation_only
 
-#: Rec. 709 / sRGB luminance weights (Mitsuba's ``luminance``).
-LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
 #: Floor on sin(theta) in the density (Mitsuba's: float32 epsilon).
 SIN_THETA_MIN = 2.0 ** -24
 
 
-class EnvironmentMap:
+class EnvironmentMap(EnvironmentEmitter):
     """Environment emitter with a latitude-longitude radiance image.
 
     Parameters
@@ -136,3 +139,33 @@ def _compensation_offset(luminance: np.ndarray) -> float:
     """Mean luminance of the pixels, or 0 when it is within 1 % of the minimum (a flat map)."""
     mean = float(luminance.mean())
     return 0.0 if mean - float(luminance.min()) <= 0.01 * mean else mean
+
+
+@register("emitter", "envmap")
+def create(props, folders, shape):
+    """``filename`` (looked up in ``folders``), ``scale``, ``to_world`` (a rotation) and
+    ``mis_compensation``."""
+    plugin = props.plugin
+    children(plugin, {})
+    if props.has("bitmap"):
+        raise plugin.error("\"bitmap\" (a Bitmap object) exists only in Python dictionaries; "
+                           "give a filename", props.line("bitmap"))
+    if not props.has("filename"):
+        raise plugin.error("missing <string name=\"filename\"> (the latitude-longitude image)")
+    filename = props.string("filename", None)
+    path = find_file(plugin, props, "filename", folders)
+    try:
+        image = read_bitmap(path)
+    except BitmapError as error:
+        raise plugin.error(str(error), props.line("filename")) from None
+    if image.shape[2] == 1:
+        image = np.repeat(image, 3, axis=2)
+    if image.shape[1] < 2 or image.shape[0] < 3:
+        raise plugin.error(f"\"{filename}\": an environment map needs at least 2x3 pixels, "
+                           f"got {image.shape[1]}x{image.shape[0]}", props.line("filename"))
+    if not np.all(np.isfinite(image)) or np.any(image < 0):
+        raise plugin.error(f"\"{filename}\": radiance must be finite and non-negative",
+                           props.line("filename"))
+    return EnvironmentMap(image, scale=props.float("scale", 1.0),
+                          to_world=rotation_only(props),
+                          mis_compensation=props.bool("mis_compensation", False))

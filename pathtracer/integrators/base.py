@@ -45,7 +45,7 @@ import numpy as np
 
 from ..bsdfs.shading import eval_bsdf, has_smooth
 from ..core.vec import max_component, scale, select, unscale
-from ..emitters.dispatch import emitted_radiance, hit_emitter, sample_emitter
+from ..emitters.scene_emitters import emitted_radiance, hit_emitter, sample_emitter
 from ..scene.types import Scene
 from ..sensors.perspective import Rays
 

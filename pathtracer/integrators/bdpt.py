@@ -81,7 +81,7 @@ import numpy as np
 
 from ..bsdfs.shading import eval_bsdf, has_smooth, sample_bsdf
 from ..core.vec import dot
-from ..emitters.dispatch import (
+from ..emitters.scene_emitters import (
     EmitterPosition,
     emitted_radiance,
     emitted_towards,

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..bsdfs.shading import sample_bsdf
 from ..core.sampling import power_heuristic
-from ..emitters.dispatch import emitted_radiance, pdf_emitter_direction
+from ..emitters.scene_emitters import emitted_radiance, pdf_emitter_direction
 from ..scene.registry import register
 from .base import CameraIntegrator, spawn, subset_hit, trace
 

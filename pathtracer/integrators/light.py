@@ -34,7 +34,7 @@ import numpy as np
 
 from ..bsdfs.shading import eval_bsdf, sample_bsdf
 from ..core.vec import dot
-from ..emitters.dispatch import emitted_towards, sample_emitter_position, sample_emitter_ray, shadowed
+from ..emitters.scene_emitters import emitted_towards, sample_emitter_position, sample_emitter_ray, shadowed
 from ..scene.registry import register
 from ..sensors.importance import connect_to_camera
 from ..sensors.perspective import Rays

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..bsdfs.shading import sample_bsdf
 from ..core.sampling import power_heuristic
-from ..emitters.dispatch import pdf_emitter_direction
+from ..emitters.scene_emitters import pdf_emitter_direction
 from ..scene.registry import register
 from .base import CameraIntegrator
 from .wavefront import refills

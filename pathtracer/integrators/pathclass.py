@@ -26,7 +26,7 @@ import numpy as np
 from ..bsdfs.shading import sample_bsdf
 from ..core.pathclasses import LETTER, _parse_glossy, bsdf_letters, compile_classes
 from ..core.sampling import power_heuristic
-from ..emitters.dispatch import pdf_emitter_direction
+from ..emitters.scene_emitters import pdf_emitter_direction
 from .base import CameraIntegrator
 
 _L, _E = LETTER["L"], LETTER["E"]

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..bsdfs.shading import eval_bsdf, has_smooth
 from ..core.sampling import power_heuristic
-from ..emitters.dispatch import emitted_radiance, pdf_emitter_direction, sample_emitter
+from ..emitters.scene_emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
 from ..media.homogeneous import next_medium, phase_eval, phase_sample, samples_emitters, shadow_transmittance
 from ..scene.registry import register
 from .base import subset_hit

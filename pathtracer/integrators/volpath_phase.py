@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs.shading import sample_bsdf
-from ..emitters.dispatch import emitted_radiance
+from ..emitters.scene_emitters import emitted_radiance
 from ..media.homogeneous import next_medium, null_event, phase_sample, sample_free_flight
 from ..scene.registry import register
 from .base import subset_hit

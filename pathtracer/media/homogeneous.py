@@ -5,7 +5,7 @@ or surrounds the camera. Inside it light is absorbed and out-scattered at the
 rate :math:`\sigma_t` (extinction, per unit length) and in-scattered at
 :math:`\sigma_s = \alpha\,\sigma_t` (:math:`\alpha` the single-scattering
 albedo), with the direction chosen by the medium's phase function
-(:mod:`pathtracer.phase`). Transmittance over a distance :math:`t` is
+(:mod:`pathtracer.media.phase`). Transmittance over a distance :math:`t` is
 :math:`T(t) = e^{-\sigma_t t}`, per RGB channel.
 
 Free-flight sampling, as Mitsuba 3.9.1's ``volpath`` does it in RGB
@@ -55,9 +55,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.vec import dot
+from ..scene.properties import Props, children
+from ..scene.registry import register
 from ..scene.types import Scene
-from ..shapes import intersect as geometry
-from .phase import IsotropicPhase
+from ..scene.xml import Plugin
+from ..shapes import intersect
+from .phase import IsotropicPhase, build_phase
 
 
 @dataclass
@@ -193,7 +196,7 @@ def null_transmission(scene: Scene, hit, d: np.ndarray) -> np.ndarray:
             continue
         rows = np.flatnonzero(ids == b)
         if bsdf.textured:
-            bsdf = bsdf.at(geometry.texture_uv(scene, hit, rows))
+            bsdf = bsdf.at(intersect.texture_uv(scene, hit, rows))
         out[rows] = bsdf.eval_null_transmission(dot(hit.sh_n[rows], d[rows]))
     return out
 
@@ -246,12 +249,12 @@ def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndar
     o, d, remaining = np.empty_like(p), wo.copy(), np.full(count, np.inf)
     if finite.any():
         target = p[finite] + wo[finite] * dist[finite, None]
-        o[finite], d[finite], remaining[finite] = geometry.spawn_ray_to(p[finite], n[finite], target)
-    o[~finite] = geometry.offset_p(p[~finite], n[~finite], wo[~finite])
+        o[finite], d[finite], remaining[finite] = intersect.spawn_ray_to(p[finite], n[finite], target)
+    o[~finite] = intersect.offset_p(p[~finite], n[~finite], wo[~finite])
     rows = np.arange(count)
     medium = medium.copy()
     for k in range(MAX_CROSSINGS):
-        hit = geometry.intersect(scene, o, d, remaining)
+        hit = intersect.intersect(scene, o, d, remaining)
         t_surface = np.where(hit.valid, hit.t, remaining)
         rng.counter = counter + k
         flight = sample_free_flight(scene, medium, channel, t_surface, rng.next_1d())
@@ -266,7 +269,7 @@ def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndar
         hit_k = _take(hit, keep)
         rows, d, channel = rows[keep], d[keep], channel[keep]
         medium = next_medium(scene, hit_k, medium[keep], d)
-        o = geometry.offset_p(hit_k.p, hit_k.n, d)
+        o = intersect.offset_p(hit_k.p, hit_k.n, d)
         remaining = remaining[keep] - hit_k.t
         rng = rng.subset(keep)
     result[rows] = 0.0   # more crossings than any sensible scene has: give up (counted)
@@ -279,3 +282,55 @@ MAX_CROSSINGS = 256
 
 def _take(hit, rows):
     return type(hit)(**{k: np.take(v, rows, axis=0) for k, v in vars(hit).items()})
+
+
+@register("medium", "homogeneous")
+def create(plugin: Plugin) -> HomogeneousMedium:
+    """The :class:`HomogeneousMedium` of a ``<medium type="homogeneous">`` element.
+
+    Mitsuba 3's ``homogeneous`` medium takes ``sigma_t`` (extinction) and
+    ``albedo`` (single-scattering albedo), each a ``<float>``, an ``<rgb>`` or a
+    ``<spectrum>``, and ``scale`` multiplying ``sigma_t``. An ``<rgb>`` sigma_t must
+    lie in [0, 1] (Mitsuba reads it as a reflectance); larger extinctions are
+    written with ``scale``. ``sigma_a`` / ``sigma_s`` are Mitsuba 0.6's parameters,
+    which Mitsuba 3 refuses; the error says the equivalent ``sigma_t`` and ``albedo``.
+    """
+    props = Props(plugin)
+    kids = children(plugin, {"phase": 1})
+    if props.has("sigma_a") or props.has("sigma_s"):
+        raise _mitsuba06_coefficients(plugin, props)
+    sigma_t = props.color("sigma_t", 1.0)
+    if props.has("sigma_t") and plugin.props["sigma_t"].tag == "rgb" and not np.all(
+            (sigma_t >= 0) & (sigma_t <= 1)):
+        raise plugin.error("an <rgb> sigma_t must lie in [0, 1] (Mitsuba reads it as a "
+                           "reflectance); give the extinction's colour there and its "
+                           "magnitude in <float name=\"scale\">", props.line("sigma_t"))
+    if not np.all(sigma_t >= 0):
+        raise plugin.error("sigma_t must be >= 0", props.line("sigma_t"))
+    albedo = props.reflectance("albedo", 0.75)
+    scale = props.float("scale", 1.0)
+    if not (np.isfinite(scale) and scale >= 0):
+        raise plugin.error(f"scale must be a finite number >= 0, got {scale}", props.line("scale"))
+    sample_emitters = props.bool("sample_emitters", True)
+    if not props.bool("has_spectral_extinction", True) and np.ptp(sigma_t) > 0:
+        raise plugin.error("has_spectral_extinction=false with a coloured sigma_t is not "
+                           "supported (Mitsuba then samples distances with the wrong "
+                           "weights); leave it true", props.line("has_spectral_extinction"))
+    props.finish()
+    phase = build_phase(kids["phase"][0]) if kids["phase"] else IsotropicPhase()
+    return HomogeneousMedium(sigma_t * scale, albedo, phase, sample_emitters,
+                             name=f"homogeneous ({plugin.file}:{plugin.line})")
+
+
+def _mitsuba06_coefficients(plugin: Plugin, props: Props):
+    """The error for Mitsuba 0.6's sigma_a / sigma_s, with the Mitsuba 3 equivalent."""
+    name = "sigma_a" if props.has("sigma_a") else "sigma_s"
+    text = ""
+    if props.has("sigma_a") and props.has("sigma_s"):
+        sigma_a, sigma_s = props.color("sigma_a", 0.0, "unbounded"), props.color("sigma_s", 0.0, "unbounded")
+        total = sigma_a + sigma_s
+        albedo = np.where(total > 0, sigma_s / np.where(total > 0, total, 1), 0)
+        text = (f": sigma_t = sigma_a + sigma_s = {', '.join(f'{v:g}' for v in total)}, "
+                f"albedo = sigma_s / sigma_t = {', '.join(f'{v:.6g}' for v in albedo)}")
+    return plugin.error(f"\"{name}\" is Mitsuba 0.6's; Mitsuba 3's homogeneous medium takes "
+                        f"sigma_t and albedo{text}", props.line(name))

@@ -21,6 +21,9 @@ import numpy as np
 
 from ..core.sampling import INV_FOUR_PI, square_to_uniform_sphere
 from ..core.vec import dot, to_world
+from ..scene.properties import Props, children, unsupported
+from ..scene.registry import factory, register
+from ..scene.xml import Plugin
 
 
 class IsotropicPhase:
@@ -75,3 +78,32 @@ class HenyeyGreensteinPhase:
         local = np.stack((sin_dev * np.cos(phi), sin_dev * np.sin(phi), cos_dev), axis=1)
         wo = to_world(local, -wi)
         return wo, self.value(-cos_dev)
+
+
+def build_phase(plugin: Plugin):
+    """The phase function of a ``<phase>`` element (a medium's)."""
+    create = factory("phase", plugin.type)
+    if create is None:
+        raise unsupported(plugin, "phase function")
+    return create(plugin)
+
+
+@register("phase", "isotropic")
+def create_isotropic(plugin: Plugin) -> IsotropicPhase:
+    """No parameters."""
+    props = Props(plugin)
+    children(plugin, {})
+    props.finish()
+    return IsotropicPhase()
+
+
+@register("phase", "hg")
+def create_hg(plugin: Plugin) -> HenyeyGreensteinPhase:
+    """``g`` (0.8), in (-1, 1)."""
+    props = Props(plugin)
+    children(plugin, {})
+    g = props.float("g", 0.8)
+    if not -1.0 < g < 1.0:
+        raise plugin.error(f"g must lie in (-1, 1), got {g}", props.line("g"))
+    props.finish()
+    return HenyeyGreensteinPhase(g)

@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from ..core.rng import RandomStream, sample_keys
-from ..emitters.dispatch import check_light_paths
+from ..emitters.scene_emitters import check_light_paths
 from .moments import add_sample
 from .result import RenderResult
 from .scheduling import DEFAULT_BATCH, run_units

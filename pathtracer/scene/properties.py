@@ -15,12 +15,6 @@ from . import spectra
 from .registry import factory, names
 from .xml import Plugin
 
-SUPPORTED = {
-    "emitter": ("area", "point", "spot", "directional", "constant", "envmap"),
-    "sensor": ("perspective",),
-    "medium": ("homogeneous",),
-    "phase": ("isotropic", "hg"),
-}
 # Media and phase functions of Mitsuba 3 refused, with the reason.
 NOT_IMPLEMENTED_MEDIA = {
     "heterogeneous": "heterogeneous (grid volume) media are not implemented: only homogeneous",
@@ -247,8 +241,7 @@ def unsupported(plugin: Plugin, what: str) -> Exception:
         return plugin.error(f"shape \"{plugin.type}\" is not implemented in this tracer "
                             f"({NOT_IMPLEMENTED_SHAPES[plugin.type]}); it is valid in Mitsuba's "
                             "RGB variants, so the scene cannot be compared")
-    # A kind that registers its plugins lists them from its registry (all will).
-    supported = names(plugin.kind) or SUPPORTED.get(plugin.kind, ())
+    supported = names(plugin.kind)
     return plugin.error(f"unsupported {what} (supported: {', '.join(supported)})")
 
 

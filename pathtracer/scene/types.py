@@ -24,111 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.sampling import INV_FOUR_PI, square_to_uniform_sphere
-from ..sensors.film import BOX, ReconstructionFilter
-
-
-@dataclass
-class Camera:
-    """Mitsuba's ``perspective`` sensor with an ``hdrfilm``.
-
-    Attributes
-    ----------
-    to_world : (4, 4) ndarray
-        Camera-to-world transform. Camera space looks along +z, +y is up and
-        +x is *left* in the image (Mitsuba's convention).
-    x_fov : float
-        Horizontal field of view in degrees, already converted from the
-        ``fov_axis`` given in the file.
-    near_clip, far_clip : float
-        Clip distances measured along the optical axis.
-    width, height : int
-        Film resolution in pixels; row 0 is the top of the image.
-    rfilter : ReconstructionFilter
-        The film's reconstruction filter (:mod:`pathtracer.film`).
-    """
-
-    to_world: np.ndarray
-    x_fov: float
-    near_clip: float = 1e-2
-    far_clip: float = 1e4
-    width: int = 256
-    height: int = 256
-    rfilter: ReconstructionFilter = BOX
-
-
-@dataclass
-class AreaEmitter:
-    """One-sided area light attached to a shape (front = along the shading normal)."""
-
-    shape: int
-    radiance: np.ndarray  # (3,)
-    kind: str = "area"
-
-
-@dataclass
-class PointEmitter:
-    """Isotropic point light: radiant intensity ``intensity`` [W/sr], falling off as 1/r^2."""
-
-    position: np.ndarray  # (3,)
-    intensity: np.ndarray  # (3,)
-    kind: str = "point"
-
-
-@dataclass
-class SpotEmitter:
-    """Mitsuba's ``spot``: a point light shining along its local +z, inside a cone.
-
-    Radiant intensity ``intensity`` [W/sr] within ``beam_width`` of the axis,
-    falling linearly in angle to 0 at ``cutoff_angle`` (both in radians here).
-    """
-
-    position: np.ndarray    # (3,)
-    to_local: np.ndarray    # (3, 3) inverse of the linear part of to_world
-    intensity: np.ndarray   # (3,)
-    cutoff_angle: float
-    beam_width: float
-    kind: str = "spot"
-
-    def falloff(self, d_world: np.ndarray) -> np.ndarray:
-        """Fraction (n,) of the full intensity emitted along world directions ``d_world``."""
-        local = d_world @ self.to_local.T
-        cos_theta = local[:, 2] / np.linalg.norm(local, axis=1)
-        angle = np.arccos(np.clip(cos_theta, -1.0, 1.0))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ramp = (self.cutoff_angle - angle) / (self.cutoff_angle - self.beam_width)
-        ramp = np.where(cos_theta >= np.cos(self.beam_width), 1.0, ramp)
-        return np.where(cos_theta > np.cos(self.cutoff_angle), ramp, 0.0)
-
-
-@dataclass
-class DirectionalEmitter:
-    """Mitsuba's ``directional``: parallel light of ``irradiance`` [W/m^2] travelling along ``direction``."""
-
-    direction: np.ndarray   # (3,) unit, the direction the light travels
-    irradiance: np.ndarray  # (3,)
-    kind: str = "directional"
-
-
-@dataclass
-class ConstantEmitter:
-    """Uniform environment: every escaped ray sees ``radiance``."""
-
-    radiance: np.ndarray  # (3,)
-    kind: str = "constant"
-
-    def eval(self, d_world: np.ndarray) -> np.ndarray:
-        """Radiance (n, 3) arriving from the directions ``d_world``."""
-        return np.tile(self.radiance, (len(d_world), 1))
-
-    def sample(self, u: np.ndarray):
-        """Uniform directions on the sphere: ``(wo, pdf, radiance)``."""
-        wo = square_to_uniform_sphere(u)
-        return wo, np.full(len(u), INV_FOUR_PI), self.eval(wo)
-
-    def pdf(self, d_world: np.ndarray) -> np.ndarray:
-        """Solid-angle density (n,) of :meth:`sample`: 1 / 4 pi."""
-        return np.full(len(d_world), INV_FOUR_PI)
+from ..sensors.perspective_sensor import Camera
 
 
 @dataclass
@@ -189,9 +85,8 @@ class Scene:
     bsdfs : list
         BSDF objects from :mod:`pathtracer.bsdfs`.
     emitters : list
-        :class:`AreaEmitter`, :class:`PointEmitter`, :class:`SpotEmitter`,
-        :class:`DirectionalEmitter`, :class:`ConstantEmitter`,
-        :class:`pathtracer.envmap.EnvironmentMap`.
+        The :class:`pathtracer.emitters.base.Emitter` s: area, point, spot, directional,
+        constant and envmap lights (one module each in :mod:`pathtracer.emitters`).
     environment : ConstantEmitter, EnvironmentMap or None
         The environment emitter (``constant`` or ``envmap``), if any (at most one is allowed).
     camera : Camera

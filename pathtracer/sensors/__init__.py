@@ -1,2 +1,5 @@
 """The camera side: the perspective sensor's rays, its importance (for paths that end at the
-camera) and the film's reconstruction filters."""
+camera), the film's reconstruction filters and the samplers."""
+# Each module registers its plugins when imported: the sensor, the film and its filters,
+# the samplers.
+from . import film, perspective_sensor, sampler  # noqa: F401

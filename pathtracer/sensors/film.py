@@ -1,4 +1,4 @@
-"""Mitsuba's ``hdrfilm`` reconstruction filters: ``box``, ``tent`` and ``gaussian``.
+"""Mitsuba's ``hdrfilm`` and its reconstruction filters: ``box``, ``tent`` and ``gaussian``.
 
 A camera sample at film position ``(x, y)`` (pixels; pixel ``(i, j)`` spans
 ``[i, i + 1) x [j, j + 1)`` and has its centre at ``(i + 0.5, j + 0.5)``) adds
@@ -28,6 +28,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..scene.properties import VARIANT_ONLY, Props, children, unsupported
+from ..scene.registry import factory, names, register
+from ..scene.xml import Plugin
 
 #: Filters the film accepts, with their parameter and its default.
 FILTER_PARAMS = {"box": ("radius", 0.5), "tent": ("radius", 1.0), "gaussian": ("stddev", 0.5)}
@@ -210,3 +214,68 @@ def tile_design_effect(rfilter: ReconstructionFilter, tile: int) -> float:
     pairs = np.maximum(tile - np.abs(lags), 0)        # pixel pairs at each lag along an axis
     per_axis = float(np.sum(rho * pairs)) / tile
     return per_axis * per_axis
+
+
+def build_rfilter(plugin: Plugin | None) -> ReconstructionFilter:
+    """The film's ``<rfilter>``: box, tent or gaussian (Mitsuba's default when absent)."""
+    if plugin is None:
+        return ReconstructionFilter.make("gaussian")
+    create = factory("rfilter", plugin.type)
+    if create is None:
+        raise plugin.error(f"unsupported reconstruction filter \"{plugin.type}\" (supported: "
+                           f"{', '.join(names('rfilter'))}; Mitsuba's lanczos and mitchell have "
+                           "negative lobes, not implemented here)")
+    return create(plugin)
+
+
+@register("rfilter", *FILTER_PARAMS)
+def create_rfilter(plugin: Plugin) -> ReconstructionFilter:
+    """A filter of :data:`FILTER_PARAMS` with its parameter (the box's radius must be 0.5)."""
+    props = Props(plugin)
+    children(plugin, {})
+    name, default = FILTER_PARAMS[plugin.type]
+    value = props.float(name, default)
+    if plugin.type == "box" and value != 0.5:
+        raise plugin.error("box filter radius must be 0.5 (one pixel)", props.line(name))
+    if not 0.0 < value <= 64.0:
+        raise plugin.error(f"{plugin.type} filter {name} must lie in (0, 64] pixels",
+                           props.line(name))
+    props.finish()
+    return ReconstructionFilter.make(plugin.type, value)
+
+
+def build_film(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
+    """``(width, height, rfilter)`` of a sensor's ``<film>``."""
+    if plugin.type in VARIANT_ONLY:
+        raise unsupported(plugin, "film")
+    create = factory("film", plugin.type)
+    if create is None:
+        raise plugin.error(f"unsupported film (supported: {', '.join(names('film'))})")
+    return create(plugin)
+
+
+@register("film", "hdrfilm")
+def create_hdrfilm(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
+    """``width`` (768), ``height`` (576) and the ``<rfilter>``; crops and a sample border
+    (with a filter wider than the box) are refused, storage formats accepted."""
+    props = Props(plugin)
+    filters = children(plugin, {"rfilter": 1})["rfilter"]
+    rfilter = build_rfilter(filters[0] if filters else None)
+    width, height = props.int("width", 768), props.int("height", 576)
+    if width <= 0 or height <= 0:
+        raise plugin.error("film width and height must be positive")
+    for name in ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height"):
+        if props.has(name):
+            raise plugin.error(f"{name} is not supported: the tracer renders the whole film "
+                               "(remove the crop, or render at the cropped size)",
+                               props.line(name))
+    # Mitsuba's sample border is ceil(radius - 0.5) pixels: empty for the box filter.
+    if props.bool("sample_border", False) and not rfilter.is_box:
+        raise plugin.error(f"sample_border = true is not supported with a {rfilter.kind} filter "
+                           "(samples are drawn inside the image only, Mitsuba's default)",
+                           props.line("sample_border"))
+    # Formats change storage, not values; compensate only changes summation accuracy; a
+    # banner is drawn on LDR output only.
+    props.ignore("pixel_format", "component_format", "file_format", "compensate", "banner")
+    props.finish()
+    return width, height, rfilter

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.types import Camera
+from .perspective_sensor import Camera
 
 
 @dataclass

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.vec import normalize
-from ..scene.types import Camera
+from .perspective_sensor import Camera
 
 
 @dataclass
@@ -61,3 +61,5 @@ def camera_rays(camera: Camera, pixel: np.ndarray, u_film: np.ndarray) -> Rays:
     d = normalize(d_cam @ rotation.T)
     o = origin + d * near_t[:, None]
     return Rays(o, d, far_t - near_t)
+
+

@@ -1,0 +1,93 @@
+"""Mitsuba's ``spot`` emitter: a point light shining into a cone.
+
+Dirac in position like :mod:`pathtracer.emitters.point`: next-event weight
+``I falloff / r^2``, pdf 1. Light paths start in a uniform direction of the cutoff cone
+(weight ``I falloff / pdf_cone``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.sampling import square_to_uniform_cone, square_to_uniform_cone_pdf
+from ..core.vec import normalize
+from ..scene.properties import children
+from ..scene.registry import register
+from .base import Emitter, EmitterSample
+from .point import at_point, towards_point
+
+
+@dataclass
+class SpotEmitter(Emitter):
+    """Mitsuba's ``spot``: a point light shining along its local +z, inside a cone.
+
+    Radiant intensity ``intensity`` [W/sr] within ``beam_width`` of the axis,
+    falling linearly in angle to 0 at ``cutoff_angle`` (both in radians here).
+    """
+
+    position: np.ndarray    # (3,)
+    to_local: np.ndarray    # (3, 3) inverse of the linear part of to_world
+    intensity: np.ndarray   # (3,)
+    cutoff_angle: float
+    beam_width: float
+
+    kind = "spot"
+    delta_position = True
+    starts_light_paths = True
+
+    def falloff(self, d_world: np.ndarray) -> np.ndarray:
+        """Fraction (n,) of the full intensity emitted along world directions ``d_world``."""
+        local = d_world @ self.to_local.T
+        cos_theta = local[:, 2] / np.linalg.norm(local, axis=1)
+        angle = np.arccos(np.clip(cos_theta, -1.0, 1.0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ramp = (self.cutoff_angle - angle) / (self.cutoff_angle - self.beam_width)
+        ramp = np.where(cos_theta >= np.cos(self.beam_width), 1.0, ramp)
+        return np.where(cos_theta > np.cos(self.cutoff_angle), ramp, 0.0)
+
+    def sample_direction(self, scene, ref_p, u):
+        wo, dist, weight = towards_point(self.position, self.intensity, ref_p)
+        weight = weight * self.falloff(-wo)[:, None]
+        return EmitterSample(wo, dist, np.ones(len(u)), weight, np.ones(len(u), dtype=bool))
+
+    def sample_position(self, scene, u):
+        return at_point(self.position, len(u))
+
+    def sample_ray_direction(self, n, u):
+        """A uniform direction in the cutoff cone (world space), weight ``I falloff / pdf_cone``."""
+        cos_cutoff = np.cos(self.cutoff_angle)
+        local = square_to_uniform_cone(u, cos_cutoff)
+        d = normalize(local @ np.linalg.inv(self.to_local).T)
+        pdf_dir = square_to_uniform_cone_pdf(local, cos_cutoff)
+        return d, pdf_dir, self.intensity * (self.falloff(d) / pdf_dir)[:, None]
+
+    def pdf_ray_direction(self, n, d):
+        local = normalize(d @ self.to_local.T)
+        return square_to_uniform_cone_pdf(local, np.cos(self.cutoff_angle))
+
+    def eval_towards(self, n, d):
+        return self.intensity * self.falloff(d)[:, None]
+
+
+@register("emitter", "spot")
+def create(props, folders, shape):
+    """``to_world``, ``intensity``, ``cutoff_angle`` (20 degrees) and ``beam_width``
+    (3/4 of the cutoff); a projected ``texture`` is refused."""
+    plugin = props.plugin
+    kids = children(plugin, {"texture": 1})
+    if kids["texture"]:
+        raise kids["texture"][0].error("a spot light's projected \"texture\" is not supported "
+                                       "(only a uniform intensity)")
+    m = props.transform("to_world")
+    cutoff = props.float("cutoff_angle", 20.0)
+    beam = props.float("beam_width", cutoff * 0.75)
+    if not 0 < cutoff <= 180:
+        raise plugin.error(f"cutoff_angle must lie in (0, 180] degrees, got {cutoff:g}",
+                           props.line("cutoff_angle"))
+    if not 0 <= beam <= cutoff:
+        raise plugin.error(f"beam_width must lie in [0, cutoff_angle = {cutoff:g}] degrees, got {beam:g}",
+                           props.line("beam_width") if props.has("beam_width") else None)
+    return SpotEmitter(position=m[:3, 3].copy(), to_local=np.linalg.inv(m[:3, :3]),
+                       intensity=props.color("intensity", 1.0),
+                       cutoff_angle=np.radians(cutoff), beam_width=np.radians(beam))

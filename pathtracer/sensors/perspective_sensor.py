@@ -1,0 +1,130 @@
+"""Mitsuba's ``<sensor type="perspective">``: the :class:`Camera` it describes, read with its
+film and sampler.
+
+The camera's primary rays are in :mod:`pathtracer.sensors.perspective`, a module of its own:
+it is the students' ``camera.py`` (``autograder.skeleton`` copies it), which must not register
+the sensor a second time.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..scene import transform
+from ..scene.properties import Props, children
+from ..scene.registry import register
+from ..scene.xml import Plugin
+from .film import BOX, ReconstructionFilter, build_film
+from .sampler import build_sampler
+
+
+@dataclass
+class Camera:
+    """Mitsuba's ``perspective`` sensor with an ``hdrfilm``.
+
+    Attributes
+    ----------
+    to_world : (4, 4) ndarray
+        Camera-to-world transform. Camera space looks along +z, +y is up and
+        +x is *left* in the image (Mitsuba's convention).
+    x_fov : float
+        Horizontal field of view in degrees, already converted from the
+        ``fov_axis`` given in the file.
+    near_clip, far_clip : float
+        Clip distances measured along the optical axis.
+    width, height : int
+        Film resolution in pixels; row 0 is the top of the image.
+    rfilter : ReconstructionFilter
+        The film's reconstruction filter (:mod:`pathtracer.sensors.film`).
+    """
+
+    to_world: np.ndarray
+    x_fov: float
+    near_clip: float = 1e-2
+    far_clip: float = 1e4
+    width: int = 256
+    height: int = 256
+    rfilter: ReconstructionFilter = BOX
+
+
+def x_fov_from(fov: float, axis: str, aspect: float) -> float:
+    """Horizontal field of view in degrees, following Mitsuba's ``parse_fov``.
+
+    Parameters
+    ----------
+    fov : float
+        The field of view along ``axis``, in degrees.
+    axis : {'x', 'y', 'diagonal', 'smaller', 'larger'}
+    aspect : float
+        Film width / height.
+    """
+    if axis == "smaller":
+        axis = "y" if aspect > 1 else "x"
+    elif axis == "larger":
+        axis = "x" if aspect > 1 else "y"
+    half_tan = np.tan(0.5 * np.deg2rad(fov))
+    if axis == "x":
+        return float(fov)
+    if axis == "y":
+        return float(np.rad2deg(2.0 * np.arctan(half_tan * aspect)))
+    if axis == "diagonal":
+        width = 2.0 * half_tan / np.sqrt(1.0 + 1.0 / (aspect * aspect))
+        return float(np.rad2deg(2.0 * np.arctan(0.5 * width)))
+    raise ValueError(f"fov_axis must be x, y, diagonal, smaller or larger, not \"{axis}\"")
+
+
+@register("sensor", "perspective")
+def create(plugin: Plugin, resolution: tuple[int, int] | None = None,
+           spp: int | None = None) -> tuple[Camera, int, int]:
+    """The perspective camera, with the film resolution and sampler settings.
+
+    ``resolution`` (width, height) and ``spp`` replace the file's film size and
+    sample count whatever it says; the field of view is then converted with the new
+    aspect, as Mitsuba does for a film of that size (``fov_axis`` keeps its meaning).
+    """
+    props = Props(plugin)
+    kids = children(plugin, {"film": 1, "sampler": 1, "medium": 1})
+    if kids["film"]:
+        width, height, rfilter = build_film(kids["film"][0])
+    else:   # Mitsuba's default film
+        width, height, rfilter = 768, 576, ReconstructionFilter.make("gaussian")
+    spp_file, seed = build_sampler(kids["sampler"][0]) if kids["sampler"] else (4, 0)
+    if resolution is not None:
+        width, height = (int(v) for v in resolution)
+    spp = spp_file if spp is None else int(spp)
+    aspect = width / height
+    if props.has("fov") and props.has("focal_length"):
+        raise plugin.error("give either fov or focal_length, not both")
+    if props.has("fov"):
+        fov, axis = props.float("fov", None), props.string("fov_axis", "x").strip().lower()
+    else:
+        text = props.string("focal_length", "50mm").strip()
+        try:
+            focal = float(text[:-2] if text.endswith("mm") else text)
+        except ValueError:
+            raise plugin.error(f"could not parse focal_length \"{text}\" (use e.g. 50mm)",
+                               props.line("focal_length")) from None
+        # 35 mm film: the focal length fixes the diagonal field of view.
+        fov, axis = 2.0 * np.rad2deg(np.arctan(np.hypot(36.0, 24.0) / (2.0 * focal))), "diagonal"
+    try:
+        x_fov = x_fov_from(fov, axis, aspect)
+    except ValueError as e:
+        raise plugin.error(str(e), props.line("fov_axis")) from None
+    if not 0.0 < x_fov < 180.0:
+        raise plugin.error(f"horizontal field of view {x_fov} must lie in (0, 180) degrees")
+    to_world = props.transform("to_world")
+    if transform.has_scale(to_world):
+        raise plugin.error("scale factors in the camera's to_world are not allowed (as in Mitsuba)")
+    near, far = props.float("near_clip", 1e-2), props.float("far_clip", 1e4)
+    if not 0 < near < far:
+        raise plugin.error("need 0 < near_clip < far_clip")
+    for name in ("principal_point_offset_x", "principal_point_offset_y"):
+        if props.float(name, 0.0) != 0.0:
+            raise plugin.error(f"{name} is not supported", props.line(name))
+    # A pinhole ignores the focus distance; without motion the shutter is irrelevant.
+    props.ignore("focus_distance", "shutter_open", "shutter_close")
+    props.finish()
+    camera = Camera(to_world=to_world, x_fov=x_fov, near_clip=near, far_clip=far,
+                    width=width, height=height, rfilter=rfilter)
+    return camera, spp, seed
