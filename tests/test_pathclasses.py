@@ -4,16 +4,9 @@ import numpy as np
 import pytest
 
 from pathtracer import load_scene, render
-from pathtracer.core.pathclasses import (
-    PathRegexError,
-    bsdf_letter,
-    compile_class,
-    compile_joined,
-    describe_letters,
-    enumerate_paths,
-    is_partition,
-)
+from pathtracer.core.pathclasses import PathRegexError, compile_class, compile_joined, enumerate_paths, is_partition
 from pathtracer.integrators import make_integrator
+from pathtracer.integrators.path_letters import bsdf_letter, describe_letters
 from pathtracer.integrators.pathclass import PathClassIntegrator
 from pathtracer.render.classes import render_classes
 

@@ -1,13 +1,14 @@
 """The ``paths`` option of the integrators that grow paths from the lights: one Heckbert class.
 
 ``light`` and ``bdpt`` take ``paths="LS+DE"`` (and ``glossy``, the letter of glossy BSDFs):
-their subpaths carry the states of the class's automata (:class:`pathtracer.pathclasses.SubpathClass`)
+their subpaths carry the states of the class's automata (:class:`pathtracer.integrators.path_letters.SubpathClass`)
 and every contribution of a path outside the class is dropped. The path tracer's classes are
 :mod:`pathtracer.integrators.pathclass`, which renders several classes in one pass.
 """
 from __future__ import annotations
 
-from ..core.pathclasses import SubpathClass, _parse_glossy, compile_joined
+from ..core.pathclasses import compile_joined
+from .path_letters import SubpathClass, parse_glossy
 
 
 class ClassSelection:
@@ -25,7 +26,7 @@ class ClassSelection:
     def select_paths(self, paths: str | None, glossy="G") -> None:
         """Set the class (an expression, light first, or None) and the glossy letter."""
         self.paths = paths or None
-        self.glossy = _parse_glossy(glossy)
+        self.glossy = parse_glossy(glossy)
         if self.paths is not None:
             compile_joined(self.paths)      # a malformed expression fails here, not mid-render
 

@@ -58,7 +58,7 @@ class LightIntegrator(ClassSelection, SplattingIntegrator):
         paths in it count. A light path reads its automaton from the ``L`` end; joining a
         vertex to the camera appends ``E``.
     glossy : {'G', 'D', 'S'} or float
-        Letter of glossy BSDFs for ``paths`` (:func:`pathtracer.pathclasses.bsdf_letter`).
+        Letter of glossy BSDFs for ``paths`` (:func:`pathtracer.integrators.path_letters.bsdf_letter`).
     **options
         As :class:`~pathtracer.integrators.base.Integrator`.
     """

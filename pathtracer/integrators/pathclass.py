@@ -24,10 +24,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs.shading import sample_bsdf
-from ..core.pathclasses import LETTER, _parse_glossy, bsdf_letters, compile_classes
+from ..core.pathclasses import LETTER, compile_classes
 from ..core.sampling import power_heuristic
 from ..emitters.scene_emitters import pdf_emitter_direction
 from .base import CameraIntegrator
+from .path_letters import bsdf_letters, parse_glossy
 
 _L, _E = LETTER["L"], LETTER["E"]
 
@@ -53,7 +54,7 @@ class PathClassIntegrator(CameraIntegrator):
         self.classes = compile_classes(classes)
         if not self.classes:
             raise ValueError("at least one path class is needed")
-        self.glossy = _parse_glossy(glossy)
+        self.glossy = parse_glossy(glossy)
 
     @property
     def expressions(self) -> list[str]:
