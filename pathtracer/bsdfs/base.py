@@ -116,7 +116,7 @@ class BSDF:
     is_delta: bool = False
     #: Transmits into a medium of another index ``eta`` (its transmission carries the
     #: 1/eta'^2 radiance scaling, which importance transport drops: see
-    #: :func:`pathtracer.shading.eval_bsdf`).
+    #: :func:`pathtracer.bsdfs.shading.eval_bsdf`).
     refracts: bool = False
     #: Attributes that may hold a :class:`~pathtracer.textures.Texture`.
     texture_params: tuple = ()
@@ -143,7 +143,7 @@ class BSDF:
         values at the hits (constant parameters stay (3,) arrays; both
         broadcast the same way in ``eval`` and ``sample``). Rows of the batch
         given to the copy must be those of ``uv``. ``geometry``
-        (:class:`pathtracer.tangents.LocalGeometry` of the same rows) is given when
+        (:class:`pathtracer.shapes.tangents.LocalGeometry` of the same rows) is given when
         :attr:`needs_geometry`; plain BSDFs ignore it.
         """
         bound = copy.copy(self)

@@ -16,7 +16,7 @@ queried there, and, as in Mitsuba 3.9.1:
 
 **normalmap**: :math:`n' = \mathrm{normalize}(2\,\mathrm{rgb} - 1)` of the ``normalmap``
 texture, in Mitsuba's shading frame (tangent :math:`\partial p/\partial u`, see
-:mod:`pathtracer.tangents`); :math:`s'` is that tangent made orthogonal to :math:`n'`.
+:mod:`pathtracer.shapes.tangents`); :math:`s'` is that tangent made orthogonal to :math:`n'`.
 
 **bumpmap**: with :math:`g = \text{scale}\cdot\nabla_{uv} h` of the height texture
 (``eval_1_grad``), :math:`\partial p/\partial u' = \partial p/\partial u + (g_u - n\cdot
@@ -88,7 +88,7 @@ class PerturbedNormal(BSDF):
 
     def at(self, uv: np.ndarray, geometry=None) -> "PerturbedNormal":
         """The BSDF with its perturbed normals at the hits (``geometry``:
-        :class:`pathtracer.tangents.LocalGeometry` of the same rows)."""
+        :class:`pathtracer.shapes.tangents.LocalGeometry` of the same rows)."""
         if geometry is None:
             raise ValueError(f"{type(self).__name__} needs the hits' differential geometry")
         bound = copy.copy(self)

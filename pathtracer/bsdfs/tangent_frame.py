@@ -1,8 +1,8 @@
 r"""An anisotropic BSDF seen in Mitsuba's tangent frame.
 
 The tracer's local frame at a hit is built from the shading normal alone
-(:func:`pathtracer.vec.coordinate_system`); Mitsuba's tangent is
-:math:`\partial p/\partial u` made orthogonal to the normal (:mod:`pathtracer.tangents`).
+(:func:`pathtracer.core.vec.coordinate_system`); Mitsuba's tangent is
+:math:`\partial p/\partial u` made orthogonal to the normal (:mod:`pathtracer.shapes.tangents`).
 The two differ by a rotation about the normal, which an isotropic BSDF does not see but
 an anisotropic one (``alpha_u != alpha_v``, or a textured roughness) does: its ``alpha_u``
 runs along Mitsuba's tangent. :class:`InTangentFrame` turns directions by that rotation

@@ -23,8 +23,8 @@ of :mod:`autograder.contract`) and writes ``radiance``, or sets ``splats = True`
 writes ``splat``: the renderer reads only ``splats`` to know which, so both kinds work on
 the shared base as they do on the two subclasses.
 
-``rays`` is a :class:`pathtracer.camera.Rays` batch of camera rays and ``rng``
-a :class:`pathtracer.rng.RandomStream` with one independent stream per ray.
+``rays`` is a :class:`pathtracer.sensors.perspective.Rays` batch of camera rays and ``rng``
+a :class:`pathtracer.core.rng.RandomStream` with one independent stream per ray.
 The result is one Monte Carlo sample of the radiance arriving along each ray;
 the renderer averages the samples of a pixel and estimates their variance.
 Geometry, BSDFs, emitters and sampling are shared modules: an integrator only
@@ -212,7 +212,7 @@ class Integrator:
             Throughput to multiply by (default ``paths.beta``).
         mis_weight : callable, optional
             ``mis_weight(pdf_light, pdf_bsdf)``, the light sample's MIS weight against
-            BSDF sampling (e.g. :func:`pathtracer.sampling.power_heuristic`); a Dirac
+            BSDF sampling (e.g. :func:`pathtracer.core.sampling.power_heuristic`); a Dirac
             light always has weight 1. Without it the weight is 1 (no MIS).
         emitter : int, optional
             Sample this emitter instead of choosing one.

@@ -63,14 +63,14 @@ exactly the light subpath's ``pdf_fwd(y_0)``.
 A point or spot light is not imaged by the pinhole (s = t = 1 is zero for it), as in
 Mitsuba, whose ``path`` and ``ptracer`` cannot see a Dirac light either.
 
-With ``paths`` (a Heckbert class, :mod:`pathtracer.pathclasses`) the light subpath reads
+With ``paths`` (a Heckbert class, :mod:`pathtracer.core.pathclasses`) the light subpath reads
 the class's automaton from its ``L`` end and the camera subpath the reversed one from the
 ``E`` end; a strategy counts iff the two states at its connection accept together
-(:class:`pathtracer.pathclasses.JoinedClass`), so each class image holds exactly the
+(:class:`pathtracer.core.pathclasses.JoinedClass`), so each class image holds exactly the
 MIS-weighted contributions of the class's paths.
 
 The light subpaths' splats (t = 1) reach any pixel, so the integrator renders like the
-light tracer (:func:`pathtracer.render.render_splats`): sample i of a replica runs its
+light tracer (:func:`pathtracer.render.splats.render_splats`): sample i of a replica runs its
 camera subpath through pixel ``i mod (W H)``.
 """
 from __future__ import annotations
@@ -198,7 +198,7 @@ class BDPTIntegrator(ClassSelection, SplattingIntegrator):
     replicas : int
         Independent renders whose spread gives each pixel's variance (splats, as ``light``).
     paths : str, optional
-        A Heckbert class (``"LS+DE"``, :mod:`pathtracer.pathclasses`): only the strategies'
+        A Heckbert class (``"LS+DE"``, :mod:`pathtracer.core.pathclasses`): only the strategies'
         contributions of paths in it count (see :meth:`class_mask`).
     glossy : {'G', 'D', 'S'} or float
         Letter of glossy BSDFs for ``paths``.

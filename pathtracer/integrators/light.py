@@ -24,7 +24,7 @@ each bounce is multiplied by ``|cos_s(w_in) cos_g(w_out) / (cos_s(w_out) cos_g(w
 (Veach's thesis, p. 155); directions on opposite sides of the two normals are
 dropped (light leaks). Mitsuba 3's ``ptracer`` computes the same estimator.
 
-With ``paths`` (a Heckbert class, :mod:`pathtracer.pathclasses`) each light path runs
+With ``paths`` (a Heckbert class, :mod:`pathtracer.core.pathclasses`) each light path runs
 the class's automaton from its ``L`` end, one letter per vertex, and a splat counts only
 where appending ``E`` accepts; the visible-emitter splats are the class ``LE``.
 """
@@ -54,7 +54,7 @@ class LightIntegrator(ClassSelection, SplattingIntegrator):
         Independent renders whose spread gives the variance of each pixel (a light
         path's splats do not belong to one pixel, see :func:`pathtracer.render.render`).
     paths : str, optional
-        A Heckbert class (``"LS+DE"``, :mod:`pathtracer.pathclasses`): only the splats of
+        A Heckbert class (``"LS+DE"``, :mod:`pathtracer.core.pathclasses`): only the splats of
         paths in it count. A light path reads its automaton from the ``L`` end; joining a
         vertex to the camera appends ``E``.
     glossy : {'G', 'D', 'S'} or float

@@ -3,7 +3,7 @@
 The same estimator as :mod:`pathtracer.integrators.path` (the same random
 numbers in the same order: with the same seed, the class ``L.*E`` is the
 ``path`` image bit for bit), plus a DFA state per path and per class
-(:mod:`pathtracer.pathclasses`)::
+(:mod:`pathtracer.core.pathclasses`)::
 
     state = delta[start, E]                         at the camera
     state = delta[state, letter(BSDF at x_k)]       when the path scatters at x_k
@@ -17,7 +17,7 @@ partition path space therefore sum to the ``path`` image up to float rounding.
 
 ``radiance`` (the integrator contract) returns the first class only, so
 ``render(scene, PathClassIntegrator("LS+DE"))`` renders the caustics alone;
-:func:`pathtracer.render.render_classes` renders all classes of one integrator in one pass.
+:func:`pathtracer.render.classes.render_classes` renders all classes of one integrator in one pass.
 """
 from __future__ import annotations
 
@@ -42,7 +42,7 @@ class PathClassIntegrator(CameraIntegrator):
         Path expressions in Heckbert's notation, light first (``"LS+DE"``).
     glossy : {'G', 'D', 'S'} or float
         Letter of rough conductors, or an alpha threshold (<= t: S, else D);
-        see :mod:`pathtracer.pathclasses`.
+        see :mod:`pathtracer.core.pathclasses`.
     **options
         As for every integrator (max_depth, rr_depth, roulette, ...).
     """

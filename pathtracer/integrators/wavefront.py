@@ -15,7 +15,7 @@ integrator's ``radiance`` says only what its estimator does at a vertex::
     return paths.L
 
 The random stream of a path travels with it, so a path sees the same numbers whichever
-other paths share its batch (:mod:`pathtracer.rng`).
+other paths share its batch (:mod:`pathtracer.core.rng`).
 
 A *pool* (:meth:`Paths.pool`) holds at most ``size`` live paths of a longer list of
 camera rays: when roulette has thinned it below half, :meth:`Paths.next_hit` tops it up
@@ -45,8 +45,8 @@ class Paths:
     ``eta``   (m,) product of the relative indices of refraction crossed (for roulette)
     ``wi``    (m, 3) unit direction from the hit back along the ray that reached it
     ``wo``    (m, 3) the scattered direction, once :meth:`scatter` has chosen it
-    ``hit``   the intersection of each path's current ray (:mod:`pathtracer.geometry`)
-    ``rng``   the paths' random streams (:class:`pathtracer.rng.RandomStream`)
+    ``hit``   the intersection of each path's current ray (:mod:`pathtracer.shapes.intersect`)
+    ``rng``   the paths' random streams (:class:`pathtracer.core.rng.RandomStream`)
 
     plus every array an integrator adds with :meth:`declare`. ``depth`` counts the
     segments before the current hit (0 on the camera ray's hit): one int for a batch
@@ -207,7 +207,7 @@ class Paths:
 
         The paths not split come first, in their order, then the children of every split
         path together (path-major). A child gets its parent's arrays and an independent
-        random stream (:meth:`pathtracer.rng.RandomStream.branch`); each adds to its
+        random stream (:meth:`pathtracer.core.rng.RandomStream.branch`); each adds to its
         parent's row of :attr:`L`. Returns the parent index of every new path.
         """
         everything = rows is None or len(rows) == len(self)

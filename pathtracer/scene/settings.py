@@ -52,7 +52,7 @@ def scene_settings(path: str | os.PathLike, resolution: tuple[int, int] | None =
     """The integrator, film and sampler settings :func:`pathtracer.load_scene` would use.
 
     Parameters are those of :func:`pathtracer.load_scene`; errors are the same
-    :class:`~pathtracer.scene.SceneError` (for the parts read here).
+    :class:`~pathtracer.scene.errors.SceneError` (for the parts read here).
     """
     file = scene_file(path)
     resolution, sample_count = check_overrides(resolution, sample_count)

@@ -64,7 +64,7 @@ class Scene:
     disk_to_local : (D, 4, 4) float64
     disk_flip : (D,) bool
     disk_shape : (D,) int32
-    curves : list of pathtracer.curves.CurveShape
+    curves : list of pathtracer.shapes.curves.CurveShape
         The ``bsplinecurve`` / ``linearcurve`` shapes.
     shape_kind : list of str
         ``'mesh'``, ``'sphere'``, ``'disk'``, ``'curve'`` or ``'cylinder'`` per shape.
@@ -142,13 +142,13 @@ class Scene:
     shape_interior: np.ndarray | None = None
     shape_exterior: np.ndarray | None = None
     camera_medium: int = -1
-    # Analytic cylinders (pathtracer.cylinder): object-to-world maps of the unit tube,
+    # Analytic cylinders (pathtracer.shapes.cylinder): object-to-world maps of the unit tube,
     # their inverses, flip_normals and shape ids.
     cylinder_to_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))
     cylinder_to_local: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))
     cylinder_flip: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     cylinder_shape: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
-    # Built lazily by pathtracer.geometry (BVH over tri_p).
+    # Built lazily by pathtracer.shapes.intersect (BVH over tri_p).
     _accel: Any = None
 
     @property

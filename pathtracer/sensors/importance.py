@@ -1,6 +1,6 @@
 """The camera as the end of light paths: its importance and the pixel a point projects to.
 
-The inverse of :func:`pathtracer.camera.camera_rays`, for the integrators whose paths start
+The inverse of :func:`pathtracer.sensors.perspective.camera_rays`, for the integrators whose paths start
 on the lights (light tracing, the t = 1 strategies of BDPT). A pinhole camera's importance
 is ``We = 1 / (A cos^3 theta)`` (``A``: the film's area on the camera-space plane z = 1,
 theta: the angle to the optical axis): a uniform point on that rectangle has solid-angle
@@ -56,7 +56,7 @@ def camera_importance(camera: Camera, d_cam: np.ndarray) -> np.ndarray:
     ``A`` is the area of the film rectangle on the plane z = 1: a uniform point on
     that rectangle has solid-angle density ``dist^2 / (A cos) = 1 / (A cos^3)``, so
     ``We`` integrates to 1 over the image (and to ``1 / (W H)`` over one pixel). It
-    is also the density with which :func:`pathtracer.camera.camera_rays` picks ``d_cam`` (``pdf_camera``).
+    is also the density with which :func:`pathtracer.sensors.perspective.camera_rays` picks ``d_cam`` (``pdf_camera``).
     """
     half_x, half_y = plane_half_extent(camera)
     cos = d_cam[:, 2]

@@ -3,7 +3,7 @@ r"""Mitsuba's analytic ``cylinder`` shape: intersection and surface data of its 
 In its object frame the cylinder is the open tube :math:`x^2 + y^2 = 1`,
 :math:`0 \le z \le 1` (no caps). The loader composes Mitsuba's object-to-world map
 ``to_world @ translate(p0) @ frame(p1 - p0) @ scale(radius, radius, |p1 - p0|)``, where
-``frame(d)`` is Mitsuba's ``Frame3f(d)`` (:func:`pathtracer.vec.coordinate_system`
+``frame(d)`` is Mitsuba's ``Frame3f(d)`` (:func:`pathtracer.core.vec.coordinate_system`
 convention) taking local z to ``d``.
 
 As in Mitsuba (``cylinder.cpp``), a ray is mapped to the object frame and the quadratic

@@ -4,14 +4,14 @@ and the shading frame Mitsuba builds from them.
 Mitsuba 3 orients its shading frame by the texture parameterisation: the tangent
 ``sh_frame.s`` is :math:`\partial p/\partial u` made orthogonal to the shading normal
 (Gram-Schmidt), ``t = n x s``. The tracer's BSDFs work in a frame built from the normal
-alone (:func:`pathtracer.vec.coordinate_system`); only BSDFs that read the tangent plane
+alone (:func:`pathtracer.core.vec.coordinate_system`); only BSDFs that read the tangent plane
 (``normalmap``, ``bumpmap``) need Mitsuba's, and they get it from here, per hit kind as
 Mitsuba computes it (``mesh.cpp``, ``sphere.cpp``, ``disk.cpp``, ``cylinder.cpp``):
 
 * meshes (rectangles and cubes included): from the corners' texture coordinates,
   :math:`[\partial p/\partial u, \partial p/\partial v] = [p_1 - p_0, p_2 - p_0]\,
   [uv_1 - uv_0, uv_2 - uv_0]^{-1}`; a degenerate parameterisation falls back to
-  :func:`~pathtracer.vec.coordinate_system` of the geometric normal;
+  :func:`~pathtracer.core.vec.coordinate_system` of the geometric normal;
 * spheres: :math:`2\pi\,M(-y, x, 0)` and :math:`\pi\,M(z\cos\phi, z\sin\phi, -\sqrt{x^2+y^2})`
   of the unit-sphere point, :math:`M` the sphere's object-to-world map;
 * disks: :math:`M(\cos\phi, \sin\phi, 0)` and :math:`2\pi r\,M(-\sin\phi, \cos\phi, 0)`;

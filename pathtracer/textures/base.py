@@ -4,7 +4,7 @@ Mitsuba 3's ``bitmap``, ``checkerboard`` and ``rawconstant`` plugins, in its RGB
 one module each; here what they share.
 
 A texture is evaluated at the surface's ``uv`` (see
-:func:`pathtracer.geometry.texture_uv`) after the optional ``to_uv``
+:func:`pathtracer.shapes.intersect.texture_uv`) after the optional ``to_uv``
 transform. Mitsuba reads ``to_uv`` as a 4x4 matrix and keeps its upper-left
 3x3 block, applied to :math:`(u, v, 1)` without a projective divide:
 

@@ -50,7 +50,7 @@ class BitmapTexture(Texture):
         or 3 or 4 (RGB, RGBA). Alpha is dropped and grey repeated to RGB;
         values are kept in float32.
         Values are used as given: decode sRGB before (see
-        :func:`pathtracer.bitmap.read_bitmap`).
+        :func:`pathtracer.io.bitmap.read_bitmap`).
     filter_type : {'bilinear', 'nearest'}
     wrap_mode : {'repeat', 'mirror', 'clamp'}
     to_uv : see :class:`Texture`
