@@ -17,12 +17,12 @@ import re
 import warnings
 from dataclasses import dataclass, field
 from typing import Any
-from xml.parsers import expat
 
 import numpy as np
 
 from . import spectra, transform
 from .errors import SceneError
+from .xml_files import MAX_INCLUDE_DEPTH, Element, _FileState, _find, read_elements
 
 # Elements that instantiate a plugin (they carry a ``type`` attribute).
 PLUGIN_TAGS = {"shape", "bsdf", "emitter", "sensor", "film", "sampler",
@@ -46,22 +46,6 @@ FLOAT32_MAX = float(np.finfo(np.float32).max)
 VERSION_RE = re.compile(r"\d+\.\d+\.\d+")
 PARAM_RE = re.compile(r"(?<!\\)\$([A-Za-z_][A-Za-z0-9_]*)")
 SPLIT_RE = re.compile(r"[,\s]+")
-
-
-@dataclass
-class Element:
-    """A raw XML element with the file and line it starts on.
-
-    ``file`` is the name shown in messages, ``folder`` the absolute directory
-    of that file (relative ``<include>`` and ``<path>`` values start there).
-    """
-
-    tag: str
-    attrs: dict[str, str]
-    line: int
-    children: list["Element"] = field(default_factory=list)
-    file: str = ""
-    folder: str = ""
 
 
 @dataclass
@@ -136,44 +120,6 @@ class _Ref:
     line: int
 
 
-def read_elements(path: str, display: str) -> Element:
-    """Parse an XML file into :class:`Element` objects with line numbers.
-
-    ``display`` is the file name shown in error messages.
-
-    Raises
-    ------
-    SceneError
-        On an XML syntax error, with the line reported by expat.
-    """
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except OSError as e:
-        raise SceneError(f"cannot read the scene file: {e.strerror or e}", display) from None
-    parser = expat.ParserCreate()
-    stack: list[Element] = []
-    roots: list[Element] = []
-    folder = os.path.dirname(os.path.abspath(path))
-
-    def start(tag, attrs):
-        el = Element(tag, dict(attrs), parser.CurrentLineNumber, file=display, folder=folder)
-        (stack[-1].children if stack else roots).append(el)
-        stack.append(el)
-
-    def end(tag):
-        stack.pop()
-
-    parser.StartElementHandler = start
-    parser.EndElementHandler = end
-    try:
-        parser.Parse(data, True)
-    except expat.ExpatError as e:
-        raise SceneError(f"XML syntax error: {expat.ErrorString(e.code)} (column {e.offset + 1})",
-                         display, e.lineno) from None
-    return roots[0]
-
-
 def parse_floats(text: str, count: tuple[int, ...], what: str) -> np.ndarray:
     """Numbers separated by commas and/or whitespace.
 
@@ -204,25 +150,6 @@ def parse_float(text: str, what: str) -> float:
         raise ValueError(f"{what} value \"{text}\" is not a finite number (nan, inf and "
                          f"magnitudes above float32's {FLOAT32_MAX:.4g} are refused)")
     return value
-
-
-#: Mitsuba stops at this include depth; deeper nesting is a cycle or a mistake.
-MAX_INCLUDE_DEPTH = 15
-
-
-@dataclass
-class _FileState:
-    """Where the reader is: the include chain down to the file being read
-    (real paths) and where that file's ``<include>``s are looked up.
-
-    ``lookup`` is this file's part of Mitsuba's file resolver, first match
-    wins: this file's ``<path>`` folders (last first), this file's folder,
-    then the including file's list. An ``<include>`` tries the including
-    file's folder before all of them.
-    """
-
-    lookup: list[str]
-    chain: tuple[str, ...]
 
 
 class _Reader:
@@ -508,20 +435,6 @@ class _Reader:
                     plugin.ref_names[i] = child.name
             elif id(child) not in active:
                 self.resolve(child, active)
-
-
-def _find(name: str, folders: list[str]) -> str | None:
-    """The first existing ``folder/name`` (Mitsuba's FileResolver), or None.
-
-    An absolute ``name`` is returned as is when it exists.
-    """
-    if os.path.isabs(name):
-        return name if os.path.isfile(name) else None
-    for folder in folders:
-        candidate = os.path.join(folder, name)
-        if os.path.isfile(candidate):
-            return candidate
-    return None
 
 
 def _param_text(value: Any) -> str:
