@@ -43,10 +43,12 @@ import re
 import sys
 import tempfile
 import threading
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
+
+from pathtracer.scene.errors import SceneError
+from pathtracer.scene.xml_files import XMLSyntaxError, read_elements, scene_files
 
 from . import config
 from .errors import CacheNotWritable, ReferenceUnavailable, RefsInputError, is_mitsuba_error, mitsuba_error_line
@@ -73,7 +75,8 @@ def _sha256_file(path):
 
 
 def parse_xml(path):
-    """The root element of the XML file ``path``.
+    """The root element of the XML file ``path``, read by the tracer's reader
+    (:func:`pathtracer.scene.xml_files.read_elements`).
 
     Raises
     ------
@@ -81,48 +84,27 @@ def parse_xml(path):
         The file is not well-formed XML (the message names file, line and column).
     """
     try:
-        return ET.parse(path).getroot()
-    except ET.ParseError as error:
-        line, column = error.position
-        reason = str(error).split(":")[0]
-        raise RefsInputError(f"{path}:{line}:{column + 1}: not well-formed XML: "
-                             f"{reason}") from None
+        return read_elements(path, str(path))
+    except XMLSyntaxError as error:
+        raise RefsInputError(f"{path}:{error.line}:{error.column}: not well-formed XML: "
+                             f"{error.syntax}") from None
 
 
-def included_files(scene_path, folders=None):
-    """Files a scene XML refers to (``filename`` strings, ``<include>``), recursively for
-    includes, found as the tracer's loader (and Mitsuba) finds them: an ``<include>`` next to
-    the including file first, any other file in the top-level file's ``<path>`` folders (the
-    last one first) and then the top-level file's folder. A file found nowhere is listed where
-    it was first looked for (:func:`scene_hash` reports it missing). A name with a ``$param``
-    lists every existing file it could name (its includes are not followed)."""
-    scene_path = Path(scene_path)
-    root = parse_xml(scene_path)
-    if folders is None:   # the top-level file: its <path>s serve every file it includes
-        paths = [(scene_path.parent / el.get("value", "")).resolve()
-                 for el in root if el.tag == "path" and "$" not in el.get("value", "$")]
-        folders = paths[::-1] + [scene_path.parent.resolve()]
-    found = []
-    for el in root.iter():
-        name = None
-        if el.tag == "string" and el.get("name") == "filename":
-            name = el.get("value")
-        elif el.tag == "include":
-            name = el.get("filename")
-        if not name:
-            continue
-        where = [scene_path.parent] + folders if el.tag == "include" else folders
-        if "$" in name:
-            # A parameter chooses the file: hash every file it could name.
-            pattern = re.sub(r"\$\w+", "*", name)
-            found.extend(sorted({c.resolve() for folder in where for c in folder.glob(pattern)}))
-            continue
-        candidates = [(folder / name).resolve() for folder in where]
-        path = next((c for c in candidates if c.exists()), candidates[0])
-        found.append(path)
-        if el.tag == "include" and path.suffix == ".xml" and path.exists():
-            found.extend(included_files(path, folders))
-    return found
+def included_files(scene_path):
+    """The files the scene file ``scene_path`` reads (meshes, textures, ``<include>``s),
+    found as the tracer's loader finds them (:func:`pathtracer.scene.xml_files.scene_files`),
+    as :class:`~pathlib.Path`; a file found nowhere is listed where it was first looked for
+    (:func:`scene_hash` reports it missing).
+
+    Raises
+    ------
+    RefsInputError
+        An included file is not well-formed XML, or the includes form a cycle.
+    """
+    try:
+        return [Path(p) for p in scene_files(str(scene_path))]
+    except SceneError as error:
+        raise RefsInputError(str(error)) from None
 
 
 def scene_hash(scene):

@@ -17,7 +17,6 @@ line on stderr, no traceback), 130 interrupted (Ctrl-C).
 import argparse
 import sys
 import time
-import xml.etree.ElementTree as ET
 
 from . import config
 from .errors import RefsInputError, one_line
@@ -190,7 +189,7 @@ class OneLineParser(argparse.ArgumentParser):
 #: ``RefsInputError`` are ``ValueError``s; ``ReferenceUnavailable`` is a ``RuntimeError``.
 def _user_errors():
     from .cache import ReferenceUnavailable
-    return (ValueError, OSError, ET.ParseError, ReferenceUnavailable)
+    return (ValueError, OSError, ReferenceUnavailable)
 
 
 def make_parser():

@@ -20,7 +20,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import time
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -177,7 +176,7 @@ def loaded_scene(scene, params, resolution=None):
     from pathtracer import load_scene
     try:
         content = scene_hash(scene)
-    except (OSError, ValueError, ET.ParseError):
+    except (OSError, ValueError):
         return load_scene(scene, resolution=resolution, **params)  # the loader reports what is wrong
     return _load_scene_cached(str(scene), content,
                               tuple(sorted((str(k), str(v)) for k, v in params.items())),

@@ -36,10 +36,11 @@ import hashlib
 import json
 import math
 import time
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
+
+from pathtracer.scene.xml_files import read_elements, scene_tree, walk
 
 from . import config
 from .rfilter import check_variant, film_filter, filter_metadata, per_sample_variance
@@ -109,24 +110,21 @@ def scene_name(scene):
 
 
 def xml_defaults(path):
-    """Names and values of the ``<default>`` declarations of a scene file."""
-    root = ET.parse(path).getroot()
-    return {d.get("name"): d.get("value") for d in root.iter("default")}
+    """Names and values of the ``<default>`` declarations of a scene file (not of the files it
+    includes)."""
+    return {d.attrs.get("name"): d.attrs.get("value")
+            for d in walk(read_elements(str(path), str(path))) if d.tag == "default"}
 
 
-def _elements(path, tag, _seen=frozenset()):
-    """The ``tag`` elements of the scene file ``path`` and of the XML files it
-    ``<include>``s (Mitsuba inserts their content where the include stands)."""
-    root = ET.parse(path).getroot()
-    found = list(root.iter(tag))
-    seen = _seen | {Path(path).resolve()}
-    for include in root.iter("include"):
-        name = include.get("filename") or ""
-        included = (Path(path).parent / name).resolve()
-        if name.endswith(".xml") and "$" not in name and included.exists() \
-                and included not in seen:
-            found.extend(_elements(included, tag, seen))
-    return found
+def _elements(path, tag):
+    """The ``tag`` elements of the scene file ``path`` and of the files it ``<include>``s,
+    spliced in where the include stands, as the tracer's loader reads them
+    (:func:`pathtracer.scene.xml_files.scene_tree`)."""
+    return [el for el in walk(scene_tree(str(path))) if el.tag == tag]
+
+
+def _children(el, tag):
+    return [child for child in el.children if child.tag == tag]
 
 
 def check_box_filter(path):
@@ -139,9 +137,9 @@ def check_box_filter(path):
                          f"default film has a gaussian filter; add <film type=\"hdrfilm\"> "
                          f"with <rfilter type=\"box\"/>")
     for film in films:
-        rfilters = film.findall("rfilter")
-        if len(rfilters) != 1 or rfilters[0].get("type") != "box":
-            kind = rfilters[0].get("type") if rfilters else "gaussian (default)"
+        rfilters = _children(film, "rfilter")
+        if len(rfilters) != 1 or rfilters[0].attrs.get("type") != "box":
+            kind = rfilters[0].attrs.get("type") if rfilters else "gaussian (default)"
             raise ValueError(f"{path}: film reconstruction filter is {kind}; "
                              f"references need <rfilter type=\"box\"/>")
 
@@ -154,7 +152,7 @@ def sensor_has_medium(path):
     ``moments`` method.
     """
     return any(child.tag in ("medium", "ref") for sensor in _elements(path, "sensor")
-               for child in sensor)
+               for child in sensor.children)
 
 
 #: Film reconstruction filters both renderers implement (mitsuba_refs.rfilter).
@@ -169,8 +167,8 @@ def check_film_filter(path):
     checked once Mitsuba has loaded the film (:func:`render_reference`).
     """
     for film in _elements(path, "film"):
-        for rfilter in film.findall("rfilter"):
-            kind = rfilter.get("type") or ""
+        for rfilter in _children(film, "rfilter"):
+            kind = rfilter.attrs.get("type") or ""
             if "$" not in kind and kind not in SUPPORTED_FILTERS:
                 raise ValueError(f"{path}: film reconstruction filter is {kind}; references "
                                  f"support {', '.join(SUPPORTED_FILTERS)}")
