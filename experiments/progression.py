@@ -95,11 +95,11 @@ def mitsuba_renderer(scene, params, integrator, variant=None):
     from mitsuba_refs.render import (
         check_box_filter,
         integrator_dict,
-        pass_seeds,
         resolve_scene,
         split_params,
         stream_id,
     )
+    from mitsuba_refs.seeds import pass_seeds
     from mitsuba_refs.variant import set_variant
     path = resolve_scene(scene)
     check_box_filter(path)

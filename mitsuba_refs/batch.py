@@ -17,7 +17,7 @@ calls with Chan's formula, so
 are exactly the statistics of :mod:`mitsuba_refs.moments` (same samples model,
 float64 sums, and exactly zero variance where all samples agree).
 
-Every call has its own seed (:func:`mitsuba_refs.render.pass_seeds`, spaced
+Every call has its own seed (:func:`mitsuba_refs.seeds.pass_seeds`, spaced
 for the ``k`` times wider film); a copy's pixel is a different film pixel, so
 it draws its own random stream.
 """
@@ -25,6 +25,8 @@ it draws its own random stream.
 import math
 
 import numpy as np
+
+from .seeds import pass_seeds
 
 #: Film pixels per render call (``k * W * H``): bounded memory, and large enough that the
 #: per-call cost (block setup, developing the film) is small next to the path tracing.
@@ -88,7 +90,7 @@ def render_moments(scene, integrator, spp, seed, stream, log=None):
     integrator : mitsuba.Integrator
         The estimator itself (no wrapper).
     spp, seed, stream : int
-        Samples per pixel; base seed and stream of :func:`mitsuba_refs.render.pass_seeds`.
+        Samples per pixel; base seed and stream of :func:`mitsuba_refs.seeds.pass_seeds`.
     log : callable, optional
 
     Returns
@@ -98,7 +100,6 @@ def render_moments(scene, integrator, spp, seed, stream, log=None):
     """
     import mitsuba as mi
 
-    from .render import pass_seeds
     sensor = scene.sensors()[0]
     width, height = (int(v) for v in sensor.film().crop_size())
     k, calls = copies_per_call(spp, width, height)

@@ -43,7 +43,9 @@ import numpy as np
 from pathtracer.scene.xml_files import read_elements, scene_tree, walk
 
 from . import config
+from .batch import render_moments
 from .rfilter import check_variant, film_filter, filter_metadata, per_sample_variance
+from .seeds import pass_seeds
 
 #: our integrator name -> Mitsuba integrator type
 INTEGRATOR_MAP = {
@@ -254,25 +256,6 @@ def stream_id(integrator, params, options=None, resolution=None):
     return int(hashlib.sha256(text.encode()).hexdigest()[:5], 16)
 
 
-def pass_seeds(seed, n_passes, width, height, stream=0):
-    """Mitsuba seeds of the passes of a reference with seed ``seed``.
-
-    Pass ``k`` uses ``((seed * 2^20 + stream) * SEED_STRIDE + k) * spacing``
-    (mod 2^32), ``stream`` from :func:`stream_id`. In ``scalar_rgb``
-    Mitsuba multiplies the seed by ``W * H`` and seeds each 32 x 32 block
-    from there; ``spacing`` is the number of ``W * H`` strides the padded
-    blocks span (1 when W, H are multiples of 32), so no two passes share a
-    stream. JIT variants hash (seed, lane) and need no spacing, but it costs
-    nothing.
-    """
-    if n_passes > config.SEED_STRIDE:
-        raise ValueError(f"at most {config.SEED_STRIDE} passes")
-    padded = math.ceil(width / 32) * math.ceil(height / 32) * 1024
-    spacing = math.ceil(padded / (width * height))
-    base = (seed * 2**20 + stream) * config.SEED_STRIDE
-    return [((base + k) * spacing) % 2**32 for k in range(n_passes)]
-
-
 def load_mitsuba_scene(path, scene_kw, resolution=None):
     """Load ``path`` with Mitsuba's parser, the film size replaced by ``resolution``.
 
@@ -415,7 +398,6 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     method = method or default_method(chosen)
     t0 = time.time()
     if method == "batch":
-        from .batch import render_moments
         m1, var, n, calls, per_call, seeds = render_moments(
             scene, mi.load_dict(nested), spp, seed, stream, log=log)
     elif method == "replicas":
