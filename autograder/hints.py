@@ -29,7 +29,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+from pathtracer.core.color import LUMINANCE
+
 #: Integrators that combine light and BSDF sampling with MIS weights.
 MIS_INTEGRATORS = ("path", "direct")
 #: Integrators with shadow rays.

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from .hints import LUMINANCE
+from pathtracer.core.color import LUMINANCE
 
 #: A region counts as wrong (for explanations) beyond this relative brightness error.
 REGION_TOLERANCE = 0.05

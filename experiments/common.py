@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pathtracer.core.color import LUMINANCE
+
 #: Colours per integrator, the same in every figure.
 COLOURS = {"path": "C0", "path_nee": "C1", "path_bsdf": "C2", "direct": "C3", "recursive": "C4",
            "smallpt": "C5", "pathclass": "C6"}
@@ -202,8 +204,8 @@ def error_metrics(mean, reference) -> dict:
 
 
 def luminance(image) -> np.ndarray:
-    """Rec. 709 luminance of an (..., 3) linear RGB image."""
-    return np.asarray(image) @ np.array([0.2126, 0.7152, 0.0722])
+    """Rec. 709 luminance of an (..., 3) linear RGB image (Mitsuba's weights)."""
+    return np.asarray(image) @ LUMINANCE
 
 
 # ---------------------------------------------------------------------------------------

@@ -14,6 +14,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import TwoSlopeNorm
 
+from pathtracer.core.color import LUMINANCE
 from pathtracer.core.tonemap import auto_scale, tonemap
 
 __all__ = ["plot_mean_comparison", "plot_convergence", "plot_variance_comparison"]
@@ -68,7 +69,7 @@ def plot_mean_comparison(path, mean_test, mean_ref, agreement, title: str = "") 
     cb = fig.colorbar(im, ax=axes[2], fraction=0.046, pad=0.04)
     cb.set_label("z (clipped ±10)")
 
-    lum = np.array([0.2126, 0.7152, 0.0722]) if t.shape[2] == 3 else np.full(t.shape[2], 1 / t.shape[2])
+    lum = LUMINANCE if t.shape[2] == 3 else np.full(t.shape[2], 1 / t.shape[2])
     yt, yr = t @ lum, r @ lum
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(yr > 0, yt / yr - 1.0, np.where(yt == yr, 0.0, np.nan))
