@@ -22,7 +22,11 @@ import sys
 
 import numpy as np
 
+from mitsuba_refs.cache import get_reference
+from mitsuba_refs.errors import ReferenceUnavailable
+from pathtracer import load_scene
 from pathtracer.core.tonemap import auto_scale, tonemap
+from pathtracer.integrators.bdpt import BDPTIntegrator, render_strategies
 
 from . import common
 
@@ -46,7 +50,7 @@ def build_parser():
 
 def plot_triangle(images: dict, longest: int, exposure: float, title: str, out, stem: str):
     """Row k = path length, column s = strategy; one exposure for every image."""
-    import matplotlib
+    import matplotlib  # matplotlib: heavy, imported only to draw
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(longest, longest + 1, figsize=(2.2 * (longest + 1), 2.3 * longest),
@@ -72,8 +76,6 @@ def plot_triangle(images: dict, longest: int, exposure: float, title: str, out, 
 def main(argv=None) -> int:
     """Render both triangles and write the figures and the table."""
     args = build_parser().parse_args(argv)
-    from pathtracer import load_scene
-    from pathtracer.integrators.bdpt import BDPTIntegrator, render_strategies
     params = common.scene_params(args.scene, args.defines)
     scene = load_scene(args.scene, max_depth=args.longest,
                        **{k: v for k, v in params.items() if k != "max_depth"})
@@ -113,8 +115,6 @@ def main(argv=None) -> int:
 def bounce_reference(scene: str, params: dict, k: int):
     """Mean pixel value of the paths of k segments from the committed per-bounce references
     (Mitsuba path at max_depth k minus k - 1), or None where one is missing."""
-    from mitsuba_refs.cache import get_reference
-    from mitsuba_refs.errors import ReferenceUnavailable
     try:
         upper = get_reference(scene, {**params, "max_depth": k}, "path", render=False)
         lower = (get_reference(scene, {**params, "max_depth": k - 1}, "path", render=False).mean

@@ -53,7 +53,15 @@ from pathtracer.scene.xml_files import XMLSyntaxError, read_elements, scene_file
 from . import config
 from .errors import CacheNotWritable, ReferenceUnavailable, RefsInputError, is_mitsuba_error, mitsuba_error_line
 from .exr import pixel_checksum, read_reference_exr, write_reference_exr
-from .render import INTEGRATOR_MAP, MEAN_ONLY, Reference, integrator_dict, reference_settings, resolve_scene
+from .render import (
+    INTEGRATOR_MAP,
+    MEAN_ONLY,
+    Reference,
+    integrator_dict,
+    reference_settings,
+    render_reference,
+    resolve_scene,
+)
 
 FORMAT_VERSION = 1
 
@@ -459,7 +467,6 @@ def get_reference(scene, params, integrator, spp=config.REF_SPP,
     if log:
         log(f"{reference_stem(scene, params, integrator, spp, seed, **where)}: "
             f"{status} ({detail}), rendering")
-    from .render import render_reference
     try:
         ref = render_reference(scene, params, integrator, spp, seed,
                                variant=variant, log=log, **where)

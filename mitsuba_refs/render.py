@@ -40,12 +40,17 @@ from pathlib import Path
 
 import numpy as np
 
+from pathtracer.render.driver import replica_count, transport_options
+from pathtracer.scene.errors import SceneError
+from pathtracer.scene.load import scene_file
+from pathtracer.scene.settings import scene_settings
 from pathtracer.scene.xml_files import read_elements, scene_tree, walk
 
-from . import config
+from . import config, moments
 from .batch import render_moments
 from .rfilter import check_variant, film_filter, filter_metadata, per_sample_variance
 from .seeds import pass_seeds
+from .variant import set_variant
 
 #: our integrator name -> Mitsuba integrator type
 INTEGRATOR_MAP = {
@@ -98,8 +103,6 @@ def resolve_scene(scene):
     """Return the file of ``scene``: a file path, or a built-in name
     (``cornell-box`` -> ``pathtracer/data/scenes/cornell-box.xml``), by the tracer's rule
     (:func:`pathtracer.scene.scene_file`); ``FileNotFoundError`` with its message otherwise."""
-    from pathtracer.scene.errors import SceneError
-    from pathtracer.scene.load import scene_file
     try:
         return Path(scene_file(scene)).resolve()
     except SceneError as error:
@@ -200,8 +203,6 @@ def reference_settings(path, params, options=None, resolution=None):
         (:func:`pathtracer.render.transport_options`), whatever set them;
         ``settings``: :class:`pathtracer.scene.settings.SceneSettings`.
     """
-    from pathtracer.render.driver import transport_options
-    from pathtracer.scene.settings import scene_settings
     scene_kw = {str(k): str(v) for k, v in (params or {}).items()}
     settings = scene_settings(path, resolution=resolution, **scene_kw)
     transport = transport_options(settings.integrator, **(options or {}))
@@ -263,7 +264,7 @@ def load_mitsuba_scene(path, scene_kw, resolution=None):
     the objects are made, so Mitsuba's sensor converts ``fov``/``fov_axis`` at the
     new aspect itself (not a copy of the tracer's conversion).
     """
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
     config = mi.parser.ParserConfig(mi.variant())
     state = mi.parser.parse_file(config, str(path), **scene_kw)
     if resolution is not None:
@@ -289,7 +290,7 @@ def independent_samplers(state):
     ``seed`` kept): the tracer samples independently whatever the file says, and the
     statistics assume i.i.d. samples, which stratified, multijitter, orthogonal and
     ldsampler patterns are not (their per-pixel variance is lower)."""
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
     for node in state.nodes:
         if node.type != mi.ObjectType.Sampler or node.props.plugin_name() == "independent":
             continue
@@ -301,7 +302,7 @@ def independent_samplers(state):
 
 def check_framing(path, mi_scene, settings):
     """Raise ``ValueError`` unless Mitsuba's sensor has the tracer's film size and fov."""
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
     sensor = mi_scene.sensors()[0]
     size = tuple(int(v) for v in sensor.film().crop_size())
     if size != settings.resolution:
@@ -359,13 +360,11 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     -------
     Reference
     """
-    from .variant import set_variant
-
     path = resolve_scene(scene_path_or_name)
     check_film_filter(path)
     scene_kw, transport, settings = reference_settings(path, params, options, resolution)
     chosen, reason = set_variant(variant)
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
 
     scene = load_mitsuba_scene(path, scene_kw, resolution)
     film = scene.sensors()[0].film()
@@ -442,9 +441,8 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
 def _render_with_wrapper(scene, nested, spp, seed, stream, pass_spp, log):
     """The ``rgb_moments`` method: passes of at most ``pass_spp`` samples, moments combined
     (first and second moment per pixel, as the film's filter weighted them)."""
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
 
-    from . import moments
     film = scene.sensors()[0].film()
     width, height = (int(v) for v in film.crop_size())
     integ = mi.load_dict(moments.moment_dict(nested))
@@ -472,9 +470,8 @@ def _render_replicas(scene, nested, spp, seed, stream, log):
     of one light path per pixel: ``var / spp`` is the variance of the mean), ``spp``,
     ``spp / K`` and the replicas' seeds (:func:`pass_seeds`).
     """
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
 
-    from pathtracer.render.driver import replica_count
     film = scene.sensors()[0].film()
     width, height = (int(v) for v in film.crop_size())
     replicas = replica_count(spp, config.REF_REPLICAS)

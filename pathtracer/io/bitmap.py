@@ -18,6 +18,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from PIL import Image, UnidentifiedImageError
 
 
 class BitmapError(ValueError):
@@ -133,7 +134,6 @@ def _rgbe_scanlines(data, width: int, height: int) -> np.ndarray:
 
 
 def _read_pillow(path: Path, raw: bool) -> np.ndarray:
-    from PIL import Image, UnidentifiedImageError
 
     try:
         with Image.open(path) as image:

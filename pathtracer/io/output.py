@@ -15,6 +15,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
 
 from ..core.tonemap import to_8bit, tonemap
 from ..render.driver import RenderResult
@@ -167,8 +168,6 @@ def read_exr(path) -> RenderResult:
 
 def write_png(path, rgb: np.ndarray, exposure: float = 0.0) -> Path:
     """Write a tonemapped sRGB preview of a linear (H, W, 3) image, atomically (``exposure`` in stops)."""
-    from PIL import Image
-
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     image = Image.fromarray(to_8bit(tonemap(rgb, 2.0 ** exposure)))
