@@ -10,12 +10,21 @@ from __future__ import annotations
 
 import json
 import os
+import pwd
 import signal
 import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import numpy
+import scipy
+import threadpoolctl
+
+import autograder
+import pathtracer
+from mitsuba_refs import cache
 
 from . import runtime as runtimes
 
@@ -47,7 +56,6 @@ class Environment:
         """(uid, gid) of the user, or None when the child runs as the grader's user."""
         if not self.user or os.geteuid() != 0:
             return None
-        import pwd
         entry = pwd.getpwnam(self.user)
         return entry.pw_uid, entry.pw_gid
 
@@ -56,9 +64,6 @@ def _site_dirs() -> list:
     given = os.environ.get(ENV_STUDENT_SITE)
     if given:
         return [p for p in given.split(os.pathsep) if p]
-    import numpy
-    import scipy
-    import threadpoolctl
     dirs = [str(Path(m.__file__).resolve().parent.parent) for m in (numpy, scipy)]
     dirs.append(str(Path(threadpoolctl.__file__).resolve().parent))
     return list(dict.fromkeys(dirs))
@@ -131,9 +136,6 @@ print(json.dumps(readable))
 
 def private_paths(extra=()) -> list:
     """What a submission must not read: the references, the solution, the grader."""
-    import autograder
-    import pathtracer
-    from mitsuba_refs import cache
     tracer = Path(pathtracer.__file__).resolve().parent
     paths = [cache.cache_dir(), tracer / "integrators", tracer / "sensors" / "perspective.py",
              Path(autograder.__file__).parent, *extra]

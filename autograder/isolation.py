@@ -38,6 +38,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mitsuba_refs.compare import loaded_scene
+from pathtracer import render
+from pathtracer.core.rng import RandomStream, sample_keys
+from pathtracer.integrators import make_integrator
+from pathtracer.render.driver import integrator_for
+from pathtracer.sensors.perspective import Rays, camera_rays
+
 from . import runtime as runtimes
 from .environment import Environment, SetupError, kill_user_processes
 from .sandbox import wire
@@ -260,7 +267,6 @@ class StudentProcess:
               and ((pixel >= 0) & (pixel < n_pixels)).all())
         if not ok:
             raise wire.WireError("bad camera request")
-        from pathtracer.sensors.perspective import camera_rays
         rays = camera_rays(scene.camera, pixel, u_film)
         wire.write_frame(self._pipes[0], {"kind": "camera"},
                          {"o": rays.o, "d": rays.d, "tmax": rays.tmax}, self.deadline)
@@ -376,9 +382,6 @@ class StudentProcess:
         return mean, variance
 
     def _render_with_student_camera(self, scene, name, params, spp, seed, max_depth):
-        from pathtracer import render
-        from pathtracer.integrators import make_integrator
-        from pathtracer.sensors.perspective import Rays, camera_rays
         loaded = _scene(scene, params)
 
         def student_camera(camera, pixel, u_film):
@@ -396,9 +399,6 @@ class StudentProcess:
     def probe(self, scene, params, integrator, n=4096, seed=99):
         """(distinct results of the student's integrator, of the reference one) for ``n``
         copies of the centre pixel's ray with independent random streams."""
-        from pathtracer.core.rng import RandomStream, sample_keys
-        from pathtracer.render.driver import integrator_for
-        from pathtracer.sensors.perspective import camera_rays
         params = {str(k): str(v) for k, v in (params or {}).items()}
         loaded = _scene(scene, params)
         camera = loaded.camera
@@ -437,7 +437,6 @@ def _payload_limit(expect: dict) -> int:
 
 def _scene(name, params):
     """The grader's own copy of a built-in scene (cached by content)."""
-    from mitsuba_refs.compare import loaded_scene
     return loaded_scene(name, params)
 
 
