@@ -63,6 +63,11 @@ from .render import (
     resolve_scene,
 )
 
+try:
+    import fcntl
+except ImportError:   # Windows: no locks (validate's checksums catch a torn pair)
+    fcntl = None
+
 FORMAT_VERSION = 1
 
 
@@ -291,9 +296,7 @@ def cache_lock(directory, exclusive):
     has already created the folder. Without ``fcntl`` (Windows) nothing is
     locked and a torn pair is caught by :func:`validate`'s checksums.
     """
-    try:
-        import fcntl
-    except ImportError:
+    if fcntl is None:
         yield
         return
     path = Path(directory) / LOCK_NAME
