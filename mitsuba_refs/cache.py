@@ -47,12 +47,13 @@ from pathlib import Path
 
 import numpy as np
 
+from pathtracer.io.exr import read_mean_variance
 from pathtracer.scene.errors import SceneError
 from pathtracer.scene.xml_files import XMLSyntaxError, read_elements, scene_files
 
 from . import config
 from .errors import CacheNotWritable, ReferenceUnavailable, RefsInputError, is_mitsuba_error, mitsuba_error_line
-from .exr import pixel_checksum, read_reference_exr, write_reference_exr
+from .exr import pixel_checksum, write_reference_exr
 from .render import (
     INTEGRATOR_MAP,
     MEAN_ONLY,
@@ -234,7 +235,7 @@ def validate(scene, params, integrator, spp, seed, directory=None, options=None,
                             "integrator, spp or seed changed)", None
         try:
             with _output_silenced():
-                mean, var, attrs = read_reference_exr(exr_path)
+                mean, var, attrs = read_mean_variance(exr_path)
         except Exception as exc:  # OpenEXR raises various types
             return "corrupt", f"{exr_path.name} unreadable: {exc}", None
     shape = (int(metadata.get("height", -1)), int(metadata.get("width", -1)), 3)

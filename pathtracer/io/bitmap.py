@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, UnidentifiedImageError
 
+from .exr import read_channels
+
 
 class BitmapError(ValueError):
     """An image that cannot be read, with the reason."""
@@ -66,12 +68,8 @@ def read_bitmap(path, *, raw: bool = False) -> np.ndarray:
 
 
 def _read_exr(path: Path) -> np.ndarray:
-    import OpenEXR
-
     try:
-        with OpenEXR.File(str(path), separate_channels=True) as exr:
-            channels = {name: np.asarray(c.pixels, dtype=np.float64)
-                        for name, c in exr.channels().items()}
+        channels, _ = read_channels(path)
     except Exception as error:  # OpenEXR raises plain exceptions on bad files
         raise BitmapError(f"{path.name}: not a readable OpenEXR file ({error})") from None
     for names in (("R", "G", "B"), ("Y",)):
