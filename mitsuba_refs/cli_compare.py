@@ -89,7 +89,8 @@ def run_compare(args) -> int:
     params = parse_defines(args.defines)
     check_options(args)
     preload(args.scene, params, args.resolution)
-    from .compare import compare  # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught
+    # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught.
+    from .compare import compare
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
     options = {k: v for k, v in (("max_depth", args.max_depth), ("rr_depth", args.rr_depth))
                if v is not None} or None
@@ -125,10 +126,8 @@ def preload(scene, params, resolution=None) -> None:
     line each once the input is known to be good.
     """
     scene_path(scene)
-    from .compare import (  # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught
-        default_params,
-        loaded_scene,
-    )
+    # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught.
+    from .compare import default_params, loaded_scene
     params = {**default_params(scene), **params}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -75,9 +75,8 @@ def per_sample_variance(m1, m2, n, rfilter):
 
 def reference_correlation(reference):
     """How the reference's film filter correlates pixels (:mod:`mitsuba_refs.stats.correlation`)."""
-    from .stats.correlation import (
-        pixel_correlation,  # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught
-    )
+    # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught.
+    from .stats.correlation import pixel_correlation
     return pixel_correlation(filter_from_metadata(getattr(reference, "metadata", None)))
 
 
