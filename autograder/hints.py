@@ -29,7 +29,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+from mitsuba_refs import explain as base
+from mitsuba_refs.compare import default_params
+from mitsuba_refs.explain import BOUNCE_CAUSES
+from pathtracer import load_scene
+from pathtracer.core.color import LUMINANCE
+from pathtracer.sensors.perspective import camera_rays
+
+from .hints_media import explain_media
+
 #: Integrators that combine light and BSDF sampling with MIS weights.
 MIS_INTEGRATORS = ("path", "direct")
 #: Integrators with shadow rays.
@@ -117,8 +125,6 @@ UNEVEN = 0.15
 
 def _scene_facts(check) -> dict:
     """What the rules need to know about the check's scene: its number of emitters."""
-    from mitsuba_refs.compare import default_params
-    from pathtracer import load_scene
     scene = load_scene(check.scene, **default_params(check.scene))
     return dict(emitters=scene.num_emitters)
 
@@ -180,9 +186,6 @@ def camera_evidence(check, student) -> dict:
         pixel for a wrong field of view (``centres`` says which);
     ``mirrored, flipped``  left-right / top-bottom order reversed.
     """
-    from mitsuba_refs.compare import default_params
-    from pathtracer import load_scene
-    from pathtracer.sensors.perspective import camera_rays
     params = default_params(check.scene)
     camera = load_scene(check.scene, **params).camera
     w, h = camera.width, camera.height
@@ -360,10 +363,8 @@ def _sweep_hints(ev: Evidence) -> list:
             out.append("direct light too dark with BSDF sampling: the throughput must be multiplied "
                        f"by f cos / pdf (the pdf of the sampled direction) {numbers}")
         else:
-            from mitsuba_refs.explain import BOUNCE_CAUSES
             out.append(f"{BOUNCE_CAUSES[2]} {numbers}")
         return out
-    from mitsuba_refs.explain import BOUNCE_CAUSES
     out.append(f"only bounce >= 3 is wrong, the indirect term: {BOUNCE_CAUSES[3].split(': ', 1)[-1]}; "
                f"the weight of a sampled direction is f cos / pdf with the pdf it was drawn "
                f"from (cosine and pdf both needed) {numbers}")
@@ -407,7 +408,6 @@ def _variance_policy(hint: str, comparison) -> str:
 
 def explain(ev: Evidence) -> list:
     """Likely causes, most specific first, each with its numbers."""
-    from mitsuba_refs import explain as base
     comparison = ev.comparison
     out = []
     if ev.images is not None:
@@ -431,7 +431,6 @@ def explain(ev: Evidence) -> list:
                    "one stream per ray; never reseed or share one stream)")
     if getattr(ev.check, "assignment", "") == "media":
         if not correlated:
-            from .hints_media import explain_media
             out += explain_media(ev)
     elif not ev.check.glass and not correlated:
         out += _sweep_hints(ev)
@@ -509,8 +508,6 @@ def pixel_mapping(images: dict) -> dict:
 
 def _pixel_cosines(check, shape) -> np.ndarray:
     """cos theta (to the optical axis) of each pixel centre's ray, (H, W)."""
-    from mitsuba_refs.compare import default_params
-    from pathtracer import load_scene
     camera = load_scene(check.scene, **default_params(check.scene)).camera
     height, width = shape[:2]
     tan_x = np.tan(np.radians(camera.x_fov) / 2)

@@ -26,7 +26,11 @@ import math
 
 import numpy as np
 
-from .hints import LUMINANCE
+from mitsuba_refs.compare import default_params
+from pathtracer import load_scene
+from pathtracer.core.color import LUMINANCE
+from pathtracer.sensors.perspective import camera_rays
+from pathtracer.shapes.intersect import intersect
 
 #: A region counts as wrong (for explanations) beyond this relative brightness error.
 REGION_TOLERANCE = 0.05
@@ -38,9 +42,6 @@ def fog_pixels(scene_name: str, params: dict) -> tuple:
     """(fog, clear): boolean (h, w) masks of the pixels whose camera rays, at the 4 corners of
     a 2 x 2 grid inside the pixel, all enter a medium (first hit on a medium boundary) or all
     do not; pixels on the fog's outline are in neither."""
-    from pathtracer import load_scene
-    from pathtracer.sensors.perspective import camera_rays
-    from pathtracer.shapes.intersect import intersect
     scene = load_scene(scene_name, **params)
     camera = scene.camera
     w, h = camera.width, camera.height
@@ -76,7 +77,6 @@ def added_region_ratio(sweep, depth, mask) -> float:
 def media_evidence(check, sweep) -> dict:
     """The numbers the media rules read: per region (fog / clear) the ratio of the light each
     depth of the sweep adds, and the regions' sizes."""
-    from mitsuba_refs.compare import default_params
     fog, clear = fog_pixels(check.scene, default_params(check.scene))
     out = {"fog_pixels": int(fog.sum()), "clear_pixels": int(clear.sum())}
     for depth in sorted(sweep or {}):

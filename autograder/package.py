@@ -21,7 +21,7 @@ Both scripts take ``AUTOGRADER_ROOT`` (default ``/autograder``), so that the pac
 tested end to end in a temporary folder; ``setup.sh`` also takes ``AUTOGRADER_PYTHON`` (an
 interpreter that already has the dependencies: no apt, no venv) and
 ``AUTOGRADER_STUDENT_USER`` / ``AUTOGRADER_STUDENT_PYTHON`` / ``AUTOGRADER_STUDENT_SITE``
-(see :class:`autograder.isolation.Environment`), which it records in ``ROOT/env.sh`` for
+(see :class:`autograder.environment.Environment`), which it records in ``ROOT/env.sh`` for
 ``run_autograder``. ``AUTOGRADER_PYTEST_K`` grades only the checks a pytest ``-k`` expression selects.
 """
 from __future__ import annotations

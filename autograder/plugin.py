@@ -13,7 +13,7 @@ Options
 
 Before the first test, when the student's code runs as its own user
 (``AUTOGRADER_STUDENT_USER``), the grader checks as that user that nothing private is
-readable (:func:`autograder.isolation.require_safe_environment`); if something is, it
+readable (:func:`autograder.environment.require_safe_environment`); if something is, it
 writes a results file that says so and stops without grading.
 
 Markers
@@ -70,7 +70,7 @@ def pytest_configure(config):
 
 def pytest_sessionstart(session):
     """Refuse to grade in an environment where the submission could read private files."""
-    from .isolation import SetupError, require_safe_environment
+    from .environment import SetupError, require_safe_environment
     results = session.config.stash.get(_RESULTS, None)
     extra = [os.path.dirname(results.path)] if results is not None else []
     try:

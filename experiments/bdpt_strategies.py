@@ -51,7 +51,7 @@ def build_parser():
 
 def plot_triangle(images: dict, longest: int, exposure: float, title: str, out, stem: str):
     """Row k = path length, column s = strategy; one exposure for every image."""
-    import matplotlib
+    import matplotlib  # matplotlib: heavy, imported only to draw
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(longest, longest + 1, figsize=(2.2 * (longest + 1), 2.3 * longest),

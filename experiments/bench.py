@@ -35,6 +35,8 @@ import threading
 import time
 from pathlib import Path
 
+from pathtracer import load_scene, render
+
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "pathtracer" / "data" / "scenes"
 
@@ -129,7 +131,6 @@ class PeakPss:
 def warmed_scene(stem: str, integrator: str, width: int, height: int):
     """The benchmark scene ``stem`` after one warm-up render (builds the accelerator, touches
     every code path once), so that timings and profiles see the steady state."""
-    from pathtracer import load_scene, render
     scene = load_scene(str(SCENES / f"{stem}.xml"), width=width, height=height)
     render(scene, integrator=integrator, spp=1, seed=99, processes=1, progress=False)
     return scene
@@ -138,7 +139,6 @@ def warmed_scene(stem: str, integrator: str, width: int, height: int):
 def measure_ours(spec: dict) -> dict:
     """Time ``pathtracer.render`` on one scene (``spec``: see :func:`main`)."""
     _pin(spec.get("core"))
-    from pathtracer import render
     scene = warmed_scene(spec["scene"], spec["integrator"], spec["width"], spec["height"])
     processes = spec.get("processes", 1)
     times, cpu = [], []
@@ -161,7 +161,7 @@ def measure_ours(spec: dict) -> dict:
 def measure_mitsuba(spec: dict) -> dict:
     """Time ``mi.render`` on one scene in variant ``spec['variant']``, one thread."""
     _pin(spec.get("core"))
-    import drjit as dr
+    import drjit as dr  # Mitsuba's drjit: optional and heavy, imported where it renders
     import mitsuba as mi
     mi.set_variant(spec["variant"])
     try:

@@ -15,6 +15,8 @@ import time
 
 import numpy as np
 
+from experiments.bench import warmed_scene
+from pathtracer import render
 from pathtracer.accel.bvh import BVH
 from pathtracer.shapes.intersect import spawn_ray_to
 
@@ -86,8 +88,6 @@ def render_queries(size: int = 128, spp: int = 16, repeat: int = 3) -> None:
     that a change to the traversal is timed on the rays a render really traces (from
     surfaces, bounded by the room's hits) rather than on synthetic ones.
     """
-    from experiments.bench import warmed_scene
-    from pathtracer import render
     scene = warmed_scene("mesh", "path", size, size)
     bvh = scene._accel.big
     queries = []

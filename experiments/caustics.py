@@ -34,8 +34,15 @@ import time
 
 import numpy as np
 
+from mitsuba_refs.cache import get_reference
+from mitsuba_refs.stats import compare_means, image_mse
+from pathtracer import load_scene, render
+from pathtracer.bsdfs.shading import is_delta
 from pathtracer.core.tonemap import auto_scale, tonemap
 from pathtracer.integrators import INTEGRATORS as REGISTERED
+from pathtracer.integrators.wavefront import subset_hit
+from pathtracer.sensors.perspective import camera_rays
+from pathtracer.shapes.intersect import intersect
 
 from . import common
 
@@ -73,10 +80,6 @@ def build_parser():
 
 def first_hits(scene, sub=4):
     """Per pixel and sub-pixel offset (sub x sub grid): (points, hit Dirac BSDF, valid)."""
-    from pathtracer.bsdfs.shading import is_delta
-    from pathtracer.integrators.wavefront import subset_hit
-    from pathtracer.sensors.perspective import camera_rays
-    from pathtracer.shapes.intersect import intersect
     pixels = np.arange(scene.camera.width * scene.camera.height)
     grid = (np.stack(np.meshgrid(np.arange(sub), np.arange(sub)), -1).reshape(-1, 2) + 0.5) / sub
     for offset in grid:
@@ -146,7 +149,6 @@ def equal_time_render(scene, integrator: str, seconds: float, seed: int):
     at the speed measured so far. Returns the pool and a list of (cpu seconds, spp, mean,
     variance of the mean).
     """
-    from pathtracer import render
     pool, spent, points, batch, index = Pool(), 0.0, [], 2, 0
     while spent < seconds:
         start = time.process_time()
@@ -165,7 +167,6 @@ def masked_mse(mean, variance_of_mean, reference, mask) -> dict:
     reference with the reference's noise removed (unbiased, may be < 0); ``variance``, the
     image's own; ``mse`` = variance + bias^2, the bias^2 being what of ``mse_reference``
     exceeds the variance; ``rmse`` its root."""
-    from mitsuba_refs.stats import image_mse
     ref_n = reference.n[mask] if np.ndim(reference.n) == 2 else reference.n
     against = image_mse(mean[mask], reference.mean[mask], reference.var[mask], ref_n)
     variance = float(np.mean(variance_of_mean[mask]))
@@ -183,7 +184,6 @@ def reference_noise(reference, mask) -> float:
 
 def verdict(pool, reference, mask, integrator, alpha):
     """The harness's mean test of ``pool`` against ``reference`` on the pixels of ``mask``."""
-    from mitsuba_refs.stats import compare_means
     keep = mask[:, :, None]
     return compare_means(pool.mean * keep, pool.variance * keep, pool.n,
                          reference.mean * keep, reference.var * keep, reference.n, alpha=alpha,
@@ -192,8 +192,6 @@ def verdict(pool, reference, mask, integrator, alpha):
 
 def run_light(light, args, bar):
     """Every integrator on one light variant: images, error curves, efficiencies, verdicts."""
-    from mitsuba_refs.cache import get_reference
-    from pathtracer import load_scene
     params = {k: v for k, v in common.scene_params("caustics", args.defines).items() if k != "light"}
     if light != "area":    # the file's default: not part of the reference's name
         params["light"] = light
@@ -226,7 +224,7 @@ def run_light(light, args, bar):
 
 def plot_images(results, out) -> str:
     """One row per light: each integrator's image at the end of its budget, then the reference."""
-    import matplotlib
+    import matplotlib  # matplotlib: heavy, imported only to draw
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     names = list(next(iter(results.values()))["integrators"])
@@ -250,7 +248,7 @@ def plot_images(results, out) -> str:
 
 def plot_errors(results, out) -> str:
     """RMSE against CPU seconds, log-log, one panel per light."""
-    import matplotlib
+    import matplotlib  # matplotlib: heavy, imported only to draw
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.ticker import NullFormatter
@@ -281,7 +279,7 @@ def seconds_range(results) -> tuple[float, float]:
 
 def save_png(fig, out, stem) -> str:
     """``stem.png`` only (the figures are committed: no SVG twin), small."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib: heavy, imported only to draw
     path = common.out_dir(out) / f"{stem}.png"
     fig.savefig(path, dpi=90, bbox_inches="tight")
     plt.close(fig)

@@ -15,15 +15,25 @@ import csv
 import hashlib
 import json
 import math
+import multiprocessing
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
+
+from mitsuba_refs.cache import get_reference as lookup
+from mitsuba_refs.compare import default_params, loaded_scene, reference_integrator
+from mitsuba_refs.errors import ReferenceUnavailable
+from mitsuba_refs.stats import image_mse
+from pathtracer import render
+from pathtracer.core.color import LUMINANCE
+from pathtracer.scene.defines import parse_define
 
 #: Colours per integrator, the same in every figure.
 COLOURS = {"path": "C0", "path_nee": "C1", "path_bsdf": "C2", "direct": "C3", "recursive": "C4",
@@ -41,7 +51,6 @@ RELMSE_EPS = 1e-2
 
 def define(text: str) -> tuple[str, str]:
     """argparse type of ``-D name=value`` (:func:`pathtracer.scene.defines.parse_define`)."""
-    from pathtracer.scene.defines import parse_define
     try:
         return parse_define(text)
     except ValueError as error:
@@ -66,7 +75,6 @@ def add_run_args(parser: argparse.ArgumentParser, out: str, workers: bool = True
 
 def scene_params(scene: str, defines=()) -> dict:
     """A built-in scene's test film size (where the committed references are), overridden by -D."""
-    from mitsuba_refs.compare import default_params
     return {**default_params(scene), **dict(defines)}
 
 
@@ -80,7 +88,6 @@ def cpu_count() -> int:
 
 def progress_bar(total: int, desc: str, enabled: bool = True):
     """A tqdm bar on stderr (a no-op object when disabled)."""
-    from tqdm import tqdm
     return tqdm(total=total, desc=desc, unit="render", file=sys.stderr, disable=not enabled,
                 dynamic_ncols=True)
 
@@ -91,7 +98,6 @@ def run_with_progress(keys, run, per_key: int, desc: str, enabled: bool = True):
     Returns None after printing the error when a Mitsuba reference is missing (the caller exits
     with 2): an experiment compares against references and has nothing to show without them.
     """
-    from mitsuba_refs.errors import ReferenceUnavailable
     keys = list(keys)
     bar = progress_bar(len(keys) * per_key, desc, enabled)
     try:
@@ -115,7 +121,7 @@ def out_dir(path) -> Path:
 
 def save_figure(fig, out, stem: str) -> list[str]:
     """Write ``stem.png`` and ``stem.svg`` into ``out``; close the figure; return the paths."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib: heavy, imported only to draw
     out = out_dir(out)
     paths = []
     for ext in ("png", "svg"):
@@ -174,9 +180,6 @@ def write_csv(path, rows: list[dict]) -> str:
 
 def get_reference(scene, params, integrator="path", quiet=False):
     """The Mitsuba reference (cached or rendered), or None with a note on stderr."""
-    from mitsuba_refs.cache import ReferenceUnavailable
-    from mitsuba_refs.cache import get_reference as lookup
-    from mitsuba_refs.compare import reference_integrator
     try:
         return lookup(scene, params, reference_integrator(integrator),
                       log=None if quiet else (lambda m: print(m, file=sys.stderr)))
@@ -193,7 +196,6 @@ def error_metrics(mean, reference) -> dict:
     relMSE = mean((t - r)^2 / (r^2 + eps)) - mean(v_r / n_r / (r^2 + eps)), eps = RELMSE_EPS:
     the squared error relative to the pixel's brightness, so dark and bright regions count alike.
     """
-    from mitsuba_refs.stats import image_mse
     mse = image_mse(mean, reference.mean, reference.var, reference.n)
     weight = 1.0 / (reference.mean ** 2 + RELMSE_EPS)
     relmse = float(np.mean((mean - reference.mean) ** 2 * weight)
@@ -202,8 +204,8 @@ def error_metrics(mean, reference) -> dict:
 
 
 def luminance(image) -> np.ndarray:
-    """Rec. 709 luminance of an (..., 3) linear RGB image."""
-    return np.asarray(image) @ np.array([0.2126, 0.7152, 0.0722])
+    """Rec. 709 luminance of an (..., 3) linear RGB image (Mitsuba's weights)."""
+    return np.asarray(image) @ LUMINANCE
 
 
 # ---------------------------------------------------------------------------------------
@@ -241,8 +243,6 @@ class Task:
 
 def run_task(task: Task) -> dict:
     """Render a task in this process (one core): mean, variance, seconds."""
-    from mitsuba_refs.compare import loaded_scene  # once per worker while the files are unchanged
-    from pathtracer import render
     scene = loaded_scene(task.scene, dict(task.params))
     result = render(scene, task.integrator, spp=task.spp, seed=task.seed, processes=1,
                     progress=False, **dict(task.options))
@@ -299,7 +299,6 @@ class _InlineExecutor:
     """Runs tasks in this process (workers=1): no pickling, exact single-core timings."""
 
     def submit(self, fn, *args, **kwargs):
-        from concurrent.futures import Future
         future = Future()
         future.set_running_or_notify_cancel()
         try:
@@ -323,7 +322,7 @@ def executor(workers: int | None = None, dask: str | None = None):
     """
     if dask:
         try:
-            from distributed import Client, LocalCluster
+            from distributed import Client, LocalCluster  # Dask: optional, imported only for --dask
         except ImportError:
             raise SystemExit("--dask needs `pip install dask distributed` "
                              "(or the project's [dask] extra)") from None
@@ -347,7 +346,6 @@ def executor(workers: int | None = None, dask: str | None = None):
     if workers == 1:
         yield _InlineExecutor()
         return
-    import multiprocessing
     pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"))
     try:
         yield pool

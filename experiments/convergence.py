@@ -25,6 +25,8 @@ import sys
 
 import numpy as np
 
+from mitsuba_refs.stats import compare_means, convergence_law, effective_rows, rare_errors_dominate, reference_mse_floor
+
 from . import common
 
 DEFAULT_INTEGRATORS = ("path", "path_nee", "path_bsdf")
@@ -66,7 +68,6 @@ def make_tasks(scene, params, integrators, ladder, replicas, seed):
 
 def analyse(store, tasks, references, ladder, replicas, alpha):
     """Per integrator: (K, L) tables of mse, relmse, seconds and the convergence law."""
-    from mitsuba_refs.stats import convergence_law, reference_mse_floor
     out = {}
     for name, ref in references.items():
         shape = (replicas, len(ladder))
@@ -102,7 +103,6 @@ def rare_path_caution(lowest_mses) -> float | None:
     slope can then flatten for a correct tracer. ``mitsuba_refs.compare`` avoids this with
     equal samples per level; the figure only warns.
     """
-    from mitsuba_refs.stats import effective_rows, rare_errors_dominate
     lowest = np.asarray(lowest_mses, dtype=float)
     if lowest.size < 2 or not np.isfinite(lowest).all() or not rare_errors_dominate(lowest):
         return None
@@ -166,7 +166,7 @@ def print_table(rows, file=sys.stdout):
 
 def plot(results, ladder, title, out):
     """Draw RMSE against spp for every integrator; return the figure paths."""
-    import matplotlib
+    import matplotlib  # matplotlib: heavy, imported only to draw
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -251,7 +251,6 @@ def main(argv=None) -> int:
     agreement_spp = max([n for n in ladder if n <= AGREEMENT_SPP], default=None)
 
     def on_result(task, output):
-        from mitsuba_refs.stats import compare_means
         ref = references[task.integrator]
         record = common.error_metrics(output["mean"], ref)
         if task.spp == agreement_spp and dict(task.labels)["replica"] == 0:

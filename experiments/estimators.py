@@ -31,6 +31,9 @@ import time
 
 import numpy as np
 
+from mitsuba_refs.stats import compare_means
+from pathtracer import load_scene
+from pathtracer import render as _render
 from pathtracer.core.tonemap import auto_scale, tonemap
 
 from . import common
@@ -75,7 +78,6 @@ def pixel_variance(variance) -> float:
 def render(scene, integrator, spp, seed, workers, repeats=1, **options):
     """Render ``repeats`` times with independent seeds: the pooled image, and the *fastest*
     time of one render (timings on a shared machine only ever get slower by noise)."""
-    from pathtracer import render as _render
     runs = []
     for k in range(max(1, repeats)):
         cpu = time.process_time()
@@ -121,10 +123,9 @@ def _bars(ax, labels, values, colours, fmt, title, ylabel, log=False):
 
 def part_mis(args, bar):
     """BSDF sampling vs light sampling vs MIS on the glossy plates, direct light only."""
-    import matplotlib
+    import matplotlib  # matplotlib: heavy, imported only to draw
     import matplotlib.pyplot as plt
 
-    from pathtracer import load_scene
     w, h = args.mis_size
     scene = load_scene(args.mis_scene, **{"width": w, "height": h, **dict(args.defines)})
     configs = [("path_bsdf", "BSDF sampling"), ("path_nee", "light sampling (shadow rays)"),
@@ -187,10 +188,8 @@ def part_mis(args, bar):
 
 def part_hemisphere(args, bar):
     """Uniform vs cosine-weighted hemisphere sampling."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib: heavy, imported only to draw
 
-    from mitsuba_refs.stats import compare_means
-    from pathtracer import load_scene
     scene = load_scene(args.scene, **common.scene_params(args.scene, args.defines))
     results, rows = {}, []
     for i, integrator in enumerate(("path_bsdf", "path")):
@@ -249,10 +248,8 @@ ROULETTE_CONFIGS = (
 
 def part_roulette(args, bar):
     """Russian roulette on/off: unbiased either way; time vs variance."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib: heavy, imported only to draw
 
-    from mitsuba_refs.stats import compare_means
-    from pathtracer import load_scene
     params = common.scene_params(args.scene, args.defines)
     scene = load_scene(args.scene, **params)
     reference = common.get_reference(args.scene, params, "path")
@@ -294,9 +291,8 @@ def part_roulette(args, bar):
 
 def part_recursive(args, bar):
     """Recursive ray tracing (N branches down to depth d) vs path tracing at equal time."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib: heavy, imported only to draw
 
-    from pathtracer import load_scene
     params = common.scene_params(args.scene, args.defines)
     scene = load_scene(args.scene, **params)
     pilot_scene = load_scene(args.scene, **{**params, "width": 16, "height": 16})

@@ -35,6 +35,11 @@ import sys
 
 import numpy as np
 
+from mitsuba_refs.cache import get_reference
+from mitsuba_refs.compare import CLOSEST_ESTIMATOR
+from mitsuba_refs.config import BUILTIN_SCENES
+from pathtracer import load_scene
+
 from . import caustics, common
 
 INTEGRATORS = ("recursive", "path", "light", "bdpt")
@@ -42,7 +47,6 @@ INTEGRATORS = ("recursive", "path", "light", "bdpt")
 
 def build_parser():
     """The command line of the four-integrator comparison."""
-    from mitsuba_refs.config import BUILTIN_SCENES
     parser = argparse.ArgumentParser(
         prog="python -m experiments.integrators", description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -80,9 +84,6 @@ def compare_one(scene, name, reference, test_reference, args, seed) -> dict:
 
 def run_scene(scene_name, args, bar) -> dict:
     """Every integrator on one scene against its Mitsuba ``path`` reference."""
-    from mitsuba_refs.cache import get_reference
-    from mitsuba_refs.compare import CLOSEST_ESTIMATOR
-    from pathtracer import load_scene
     params = common.scene_params(scene_name, args.defines)
     reference = get_reference(scene_name, params, "path", render=False)
     scene = load_scene(scene_name, **params)

@@ -12,13 +12,18 @@ the medium, although optically it is almost nothing, so ``volpath`` loses its
 advantage there; glossy surfaces add noise to both; and a light that paths
 reach only through a bounce makes both noisy.
 
-Run: ``python -m experiments.progression --lecture-media [--spp 64]``. Writes
-lecture-media.png/.svg and lecture-media.csv (RMSE and seconds per panel).
+Run: ``python -m experiments.progression --lecture-media [--spp 64]`` (or
+``python -m experiments.lecture_media [--spp 64]``). Writes lecture-media.png/.svg and
+lecture-media.csv (RMSE and seconds per panel).
 """
 from __future__ import annotations
 
+import argparse
+import sys
 import time
 
+from mitsuba_refs.compare import default_params
+from pathtracer import load_scene, render
 from pathtracer.core.tonemap import auto_scale, tonemap
 
 from . import common
@@ -34,8 +39,6 @@ INTEGRATORS = ("volpath_phase", "volpath")
 
 def run(spp: int, seed: int, out, workers=None) -> list[dict]:
     """Render every step with both integrators; write the figure and the table."""
-    from mitsuba_refs.compare import default_params
-    from pathtracer import load_scene, render
     out = common.out_dir(out)
     panels, table = {}, []
     for scene_name in STEPS:
@@ -62,9 +65,9 @@ def run(spp: int, seed: int, out, workers=None) -> list[dict]:
 
 def plot(panels, table, spp, out) -> list[str]:
     """The figure: one column per step, rows volpath_phase, volpath and the reference."""
-    import matplotlib
+    import matplotlib  # a heavy optional part: imported only to draw
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib: heavy, imported only to draw
     rows = list(INTEGRATORS) + ["reference"]
     rmse = {(r["scene"], r["integrator"]): r["rmse"] for r in table}
     fig, axes = plt.subplots(len(rows), len(STEPS), figsize=(2.4 * len(STEPS), 2.5 * len(rows) + 0.5),
@@ -95,8 +98,17 @@ def plot(panels, table, spp, out) -> list[str]:
     return common.save_figure(fig, out, "lecture-media")
 
 
-if __name__ == "__main__":
-    import sys
+def main(argv=None) -> int:
+    """The lecture's media steps (command line); exit code."""
+    parser = argparse.ArgumentParser(prog="python -m experiments.lecture_media", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--spp", type=int, default=64, help="paths per pixel (default: %(default)s)")
+    parser.add_argument("--seed", type=int, default=7000, help="base seed (default: %(default)s)")
+    common.add_run_args(parser, "out/lecture-media")
+    args = parser.parse_args(argv)
+    run(args.spp, args.seed, args.out, args.workers)
+    return 0
 
-    from . import progression
-    sys.exit(progression.main(["--lecture-media", *sys.argv[1:]]))
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -28,7 +28,12 @@ import sys
 
 import numpy as np
 
+from mitsuba_refs.cache import ReferenceUnavailable, get_reference
+from mitsuba_refs.stats import compare_means
+from pathtracer import load_scene, render
+from pathtracer.core.pathclasses import LECTURE_CLASSES, compile_classes, is_partition
 from pathtracer.core.tonemap import auto_scale, tonemap
+from pathtracer.render.classes import render_classes
 
 from . import common
 
@@ -60,11 +65,10 @@ def build_parser():
 
 def plot_classes(result, named, partition, full, title, out):
     """Draw the named classes and a partition of path space beside the full image."""
-    import matplotlib
+    import matplotlib  # matplotlib: heavy, imported only to draw
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from pathtracer.core.pathclasses import LECTURE_CLASSES
     exposure = auto_scale(full)
     total = float(full.mean())
     cols = max(len(named) + 1, len(partition) + 1)
@@ -105,7 +109,7 @@ def plot_classes(result, named, partition, full, title, out):
 
 def plot_bounces(rows, title, out):
     """Draw each bounce class beside Mitsuba's difference of max_depth references."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib: heavy, imported only to draw
     fig, axes = plt.subplots(len(rows), 3, figsize=(12, 3.6 * len(rows)), squeeze=False)
     for i, row in enumerate(rows):
         exposure = auto_scale(row["mitsuba"]) if row["mitsuba"].max() > 0 else 1.0
@@ -133,10 +137,6 @@ def plot_bounces(rows, title, out):
 
 def compare_bounces(args, bar):
     """Our bounce classes against differences of Mitsuba's max_depth references."""
-    from mitsuba_refs.cache import ReferenceUnavailable, get_reference
-    from mitsuba_refs.stats import compare_means
-    from pathtracer import load_scene
-    from pathtracer.render.classes import render_classes
     params = common.scene_params(args.scene, args.defines)
     try:
         refs = [get_reference(args.scene, {**params, "max_depth": d}, "path") for d in (1, 2, 3)]
@@ -169,9 +169,6 @@ def compare_bounces(args, bar):
 def main(argv=None) -> int:
     """Run the path-class experiment (command line); exit code."""
     args = build_parser().parse_args(argv)
-    from pathtracer import load_scene, render
-    from pathtracer.core.pathclasses import compile_classes, is_partition
-    from pathtracer.render.classes import render_classes
     out = common.out_dir(args.out)
     args.workers = args.workers or common.cpu_count()
     compile_classes(args.classes)          # fail early on a malformed expression

@@ -25,6 +25,8 @@ import cProfile
 import pstats
 import time
 
+from pathtracer import render
+
 from .bench import CASES, warmed_scene
 
 #: (stage, [(module path suffix, function name), ...], counted as cumulative or self time).
@@ -68,7 +70,6 @@ def stage_seconds(stats: pstats.Stats) -> dict:
 
 def profile_scene(stem: str, integrator: str, width: int, height: int, spp: int) -> dict:
     """Stage seconds of one profiled render of the benchmark scene ``stem``."""
-    from pathtracer import render
     scene = warmed_scene(stem, integrator, width, height)
     profiler = cProfile.Profile()
     start = time.perf_counter()

@@ -22,9 +22,20 @@ import time
 
 import numpy as np
 
+from mitsuba_refs.render import (
+    INTEGRATOR_MAP,
+    check_box_filter,
+    integrator_dict,
+    resolve_scene,
+    split_params,
+    stream_id,
+)
+from mitsuba_refs.seeds import pass_seeds
+from mitsuba_refs.variant import set_variant
+from pathtracer import load_scene, render
 from pathtracer.core.tonemap import auto_scale, tonemap
 
-from . import common
+from . import common, lecture_media
 
 DEFAULT_SPP = (1, 4, 16, 64, 256, 1024)
 
@@ -92,20 +103,11 @@ def mitsuba_renderer(scene, params, integrator, variant=None):
     Uses :mod:`mitsuba_refs.render`'s integrator mapping and seed spacing; the
     scene file is the one our tracer reads (box filter: a pixel is a plain mean).
     """
-    from mitsuba_refs.render import (
-        check_box_filter,
-        integrator_dict,
-        pass_seeds,
-        resolve_scene,
-        split_params,
-        stream_id,
-    )
-    from mitsuba_refs.variant import set_variant
     path = resolve_scene(scene)
     check_box_filter(path)
     scene_kw, integ_kw = split_params(path, params)
     chosen, _ = set_variant(variant)
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
     mi_scene = mi.load_file(str(path), **scene_kw)
     integ = mi.load_dict(integrator_dict(integrator, integ_kw))
     width, height = (int(v) for v in mi_scene.sensors()[0].film().crop_size())
@@ -121,7 +123,7 @@ def mitsuba_renderer(scene, params, integrator, variant=None):
 
 def plot(rows, levels, title, out, exposure):
     """Draw one row of images per renderer at every sample count; return the figure paths."""
-    import matplotlib
+    import matplotlib  # matplotlib: heavy, imported only to draw
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     cols = len(levels)
@@ -152,11 +154,9 @@ def main(argv=None) -> int:
     """Draw the lecture's progression figure (command line); exit code."""
     args = build_parser().parse_args(argv)
     if args.lecture_media:
-        from . import lecture_media
         spp = args.spp[0] if len(args.spp) == 1 else 64
         lecture_media.run(spp, args.seed, args.out or "out/lecture-media", args.workers)
         return 0
-    from pathtracer import load_scene, render
     levels = sorted(set(args.spp))
     out = common.out_dir(args.out)
     params = {"width": args.size[0], "height": args.size[1], **dict(args.defines)}
@@ -172,7 +172,6 @@ def main(argv=None) -> int:
     rows = [(f"pathtracer\n({args.integrator})", our_images, our_seconds, "")]
     mi_images = mi_seconds = None
     if use_mitsuba:
-        from mitsuba_refs.render import INTEGRATOR_MAP
         try:
             theirs, variant = mitsuba_renderer(args.scene, params, args.integrator, args.variant)
             mi_images, mi_seconds = progressive(lambda add, j: theirs(add, args.seed + j), levels, bar)

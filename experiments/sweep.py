@@ -112,7 +112,7 @@ def summarise(store, tasks):
 
 def plot(summary, rows, out):
     """Draw RMSE against spp per scene; return the figure paths."""
-    import matplotlib
+    import matplotlib  # matplotlib: heavy, imported only to draw
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     scenes = list(dict.fromkeys(s["scene"] for s in summary))

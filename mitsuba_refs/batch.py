@@ -17,7 +17,7 @@ calls with Chan's formula, so
 are exactly the statistics of :mod:`mitsuba_refs.moments` (same samples model,
 float64 sums, and exactly zero variance where all samples agree).
 
-Every call has its own seed (:func:`mitsuba_refs.render.pass_seeds`, spaced
+Every call has its own seed (:func:`mitsuba_refs.seeds.pass_seeds`, spaced
 for the ``k`` times wider film); a copy's pixel is a different film pixel, so
 it draws its own random stream.
 """
@@ -27,6 +27,8 @@ import math
 import numpy as np
 
 from pathtracer.render.moments import merge_statistics, two_pass_block_statistics
+
+from .seeds import pass_seeds
 
 #: Film pixels per render call (``k * W * H``): bounded memory, and large enough that the
 #: per-call cost (block setup, developing the film) is small next to the path tracing.
@@ -81,7 +83,7 @@ def render_moments(scene, integrator, spp, seed, stream, log=None):
     integrator : mitsuba.Integrator
         The estimator itself (no wrapper).
     spp, seed, stream : int
-        Samples per pixel; base seed and stream of :func:`mitsuba_refs.render.pass_seeds`.
+        Samples per pixel; base seed and stream of :func:`mitsuba_refs.seeds.pass_seeds`.
     log : callable, optional
 
     Returns
@@ -91,7 +93,6 @@ def render_moments(scene, integrator, spp, seed, stream, log=None):
     """
     import mitsuba as mi
 
-    from .render import pass_seeds
     sensor = scene.sensors()[0]
     width, height = (int(v) for v in sensor.film().crop_size())
     k, calls = copies_per_call(spp, width, height)

@@ -43,15 +43,31 @@ import re
 import sys
 import tempfile
 import threading
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 
+from pathtracer.io.exr import read_mean_variance
+from pathtracer.scene.errors import SceneError
+from pathtracer.scene.xml_files import XMLSyntaxError, read_elements, scene_files
+
 from . import config
 from .errors import CacheNotWritable, ReferenceUnavailable, RefsInputError, is_mitsuba_error, mitsuba_error_line
-from .exr import pixel_checksum, read_reference_exr, write_reference_exr
-from .render import INTEGRATOR_MAP, MEAN_ONLY, Reference, integrator_dict, reference_settings, resolve_scene
+from .exr import pixel_checksum, write_reference_exr
+from .render import (
+    INTEGRATOR_MAP,
+    MEAN_ONLY,
+    Reference,
+    integrator_dict,
+    reference_settings,
+    render_reference,
+    resolve_scene,
+)
+
+try:
+    import fcntl
+except ImportError:   # Windows: no locks (validate's checksums catch a torn pair)
+    fcntl = None
 
 FORMAT_VERSION = 1
 
@@ -73,7 +89,8 @@ def _sha256_file(path):
 
 
 def parse_xml(path):
-    """The root element of the XML file ``path``.
+    """The root element of the XML file ``path``, read by the tracer's reader
+    (:func:`pathtracer.scene.xml_files.read_elements`).
 
     Raises
     ------
@@ -81,48 +98,27 @@ def parse_xml(path):
         The file is not well-formed XML (the message names file, line and column).
     """
     try:
-        return ET.parse(path).getroot()
-    except ET.ParseError as error:
-        line, column = error.position
-        reason = str(error).split(":")[0]
-        raise RefsInputError(f"{path}:{line}:{column + 1}: not well-formed XML: "
-                             f"{reason}") from None
+        return read_elements(path, str(path))
+    except XMLSyntaxError as error:
+        raise RefsInputError(f"{path}:{error.line}:{error.column}: not well-formed XML: "
+                             f"{error.syntax}") from None
 
 
-def included_files(scene_path, folders=None):
-    """Files a scene XML refers to (``filename`` strings, ``<include>``), recursively for
-    includes, found as the tracer's loader (and Mitsuba) finds them: an ``<include>`` next to
-    the including file first, any other file in the top-level file's ``<path>`` folders (the
-    last one first) and then the top-level file's folder. A file found nowhere is listed where
-    it was first looked for (:func:`scene_hash` reports it missing). A name with a ``$param``
-    lists every existing file it could name (its includes are not followed)."""
-    scene_path = Path(scene_path)
-    root = parse_xml(scene_path)
-    if folders is None:   # the top-level file: its <path>s serve every file it includes
-        paths = [(scene_path.parent / el.get("value", "")).resolve()
-                 for el in root if el.tag == "path" and "$" not in el.get("value", "$")]
-        folders = paths[::-1] + [scene_path.parent.resolve()]
-    found = []
-    for el in root.iter():
-        name = None
-        if el.tag == "string" and el.get("name") == "filename":
-            name = el.get("value")
-        elif el.tag == "include":
-            name = el.get("filename")
-        if not name:
-            continue
-        where = [scene_path.parent] + folders if el.tag == "include" else folders
-        if "$" in name:
-            # A parameter chooses the file: hash every file it could name.
-            pattern = re.sub(r"\$\w+", "*", name)
-            found.extend(sorted({c.resolve() for folder in where for c in folder.glob(pattern)}))
-            continue
-        candidates = [(folder / name).resolve() for folder in where]
-        path = next((c for c in candidates if c.exists()), candidates[0])
-        found.append(path)
-        if el.tag == "include" and path.suffix == ".xml" and path.exists():
-            found.extend(included_files(path, folders))
-    return found
+def included_files(scene_path):
+    """The files the scene file ``scene_path`` reads (meshes, textures, ``<include>``s),
+    found as the tracer's loader finds them (:func:`pathtracer.scene.xml_files.scene_files`),
+    as :class:`~pathlib.Path`; a file found nowhere is listed where it was first looked for
+    (:func:`scene_hash` reports it missing).
+
+    Raises
+    ------
+    RefsInputError
+        An included file is not well-formed XML, or the includes form a cycle.
+    """
+    try:
+        return [Path(p) for p in scene_files(str(scene_path))]
+    except SceneError as error:
+        raise RefsInputError(str(error)) from None
 
 
 def scene_hash(scene):
@@ -239,7 +235,7 @@ def validate(scene, params, integrator, spp, seed, directory=None, options=None,
                             "integrator, spp or seed changed)", None
         try:
             with _output_silenced():
-                mean, var, attrs = read_reference_exr(exr_path)
+                mean, var, attrs = read_mean_variance(exr_path)
         except Exception as exc:  # OpenEXR raises various types
             return "corrupt", f"{exr_path.name} unreadable: {exc}", None
     shape = (int(metadata.get("height", -1)), int(metadata.get("width", -1)), 3)
@@ -301,9 +297,7 @@ def cache_lock(directory, exclusive):
     has already created the folder. Without ``fcntl`` (Windows) nothing is
     locked and a torn pair is caught by :func:`validate`'s checksums.
     """
-    try:
-        import fcntl
-    except ImportError:
+    if fcntl is None:
         yield
         return
     path = Path(directory) / LOCK_NAME
@@ -477,7 +471,6 @@ def get_reference(scene, params, integrator, spp=config.REF_SPP,
     if log:
         log(f"{reference_stem(scene, params, integrator, spp, seed, **where)}: "
             f"{status} ({detail}), rendering")
-    from .render import render_reference
     try:
         ref = render_reference(scene, params, integrator, spp, seed,
                                variant=variant, log=log, **where)

@@ -17,10 +17,17 @@ line on stderr, no traceback), 130 interrupted (Ctrl-C).
 import argparse
 import sys
 import time
-import xml.etree.ElementTree as ET
+
+from pathtracer.scene.defines import parse_defines
+from pathtracer.scene.load import parse_resolution
 
 from . import config
+from .cache import ReferenceUnavailable, cache_dir, get_reference, mitsuba_available, reference_stem, validate
+from .cli_compare import add_compare
 from .errors import RefsInputError, one_line
+from .preflight import check_scene, check_spp, parse_xml, scene_path
+from .render import INTEGRATOR_MAP, xml_defaults
+from .variant import choose_variant
 
 #: Exit status -> meaning, for every subcommand.
 EXIT_CODES = {0: "success / agrees", 1: "compare: disagrees with Mitsuba",
@@ -55,8 +62,6 @@ def default_jobs(scenes=None, integrators=None, extra_params=None,
 
 def _declares_max_depth(scene):
     """Per-bounce references set ``max_depth`` as a parameter: only where the file declares it."""
-    from .preflight import parse_xml, scene_path
-    from .render import xml_defaults
     path = scene_path(scene)
     parse_xml(path)  # a malformed file: one line naming file, line and column
     return "max_depth" in xml_defaults(path)
@@ -72,7 +77,6 @@ def _default_integrators(scene):
 
 
 def _resolution(text):
-    from pathtracer.scene.load import parse_resolution
     try:
         return parse_resolution(text)
     except ValueError as error:
@@ -87,7 +91,6 @@ def _add_build(subparsers):
                     "2 bad input (one line on stderr), 130 interrupted.")
     p.add_argument("scenes", nargs="*", metavar="SCENES",
                    help="built-in scene names or XML files (default: all built-in)")
-    from .render import INTEGRATOR_MAP
     p.add_argument("--integrators", nargs="+", default=None, choices=sorted(INTEGRATOR_MAP),
                    metavar="NAME",
                    help=f"our integrator names, of {', '.join(sorted(INTEGRATOR_MAP))} "
@@ -114,13 +117,9 @@ def _add_build(subparsers):
 
 def cmd_build(args):
     """Handler of ``build``."""
-    from .cache import cache_dir, get_reference, mitsuba_available, reference_stem, validate
-    from .preflight import check_scene, check_spp
-
     check_spp(args.spp)
     if args.seed < 0:
         raise RefsInputError(f"--seed must be >= 0, got {args.seed}")
-    from pathtracer.scene.defines import parse_defines
     extra = parse_defines(args.defines)
     jobs = default_jobs(args.scenes or None, args.integrators, extra,
                         per_bounce=not args.no_per_bounce, resolution=args.resolution)
@@ -134,7 +133,7 @@ def cmd_build(args):
     variant, reason = _usable_variant(args.variant)
     print(f"variant: {variant} ({reason})")
     print(f"cache: {directory}; {len(jobs)} references at {args.spp} spp")
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
     built = kept = 0
     t_all = time.time()
     for scene, params, integ in jobs:
@@ -160,9 +159,8 @@ def cmd_build(args):
 
 def _usable_variant(requested):
     """``choose_variant``'s choice, refused in one line if this Mitsuba lacks it."""
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
 
-    from .variant import choose_variant
     variant, reason = choose_variant(requested)
     if variant not in mi.variants():
         raise RefsInputError(f"Mitsuba variant {variant!r} ({reason}) is not available; "
@@ -172,7 +170,6 @@ def _usable_variant(requested):
 
 #: name -> function(subparsers) returning the handler; extend to add commands.
 def _add_compare(subparsers):
-    from .cli_compare import add_compare
     return add_compare(subparsers)
 
 
@@ -189,8 +186,7 @@ class OneLineParser(argparse.ArgumentParser):
 #: Errors a user can fix: printed in one line with exit status 2. ``SceneError`` and
 #: ``RefsInputError`` are ``ValueError``s; ``ReferenceUnavailable`` is a ``RuntimeError``.
 def _user_errors():
-    from .cache import ReferenceUnavailable
-    return (ValueError, OSError, ET.ParseError, ReferenceUnavailable)
+    return (ValueError, OSError, ReferenceUnavailable)
 
 
 def make_parser():

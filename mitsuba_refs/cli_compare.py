@@ -13,8 +13,14 @@ import argparse
 import sys
 import warnings
 
+from pathtracer import INTEGRATORS
+from pathtracer.scene.defines import parse_defines
+from pathtracer.scene.load import parse_resolution
+
 from . import config
 from .config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
+from .errors import RefsInputError
+from .preflight import check_image_size, check_ladder, check_output_folder, check_scene, check_spp, scene_path
 
 
 def _positive_ints(text: str) -> tuple[int, ...]:
@@ -29,9 +35,6 @@ def _positive_ints(text: str) -> tuple[int, ...]:
 
 
 def _resolution(text: str) -> tuple[int, int]:
-    import argparse
-
-    from pathtracer.scene.load import parse_resolution
     try:
         return parse_resolution(text)
     except ValueError as error:
@@ -40,8 +43,6 @@ def _resolution(text: str) -> tuple[int, int]:
 
 def add_compare(subparsers):
     """Add the ``compare`` subcommand to ``subparsers``; return its handler."""
-    from pathtracer import INTEGRATORS
-
     p = subparsers.add_parser(
         "compare", help="compare a pathtracer integrator with Mitsuba (mean, variance, convergence)",
         description="Render SCENE with one of pathtracer's integrators and with Mitsuba 3 (or load "
@@ -85,11 +86,10 @@ def add_compare(subparsers):
 def run_compare(args) -> int:
     """Handler of ``compare``; input errors propagate to :func:`mitsuba_refs.cli.main`
     (one line, exit status 2)."""
-    from pathtracer.scene.defines import parse_defines
-
     params = parse_defines(args.defines)
     check_options(args)
     preload(args.scene, params, args.resolution)
+    # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught.
     from .compare import compare
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
     options = {k: v for k, v in (("max_depth", args.max_depth), ("rr_depth", args.rr_depth))
@@ -105,8 +105,6 @@ def run_compare(args) -> int:
 
 def check_options(args) -> None:
     """Refuse out-of-range options in one line saying what to change."""
-    from .errors import RefsInputError
-    from .preflight import check_ladder, check_output_folder, check_spp
     check_spp(args.spp)
     if not 0 < args.alpha < 1:
         raise RefsInputError(f"--alpha must be between 0 and 1 (e.g. 1e-3), got {args.alpha}")
@@ -127,9 +125,9 @@ def preload(scene, params, resolution=None) -> None:
     Warnings of the loader (e.g. a parameter the file does not use) are printed as one
     line each once the input is known to be good.
     """
-    from .preflight import check_image_size, check_scene, scene_path
     scene_path(scene)
-    from .compare import default_params, loaded_scene  # imports the statistics (scipy)
+    # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught.
+    from .compare import default_params, loaded_scene
     params = {**default_params(scene), **params}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

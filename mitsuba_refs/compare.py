@@ -20,16 +20,19 @@ from __future__ import annotations
 import dataclasses
 import functools
 import time
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from pathtracer import load_scene, render
 from pathtracer.integrators import INTEGRATORS
+from pathtracer.render.driver import SCENE_OPTIONS
 
 from . import config
 from .cache import get_reference, scene_hash
+from .explain import hints
+from .render import resolve_scene, xml_defaults
 from .rfilter import pixel_value_counts, reference_correlation
 from .stats import (
     compare_means,
@@ -150,7 +153,6 @@ def render_ours(scene, integrator, params, spp, seed, processes=None, resolution
                 **options):
     """Our render of ``scene`` with ``params`` (film size ``resolution`` if given):
     (mean, variance)."""
-    from pathtracer import render
     result = render(loaded_scene(scene, params, resolution), integrator, spp=spp, seed=seed,
                     processes=processes, progress=False, **options)
     return result.mean, result.variance
@@ -159,14 +161,12 @@ def render_ours(scene, integrator, params, spp, seed, processes=None, resolution
 def reference_options(options) -> dict | None:
     """The light-transport options among our render ``options`` (max_depth, rr_depth,
     hide_emitters): the reference is rendered with them too."""
-    from pathtracer.render.driver import SCENE_OPTIONS
     chosen = {k: v for k, v in (options or {}).items() if k in SCENE_OPTIONS and v is not None}
     return chosen or None
 
 
 def scene_defaults(scene) -> dict:
     """The scene file's ``<default name=... value=...>`` declarations, {name: value}."""
-    from .render import resolve_scene, xml_defaults
     return xml_defaults(resolve_scene(scene))
 
 
@@ -176,10 +176,9 @@ def loaded_scene(scene, params, resolution=None):
     The convergence test renders a scene up to hundreds of times; loading it (and building
     a mesh's BVH) once saves most of the time on the 82k-triangle scene.
     """
-    from pathtracer import load_scene
     try:
         content = scene_hash(scene)
-    except (OSError, ValueError, ET.ParseError):
+    except (OSError, ValueError):
         return load_scene(scene, resolution=resolution, **params)  # the loader reports what is wrong
     return _load_scene_cached(str(scene), content,
                               tuple(sorted((str(k), str(v)) for k, v in params.items())),
@@ -188,7 +187,6 @@ def loaded_scene(scene, params, resolution=None):
 
 @functools.lru_cache(maxsize=4)
 def _load_scene_cached(scene, content, params, resolution):
-    from pathtracer import load_scene
     return load_scene(scene, resolution=resolution, **dict(params))
 
 
@@ -269,7 +267,6 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
         result.bounce_results = localise_bounce(scene, integrator, name, params, spp, alpha,
                                                 processes, render, log, options, resolution)
         result.bounce = first_diverging_bounce(result.bounce_results)
-    from .explain import hints
     result.hints = hints(result)
     if out_dir is not None:
         result.pictures = write_pictures(result, Path(out_dir), mean, variance, reference)
@@ -444,6 +441,7 @@ def localise_bounce(scene, integrator, name, params, spp, alpha, processes, rend
 
 def write_pictures(result: Comparison, out_dir: Path, mean, variance, reference) -> dict:
     """Diagnostic PNGs for the failed tests (all tests when everything agrees: none)."""
+    # The pictures are drawn with matplotlib (heavy): imported only when there are some to draw.
     from .diagnostics import plot_convergence, plot_mean_comparison, plot_variance_comparison
     out_dir.mkdir(parents=True, exist_ok=True)
     stem = f"{Path(str(result.scene)).stem}-{result.integrator}"

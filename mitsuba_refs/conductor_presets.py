@@ -21,14 +21,14 @@ import os
 
 def material_names() -> list[str]:
     """Names of the measured materials shipped with the installed Mitsuba."""
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
     folder = os.path.join(os.path.dirname(mi.__file__), "data", "ior")
     return sorted({os.path.basename(f).split(".")[0] for f in glob.glob(os.path.join(folder, "*.eta.spd"))})
 
 
 def mitsuba_presets() -> dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]]:
     """``{name: (eta_rgb, k_rgb)}`` as Mitsuba's ``conductor`` plugin holds them in ``scalar_rgb``."""
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
     mi.set_variant("scalar_rgb")
     logger = mi.logger()
     log_level = logger.log_level()
@@ -46,7 +46,7 @@ def mitsuba_presets() -> dict[str, tuple[tuple[float, float, float], tuple[float
 
 def module_text(table) -> str:
     """Source of :mod:`pathtracer.bsdfs.conductor_presets` for ``table``."""
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
     lines = [
         '"""RGB complex indices of refraction of Mitsuba\'s named conductors (``material="Au"`` etc.).',
         "",

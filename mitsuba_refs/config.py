@@ -9,7 +9,7 @@ Test resolution
     48 is not a multiple of 32: in ``scalar_rgb`` Mitsuba seeds 32 x 32
     blocks from ``seed * W * H``, so :mod:`mitsuba_refs.render` spaces pass
     seeds far enough apart for the padded block count (see
-    :func:`mitsuba_refs.render.pass_seeds`). EXR files stay ~20-50 KB.
+    :func:`mitsuba_refs.seeds.pass_seeds`). EXR files stay ~20-50 KB.
 
 Samples
     ``TEST_MAX_SPP`` = 64 is the most samples per pixel any test renders at

@@ -14,7 +14,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import TwoSlopeNorm
 
+from pathtracer.core.color import LUMINANCE
 from pathtracer.core.tonemap import auto_scale, tonemap
+
+from .stats.convergence import mse_levels
 
 __all__ = ["plot_mean_comparison", "plot_convergence", "plot_variance_comparison"]
 
@@ -68,7 +71,7 @@ def plot_mean_comparison(path, mean_test, mean_ref, agreement, title: str = "") 
     cb = fig.colorbar(im, ax=axes[2], fraction=0.046, pad=0.04)
     cb.set_label("z (clipped ±10)")
 
-    lum = np.array([0.2126, 0.7152, 0.0722]) if t.shape[2] == 3 else np.full(t.shape[2], 1 / t.shape[2])
+    lum = LUMINANCE if t.shape[2] == 3 else np.full(t.shape[2], 1 / t.shape[2])
     yt, yr = t @ lum, r @ lum
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(yr > 0, yt / yr - 1.0, np.where(yt == yr, 0.0, np.nan))
@@ -90,7 +93,6 @@ def plot_convergence(path, spp, mse, result, title: str = "") -> str:
     law with slope and CI, and an N^-1/2 guide through the first level.  ``mse`` is a
     (K, L) table or one array per level.  Non-positive MSEs (possible after the
     reference-noise subtraction) are not drawn."""
-    from .stats.convergence import mse_levels
     N = np.asarray(spp, dtype=np.float64)
     levels, _ = mse_levels(mse, N.size)
     sizes = np.array([level.size for level in levels])
@@ -137,7 +139,7 @@ def plot_variance_comparison(path, var_test, var_ref, agreement, title: str = ""
     st, sr = np.sqrt(np.maximum(vt, 0)), np.sqrt(np.maximum(vr, 0))
     pos = np.concatenate([st[st > 0], sr[sr > 0]])
     lo, hi = (np.percentile(pos, 1), np.percentile(pos, 99.5)) if pos.size else (1e-3, 1.0)
-    from matplotlib.colors import LogNorm
+    from matplotlib.colors import LogNorm  # matplotlib: heavy, imported only to draw
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.6))
     norm = LogNorm(vmin=max(lo, 1e-12), vmax=max(hi, lo * 10, 1e-11))
     for ax, img, name in ((axes[0], st, "test"), (axes[1], sr, "reference")):

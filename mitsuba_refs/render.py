@@ -36,13 +36,22 @@ import hashlib
 import json
 import math
 import time
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 
-from . import config
+from pathtracer.render.driver import transport_options
+from pathtracer.render.splats import replica_count
+from pathtracer.scene.errors import SceneError
+from pathtracer.scene.load import scene_file
+from pathtracer.scene.settings import scene_settings
+from pathtracer.scene.xml_files import read_elements, scene_tree, walk
+
+from . import config, moments
+from .batch import render_moments
 from .rfilter import check_variant, film_filter, filter_metadata, per_sample_variance
+from .seeds import pass_seeds
+from .variant import set_variant
 
 #: our integrator name -> Mitsuba integrator type
 INTEGRATOR_MAP = {
@@ -95,8 +104,6 @@ def resolve_scene(scene):
     """Return the file of ``scene``: a file path, or a built-in name
     (``cornell-box`` -> ``pathtracer/data/scenes/cornell-box.xml``), by the tracer's rule
     (:func:`pathtracer.scene.scene_file`); ``FileNotFoundError`` with its message otherwise."""
-    from pathtracer.scene.errors import SceneError
-    from pathtracer.scene.load import scene_file
     try:
         return Path(scene_file(scene)).resolve()
     except SceneError as error:
@@ -109,24 +116,21 @@ def scene_name(scene):
 
 
 def xml_defaults(path):
-    """Names and values of the ``<default>`` declarations of a scene file."""
-    root = ET.parse(path).getroot()
-    return {d.get("name"): d.get("value") for d in root.iter("default")}
+    """Names and values of the ``<default>`` declarations of a scene file (not of the files it
+    includes)."""
+    return {d.attrs.get("name"): d.attrs.get("value")
+            for d in walk(read_elements(str(path), str(path))) if d.tag == "default"}
 
 
-def _elements(path, tag, _seen=frozenset()):
-    """The ``tag`` elements of the scene file ``path`` and of the XML files it
-    ``<include>``s (Mitsuba inserts their content where the include stands)."""
-    root = ET.parse(path).getroot()
-    found = list(root.iter(tag))
-    seen = _seen | {Path(path).resolve()}
-    for include in root.iter("include"):
-        name = include.get("filename") or ""
-        included = (Path(path).parent / name).resolve()
-        if name.endswith(".xml") and "$" not in name and included.exists() \
-                and included not in seen:
-            found.extend(_elements(included, tag, seen))
-    return found
+def _elements(path, tag):
+    """The ``tag`` elements of the scene file ``path`` and of the files it ``<include>``s,
+    spliced in where the include stands, as the tracer's loader reads them
+    (:func:`pathtracer.scene.xml_files.scene_tree`)."""
+    return [el for el in walk(scene_tree(str(path))) if el.tag == tag]
+
+
+def _children(el, tag):
+    return [child for child in el.children if child.tag == tag]
 
 
 def check_box_filter(path):
@@ -139,9 +143,9 @@ def check_box_filter(path):
                          f"default film has a gaussian filter; add <film type=\"hdrfilm\"> "
                          f"with <rfilter type=\"box\"/>")
     for film in films:
-        rfilters = film.findall("rfilter")
-        if len(rfilters) != 1 or rfilters[0].get("type") != "box":
-            kind = rfilters[0].get("type") if rfilters else "gaussian (default)"
+        rfilters = _children(film, "rfilter")
+        if len(rfilters) != 1 or rfilters[0].attrs.get("type") != "box":
+            kind = rfilters[0].attrs.get("type") if rfilters else "gaussian (default)"
             raise ValueError(f"{path}: film reconstruction filter is {kind}; "
                              f"references need <rfilter type=\"box\"/>")
 
@@ -154,7 +158,7 @@ def sensor_has_medium(path):
     ``moments`` method.
     """
     return any(child.tag in ("medium", "ref") for sensor in _elements(path, "sensor")
-               for child in sensor)
+               for child in sensor.children)
 
 
 #: Film reconstruction filters both renderers implement (mitsuba_refs.rfilter).
@@ -169,8 +173,8 @@ def check_film_filter(path):
     checked once Mitsuba has loaded the film (:func:`render_reference`).
     """
     for film in _elements(path, "film"):
-        for rfilter in film.findall("rfilter"):
-            kind = rfilter.get("type") or ""
+        for rfilter in _children(film, "rfilter"):
+            kind = rfilter.attrs.get("type") or ""
             if "$" not in kind and kind not in SUPPORTED_FILTERS:
                 raise ValueError(f"{path}: film reconstruction filter is {kind}; references "
                                  f"support {', '.join(SUPPORTED_FILTERS)}")
@@ -200,8 +204,6 @@ def reference_settings(path, params, options=None, resolution=None):
         (:func:`pathtracer.render.transport_options`), whatever set them;
         ``settings``: :class:`pathtracer.scene.settings.SceneSettings`.
     """
-    from pathtracer.render.driver import transport_options
-    from pathtracer.scene.settings import scene_settings
     scene_kw = {str(k): str(v) for k, v in (params or {}).items()}
     settings = scene_settings(path, resolution=resolution, **scene_kw)
     transport = transport_options(settings.integrator, **(options or {}))
@@ -256,25 +258,6 @@ def stream_id(integrator, params, options=None, resolution=None):
     return int(hashlib.sha256(text.encode()).hexdigest()[:5], 16)
 
 
-def pass_seeds(seed, n_passes, width, height, stream=0):
-    """Mitsuba seeds of the passes of a reference with seed ``seed``.
-
-    Pass ``k`` uses ``((seed * 2^20 + stream) * SEED_STRIDE + k) * spacing``
-    (mod 2^32), ``stream`` from :func:`stream_id`. In ``scalar_rgb``
-    Mitsuba multiplies the seed by ``W * H`` and seeds each 32 x 32 block
-    from there; ``spacing`` is the number of ``W * H`` strides the padded
-    blocks span (1 when W, H are multiples of 32), so no two passes share a
-    stream. JIT variants hash (seed, lane) and need no spacing, but it costs
-    nothing.
-    """
-    if n_passes > config.SEED_STRIDE:
-        raise ValueError(f"at most {config.SEED_STRIDE} passes")
-    padded = math.ceil(width / 32) * math.ceil(height / 32) * 1024
-    spacing = math.ceil(padded / (width * height))
-    base = (seed * 2**20 + stream) * config.SEED_STRIDE
-    return [((base + k) * spacing) % 2**32 for k in range(n_passes)]
-
-
 def load_mitsuba_scene(path, scene_kw, resolution=None):
     """Load ``path`` with Mitsuba's parser, the film size replaced by ``resolution``.
 
@@ -282,7 +265,7 @@ def load_mitsuba_scene(path, scene_kw, resolution=None):
     the objects are made, so Mitsuba's sensor converts ``fov``/``fov_axis`` at the
     new aspect itself (not a copy of the tracer's conversion).
     """
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
     config = mi.parser.ParserConfig(mi.variant())
     state = mi.parser.parse_file(config, str(path), **scene_kw)
     if resolution is not None:
@@ -308,7 +291,7 @@ def independent_samplers(state):
     ``seed`` kept): the tracer samples independently whatever the file says, and the
     statistics assume i.i.d. samples, which stratified, multijitter, orthogonal and
     ldsampler patterns are not (their per-pixel variance is lower)."""
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
     for node in state.nodes:
         if node.type != mi.ObjectType.Sampler or node.props.plugin_name() == "independent":
             continue
@@ -320,7 +303,7 @@ def independent_samplers(state):
 
 def check_framing(path, mi_scene, settings):
     """Raise ``ValueError`` unless Mitsuba's sensor has the tracer's film size and fov."""
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
     sensor = mi_scene.sensors()[0]
     size = tuple(int(v) for v in sensor.film().crop_size())
     if size != settings.resolution:
@@ -378,13 +361,11 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     -------
     Reference
     """
-    from .variant import set_variant
-
     path = resolve_scene(scene_path_or_name)
     check_film_filter(path)
     scene_kw, transport, settings = reference_settings(path, params, options, resolution)
     chosen, reason = set_variant(variant)
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
 
     scene = load_mitsuba_scene(path, scene_kw, resolution)
     film = scene.sensors()[0].film()
@@ -417,7 +398,6 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     method = method or default_method(chosen)
     t0 = time.time()
     if method == "batch":
-        from .batch import render_moments
         m1, var, n, calls, per_call, seeds = render_moments(
             scene, mi.load_dict(nested), spp, seed, stream, log=log)
     elif method == "replicas":
@@ -462,9 +442,8 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
 def _render_with_wrapper(scene, nested, spp, seed, stream, pass_spp, log):
     """The ``rgb_moments`` method: passes of at most ``pass_spp`` samples, moments combined
     (first and second moment per pixel, as the film's filter weighted them)."""
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
 
-    from . import moments
     film = scene.sensors()[0].film()
     width, height = (int(v) for v in film.crop_size())
     integ = mi.load_dict(moments.moment_dict(nested))
@@ -492,9 +471,8 @@ def _render_replicas(scene, nested, spp, seed, stream, log):
     of one light path per pixel: ``var / spp`` is the variance of the mean), ``spp``,
     ``spp / K`` and the replicas' seeds (:func:`pass_seeds`).
     """
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
 
-    from pathtracer.render.splats import replica_count
     film = scene.sensors()[0].film()
     width, height = (int(v) for v in film.crop_size())
     replicas = replica_count(spp, config.REF_REPLICAS)

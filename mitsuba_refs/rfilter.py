@@ -15,6 +15,8 @@ filtered references must come from one of those.
 """
 import numpy as np
 
+from pathtracer.sensors.film import ReconstructionFilter, effective_counts
+
 #: Mitsuba filter class name -> our filter name
 _KINDS = {"BoxFilter": "box", "TentFilter": "tent", "GaussianFilter": "gaussian"}
 
@@ -24,7 +26,6 @@ def film_filter(film):
 
     Raises ``ValueError`` for filters the tracer does not implement.
     """
-    from pathtracer.sensors.film import ReconstructionFilter
     rfilter = film.rfilter()
     name = str(rfilter).split("[")[0].strip()
     kind = _KINDS.get(name)
@@ -54,7 +55,6 @@ def filter_metadata(rfilter):
 
 def filter_from_metadata(metadata):
     """The filter recorded in a reference's metadata (box when none is recorded)."""
-    from pathtracer.sensors.film import ReconstructionFilter
     spec = (metadata or {}).get("rfilter") or {"type": "box"}
     value = spec.get("stddev", spec.get("radius"))
     return ReconstructionFilter.make(spec["type"], value)
@@ -66,7 +66,6 @@ def per_sample_variance(m1, m2, n, rfilter):
     ``n_eff`` is each pixel's effective sample count; for the box filter it is ``n`` and
     this is :func:`mitsuba_refs.moments.sample_variance`.
     """
-    from pathtracer.sensors.film import effective_counts
     if n < 2:
         raise ValueError("variance needs at least 2 samples per pixel")
     height, width = m1.shape[:2]
@@ -76,6 +75,7 @@ def per_sample_variance(m1, m2, n, rfilter):
 
 def reference_correlation(reference):
     """How the reference's film filter correlates pixels (:mod:`mitsuba_refs.stats.correlation`)."""
+    # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught.
     from .stats.correlation import pixel_correlation
     return pixel_correlation(filter_from_metadata(getattr(reference, "metadata", None)))
 
@@ -86,7 +86,6 @@ def pixel_value_counts(reference):
     ``reference.n`` everywhere for the box filter; with a wider filter ``var / n`` is a
     pixel's covariance row sum, and its own variance is the smaller ``var / n_eff``.
     """
-    from pathtracer.sensors.film import effective_counts
     height, width = reference.mean.shape[:2]
     rfilter = filter_from_metadata(getattr(reference, "metadata", None))
     return effective_counts(rfilter, width, height, reference.n)

@@ -16,6 +16,7 @@ import subprocess
 import sys
 
 from .config import ENV_VARIANT
+from .errors import RefsInputError
 
 PREFERRED = "llvm_ad_rgb"
 FALLBACK = "scalar_rgb"
@@ -95,14 +96,14 @@ def set_variant(variant=None):
 
     Returns ``(variant, reason)``.
     """
-    import mitsuba as mi
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
     chosen, reason = choose_variant(variant)
     if chosen not in mi.variants():
-        from .errors import RefsInputError
         raise RefsInputError(f"Mitsuba variant {chosen!r} ({reason}) is not available "
                              f"(have: {', '.join(mi.variants())})")
     if mi.variant() != chosen:
         mi.set_variant(chosen)
+    # Mitsuba plugins: they import Mitsuba, and their classes need the variant set first.
     from . import integrators, moments
     integrators.register()
     moments.register()

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from pathtracer import load_scene, render
-from pathtracer.io.output import OutputError, PrecisionWarning, atomic_path, output_paths, read_exr, write_exr
+from pathtracer.io.exr import PrecisionWarning
+from pathtracer.io.output import OutputError, atomic_path, output_paths, read_exr, write_exr
 from pathtracer.render.resources import check_memory
 from pathtracer.render.workers import set_parent_death_signal
 

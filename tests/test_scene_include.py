@@ -212,3 +212,17 @@ def test_include_order_matches_mitsuba(tree, mi):
     theirs = mi.load_file(include_order_scene(tree))
     np.testing.assert_array_equal(np.asarray(mi.traverse(theirs)["grey.reflectance.value"]), [0.25] * 3)
     assert float(np.asarray(theirs.shapes()[0].vertex_positions_buffer())[0]) == 2
+
+
+def test_the_reference_key_hashes_the_files_the_loader_reads(tree):
+    """The harness's cache key hashes the files found by the loader's own rule: the include
+    next to the grandparent (lvl1/c.xml), the mesh in the top file's <path>, the working
+    directory's mesh (only_cwd.ply), an included file's mesh by the top file's folders (not
+    found there: listed where first looked for, the loader refuses it too)."""
+    from mitsuba_refs.cache import included_files
+    found = [os.path.relpath(p, tree) for p in included_files(include_order_scene(tree))]
+    assert found == ["scene/mat.xml", "scene/lvl1/a.xml", "scene/lvl1/lvl2/b.xml", "scene/lvl1/c.xml",
+                     "pathA/m.ply"]
+    found = [os.path.relpath(p, tree) for p in included_files(lookup_scene(tree))]
+    assert found == ["pathB/m.ply", "pathA/only_a.ply", "scene/frag/part.xml", "pathB/m_frag.ply",
+                     "cwd/only_cwd.ply"]

@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pathtracer.sensors.film import lag_correlations
+
 
 @dataclass(frozen=True)
 class PixelCorrelation:
@@ -64,7 +66,6 @@ INDEPENDENT = PixelCorrelation()
 
 def pixel_correlation(rfilter) -> PixelCorrelation:
     """The :class:`PixelCorrelation` of a :class:`pathtracer.film.ReconstructionFilter`."""
-    from pathtracer.sensors.film import lag_correlations
     if rfilter is None or rfilter.is_box:
         return INDEPENDENT
     return PixelCorrelation(tuple(float(r) for r in lag_correlations(rfilter)))

@@ -80,7 +80,8 @@ caught by the image component ("no single tile stands out").
 
 Relative bias
 -------------
-The headline bias uses luminance :math:`Y = 0.2126R + 0.7152G + 0.0722B` of the image means,
+The headline bias uses luminance :math:`Y = 0.212671R + 0.715160G + 0.072169B` (Mitsuba's weights,
+:data:`pathtracer.core.color.LUMINANCE`) of the image means,
 :math:`r = \bar Y_a/\bar Y_b - 1`.  Channel covariances are not supplied, so the standard
 error of :math:`\bar Y` uses the Cauchy-Schwarz bound :math:`\mathrm{sd}(\sum_c w_c X_c)\le\sum_c w_c\,\mathrm{sd}(X_c)`
 (exact for perfectly correlated channels, i.e. grey light; otherwise conservative).  The CI
@@ -95,13 +96,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize, special
 
+from pathtracer.core.color import LUMINANCE
+
 from ._mvn import correlation_from_differences, p_max_abs
 from ._tiles import as_count, as_image, region_name, sidak, sidak_per_test, tile_counts, tile_sums
 from .correlation import INDEPENDENT, PixelCorrelation
 
-__all__ = ["MeanAgreement", "compare_means", "tile_z", "LUMINANCE", "VARIANCE_BOUND", "overflow_scale"]
+__all__ = ["MeanAgreement", "compare_means", "tile_z", "VARIANCE_BOUND", "overflow_scale"]
 
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 #: Default ``max_var_ratio`` of the bounded-variance image component for two renders of the
 #: same estimator: a correct test side is assumed to have at most this many times the
 #: reference's per-sample variance (summed over the image).  It sits well above the correct

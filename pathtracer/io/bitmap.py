@@ -18,8 +18,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import OpenEXR
 from PIL import Image, UnidentifiedImageError
+
+from .exr import read_channels
 
 
 class BitmapError(ValueError):
@@ -68,9 +69,7 @@ def read_bitmap(path, *, raw: bool = False) -> np.ndarray:
 
 def _read_exr(path: Path) -> np.ndarray:
     try:
-        with OpenEXR.File(str(path), separate_channels=True) as exr:
-            channels = {name: np.asarray(c.pixels, dtype=np.float64)
-                        for name, c in exr.channels().items()}
+        channels, _ = read_channels(path)
     except Exception as error:  # OpenEXR raises plain exceptions on bad files
         raise BitmapError(f"{path.name}: not a readable OpenEXR file ({error})") from None
     for names in (("R", "G", "B"), ("Y",)):
@@ -133,6 +132,7 @@ def _rgbe_scanlines(data, width: int, height: int) -> np.ndarray:
 
 
 def _read_pillow(path: Path, raw: bool) -> np.ndarray:
+
     try:
         with Image.open(path) as image:
             image.load()

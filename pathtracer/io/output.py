@@ -1,4 +1,5 @@
-"""Writing renders: EXR with mean and variance, and a tonemapped sRGB PNG preview.
+"""Writing renders: EXR with mean and variance (:mod:`pathtracer.io.exr`), and a tonemapped
+sRGB PNG preview.
 
 Outputs are checked before a render starts (:func:`output_paths`) and written to a unique
 temporary name in the same directory, then renamed over the output path
@@ -11,24 +12,18 @@ import contextlib
 import json
 import os
 import secrets
-import warnings
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
 
 from ..core.tonemap import to_8bit, tonemap
 from ..render.driver import RenderResult
-
-#: Largest seed an EXR ``int`` attribute (signed 32-bit) holds; larger ones are stored as text.
-EXR_INT_MAX = 2 ** 31 - 1
+from .exr import read_mean_variance, warn_clamped, write_mean_variance
 
 
 class OutputError(ValueError):
     """An output path that cannot be written (raised before rendering)."""
-
-
-class PrecisionWarning(UserWarning):
-    """Values that do not fit the EXR's float type were clamped to its largest value."""
 
 
 def output_paths(path) -> tuple[Path, Path]:
@@ -101,16 +96,6 @@ def atomic_path(path):
         raise
 
 
-def _channel(values: np.ndarray, dtype, what: str, clamped: dict) -> np.ndarray:
-    """``values`` as ``dtype``, magnitudes beyond its range clamped to its largest value."""
-    largest = float(np.finfo(dtype).max)
-    too_large = int(np.count_nonzero(np.abs(values) > largest))
-    if too_large:
-        clamped[what] = clamped.get(what, 0) + too_large
-        values = np.clip(values, -largest, largest)
-    return np.ascontiguousarray(values, dtype=dtype)
-
-
 def write_exr(path, result: RenderResult, dtype=np.float32) -> Path:
     """Write R, G, B (mean) and var.R, var.G, var.B (per-sample variance), atomically.
 
@@ -118,47 +103,28 @@ def write_exr(path, result: RenderResult, dtype=np.float32) -> Path:
     int cannot hold), ``integrator``, the integrator's options (JSON) and the scene, so
     that a file says how it was made. Values beyond ``dtype``'s range (a variance of
     radiance near 1e20 overflows float32) are stored as its largest value; the header's
-    ``clamped_mean`` / ``clamped_variance`` then count them and a :class:`PrecisionWarning`
-    says so. NaN stays NaN.
+    ``clamped_mean`` / ``clamped_variance`` then count them and a
+    :class:`~pathtracer.io.exr.PrecisionWarning` says so. NaN stays NaN.
     """
-    import OpenEXR
-
     path = Path(path)
-    channels, clamped = {}, {}
-    for c, name in enumerate("RGB"):
-        channels[name] = _channel(result.mean[:, :, c], dtype, "mean", clamped)
-        channels[f"var.{name}"] = _channel(result.variance[:, :, c], dtype, "variance", clamped)
-    seed = int(result.seed)
-    header = {
-        "compression": OpenEXR.ZIP_COMPRESSION,
-        "type": OpenEXR.scanlineimage,
+    attributes = {
         "spp": int(result.spp),
-        "seed": seed if -EXR_INT_MAX - 1 <= seed <= EXR_INT_MAX else str(seed),
+        "seed": int(result.seed),
         "integrator": result.integrator,
         "integrator_options": json.dumps(result.options, sort_keys=True),
         "scene": str(result.scene),
         "render_seconds": float(result.seconds),
     }
-    header.update({f"clamped_{what}": count for what, count in clamped.items()})
     path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as temporary, OpenEXR.File(header, channels) as exr:
-        exr.write(str(temporary))
-    for what, count in clamped.items():
-        warnings.warn(PrecisionWarning(
-            f"{path}: {count} {what} values exceed the EXR's {np.dtype(dtype).name} range and "
-            f"were stored as its largest value, {np.finfo(dtype).max:.3g} (header clamped_{what})"), stacklevel=2)
+    with atomic_path(path) as temporary:
+        clamped = write_mean_variance(temporary, result.mean, result.variance, attributes, dtype)
+    warn_clamped(path, clamped, dtype)
     return path
 
 
 def read_exr(path) -> RenderResult:
     """Read a file written by :func:`write_exr` back into a :class:`RenderResult`."""
-    import OpenEXR
-
-    # separate_channels: OpenEXR would otherwise group R, G, B (and var.*) into one array.
-    with OpenEXR.File(str(path), separate_channels=True) as exr:
-        header, channels = dict(exr.header()), exr.channels()   # the file's dict is cleared on close
-        mean = np.stack([channels[c].pixels for c in "RGB"], axis=2).astype(np.float64)
-        variance = np.stack([channels[f"var.{c}"].pixels for c in "RGB"], axis=2).astype(np.float64)
+    mean, variance, header = read_mean_variance(path)
     options = json.loads(header.get("integrator_options", "{}"))
     return RenderResult(mean, variance, int(header.get("spp", 0)), int(header.get("seed", 0)),
                         str(header.get("integrator", "")), options,
@@ -167,8 +133,6 @@ def read_exr(path) -> RenderResult:
 
 def write_png(path, rgb: np.ndarray, exposure: float = 0.0) -> Path:
     """Write a tonemapped sRGB preview of a linear (H, W, 3) image, atomically (``exposure`` in stops)."""
-    from PIL import Image
-
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     image = Image.fromarray(to_8bit(tonemap(rgb, 2.0 ** exposure)))

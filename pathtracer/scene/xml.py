@@ -17,12 +17,12 @@ import re
 import warnings
 from dataclasses import dataclass, field
 from typing import Any
-from xml.parsers import expat
 
 import numpy as np
 
 from . import spectra, transform
 from .errors import SceneError
+from .xml_files import Element, FileState, find_in, path_folder, read_elements
 
 # Elements that instantiate a plugin (they carry a ``type`` attribute).
 PLUGIN_TAGS = {"shape", "bsdf", "emitter", "sensor", "film", "sampler",
@@ -46,22 +46,6 @@ FLOAT32_MAX = float(np.finfo(np.float32).max)
 VERSION_RE = re.compile(r"\d+\.\d+\.\d+")
 PARAM_RE = re.compile(r"(?<!\\)\$([A-Za-z_][A-Za-z0-9_]*)")
 SPLIT_RE = re.compile(r"[,\s]+")
-
-
-@dataclass
-class Element:
-    """A raw XML element with the file and line it starts on.
-
-    ``file`` is the name shown in messages, ``folder`` the absolute directory
-    of that file (relative ``<include>`` and ``<path>`` values start there).
-    """
-
-    tag: str
-    attrs: dict[str, str]
-    line: int
-    children: list["Element"] = field(default_factory=list)
-    file: str = ""
-    folder: str = ""
 
 
 @dataclass
@@ -136,44 +120,6 @@ class _Ref:
     line: int
 
 
-def read_elements(path: str, display: str) -> Element:
-    """Parse an XML file into :class:`Element` objects with line numbers.
-
-    ``display`` is the file name shown in error messages.
-
-    Raises
-    ------
-    SceneError
-        On an XML syntax error, with the line reported by expat.
-    """
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except OSError as e:
-        raise SceneError(f"cannot read the scene file: {e.strerror or e}", display) from None
-    parser = expat.ParserCreate()
-    stack: list[Element] = []
-    roots: list[Element] = []
-    folder = os.path.dirname(os.path.abspath(path))
-
-    def start(tag, attrs):
-        el = Element(tag, dict(attrs), parser.CurrentLineNumber, file=display, folder=folder)
-        (stack[-1].children if stack else roots).append(el)
-        stack.append(el)
-
-    def end(tag):
-        stack.pop()
-
-    parser.StartElementHandler = start
-    parser.EndElementHandler = end
-    try:
-        parser.Parse(data, True)
-    except expat.ExpatError as e:
-        raise SceneError(f"XML syntax error: {expat.ErrorString(e.code)} (column {e.offset + 1})",
-                         display, e.lineno) from None
-    return roots[0]
-
-
 def parse_floats(text: str, count: tuple[int, ...], what: str) -> np.ndarray:
     """Numbers separated by commas and/or whitespace.
 
@@ -204,25 +150,6 @@ def parse_float(text: str, what: str) -> float:
         raise ValueError(f"{what} value \"{text}\" is not a finite number (nan, inf and "
                          f"magnitudes above float32's {FLOAT32_MAX:.4g} are refused)")
     return value
-
-
-#: Mitsuba stops at this include depth; deeper nesting is a cycle or a mistake.
-MAX_INCLUDE_DEPTH = 15
-
-
-@dataclass
-class _FileState:
-    """Where the reader is: the include chain down to the file being read
-    (real paths) and where that file's ``<include>``s are looked up.
-
-    ``lookup`` is this file's part of Mitsuba's file resolver, first match
-    wins: this file's ``<path>`` folders (last first), this file's folder,
-    then the including file's list. An ``<include>`` tries the including
-    file's folder before all of them.
-    """
-
-    lookup: list[str]
-    chain: tuple[str, ...]
 
 
 class _Reader:
@@ -259,7 +186,7 @@ class _Reader:
         return out
 
     # -- tree -------------------------------------------------------------
-    def scene(self, root: Element, state: _FileState) -> Plugin:
+    def scene(self, root: Element, state: FileState) -> Plugin:
         self.check_root(root)
         plugin = Plugin("scene", "", None, None, root.file, root.line)
         self.fill_scene(plugin, root, state, top=True)
@@ -297,7 +224,7 @@ class _Reader:
             raise SceneError(f"invalid version \"{attrs['version']}\": Mitsuba 3 needs three "
                              "numbers, e.g. version=\"3.0.0\"", root.file, root.line, "<scene>")
 
-    def fill_scene(self, plugin: Plugin, root: Element, state: _FileState, top: bool) -> None:
+    def fill_scene(self, plugin: Plugin, root: Element, state: FileState, top: bool) -> None:
         """The children of a ``<scene>`` (the top file's or an included one's)."""
         for el in root.children:
             if el.tag == "default":  # remembered only to explain a use before it
@@ -318,50 +245,42 @@ class _Reader:
             else:
                 self.child(plugin, el, state)
 
-    def add_path(self, el: Element, state: _FileState, top: bool) -> None:
+    def add_path(self, el: Element, state: FileState, top: bool) -> None:
         attrs = self.substitute(el, "<path>")
         if set(attrs) != {"value"}:
             raise SceneError("<path> needs exactly the attribute value", el.file, el.line, "<path>")
-        folder = os.path.normpath(os.path.join(el.folder, attrs["value"]))
+        folder = path_folder(el, attrs["value"])
         if not os.path.isdir(folder):
             raise SceneError(f"folder \"{attrs['value']}\" not found (looked for {folder})",
                              el.file, el.line, "<path>")
-        state.lookup.insert(0, folder)
+        state.add_path(folder)
         if top:
             # Only the top-level file's <path>s reach mesh and texture
             # names: Mitsuba drops an included file's <path>s at its end,
             # and loads meshes after the whole file has been read.
             self.search_paths.insert(0, folder)
 
-    def include(self, plugin: Plugin, el: Element, state: _FileState) -> None:
+    def include(self, plugin: Plugin, el: Element, state: FileState) -> None:
         attrs = self.substitute(el, "<include>")
         if set(attrs) != {"filename"}:
             raise SceneError("<include> needs exactly the attribute filename",
                              el.file, el.line, "<include>")
         name = attrs["filename"]
         # Mitsuba tries the including file's folder before its file resolver.
-        lookup = [el.folder] + state.lookup
-        target = _find(name, lookup)
+        lookup = state.include_lookup(el)
+        target = find_in(name, lookup)
         if target is None:
             raise SceneError(f"file \"{name}\" not found (looked in "
                              f"{', '.join(dict.fromkeys(lookup))})", el.file, el.line, "<include>")
-        real = os.path.realpath(target)
-        if real in state.chain or len(state.chain) > MAX_INCLUDE_DEPTH:
-            cycle = " -> ".join(os.path.basename(p) for p in state.chain + (real,))
-            raise SceneError(f"include cycle {cycle}", el.file, el.line, "<include>")
-        display = os.path.relpath(real, self.top_dir)
-        if display.startswith(".."):
-            display = real
-        root = read_elements(target, display)
+        root, inner = state.enter(el, target, self.top_dir)
         self.check_root(root)
-        inner = _FileState([root.folder] + state.lookup, state.chain + (real,))
         self.fill_scene(plugin, root, inner, top=False)
 
-    def fill(self, plugin: Plugin, el: Element, state: _FileState) -> None:
+    def fill(self, plugin: Plugin, el: Element, state: FileState) -> None:
         for child in el.children:
             self.child(plugin, child, state)
 
-    def child(self, plugin: Plugin, child: Element, state: _FileState) -> None:
+    def child(self, plugin: Plugin, child: Element, state: FileState) -> None:
         """One nested element of ``plugin``: a plugin, reference, property or
         ``<include>`` (whose file's elements then become ``plugin``'s, as in Mitsuba)."""
         tag = child.tag
@@ -391,7 +310,7 @@ class _Reader:
         else:
             raise SceneError(f"unknown element <{tag}>", child.file, child.line, plugin.label)
 
-    def plugin(self, el: Element, attrs: dict[str, str], state: _FileState) -> Plugin:
+    def plugin(self, el: Element, attrs: dict[str, str], state: FileState) -> Plugin:
         if "type" not in attrs:
             raise SceneError("missing attribute type", el.file, el.line, f"<{el.tag}>")
         unknown = set(attrs) - {"type", "id", "name"}
@@ -459,7 +378,7 @@ class _Reader:
             return spectra.parse_spectrum(attrs["value"])
         if "filename" in attrs:
             lookup = self.search_paths + [self.top_dir, os.getcwd()]
-            path = _find(attrs["filename"], lookup)
+            path = find_in(attrs["filename"], lookup)
             if path is None:
                 raise ValueError(f"spectrum file \"{attrs['filename']}\" not found "
                                  f"(looked in {', '.join(lookup)})")
@@ -508,20 +427,6 @@ class _Reader:
                     plugin.ref_names[i] = child.name
             elif id(child) not in active:
                 self.resolve(child, active)
-
-
-def _find(name: str, folders: list[str]) -> str | None:
-    """The first existing ``folder/name`` (Mitsuba's FileResolver), or None.
-
-    An absolute ``name`` is returned as is when it exists.
-    """
-    if os.path.isabs(name):
-        return name if os.path.isfile(name) else None
-    for folder in folders:
-        candidate = os.path.join(folder, name)
-        if os.path.isfile(candidate):
-            return candidate
-    return None
 
 
 def _param_text(value: Any) -> str:
@@ -602,5 +507,4 @@ def parse_file(path: str, params: dict[str, Any] | None = None,
     name = display_name or os.path.basename(path)
     root = read_elements(path, name)
     top_dir = os.path.dirname(os.path.abspath(path))
-    state = _FileState([top_dir, os.getcwd()], (os.path.realpath(path),))
-    return _Reader(name, params or {}, top_dir).scene(root, state)
+    return _Reader(name, params or {}, top_dir).scene(root, FileState.top(path))
