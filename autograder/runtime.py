@@ -42,7 +42,7 @@ UNGRADED_MODULES = ("integrators/bdpt.py",)
 FLAVOURS = ("student", "solution")
 
 SOLUTION_INIT = '''"""The reference solution in the student contract (solution runtime only)."""
-from pathtracer.camera import camera_rays
+from pathtracer.sensors.perspective import camera_rays
 from pathtracer.integrators import INTEGRATORS
 
 __all__ = ["INTEGRATORS", "camera_rays"]

@@ -1,7 +1,7 @@
 """Heckbert path classes: one image per regular expression, and the bounce split against Mitsuba.
 
 Every contribution of the MIS path tracer is routed to the classes whose
-expression accepts its path (:mod:`pathtracer.pathclasses`,
+expression accepts its path (:mod:`pathtracer.core.pathclasses`,
 :mod:`pathtracer.integrators.pathclass`): ``LE`` emitters seen directly, ``LDE``
 direct light on diffuse surfaces, ``LDD+E`` diffuse inter-reflection,
 ``LS+DE`` caustics, ``LS*E`` lights seen in mirrors and glass, ``L.*E``

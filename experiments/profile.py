@@ -31,20 +31,20 @@ from .bench import CASES, warmed_scene
 
 #: (stage, [(module path suffix, function name), ...], counted as cumulative or self time).
 STAGES = [
-    ("closest hits (geometry.intersect)", [("pathtracer/geometry.py", "intersect")], "cum"),
-    ("shadow rays (geometry.occluded)", [("pathtracer/geometry.py", "occluded")], "cum"),
-    ("light sampling, shadow rays excluded", [("pathtracer/emitters.py", "sample_emitter")],
+    ("closest hits (geometry.intersect)", [("pathtracer/shapes/intersect.py", "intersect")], "cum"),
+    ("shadow rays (geometry.occluded)", [("pathtracer/shapes/intersect.py", "occluded")], "cum"),
+    ("light sampling, shadow rays excluded", [("pathtracer/emitters/scene_emitters.py", "sample_emitter")],
      "cum"),
-    ("BSDF sampling and evaluation", [("pathtracer/shading.py", "sample_bsdf"),
-                                      ("pathtracer/shading.py", "eval_bsdf")], "cum"),
-    ("emission and light pdf of BSDF hits", [("pathtracer/emitters.py", "emitted_radiance"),
-                                             ("pathtracer/emitters.py", "pdf_emitter_direction")],
+    ("BSDF sampling and evaluation", [("pathtracer/bsdfs/shading.py", "sample_bsdf"),
+                                      ("pathtracer/bsdfs/shading.py", "eval_bsdf")], "cum"),
+    ("emission and light pdf of BSDF hits", [("pathtracer/emitters/scene_emitters.py", "emitted_radiance"),
+                                             ("pathtracer/emitters/scene_emitters.py", "pdf_emitter_direction")],
      "cum"),
-    ("camera rays and random numbers", [("pathtracer/camera.py", "camera_rays"),
-                                        ("pathtracer/rng.py", "sample_keys"),
-                                        ("pathtracer/rng.py", "next_1d"),
-                                        ("pathtracer/rng.py", "next_2d"),
-                                        ("pathtracer/rng.py", "subset")], "cum"),
+    ("camera rays and random numbers", [("pathtracer/sensors/perspective.py", "camera_rays"),
+                                        ("pathtracer/core/rng.py", "sample_keys"),
+                                        ("pathtracer/core/rng.py", "next_1d"),
+                                        ("pathtracer/core/rng.py", "next_2d"),
+                                        ("pathtracer/core/rng.py", "subset")], "cum"),
     ("integrator's own array work", [("pathtracer/integrators/", "radiance")], "self"),
 ]
 

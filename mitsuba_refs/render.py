@@ -28,7 +28,7 @@ Integrator mapping (ours -> Mitsuba):
 
 A particle tracer's samples do not belong to pixels, so its per-pixel variance
 comes from ``config.REF_REPLICAS`` independent renders with different seeds, as
-the tracer's own light renders do (:func:`pathtracer.render.render_splats`).
+the tracer's own light renders do (:func:`pathtracer.render.splats.render_splats`).
 """
 
 import dataclasses

@@ -3,9 +3,9 @@
 Mitsuba's ``hdrfilm`` splats every sample over the pixels within its filter's radius
 and divides by the summed weights; with the ``rgb_moments`` AOVs the developed film
 then holds, per pixel, ``m1 = sum w f / sum w`` and ``m2 = sum w f^2 / sum w``. The
-tracer's film does the same (:mod:`pathtracer.film`), and both sides turn the weighted
+tracer's film does the same (:mod:`pathtracer.sensors.film`), and both sides turn the weighted
 spread ``m2 - m1^2`` into a per-sample variance with the same effective sample count
-(:func:`pathtracer.film.effective_counts`); docs/statistics.md ("Reconstruction
+(:func:`pathtracer.sensors.film.effective_counts`); docs/statistics.md ("Reconstruction
 filters") says what the tests then assume.
 
 Mitsuba's scalar variants evaluate tent and gaussian weights from a 31-entry table,
@@ -22,7 +22,7 @@ _KINDS = {"BoxFilter": "box", "TentFilter": "tent", "GaussianFilter": "gaussian"
 
 
 def film_filter(film):
-    """The :class:`pathtracer.film.ReconstructionFilter` of a loaded Mitsuba film.
+    """The :class:`pathtracer.sensors.film.ReconstructionFilter` of a loaded Mitsuba film.
 
     Raises ``ValueError`` for filters the tracer does not implement.
     """

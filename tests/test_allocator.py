@@ -1,4 +1,4 @@
-"""The allocator setting that keeps freed array memory in the heap (pathtracer.allocator)."""
+"""The allocator setting that keeps freed array memory in the heap (pathtracer.render.allocator)."""
 import sys
 
 import pytest

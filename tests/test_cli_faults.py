@@ -308,7 +308,7 @@ def test_killing_the_render_leaves_no_worker_and_no_output(tmp_path, how):
 
 WATCHDOG_CHILD = """
 import os, sys, time
-from pathtracer.workers import start_parent_watchdog
+from pathtracer.render.workers import start_parent_watchdog
 parent = os.getpid()
 pid = os.fork()
 if pid == 0:

@@ -1,4 +1,4 @@
-"""Reconstruction filters (pathtracer.film): weights, splatting, statistics, and Mitsuba's film.
+"""Reconstruction filters (pathtracer.sensors.film): weights, splatting, statistics, and Mitsuba's film.
 
 The Mitsuba checks (marked ``mitsuba``) use a vectorised variant (``llvm_ad_rgb``): it
 evaluates the filters exactly, as the references are rendered; the scalar variants

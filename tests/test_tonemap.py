@@ -1,4 +1,4 @@
-"""The one tonemap of the PNG previews and the figures (pathtracer.tonemap)."""
+"""The one tonemap of the PNG previews and the figures (pathtracer.core.tonemap)."""
 import numpy as np
 
 from pathtracer.core.tonemap import auto_scale, to_8bit, tonemap

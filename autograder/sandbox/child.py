@@ -324,11 +324,11 @@ class Server:
 
     def scene(self, name: str, params: dict):
         from pathtracer import load_scene
-        from pathtracer.shapes import intersect as geometry
+        from pathtracer.shapes import intersect
         key = (name, tuple(sorted(params.items())))
         if key not in self.scenes:
             scene = load_scene(name, **params)
-            geometry.prepare(scene)
+            intersect.prepare(scene)
             self.scenes[key] = scene
         return self.scenes[key]
 

@@ -4,7 +4,7 @@ With a box filter every sample lands in one pixel and pixels are independent. A 
 gaussian filter spreads each sample over neighbouring pixels, so neighbours share samples.
 For a pixel sum weighted by a separable filter ``w`` and uniformly spread samples of locally
 constant variance, two pixels at lag ``(a, b)`` are correlated by ``rho(a) rho(b)`` with
-``rho(l) = ∫ w(x) w(x + l) dx / ∫ w^2`` (:func:`pathtracer.film.lag_correlations`). A tile
+``rho(l) = ∫ w(x) w(x + l) dx / ∫ w^2`` (:func:`pathtracer.sensors.film.lag_correlations`). A tile
 statistic built from pixel sums then has, for a ``T x T`` tile (``n_l = max(T - |l|, 0)``
 pairs of pixels at lag ``l`` along an axis):
 
@@ -65,7 +65,7 @@ INDEPENDENT = PixelCorrelation()
 
 
 def pixel_correlation(rfilter) -> PixelCorrelation:
-    """The :class:`PixelCorrelation` of a :class:`pathtracer.film.ReconstructionFilter`."""
+    """The :class:`PixelCorrelation` of a :class:`pathtracer.sensors.film.ReconstructionFilter`."""
     if rfilter is None or rfilter.is_box:
         return INDEPENDENT
     return PixelCorrelation(tuple(float(r) for r in lag_correlations(rfilter)))

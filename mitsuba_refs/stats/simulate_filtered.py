@@ -3,7 +3,7 @@ r"""Synthetic renders through a reconstruction filter, for calibrating the stati
 Each pixel draws ``n`` samples of the mixture of :mod:`mitsuba_refs.stats.simulate`
 (:math:`X = B V + N(\mu, s^2)` with the pixel's parameters), at uniform positions inside
 the pixel, and the film splats them through the filter exactly as the tracer does
-(:func:`pathtracer.film.splat`, :func:`pathtracer.render.filtered_mean_and_variance`).
+(:func:`pathtracer.sensors.film.splat`, :func:`pathtracer.render.filtered_mean_and_variance`).
 Unlike the box-filter simulation this draws every sample (the weights depend on where
 each one lands), so it is kept to small images.
 """

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..core.rng import RandomStream
 from ..sensors.perspective import Rays
-from ..shapes import intersect as geometry
+from ..shapes import intersect
 
 
 class Paths:
@@ -322,12 +322,12 @@ def pooled(integrator) -> bool:
 
 def trace(scene, rays: Rays):
     """Closest hit of every ray."""
-    return geometry.intersect(scene, rays.o, rays.d, rays.tmax)
+    return intersect.intersect(scene, rays.o, rays.d, rays.tmax)
 
 
 def spawn(hit, wo: np.ndarray) -> Rays:
     """Rays leaving the hits along ``wo``, offset against self-intersection."""
-    o = geometry.spawn_ray(hit.p, hit.n, wo)
+    o = intersect.spawn_ray(hit.p, hit.n, wo)
     return Rays(o, wo, np.full(len(wo), np.inf))
 
 

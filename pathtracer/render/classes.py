@@ -8,7 +8,7 @@ import time
 from ..integrators.pathclass import PathClassIntegrator
 from ..scene.load import load_scene
 from ..scene.types import Scene
-from ..shapes import intersect as geometry
+from ..shapes import intersect
 from .jobs import CameraJob
 from .moments import mean_and_variance, pixel_statistics
 from .scheduling import DEFAULT_BATCH, plan_units, run_units
@@ -57,7 +57,7 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
     n_pixels = scene.camera.width * scene.camera.height
     units = plan_units(n_pixels, int(spp), batch_size or max(1024, DEFAULT_BATCH // max(1, K // 2)))
     processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
-    geometry.prepare(scene)
+    intersect.prepare(scene)
     start = time.perf_counter()
     stats = run_units(_ClassJob(scene, integrator, int(spp), int(seed)), [(u,) for u in units],
                       pixel_statistics(n_pixels, 3 * K), processes, progress)

@@ -31,7 +31,7 @@ from ..scene.load import load_scene
 from ..scene.types import Scene
 from ..sensors.film import effective_counts
 from ..sensors.perspective import camera_rays
-from ..shapes import intersect as geometry
+from ..shapes import intersect
 from .allocator import keep_freed_memory
 from .jobs import CameraJob, FilteredJob
 from .moments import film_sums, filtered_mean_and_variance, mean_and_variance, merge_sums, pixel_statistics
@@ -147,7 +147,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
     processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
     if progress is None:
         progress = sys.stderr.isatty() and n_pixels * spp >= 1 << 20
-    geometry.prepare(scene)   # build the BVH once, before workers fork
+    intersect.prepare(scene)   # build the BVH once, before workers fork
     keep_freed_memory()       # before the fork too: the workers inherit it
     if integrator.splats:
         return render_splats(scene, integrator, spp, seed, processes, batch_size, progress)
