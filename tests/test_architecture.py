@@ -3,8 +3,9 @@
 * No import cycle among the project's modules, counting imports inside functions and the
   package ``__init__`` that importing a submodule executes first.
 * An import inside a function only of a heavy optional dependency (Mitsuba, Dr.Jit,
-  matplotlib, Dask), which keeps it out of start-up, or in a module that
-  docs/architecture.md's section "Deferred imports" names with the reason.
+  matplotlib, Dask), directly or through a module of ours that imports one at its top,
+  which keeps it out of start-up; or in a module that docs/architecture.md's section
+  "Deferred imports" names with the reason.
 * No module over 600 lines, except those docs/architecture.md names with the reason.
 """
 from __future__ import annotations
@@ -147,6 +148,31 @@ def _documented(section: str) -> set[str]:
     return set(re.findall(r"^\| `([\w/]+\.py)` \|", body, flags=re.M))
 
 
+def _heavy(name: str, seen: frozenset = frozenset()) -> bool:
+    """Whether importing ``name`` loads a heavy optional dependency: it is one, or a module of
+    ours whose top-level imports (followed through our modules) reach one."""
+    if name.split(".")[0] in DEFERRABLE:
+        return True
+    while name and name not in MODULES:
+        name = name.rpartition(".")[0]
+    if not name or name in seen:
+        return False
+    for node, inside in _imports(name):
+        if inside:
+            continue
+        named = [a.name for a in node.names] if isinstance(node, ast.Import) else [_absolute(name, node)]
+        if isinstance(node, ast.ImportFrom):
+            named += [f"{named[0]}.{a.name}" for a in node.names]
+        if any(_heavy(target, seen | {name}) for target in named):
+            return True
+    return False
+
+
+def test_heavy_follows_our_modules():
+    assert _heavy("mitsuba") and _heavy("matplotlib.pyplot")
+    assert not _heavy("numpy") and not _heavy("pathtracer.core.vec")
+
+
 def test_imports_inside_functions_only_defer_heavy_optional_dependencies():
     allowed = _documented("Deferred imports")
     offenders = []
@@ -159,7 +185,10 @@ def test_imports_inside_functions_only_defer_heavy_optional_dependencies():
             names = [a.name for a in node.names] if isinstance(node, ast.Import) else [node.module or ""]
             if isinstance(node, ast.ImportFrom) and node.level:
                 names = [_absolute(module, node)]
-            if not all(name.split(".")[0] in DEFERRABLE for name in names):
+            if isinstance(node, ast.ImportFrom):
+                names = [f"{names[0]}.{a.name}" if f"{names[0]}.{a.name}" in MODULES else names[0]
+                         for a in node.names]
+            if not all(_heavy(name) for name in names):
                 offenders.append(f"{MODULES[module].relative_to(ROOT)}:{node.lineno}: {', '.join(names)}")
     assert not offenders, "imports inside functions:\n" + "\n".join(offenders)
 
