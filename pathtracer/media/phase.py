@@ -21,8 +21,8 @@ import numpy as np
 
 from ..core.sampling import INV_FOUR_PI, square_to_uniform_sphere
 from ..core.vec import dot, to_world
-from ..scene.properties import Props, children, unsupported
-from ..scene.registry import factory, register
+from ..scene.properties import Props, children, registered
+from ..scene.registry import register
 from ..scene.xml import Plugin
 
 
@@ -82,10 +82,7 @@ class HenyeyGreensteinPhase:
 
 def build_phase(plugin: Plugin):
     """The phase function of a ``<phase>`` element (a medium's)."""
-    create = factory("phase", plugin.type)
-    if create is None:
-        raise unsupported(plugin, "phase function")
-    return create(plugin)
+    return registered(plugin, "phase function")(plugin)
 
 
 @register("phase", "isotropic")

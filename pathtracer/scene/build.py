@@ -30,10 +30,9 @@ from .properties import (
     Props,
     build_texture,
     children,
+    registered,
     search_folders,
-    unsupported,
 )
-from .registry import factory
 from .types import IntegratorSpec, Scene
 from .xml import Plugin
 
@@ -62,9 +61,7 @@ def build_shape(plugin: Plugin, geo: GeometryAccumulator, shape_id: int, folders
     the ``instance`` the shape is drawn by, applied after the shape's own
     (:mod:`pathtracer.shapes.instances`).
     """
-    create = factory("shape", plugin.type)
-    if create is None:
-        raise unsupported(plugin, "shape")
+    create = registered(plugin, "shape")
     props = Props(plugin)
     kids = children(plugin, {"bsdf": 1, "emitter": 1, "medium": 2})
     m = props.transform("to_world")
@@ -91,9 +88,7 @@ def build_emitter(plugin: Plugin, folders: list[str] = (".",), shape: int | None
     if shape is not None and plugin.type != "area":
         raise plugin.error("only an area emitter can be nested in a shape")
     props = Props(plugin)
-    create = factory("emitter", plugin.type)
-    if create is None:
-        raise unsupported(plugin, "emitter")
+    create = registered(plugin, "emitter")
     result = create(props, folders, shape)
     props.finish()
     return result
@@ -104,10 +99,7 @@ def build_sensor(plugin: Plugin, resolution: tuple[int, int] | None = None,
     """The camera of the ``<sensor>``, with the film resolution and the sampler's sample count
     and seed: its factory is called as ``create(plugin, resolution, spp)``, ``resolution``
     (width, height) and ``spp`` replacing the file's when given."""
-    create = factory("sensor", plugin.type)
-    if create is None:
-        raise unsupported(plugin, "sensor")
-    return create(plugin, resolution, spp)
+    return registered(plugin, "sensor")(plugin, resolution, spp)
 
 
 def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
@@ -122,9 +114,7 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
             raise plugin.error("a moment integrator takes exactly one nested <integrator> "
                                "and no properties")
         return build_integrator(kids["integrator"][0])
-    integrator = factory("integrator", plugin.type)
-    if integrator is None:
-        raise unsupported(plugin, "integrator")
+    integrator = registered(plugin, "integrator")
     if plugin.type == "direct":
         _check_direct_samples(plugin)
     children(plugin, {})
@@ -323,10 +313,7 @@ class MediaTable:
 
 def build_medium(plugin: Plugin) -> HomogeneousMedium:
     """The participating medium of a ``<medium>`` element."""
-    create = factory("medium", plugin.type)
-    if create is None:
-        raise unsupported(plugin, "medium")
-    return create(plugin)
+    return registered(plugin, "medium")(plugin)
 
 
 def _media_fields(media, shape_media: list, camera_medium: int) -> dict:

@@ -245,14 +245,20 @@ def unsupported(plugin: Plugin, what: str) -> Exception:
     return plugin.error(f"unsupported {what} (supported: {', '.join(supported)})")
 
 
+def registered(plugin: Plugin, what: str):
+    """The factory registered for ``plugin``'s kind and type, or the error (:func:`unsupported`)
+    that says why there is none; ``what`` names the kind in that error."""
+    create = factory(plugin.kind, plugin.type)
+    if create is None:
+        raise unsupported(plugin, what)
+    return create
+
+
 def build_texture(plugin: Plugin, folders: list[str], cache: dict):
     """The :mod:`pathtracer.textures` object of a ``<texture>`` (built once per plugin)."""
     key = id(plugin)
     if key not in cache:
-        create = factory("texture", plugin.type)
-        if create is None:
-            raise unsupported(plugin, "texture")
-        cache[key] = create(plugin, folders, cache)
+        cache[key] = registered(plugin, "texture")(plugin, folders, cache)
     return cache[key]
 
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.properties import VARIANT_ONLY, Props, children, unsupported
+from ..scene.properties import Props, children, registered
 from ..scene.registry import factory, names, register
 from ..scene.xml import Plugin
 
@@ -246,12 +246,7 @@ def create_rfilter(plugin: Plugin) -> ReconstructionFilter:
 
 def build_film(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
     """``(width, height, rfilter)`` of a sensor's ``<film>``."""
-    if plugin.type in VARIANT_ONLY:
-        raise unsupported(plugin, "film")
-    create = factory("film", plugin.type)
-    if create is None:
-        raise plugin.error(f"unsupported film (supported: {', '.join(names('film'))})")
-    return create(plugin)
+    return registered(plugin, "film")(plugin)
 
 
 @register("film", "hdrfilm")

@@ -9,8 +9,8 @@ from __future__ import annotations
 import warnings
 
 from ..core.rng import SEED_MAX
-from ..scene.properties import VARIANT_ONLY, Props, children, unsupported
-from ..scene.registry import factory, names, register
+from ..scene.properties import Props, children, registered
+from ..scene.registry import register
 from ..scene.xml import Plugin
 
 #: Mitsuba's samplers and their parameters besides sample_count and seed.
@@ -21,12 +21,7 @@ _warned_samplers: set = set()
 
 def build_sampler(plugin: Plugin) -> tuple[int, int]:
     """``(sample_count, seed)`` of a ``<sampler>`` (a sensor's or a top-level one)."""
-    if plugin.type in VARIANT_ONLY:
-        raise unsupported(plugin, "sampler")
-    create = factory("sampler", plugin.type)
-    if create is None:
-        raise plugin.error(f"unsupported sampler (supported: {', '.join(names('sampler'))})")
-    return create(plugin)
+    return registered(plugin, "sampler")(plugin)
 
 
 @register("sampler", *SAMPLER_PARAMS)
