@@ -6,6 +6,7 @@ import threading
 
 import numpy as np
 
+from ..core.vec import dot_einsum
 from .blas import single_threaded_blas
 from .bvh import BVH, _plane_coordinates, _rays
 
@@ -61,7 +62,7 @@ class SmallMesh:
         self._quads = Q = int(quad.sum())   # parallelograms first, then lone triangles
         self._bits = max(1, int(np.ceil(np.log2(max(P, 2)))))
         n = np.cross(e1, e2)
-        nn = np.einsum("ij,ij->i", n, n)
+        nn = dot_einsum(n, n)
         with np.errstate(divide="ignore", invalid="ignore"):
             inv = np.where(nn > 0, 1.0 / nn, np.nan)  # degenerate triangles: NaN, never hit
             a1 = np.cross(e2, n) * inv[:, None]
@@ -77,7 +78,7 @@ class SmallMesh:
         mo, md = [], []
         for a, c, rows in blocks:
             a, origin = a[rows], p0[rows]
-            mo.append(np.column_stack((a, c - np.einsum("ij,ij->i", a, origin))))
+            mo.append(np.column_stack((a, c - dot_einsum(a, origin))))
             md.append(a)
         md[0] = -md[0]  # the plane's rate along d: n . d
         self._mo = np.concatenate(mo).astype(np.float32)

@@ -73,6 +73,17 @@ def normalize(a: np.ndarray) -> np.ndarray:
     return unscale(a, np.where(length > 0, length, 1.0))
 
 
+def unit(v: np.ndarray) -> np.ndarray:
+    """Vectors along the last axis divided by their length (zero vectors stay zero).
+
+    The same directions as :func:`normalize`, computed as a division by
+    ``np.linalg.norm`` rather than a product with the reciprocal: the meshes' normals and
+    the curves' frames are made this way, and keep their bits.
+    """
+    length = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(length > 0, length, 1.0)
+
+
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise cross product of two (n, 3) arrays."""
     return np.stack(

@@ -25,10 +25,10 @@ from .volpath import VolPathIntegrator
 from .volpath_phase import VolPathPhaseIntegrator
 
 
-def _registered() -> dict:
+def registered_integrators() -> dict:
     """name -> class of every registered integrator, under its own ``name``, in registration
-    order (the Mitsuba names a class also renders, such as ``ptracer`` for ``light``, are the
-    loader's business)."""
+    order: the tracer's, and any a user's module has registered since (the Mitsuba names a
+    class also renders, such as ``ptracer`` for ``light``, are the loader's business)."""
     table = {}
     for registered in names("integrator"):
         cls = factory("integrator", registered)
@@ -42,26 +42,29 @@ def _registered() -> dict:
 
 
 #: name -> class of every integrator of the tracer.
-INTEGRATORS = _registered()
+INTEGRATORS = registered_integrators()
 
 
 def make_integrator(name: str, **options) -> Integrator:
-    """An integrator by name with its options (see :class:`Integrator`).
+    """An integrator by name with its options (see :class:`Integrator`): any registered one,
+    the tracer's or a user's.
 
     Raises
     ------
     ValueError
         For an unknown name or option, naming the valid ones.
     """
-    if name not in INTEGRATORS:
-        raise ValueError(f"unknown integrator {name!r} (available: {', '.join(INTEGRATORS)})")
+    available = registered_integrators()
+    if name not in available:
+        raise ValueError(f"unknown integrator {name!r} (available: {', '.join(available)})")
     try:
-        return INTEGRATORS[name](**options)
+        return available[name](**options)
     except TypeError as error:
         raise ValueError(f"integrator {name!r}: {error}") from None
 
 
 __all__ = ["Integrator", "CameraIntegrator", "SplattingIntegrator", "INTEGRATORS", "make_integrator",
+           "registered_integrators",
            "BDPTIntegrator", "DirectIntegrator", "LightIntegrator", "PathIntegrator", "PathBSDFIntegrator",
            "PathNEEIntegrator", "RecursiveIntegrator", "SmallptIntegrator", "VolPathIntegrator",
            "VolPathPhaseIntegrator"]

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.vec import dot_einsum, unit
+
 
 class MeshFormatError(ValueError):
     """A mesh file that cannot be read; the loader adds the scene location."""
@@ -387,15 +389,10 @@ def read_serialized(path: str, shape_index: int = 0) -> MeshData:
 def unit_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Angle between rows of unit vectors, accurate also near 0 and pi
     (``2 asin(|a - b| / 2)`` instead of ``acos(a . b)``)."""
-    dot = np.einsum("ij,ij->i", a, b)
+    dot = dot_einsum(a, b)
     near = 2.0 * np.arcsin(np.clip(np.linalg.norm(a - b, axis=1) / 2, 0, 1))
     far = np.pi - 2.0 * np.arcsin(np.clip(np.linalg.norm(a + b, axis=1) / 2, 0, 1))
     return np.where(dot < 0, far, near)
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    length = np.linalg.norm(v, axis=1, keepdims=True)
-    return v / np.where(length > 0, length, 1.0)
 
 
 def smooth_vertex_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -407,12 +404,12 @@ def smooth_vertex_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarra
     """
     p = positions[faces]  # (F, 3, 3)
     n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    valid = np.einsum("ij,ij->i", n, n) > 0
-    n = _unit(n)
+    valid = dot_einsum(n, n) > 0
+    n = unit(n)
     acc = np.zeros_like(positions)
     for k in range(3):
-        e1 = _unit(p[:, (k + 1) % 3] - p[:, k])
-        e2 = _unit(p[:, (k + 2) % 3] - p[:, k])
+        e1 = unit(p[:, (k + 1) % 3] - p[:, k])
+        e2 = unit(p[:, (k + 2) % 3] - p[:, k])
         w = np.where(valid, unit_angle(e1, e2), 0.0)
         np.add.at(acc, faces[:, k], n * w[:, None])
     length = np.linalg.norm(acc, axis=1)

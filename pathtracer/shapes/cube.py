@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..io import meshes
+from ..core.vec import unit
 from ..scene import transform
 from ..scene.registry import register
 from .accumulator import GeometryAccumulator, ShapeParams
@@ -46,7 +46,7 @@ def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
     p = transform.apply_points(m, local_p.reshape(-1, 3)).reshape(-1, 3, 3)
     if props.bool("face_normals", False):
         geo_n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-        n = np.repeat(meshes._unit(geo_n)[:, None], 3, axis=1)
+        n = np.repeat(unit(geo_n)[:, None], 3, axis=1)
     else:
         n = world_normals(props, m, local_n.reshape(-1, 3)).reshape(-1, 3, 3)
     if shape.flip:

@@ -44,6 +44,7 @@ import os
 import numpy as np
 
 from ..accel.bvh import BVH
+from ..core.vec import unit
 from ..scene import transform
 from ..scene.properties import find_file
 from ..scene.registry import register
@@ -276,15 +277,15 @@ class CurveShape(BVH):
         v0, v1 = j / counts[sid], (j + 1) / counts[sid]
         c0, dc0, _, r0, _, _ = bspline(seg[sid], v0)
         c1, dc1, _, r1, _, _ = bspline(seg[sid], v1)
-        w = _unit(c1 - c0)
+        w = unit(c1 - c0)
         # Joint planes bisect consecutive pieces (pieces of one curve are consecutive);
         # at a curve's two ends the plane is orthogonal to the end piece.
         starts = (j == 0) & first[sid]
         ends = (j == counts[sid] - 1) & last[sid]
         prev_w = np.roll(w, 1, axis=0)
         next_w = np.roll(w, -1, axis=0)
-        ma = np.where(starts[:, None], w, _unit(w + prev_w))
-        mb = np.where(ends[:, None], w, _unit(w + next_w))
+        ma = np.where(starts[:, None], w, unit(w + prev_w))
+        mb = np.where(ends[:, None], w, unit(w + next_w))
         self.piece_segment, self.piece_v0, self.piece_v1 = sid, v0, v1
         n = len(sid)
         return dict(a=c0, b=c1, ra=r0, rb=r1, pa=c0, ma=ma, pb=c1, mb=mb,
@@ -336,8 +337,8 @@ class CurveShape(BVH):
         seg = self.segments[seg_id]
         if self.kind == "linear":
             centre = seg[:, 0, :3] + v[:, None] * (seg[:, 1, :3] - seg[:, 0, :3])
-            normal = _unit(p - centre)
-            tangent = _unit(seg[:, 1, :3] - seg[:, 0, :3])
+            normal = unit(p - centre)
+            tangent = unit(seg[:, 1, :3] - seg[:, 0, :3])
         else:
             for _ in range(NEWTON_STEPS):   # v whose orthogonal circle holds p
                 c, dc, ddc, *_ = bspline(seg, v)
@@ -347,11 +348,11 @@ class CurveShape(BVH):
                 v = np.clip(v - g / np.where(dg != 0, dg, -1.0), 0.0, 1.0)
             c, dc, ddc, r, dr, _ = bspline(seg, v)
             rad = p - c
-            normal = _unit((np.einsum("mi,mi->m", dc, dc) - np.einsum("mi,mi->m", rad, ddc))[:, None]
+            normal = unit((np.einsum("mi,mi->m", dc, dc) - np.einsum("mi,mi->m", rad, ddc))[:, None]
                            * rad - (dr * r)[:, None] * dc)
-            centre, tangent = c, _unit(dc)
+            centre, tangent = c, unit(dc)
         v_rot, v_rad = local_frame(tangent)
-        radial = _unit(p - centre)
+        radial = unit(p - centre)
         u = np.arctan2(np.einsum("mi,mi->m", v_rot, radial), np.einsum("mi,mi->m", v_rad, radial))
         u = np.where(u < 0, u + 2 * np.pi, u) / (2 * np.pi)
         return normal, np.stack([u, (v + seg_id) / len(self.segments)], axis=1)
@@ -367,11 +368,6 @@ class CurveShape(BVH):
         lo = np.minimum(pc["a"] - pc["ra"][:, None], pc["b"] - pc["rb"][:, None]).min(0)
         hi = np.maximum(pc["a"] + pc["ra"][:, None], pc["b"] + pc["rb"][:, None]).max(0)
         return lo, hi
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
 
 
 def fill_curve(curve, hit, sel, o, d, piece, s):

@@ -5,6 +5,7 @@ import os
 
 import numpy as np
 
+from ..core.vec import unit
 from ..io import meshes
 from ..scene import transform
 from ..scene.properties import Props, find_file
@@ -62,7 +63,7 @@ def _mesh_triangles(plugin, props, folders, m):
             uv[:, :, 1] = 1.0 - uv[:, :, 1]
     if face_normals:
         geo = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-        n = np.repeat(meshes._unit(geo)[:, None], 3, axis=1)
+        n = np.repeat(unit(geo)[:, None], 3, axis=1)
     elif data.normals is not None:
         n = world_normals(props, m, data.normals)[data.faces]
     else:
