@@ -18,7 +18,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
 
 from .exr import read_channels
 
@@ -132,6 +131,9 @@ def _rgbe_scanlines(data, width: int, height: int) -> np.ndarray:
 
 
 def _read_pillow(path: Path, raw: bool) -> np.ndarray:
+    # Pillow loads when an image is read: the student runtime renders with NumPy and SciPy
+    # only (docs/architecture.md, "Deferred imports").
+    from PIL import Image, UnidentifiedImageError
 
     try:
         with Image.open(path) as image:

@@ -19,7 +19,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-import OpenEXR
 
 MEAN_CHANNELS = ("R", "G", "B")
 VARIANCE_CHANNELS = ("var.R", "var.G", "var.B")
@@ -71,6 +70,7 @@ def write_mean_variance(path, mean, variance, attributes: dict, dtype=np.float32
         channels[name] = _stored(mean[:, :, c], dtype, "mean", clamped)
     for c, name in enumerate(VARIANCE_CHANNELS):
         channels[name] = _stored(variance[:, :, c], dtype, "variance", clamped)
+    import OpenEXR  # loaded when a file is written: see read_channels
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     header.update({key: _attribute(value) for key, value in attributes.items()})
     header.update({f"clamped_{what}": count for what, count in clamped.items()})
@@ -92,6 +92,9 @@ def warn_clamped(path, clamped: dict, dtype=np.float32, stacklevel: int = 2) -> 
 def read_channels(path) -> tuple[dict, dict]:
     """``(channels, header)`` of any EXR file: every channel as a float64 (H, W) array by
     name, and the header. OpenEXR raises its own errors for unreadable files."""
+    # Loaded when a file is read: the student runtime renders with NumPy and SciPy only
+    # (docs/architecture.md, "Deferred imports").
+    import OpenEXR
     # separate_channels: OpenEXR would otherwise group R, G, B (and var.*) into one array.
     with OpenEXR.File(str(path), separate_channels=True) as exr:
         header = dict(exr.header())       # the file's own dict is cleared on close
