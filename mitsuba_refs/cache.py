@@ -47,6 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pathtracer.core import interrupts
 from pathtracer.io.exr import read_mean_variance
 from pathtracer.scene.errors import SceneError
 from pathtracer.scene.xml_files import XMLSyntaxError, read_elements, scene_files
@@ -233,10 +234,14 @@ def validate(scene, params, integrator, spp, seed, directory=None, options=None,
         if metadata.get("key") != key:
             return "stale", "key mismatch (scene, included files, params, " \
                             "integrator, spp or seed changed)", None
+        before = interrupts.count()
         try:
             with _output_silenced():
                 mean, var, attrs = read_mean_variance(exr_path)
         except Exception as exc:  # OpenEXR raises various types
+            # OpenEXR turns a Ctrl-C during the read into an error of its own: an interrupt
+            # is never a verdict on the file (pathtracer.core.interrupts).
+            interrupts.reraise_if_interrupted(before, exc)
             return "corrupt", f"{exr_path.name} unreadable: {exc}", None
     shape = (int(metadata.get("height", -1)), int(metadata.get("width", -1)), 3)
     if mean.shape != shape:

@@ -18,6 +18,7 @@ import argparse
 import sys
 import time
 
+from pathtracer.core import interrupts
 from pathtracer.scene.defines import parse_defines
 from pathtracer.scene.load import parse_resolution
 
@@ -207,6 +208,7 @@ def main(argv=None):
     Bad input ends in one line on stderr and status 2, Ctrl-C in one line
     and status 130; only a bug shows a traceback.
     """
+    interrupts.install()        # a Ctrl-C inside a reader stays an interrupt
     try:
         args = make_parser().parse_args(argv)
         prog = f"mitsuba-refs {args.command}"

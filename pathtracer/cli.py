@@ -11,6 +11,7 @@ import warnings
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
+from .core import interrupts
 from .core.rng import SEED_MAX
 from .integrators import INTEGRATORS, make_integrator
 from .integrators.base import HEMISPHERE_RULES, ROULETTE_RULES
@@ -159,6 +160,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     """Run one ``pathtracer`` command; its exit code (README, "Exit codes")."""
+    interrupts.install()        # a Ctrl-C inside a reader stays an interrupt
     args = build_parser().parse_args(argv)
     if args.command == "scenes":
         for name in builtin_scene_names():

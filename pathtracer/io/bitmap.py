@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core import interrupts
 from .exr import read_channels
 
 
@@ -67,9 +68,11 @@ def read_bitmap(path, *, raw: bool = False) -> np.ndarray:
 
 
 def _read_exr(path: Path) -> np.ndarray:
+    before = interrupts.count()
     try:
         channels, _ = read_channels(path)
     except Exception as error:  # OpenEXR raises plain exceptions on bad files
+        interrupts.reraise_if_interrupted(before, error)     # a Ctrl-C, not a bad file
         raise BitmapError(f"{path.name}: not a readable OpenEXR file ({error})") from None
     for names in (("R", "G", "B"), ("Y",)):
         if all(n in channels for n in names):
