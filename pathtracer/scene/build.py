@@ -1,8 +1,13 @@
-"""Interpret the generic :class:`~pathtracer.scene.xml.Plugin` tree as a :class:`Scene`.
+"""The loader: the generic :class:`~pathtracer.scene.xml.Plugin` tree assembled into a :class:`Scene`.
 
-Every plugin is read through :class:`Props`, which remembers which properties
-were consumed: a property the tracer does not know is an error rather than
-being silently ignored, because it would make the two renderers disagree.
+It imports every plugin package, so that each plugin has registered its factory
+(:mod:`pathtracer.scene.registry`), then builds each element with the factory of its kind
+and type (:func:`~pathtracer.scene.properties.registered`): the factories read their
+properties through :class:`~pathtracer.scene.properties.Props`, which makes a property
+nobody read an error. What is left here is what no single plugin owns: the order in which
+elements are built, default BSDFs, area lights attached to their shapes, the media table,
+the ``<integrator>`` element (whose class is the integrator registry's), and the arrays of
+the assembled scene.
 """
 from __future__ import annotations
 
