@@ -45,7 +45,7 @@ NOISELESS = {("point-light", "path_bsdf")}
 #: The surface integrators; the volumetric ones (volpath, volpath_phase) are checked on the
 #: media scenes, at their own sample counts, in test_media.py.
 SURFACE_INTEGRATORS = sorted(name for name, cls in INTEGRATORS.items()
-                             if not getattr(cls, "handles_media", False))
+                             if not cls.handles_media)
 
 AGREEMENT_CASES = [(scene, integrator) for scene in BUILTIN_SCENES for integrator in SURFACE_INTEGRATORS
                    if (scene, integrator) not in EXCLUDED]

@@ -19,7 +19,7 @@ from tests.budget import ALPHA
 pytestmark = pytest.mark.statistical(assertions=1)
 
 #: The surface integrators (the volumetric ones have their closed forms in test_media.py).
-ALL = sorted(name for name, cls in INTEGRATORS.items() if not getattr(cls, "handles_media", False))
+ALL = sorted(name for name, cls in INTEGRATORS.items() if not cls.handles_media)
 #: Integrators that only sample BSDFs: a point light is a Dirac delta they can never hit.
 BSDF_ONLY = ("path_bsdf", "smallpt")
 #: Light paths cannot start on an environment yet (light and bdpt refuse it: test_light.py).
