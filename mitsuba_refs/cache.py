@@ -50,6 +50,7 @@ import numpy as np
 from pathtracer.core import interrupts
 from pathtracer.io.exr import read_mean_variance
 from pathtracer.scene.errors import SceneError
+from pathtracer.scene.load import BUILTIN_DIR
 from pathtracer.scene.xml_files import XMLSyntaxError, read_elements, scene_files
 
 from . import config
@@ -176,11 +177,21 @@ def reference_key(scene, params, integrator, spp, seed, options=None, resolution
     return hashlib.sha256(blob.encode()).hexdigest()
 
 
+def scene_label(scene) -> str:
+    """The scene's part of a reference's file name: a built-in scene's name, or a user's file
+    name with a short hash of its resolved path, so that files of one name in different
+    folders (four users' ``scene.xml``) never share a reference in one cache."""
+    path = resolve_scene(scene).resolve()
+    if path.parent == Path(BUILTIN_DIR).resolve():
+        return path.stem
+    return f"{path.stem}-{hashlib.sha256(str(path).encode()).hexdigest()[:8]}"
+
+
 def reference_stem(scene, params, integrator, spp, seed, options=None, resolution=None):
-    """File stem of a reference (readable; uniqueness via the params, the
-    integrator overrides (``set-``) and an overridden film size)."""
-    name = resolve_scene(scene).stem
-    parts = [name, canonical_integrator(integrator)]
+    """File stem of a reference (readable; uniqueness via the scene's file
+    (:func:`scene_label`), the params, the integrator overrides (``set-``) and an
+    overridden film size)."""
+    parts = [scene_label(scene), canonical_integrator(integrator)]
     if params:
         parts.append("_".join(f"{k}-{v}" for k, v in sorted(params.items())))
     if options:

@@ -331,3 +331,25 @@ def test_committed_bsdf_sampling_ref_of_point_light_is_black():
     """BSDF sampling can never hit a point light: Mitsuba's lecture_path_bsdf image is black."""
     ref = committed("point-light", "path_bsdf")
     assert not ref.mean.any() and not ref.var.any()
+
+
+def test_reference_names_are_unique_per_file(tmp_path, monkeypatch):
+    """Four users' ``scene.xml`` in four folders get four references; one file reached by
+    two spellings of its path gets one; built-in scenes keep their readable names."""
+    from mitsuba_refs.cache import reference_stem
+    from pathtracer.scene.load import builtin_scene_path
+
+    files = []
+    for folder in "abcd":
+        (tmp_path / folder).mkdir()
+        files.append(tmp_path / folder / "scene.xml")
+        shutil.copy(builtin_scene_path("quad-light"), files[-1])
+    stems = {reference_stem(file, {}, "path", 16, 1) for file in files}
+    assert len(stems) == 4 and all(stem.startswith("scene-") for stem in stems)
+    monkeypatch.chdir(tmp_path / "a")
+    assert reference_stem("scene.xml", {}, "path", 16, 1) == reference_stem(files[0], {}, "path", 16, 1)
+    assert reference_stem("../a/./scene.xml", {}, "path", 16, 1) == reference_stem(files[0], {}, "path", 16, 1)
+    assert reference_stem("quad-light", {}, "path", 16, 1) == "quad-light__path__16spp-s1"
+    committed = {p.stem for p in Path(config.__file__).parent.joinpath("references").glob("*.json")}
+    builtin = {stem.split("__")[0] for stem in committed}
+    assert all(os.path.isfile(builtin_scene_path(name)) for name in builtin)
