@@ -29,8 +29,6 @@ combine exactly: :math:`\bar m_k = \sum_j n_j \bar m_{k,j} / \sum_j n_j`.
 
 import numpy as np
 
-from pathtracer.render.moments import combine_power_means, variance_from_power_means
-
 MOMENT_AOVS = ("m1.R", "m1.G", "m1.B", "m2.R", "m2.G", "m2.B")
 NAME = "rgb_moments"
 
@@ -103,16 +101,3 @@ def read_moments(film):
 
     return channels("m1"), channels("m2")
 
-
-def combine(passes):
-    """Combine passes ``[(m1, m2, n), ...]`` into ``(m1, m2, n)``
-    (:func:`pathtracer.render.moments.combine_power_means`)."""
-    return combine_power_means(passes)
-
-
-def sample_variance(m1, m2, n):
-    """Unbiased per-sample variance (m2 - m1^2) n / (n - 1), clipped at 0
-    (rounding can make it slightly negative where all samples agree)."""
-    if n < 2:
-        raise ValueError("variance needs at least 2 samples per pixel")
-    return variance_from_power_means(m1, m2, n)

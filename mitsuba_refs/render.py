@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from pathtracer.render.driver import transport_options
+from pathtracer.render.moments import combine_power_means
 from pathtracer.render.splats import replica_count
 from pathtracer.scene.errors import SceneError
 from pathtracer.scene.load import scene_file
@@ -459,7 +460,7 @@ def _render_with_wrapper(scene, nested, spp, seed, stream, pass_spp, log):
         passes.append((m1, m2, n_k))
         if log:
             log(f"  pass {k + 1}/{n_passes}: {n_k} spp, seed {s}")
-    m1, m2, n = moments.combine(passes)
+    m1, m2, n = combine_power_means(passes)
     return m1, m2, n, pass_spp, seeds
 
 

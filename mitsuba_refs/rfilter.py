@@ -13,8 +13,8 @@ which moves pixel values at sharp edges by up to 0.4 % (tent) / 0.8 % (gaussian)
 edge's contrast; the tracer follows the exact weights of the vectorised variants, so
 filtered references must come from one of those.
 """
-import numpy as np
 
+from pathtracer.render.moments import variance_from_power_means
 from pathtracer.sensors.film import ReconstructionFilter, effective_counts
 
 #: Mitsuba filter class name -> our filter name
@@ -64,13 +64,13 @@ def per_sample_variance(m1, m2, n, rfilter):
     """Unbiased per-sample variance from filtered moments: ``(m2 - m1^2) n_eff / (n_eff - 1)``.
 
     ``n_eff`` is each pixel's effective sample count; for the box filter it is ``n`` and
-    this is :func:`mitsuba_refs.moments.sample_variance`.
+    this is :func:`pathtracer.render.moments.variance_from_power_means` with ``n``.
     """
     if n < 2:
         raise ValueError("variance needs at least 2 samples per pixel")
     height, width = m1.shape[:2]
     n_eff = effective_counts(rfilter, width, height, n)[..., None]
-    return np.maximum(m2 - m1 * m1, 0.0) * (n_eff / (n_eff - 1))
+    return variance_from_power_means(m1, m2, n_eff)
 
 
 def reference_correlation(reference):
