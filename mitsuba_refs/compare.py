@@ -114,6 +114,18 @@ class Comparison:
     seconds: float = 0.0
     hints: list = field(default_factory=list)
     rendered: str = ""
+    #: Who rendered the test side, in words ("pathtracer path", "command: ./smallpt ...").
+    renderer: str = ""
+    #: The reference's cache key and the Mitsuba estimator that rendered it.
+    reference_key: str = ""
+    reference_integrator: str = ""
+    #: One dict per render of the test side (check: external runs): seed, spp, seconds, ...
+    runs: list = field(default_factory=list)
+    #: Lines the report adds below the verdicts (e.g. what check could not verify).
+    notes: list = field(default_factory=list)
+    #: The images the verdicts were drawn from, (H, W, 3) float arrays: test_mean,
+    #: test_variance (per sample), reference_mean, reference_variance. Not serialised.
+    arrays: dict = field(default_factory=dict, repr=False)
 
     @property
     def agree(self) -> bool:
@@ -254,6 +266,11 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
                                       pixel_correlation=correlation,
                                       image_components=name not in SPLATTING))
     result.rendered = rendered_settings(reference.metadata)
+    result.reference_key = str(reference.metadata.get("key", ""))
+    result.reference_integrator = ref_name
+    result.renderer = f"pathtracer {name}"
+    result.arrays = {"test_mean": mean, "test_variance": variance,
+                     "reference_mean": reference.mean, "reference_variance": reference.var}
     both_noiseless = not np.any(variance) and not np.any(reference.var)
     if name in SAME_ESTIMATOR and not both_noiseless:
         result.variance = compare_variances(variance, spp, reference.var, reference.n, alpha=alpha,
