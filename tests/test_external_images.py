@@ -161,7 +161,7 @@ def test_big_endian_pfm_and_its_scale_magnitude(tmp_path):
     np.testing.assert_array_equal(read_image(scaled).mean, _float32(pattern()) * 0.25)
 
 
-def test_exposure_lines_divide_the_values(tmp_path):
+def test_exposure_and_colour_correction_lines_divide_the_values(tmp_path):
     data = (FIXTURES / "mitsuba_flat.hdr").read_bytes()
     marked = tmp_path / "exposed.hdr"
     marked.write_bytes(data.replace(b"FORMAT=32-bit_rle_rgbe\n",
@@ -169,6 +169,11 @@ def test_exposure_lines_divide_the_values(tmp_path):
     image = read_image(marked)
     np.testing.assert_array_equal(image.mean, read_image(FIXTURES / "mitsuba_flat.hdr").mean / 2)
     assert image.attributes["EXPOSURE"] == 2.0 and image.attributes["SOFTWARE"] == "x"
+    marked.write_bytes(data.replace(b"FORMAT=32-bit_rle_rgbe\n", b"COLORCORR=1 2 0.5\nFORMAT=32-bit_rle_rgbe\n", 1))
+    np.testing.assert_array_equal(read_image(marked).mean,
+                                  read_image(FIXTURES / "mitsuba_flat.hdr").mean / np.array([1, 2, 0.5]))
+    marked.write_bytes(data.replace(b"FORMAT=32-bit_rle_rgbe\n", b"EXPOSURE=-1\n", 1))
+    _refused(marked, "header line 'EXPOSURE=-1' does not hold 1 positive number")
 
 
 def test_the_format_comes_from_the_bytes_not_the_name(tmp_path):
