@@ -24,6 +24,7 @@ from pathtracer.scene.load import parse_resolution
 
 from . import config
 from .cache import ReferenceUnavailable, cache_dir, get_reference, mitsuba_available, reference_stem, validate
+from .cli_check import add_check
 from .cli_compare import add_compare
 from .errors import RefsInputError, one_line
 from .preflight import check_scene, check_spp, parse_xml, scene_path
@@ -174,7 +175,7 @@ def _add_compare(subparsers):
     return add_compare(subparsers)
 
 
-SUBCOMMANDS = {"build": _add_build, "compare": _add_compare}
+SUBCOMMANDS = {"build": _add_build, "compare": _add_compare, "check": add_check}
 
 
 class OneLineParser(argparse.ArgumentParser):

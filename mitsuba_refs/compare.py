@@ -114,6 +114,8 @@ class Comparison:
     seconds: float = 0.0
     hints: list = field(default_factory=list)
     rendered: str = ""
+    #: Whether the test side runs the reference's estimator (the variance verdict applies).
+    same_estimator: bool = None
     #: Who rendered the test side, in words ("pathtracer path", "command: ./smallpt ...").
     renderer: str = ""
     #: The reference's cache key and the Mitsuba estimator that rendered it.
@@ -136,6 +138,22 @@ class Comparison:
             parts.append(self.convergence.passed)
         return all(parts)
 
+    @property
+    def compares_variance(self) -> bool:
+        """Whether the test side runs the reference's estimator (variances comparable)."""
+        if self.same_estimator is not None:
+            return self.same_estimator
+        return self.integrator in SAME_ESTIMATOR
+
+    def variance_not_applicable(self) -> str:
+        """Why there is no variance verdict, with the ratio where both images have one."""
+        text = "not applicable (Mitsuba has no run of this estimator; mean only)"
+        test, ref = self.arrays.get("test_variance"), self.arrays.get("reference_variance")
+        if test is not None and ref is not None and np.sum(ref) > 0:
+            ratio = float(np.sum(test) / np.sum(ref))
+            text += f"; the per-sample variance is {ratio:.2f}x the reference's"
+        return text
+
     def report(self) -> str:
         """A few lines a student can read."""
         status = "AGREES with Mitsuba" if self.agree else "DISAGREES with Mitsuba"
@@ -145,16 +163,18 @@ class Comparison:
             lines.insert(1, f"  rendered:    {self.rendered}")
         if self.variance is not None:
             lines.append(f"  variance:    {self.variance.verdict}")
-        elif self.integrator in SAME_ESTIMATOR:
+        elif self.compares_variance:
             lines.append("  variance:    not compared (both images are noiseless)")
         else:
-            lines.append("  variance:    not compared (Mitsuba has no run of this estimator; mean only)")
+            lines.append(f"  variance:    {self.variance_not_applicable()}")
         if self.convergence is not None:
             lines.append(f"  convergence: {self.convergence.verdict}")
         if self.bounce is not None:
             lines.append(f"  bounces:     {self.bounce[1]}")
         for hint in self.hints:
             lines.append(f"  likely cause: {hint}")
+        for note in self.notes:
+            lines.append(f"  note:        {note}")
         for name, path in self.pictures.items():
             lines.append(f"  picture ({name}): {path}")
         lines.append(f"  ({self.seconds:.1f} s)")
@@ -207,7 +227,8 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
             bounces: bool | None = None, out_dir=None, processes=None, render=render_ours,
             ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS,
             max_growth=CONVERGENCE_MAX_GROWTH, options=None, resolution=None,
-            log=None) -> Comparison:
+            log=None, reference_name=None, same_estimator=None,
+            splatting=None) -> Comparison:
     """Compare one integrator with Mitsuba on ``scene``.
 
     Parameters
@@ -242,11 +263,18 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
         set the light transport (max_depth, rr_depth, hide_emitters) go to the reference too.
     resolution : (int, int), optional
         Film size replacing the file's on both sides.
+    reference_name, same_estimator, splatting : optional
+        For a test side that is not one of ours (:mod:`mitsuba_refs.external`): the reference
+        estimator (our name for it, e.g. ``light`` for Mitsuba's ``ptracer``), whether the test
+        side runs that same estimator (then the variance verdict applies), and whether its
+        paths splat into many pixels. By default all three follow from ``integrator``.
     """
     start = time.perf_counter()
     name = integrator if isinstance(integrator, str) else integrator.name
     params = {**default_params(scene), **(params or {})}
-    ref_name = reference_integrator(name)
+    ref_name = reference_name or reference_integrator(name)
+    same = name in SAME_ESTIMATOR if same_estimator is None else bool(same_estimator)
+    splats = name in SPLATTING if splatting is None else bool(splatting)
     reference = get_reference(scene, params, ref_name, log=log, options=reference_options(options),
                               resolution=resolution)
     if options:
@@ -257,22 +285,23 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     mean, variance = render(scene, integrator, params, spp, TEST_SEED, processes=processes)
     # Same estimator on both sides: a test-side variance far above the reference's is
     # itself wrong, so it may not hide a bias (stats.mean.VARIANCE_BOUND).
-    bound = VARIANCE_BOUND if name in SAME_ESTIMATOR else None
+    bound = VARIANCE_BOUND if same else None
     # A tent or gaussian film correlates neighbouring pixels (docs/statistics.md).
     correlation = reference_correlation(reference)
     result = Comparison(scene, name, params, spp,
                         compare_means(mean, variance, spp, reference.mean, reference.var,
                                       reference.n, alpha=alpha, max_var_ratio=bound,
                                       pixel_correlation=correlation,
-                                      image_components=name not in SPLATTING))
+                                      image_components=not splats))
     result.rendered = rendered_settings(reference.metadata)
     result.reference_key = str(reference.metadata.get("key", ""))
     result.reference_integrator = ref_name
     result.renderer = f"pathtracer {name}"
+    result.same_estimator = same
     result.arrays = {"test_mean": mean, "test_variance": variance,
                      "reference_mean": reference.mean, "reference_variance": reference.var}
     both_noiseless = not np.any(variance) and not np.any(reference.var)
-    if name in SAME_ESTIMATOR and not both_noiseless:
+    if same and not both_noiseless:
         result.variance = compare_variances(variance, spp, reference.var, reference.n, alpha=alpha,
                                             pixel_correlation=correlation)
     if convergence:
@@ -282,7 +311,8 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
         result.ladder = convergence_ladder(reference, ladder)
     if bounces or (bounces is None and not result.mean.agree):
         result.bounce_results = localise_bounce(scene, integrator, name, params, spp, alpha,
-                                                processes, render, log, options, resolution)
+                                                processes, render, log, options, resolution,
+                                                bounce_reference(ref_name), splats)
         result.bounce = first_diverging_bounce(result.bounce_results)
     result.hints = hints(result)
     if out_dir is not None:
@@ -326,10 +356,42 @@ def check_convergence(scene: str, integrator="path", params: dict | None = None,
                             ladder, replicas)
 
 
+class _WithOptions:
+    """``render`` (and its ``render_mean``, if it has one) called with ``options`` added."""
+
+    def __init__(self, render, options):
+        self.render, self.options = render, dict(options)
+        if hasattr(render, "render_mean"):
+            self.render_mean = lambda *args, **kwargs: render.render_mean(
+                *args, **{**self.options, **kwargs})
+
+    def __call__(self, *args, **kwargs):
+        return self.render(*args, **{**self.options, **kwargs})
+
+
 def _with_options(render, options):
-    def render_with_options(*args, **kwargs):
-        return render(*args, **{**options, **kwargs})
-    return render_with_options
+    return _WithOptions(render, options)
+
+
+def _mean_of(render):
+    """A ``render_mean`` for a hook that only gives (mean, variance)."""
+    def render_mean(*args, **kwargs):
+        return render(*args, **kwargs)[0]
+    return render_mean
+
+
+def convergence_seed(level: int, replica: int) -> int:
+    """Seed of replica ``replica`` at ladder level ``level`` of the convergence test."""
+    return CONVERGENCE_SEED + 100_000 * level + replica
+
+
+def convergence_requests(reference, ladder, replicas, top=0):
+    """``(spp, seed)`` of the renders the convergence test makes when its top level grows from
+    ``top`` to ``top + replicas`` replicas (``top`` = 0: its first batch)."""
+    ladder = convergence_ladder(reference, ladder)
+    done, wanted = level_replicas(ladder, top), level_replicas(ladder, top + replicas)
+    return [(n, convergence_seed(j, k)) for j, n in enumerate(ladder)
+            for k in range(done[j], wanted[j])]
 
 
 def level_replicas(ladder, replicas: int) -> list[int]:
@@ -363,6 +425,80 @@ def convergence_ladder(reference, ladder=CONVERGENCE_LADDER) -> tuple:
     return tuple(n for n in ladder if n >= FILTERED_MIN_SPP) or tuple(ladder[-1:])
 
 
+@dataclass
+class ConvergenceParts:
+    """What every convergence MSE is measured on, computed once per reference.
+
+    Attributes
+    ----------
+    ladder : tuple of int
+        The levels used (:func:`convergence_ladder`).
+    filtered : bool
+        A tent or gaussian film: contiguous blocks, paired across levels, instead of
+        interleaved sub-lattices taken as replicas.
+    lattices, reference_parts, floors : lists
+        Per part: its slice, the reference's mean there, the reference's share of its MSE.
+    whole : tuple
+        The same three for the whole image (the rare-paths rule reads its MSE).
+    """
+
+    ladder: tuple
+    filtered: bool
+    lattices: list
+    reference_parts: list
+    floors: list
+    whole: tuple
+
+    @classmethod
+    def of(cls, reference, ladder=CONVERGENCE_LADDER) -> ConvergenceParts:
+        """The parts of ``reference`` with the spp levels ``ladder``."""
+        filtered = not reference_correlation(reference).independent
+        if filtered:
+            lattices = _spatial_blocks(*reference.mean.shape[:2])
+        else:
+            lattices = [np.s_[a::INTERLEAVE, b::INTERLEAVE] for a in range(INTERLEAVE)
+                        for b in range(INTERLEAVE)]
+        # var / n_eff is each reference pixel's own variance (var / n with a box filter).
+        ref_n = pixel_value_counts(reference)
+        reference_parts = [np.asarray(reference.mean[part], dtype=np.float64) for part in lattices]
+        floors = [reference_mse_floor(reference.var[part], ref_n[part]) for part in lattices]
+        whole = ([np.asarray(reference.mean, dtype=np.float64)],
+                 [reference_mse_floor(reference.var, ref_n)], [...])
+        return cls(convergence_ladder(reference, ladder), filtered, lattices, reference_parts,
+                   floors, whole)
+
+    def mse(self, test_mean) -> list:
+        """The MSE of ``test_mean`` on every part."""
+        return image_mse_parts(test_mean, self.reference_parts, self.floors, self.lattices)
+
+    def image_mse(self, test_mean) -> list:
+        """The MSE of ``test_mean`` on the whole image (one value)."""
+        return image_mse_parts(test_mean, *self.whole)
+
+    def verdict(self, mse, reference, alpha, rare=False, top=0, ladder=None):
+        """The convergence law on per-level MSE lists (one value per render and part);
+        ``rare``: rare bright paths still carried the error with ``top`` replicas.
+
+        Returns the :class:`ConvergenceResult` and the MSE arrays (for a filtered film, a
+        (blocks, levels) table of each block's mean MSE).
+        """
+        ladder = self.ladder if ladder is None else tuple(ladder)
+        mse = [np.array(level) for level in mse]
+        if self.filtered:   # rows: blocks (each block's mean MSE over its renders), paired
+            mse = np.stack([level.reshape(-1, len(self.lattices)).mean(axis=0) for level in mse],
+                           axis=1)
+        law = convergence_law(np.array(ladder), mse,
+                              ref_mse_floor=reference_mse_floor(reference.var,
+                                                                pixel_value_counts(reference)),
+                              alpha=alpha, image_mean=float(reference.mean.mean()))
+        if rare:
+            note = (f"rare bright paths carry the error even with {top} replicas at the top "
+                    "level: this verdict is less reliable")
+            law = dataclasses.replace(law, warnings=law.warnings + (note,),
+                                      verdict=f"{law.verdict} [{note}]")
+        return law, mse
+
+
 def convergence_test(scene, integrator, params, reference, alpha, processes, render,
                      ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS,
                      max_growth=CONVERGENCE_MAX_GROWTH):
@@ -374,20 +510,9 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
     one array per level, with one value per render and sub-lattice; for a tent or gaussian
     film a (blocks, levels) table of each block's mean MSE.
     """
-    filtered = not reference_correlation(reference).independent
-    if filtered:
-        lattices = _spatial_blocks(*reference.mean.shape[:2])
-    else:
-        lattices = [np.s_[a::INTERLEAVE, b::INTERLEAVE] for a in range(INTERLEAVE)
-                    for b in range(INTERLEAVE)]
-    ladder = convergence_ladder(reference, ladder)
-    # var / n_eff is each reference pixel's own variance (var / n with a box filter).
-    ref_n = pixel_value_counts(reference)
-    # The reference's side of every part's MSE, and of the whole image's, computed once.
-    ref_parts = [np.asarray(reference.mean[part], dtype=np.float64) for part in lattices]
-    floors = [reference_mse_floor(reference.var[part], ref_n[part]) for part in lattices]
-    whole = ([np.asarray(reference.mean, dtype=np.float64)],
-             [reference_mse_floor(reference.var, ref_n)], [...])
+    parts = ConvergenceParts.of(reference, ladder)
+    ladder = parts.ladder
+    render_mean = getattr(render, "render_mean", None) or _mean_of(render)
     mse = [[] for _ in ladder]
     lowest_image_mse = []
     top, batch = 0, replicas
@@ -395,32 +520,27 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
         done, wanted = level_replicas(ladder, top), level_replicas(ladder, top + batch)
         for j, n in enumerate(ladder):
             for k in range(done[j], wanted[j]):
-                test_mean, _ = render(scene, integrator, params, n, CONVERGENCE_SEED + 100_000 * j + k,
-                                      processes=processes)
-                mse[j] += image_mse_parts(test_mean, ref_parts, floors, lattices)
+                test_mean = render_mean(scene, integrator, params, n, convergence_seed(j, k),
+                                        processes=processes)
+                mse[j] += parts.mse(test_mean)
                 if j == 0:
-                    lowest_image_mse += image_mse_parts(test_mean, *whole)
+                    lowest_image_mse += parts.image_mse(test_mean)
         top += batch
         rare = rare_errors_dominate(lowest_image_mse)
         if not rare or top >= replicas * max_growth:
             break
         batch = top
-    mse = [np.array(level) for level in mse]
-    if filtered:   # rows: blocks (each block's mean MSE over its renders), paired across levels
-        mse = np.stack([level.reshape(-1, len(lattices)).mean(axis=0) for level in mse], axis=1)
-    law = convergence_law(np.array(ladder), mse,
-                          ref_mse_floor=reference_mse_floor(reference.var, ref_n),
-                          alpha=alpha, image_mean=float(reference.mean.mean()))
-    if rare:
-        note = (f"rare bright paths carry the error even with {top} replicas at the top level: "
-                "this verdict is less reliable")
-        law = dataclasses.replace(law, warnings=law.warnings + (note,),
-                                  verdict=f"{law.verdict} [{note}]")
-    return law, mse
+    return parts.verdict(mse, reference, alpha, rare, top)
+
+
+def bounce_reference(reference_name: str) -> str:
+    """The Mitsuba estimator of the per-bounce references: ``path``, but ``volpath`` where the
+    comparison's reference is ``volpath`` (``path`` ignores media)."""
+    return "volpath" if reference_name == "volpath" else "path"
 
 
 def localise_bounce(scene, integrator, name, params, spp, alpha, processes, render, log=None,
-                    options=None, resolution=None):
+                    options=None, resolution=None, reference_name=None, splatting=None):
     """Mean agreement with Mitsuba's ``path`` at max_depth = 1, 2, 3: {depth: MeanAgreement}.
 
     The depth reaches the reference as the ``max_depth`` parameter when the file declares
@@ -445,14 +565,16 @@ def localise_bounce(scene, integrator, name, params, spp, alpha, processes, rend
             for given in (depth_params, overrides):
                 if "rr_depth" in given and int(given["rr_depth"]) >= depth:
                     del given["rr_depth"]
-        reference = get_reference(scene, depth_params, BOUNCE_REFERENCE.get(name, "path"), log=log,
+        reference = get_reference(scene, depth_params,
+                                  reference_name or BOUNCE_REFERENCE.get(name, "path"), log=log,
                                   options=overrides or None, resolution=resolution)
         mean, variance = render(scene, integrator, params, spp, TEST_SEED + depth,
                                 processes=processes, max_depth=depth)
         results[depth] = compare_means(mean, variance, spp, reference.mean, reference.var,
                                        reference.n, alpha=alpha,
                                        pixel_correlation=reference_correlation(reference),
-                                       image_components=name not in SPLATTING)
+                                       image_components=not (name in SPLATTING if splatting is None
+                                                             else splatting))
     return results
 
 

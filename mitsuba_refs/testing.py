@@ -1,0 +1,99 @@
+"""Mitsuba's verdicts inside a renderer's own test suite.
+
+::
+
+    from mitsuba_refs.testing import assert_agrees
+
+    def test_cornell_box():
+        assert_agrees("cornell-box", command="./build/render {scene} --spp {spp} --seed {seed} "
+                                             "--size {width}x{height} -o {out}")
+
+:func:`assert_agrees` runs :func:`mitsuba_refs.external.check.check` and raises
+:class:`Disagreement` (an ``AssertionError``) with the verdict lines, the likely causes and
+the picture paths when a verdict fails. A bad command or image is a
+:class:`~mitsuba_refs.errors.RefsInputError`, not a failure.
+
+**The suite's false-failure budget.** A correct renderer must fail the whole suite with
+probability at most ``budget`` (default 1e-3). Each check makes up to three verdicts (mean,
+variance, convergence), so with ``n`` checks sharing the budget each verdict runs at
+``alpha = budget / (3 n)`` (Bonferroni: the bound holds whatever the dependence between
+checks). Outside pytest, give ``alpha`` or a :class:`SuiteBudget`. Under pytest the plugin
+(:mod:`mitsuba_refs.pytest_plugin`) counts the tests that take the ``mitsuba_refs`` fixture
+(``@pytest.mark.mitsuba_refs(checks=k)`` for a test that checks ``k`` times), sets the level,
+and prints the budget and how many checks share it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .stats.budget import SUITE_ALPHA, per_test_alpha
+
+#: Verdicts one check makes at most (mean, variance, convergence): each spends its alpha.
+VERDICTS_PER_CHECK = 3
+
+
+class Disagreement(AssertionError):
+    """A verdict failed: the message is the check's report (verdicts, causes, pictures)."""
+
+    def __init__(self, result):
+        super().__init__("\n" + result.report())
+        self.result = result
+
+
+@dataclass
+class SuiteBudget:
+    """The false-failure budget of a suite of ``checks`` checks.
+
+    Attributes
+    ----------
+    budget : float
+        Probability that a correct renderer fails any check of the suite, at most.
+    checks : int
+        Checks sharing it.
+    """
+
+    budget: float = SUITE_ALPHA
+    checks: int = 1
+
+    @property
+    def alpha(self) -> float:
+        """Level of each verdict."""
+        return per_test_alpha(VERDICTS_PER_CHECK * max(1, self.checks), self.budget)
+
+    def describe(self) -> str:
+        """One line for the test report."""
+        return (f"mitsuba-refs: suite false-failure budget {self.budget:g} shared by {self.checks} "
+                f"check(s), {VERDICTS_PER_CHECK} verdicts each: every verdict at alpha = "
+                f"{self.alpha:.3g}")
+
+
+def assert_agrees(scene, *, command=None, images=None, alpha=None, budget=None, **options):
+    """Check a renderer (``command``) or its ``images`` against Mitsuba on ``scene``; raise
+    :class:`Disagreement` unless every verdict agrees.
+
+    Parameters
+    ----------
+    scene : str or Path
+        Built-in scene name or Mitsuba XML file.
+    command, images
+        As for ``mitsuba-refs check --command / --images``.
+    alpha : float, optional
+        Level of each verdict; default from ``budget``.
+    budget : SuiteBudget, optional
+        The suite's budget (default: one check with the default budget).
+    **options
+        Keyword arguments of :func:`mitsuba_refs.external.check.check` (``params``,
+        ``same_estimator``, ``reference``, ``out_dir``, ``jobs``, ...).
+
+    Returns
+    -------
+    Comparison
+        The verdicts, when they all agree.
+    """
+    from .external.check import check    # the statistics (SciPy) load when a check runs
+
+    level = alpha if alpha is not None else (budget or SuiteBudget()).alpha
+    result = check(scene, command=command, images=images, alpha=level, **options)
+    if not result.agree:
+        raise Disagreement(result)
+    return result
