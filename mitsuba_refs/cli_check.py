@@ -7,7 +7,6 @@ independent), 130 when interrupted (every run killed, no partial reference).
 """
 from __future__ import annotations
 
-import argparse
 import sys
 
 from pathtracer.scene.defines import parse_defines
@@ -87,7 +86,7 @@ def run_check(args) -> int:
     """Handler of ``check``."""
     params = parse_defines(args.defines)
     _check_options(args)
-    from .external.check import check   # the statistics load inside main, where Ctrl-C is caught
+    from .external.check import check  # the statistics load inside main, where Ctrl-C is caught
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
     command_mode = args.command is not None
     result = check(args.scene, command=args.command, images=args.images, params=params,

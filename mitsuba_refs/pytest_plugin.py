@@ -25,6 +25,7 @@ FIXTURE = "mitsuba_refs"
 
 
 def pytest_addoption(parser):
+    """The ``--mitsuba-refs-budget`` option."""
     group = parser.getgroup("mitsuba-refs")
     group.addoption("--mitsuba-refs-budget", type=float, default=DEFAULT_BUDGET, metavar="P",
                     help="probability that a correct renderer fails any check of the suite "
@@ -32,12 +33,14 @@ def pytest_addoption(parser):
 
 
 def pytest_configure(config):
+    """Declare the marker; no checks counted yet."""
     config.addinivalue_line("markers", "mitsuba_refs(checks=1): a test taking the mitsuba_refs "
                                        "fixture that runs this many checks (the budget's share)")
     config._mitsuba_refs_checks = 0
 
 
 def pytest_collection_modifyitems(session, config, items):
+    """Count the checks of the collected tests that take the fixture."""
     config._mitsuba_refs_checks = sum(_checks(item) for item in items
                                       if FIXTURE in getattr(item, "fixturenames", ()))
 
@@ -51,6 +54,7 @@ def _checks(item) -> int:
 
 
 def pytest_report_header(config):
+    """The budget line in the report's header."""
     checks = getattr(config, "_mitsuba_refs_checks", 0)
     if checks:
         return _budget(config).describe()
@@ -58,6 +62,7 @@ def pytest_report_header(config):
 
 
 def pytest_collection_finish(session):
+    """The budget line once the checks are counted (after the header)."""
     checks = session.config._mitsuba_refs_checks
     if checks:
         reporter = session.config.pluginmanager.get_plugin("terminalreporter")

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .external.check import check
 from .stats.budget import SUITE_ALPHA, per_test_alpha
 
 #: Verdicts one check makes at most (mean, variance, convergence): each spends its alpha.
@@ -90,8 +91,6 @@ def assert_agrees(scene, *, command=None, images=None, alpha=None, budget=None, 
     Comparison
         The verdicts, when they all agree.
     """
-    from .external.check import check    # the statistics (SciPy) load when a check runs
-
     level = alpha if alpha is not None else (budget or SuiteBudget()).alpha
     result = check(scene, command=command, images=images, alpha=level, **options)
     if not result.agree:

@@ -45,7 +45,7 @@ from ..explain import hints
 from ..preflight import check_scene, scene_path
 from ..render import reference_settings
 from .images import ImageError, image_faults, read_image
-from .renders import ExternalRenders, RendererFault, Request, replica_moments
+from .renders import ExternalRenders, RendererFault, replica_moments
 from .runner import Runner
 from .template import CommandTemplate
 
@@ -173,13 +173,13 @@ def _check_command(scene, template, params, size, transport, estimator, *, spp, 
                               replicas or 8, suffix, log)
     reference = get_reference(scene, params, estimator["reference_name"], log=log,
                               options=reference_options(options), resolution=resolution)
-    renders.plan([Request(spp, TEST_SEED, depth, True)])
+    renders.plan([renders.request(spp, TEST_SEED)])
     if convergence:
-        renders.plan([Request(n, seed, depth, False)
+        renders.plan([renders.request(n, seed, variance=False)
                       for n, seed in convergence_requests(reference, ladder, ladder_replicas)])
-        renders.extend_with(_GrowingLadder(reference, ladder, ladder_replicas, depth))
+        renders.extend_with(_GrowingLadder(renders, reference, ladder, ladder_replicas))
     if template.takes_max_depth:
-        renders.plan([Request(spp, TEST_SEED + d, d, True) for d in config.PER_BOUNCE_DEPTHS])
+        renders.plan([renders.request(spp, TEST_SEED + d, d) for d in config.PER_BOUNCE_DEPTHS])
     elif bounces:
         raise RefsInputError("--bounces always needs {max_depth} in --command: the renderer must "
                              "be told the path length to localise a bounce")
@@ -204,8 +204,8 @@ def _check_command(scene, template, params, size, transport, estimator, *, spp, 
 class _GrowingLadder:
     """The convergence test's next, doubled batch, for a ladder render nobody planned."""
 
-    def __init__(self, reference, ladder, replicas, depth):
-        self.reference, self.ladder, self.depth = reference, ladder, depth
+    def __init__(self, renders, reference, ladder, replicas):
+        self.renders, self.reference, self.ladder = renders, reference, ladder
         self.top = replicas
 
     def __call__(self, request):
@@ -213,7 +213,7 @@ class _GrowingLadder:
             return None
         batch = convergence_requests(self.reference, self.ladder, self.top, self.top)
         self.top *= 2
-        return [Request(n, seed, self.depth, False) for n, seed in batch]
+        return [self.renders.request(n, seed, request.max_depth, False) for n, seed in batch]
 
 
 def _label(template: CommandTemplate) -> str:

@@ -104,13 +104,21 @@ class ExternalRenders:
         self._workdir = Path(tempfile.mkdtemp(prefix="mitsuba-refs-check-"))
 
     # ---- the render hook ------------------------------------------------------------------
-    def __call__(self, scene, integrator, params, spp, seed, processes=None, max_depth=None):
-        """Mean and per-sample variance of a render at ``spp`` (the hook's signature)."""
-        return self.get(Request(int(spp), int(seed), max_depth, True))
+    def __call__(self, scene, integrator, params, spp, seed, processes=None, max_depth=None,
+                 resolution=None):
+        """Mean and per-sample variance of a render at ``spp`` (the hook's signature; the film
+        size is the one the renderer was set up with)."""
+        return self.get(self.request(spp, seed, max_depth, True))
 
-    def render_mean(self, scene, integrator, params, spp, seed, processes=None, max_depth=None):
+    def render_mean(self, scene, integrator, params, spp, seed, processes=None, max_depth=None,
+                    resolution=None):
         """The mean image alone of a render at ``spp`` (one run)."""
-        return self.get(Request(int(spp), int(seed), max_depth, False))[0]
+        return self.get(self.request(spp, seed, max_depth, False))[0]
+
+    def request(self, spp, seed, max_depth=None, variance=True) -> Request:
+        """The :class:`Request` of a render; ``max_depth`` None is the renders' own."""
+        depth = self.max_depth if max_depth is None else int(max_depth)
+        return Request(int(spp), int(seed), depth, variance)
 
     def plan(self, requests) -> None:
         """Requests to be made later, run together with the first of them that is asked for."""
@@ -165,8 +173,8 @@ class ExternalRenders:
             return [self._reuse(request.spp, request.seed, request.max_depth)]
         count = replica_count(request.spp, self.replicas)
         seeds = [REPLICA_SEED_BASE + REPLICA_STRIDE * request.seed + r for r in range(count)]
-        runs = [self._reuse(request.spp // count, seed, request.max_depth) for seed in seeds]
-        return runs[:1] if probe else runs
+        return [self._reuse(request.spp // count, seed, request.max_depth)
+                for seed in (seeds[:1] if probe else seeds)]
 
     def _reuse(self, spp, seed, max_depth) -> Run:
         """The run of (spp, seed, max_depth): the probe's if it is that one, else a new one."""
