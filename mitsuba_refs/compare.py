@@ -254,7 +254,9 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     if resolution is not None:
         render = _with_options(render, {"resolution": tuple(resolution)})
 
-    mean, variance = render(scene, integrator, params, spp, TEST_SEED, processes=processes)
+    runs = []    # one dict per render of ours (purpose, seed, spp, seconds): the report's runs
+    mean, variance = _recording_runs(render, runs, "mean")(scene, integrator, params, spp, TEST_SEED,
+                                                           processes=processes)
     # Same estimator on both sides: a test-side variance far above the reference's is
     # itself wrong, so it may not hide a bias (stats.mean.VARIANCE_BOUND).
     bound = VARIANCE_BOUND if name in SAME_ESTIMATOR else None
@@ -277,13 +279,15 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
                                             pixel_correlation=correlation)
     if convergence:
         result.convergence, result.convergence_mse = convergence_test(
-            scene, integrator, params, reference, alpha, processes, render, ladder, replicas,
-            max_growth)
+            scene, integrator, params, reference, alpha, processes,
+            _recording_runs(render, runs, "convergence"), ladder, replicas, max_growth)
         result.ladder = convergence_ladder(reference, ladder)
     if bounces or (bounces is None and not result.mean.agree):
-        result.bounce_results = localise_bounce(scene, integrator, name, params, spp, alpha,
-                                                processes, render, log, options, resolution)
+        result.bounce_results = localise_bounce(scene, integrator, name, params, spp, alpha, processes,
+                                                _recording_runs(render, runs, "bounces"), log, options,
+                                                resolution)
         result.bounce = first_diverging_bounce(result.bounce_results)
+    result.runs = runs
     result.hints = hints(result)
     if out_dir is not None:
         result.pictures = write_pictures(result, Path(out_dir), mean, variance, reference)
@@ -330,6 +334,21 @@ def _with_options(render, options):
     def render_with_options(*args, **kwargs):
         return render(*args, **{**options, **kwargs})
     return render_with_options
+
+
+def _recording_runs(render, runs: list, purpose: str):
+    """``render`` that appends one dict per call to ``runs``: ``purpose``, seed, spp, seconds,
+    and max_depth where the call sets one (the per-bounce renders)."""
+    def recorded_render(scene, integrator, params, spp, seed, **kwargs):
+        start = time.perf_counter()
+        images = render(scene, integrator, params, spp, seed, **kwargs)
+        run = {"purpose": purpose, "seed": int(seed), "spp": int(spp),
+               "seconds": time.perf_counter() - start}
+        if kwargs.get("max_depth") is not None:
+            run["max_depth"] = int(kwargs["max_depth"])
+        runs.append(run)
+        return images
+    return recorded_render
 
 
 def level_replicas(ladder, replicas: int) -> list[int]:
