@@ -28,6 +28,7 @@ from .cli_compare import add_compare
 from .errors import RefsInputError, one_line
 from .preflight import check_scene, check_spp, parse_xml, scene_path
 from .render import INTEGRATOR_MAP, xml_defaults
+from .report.cli import add_report
 from .variant import choose_variant
 
 #: Exit status -> meaning, for every subcommand.
@@ -174,7 +175,7 @@ def _add_compare(subparsers):
     return add_compare(subparsers)
 
 
-SUBCOMMANDS = {"build": _add_build, "compare": _add_compare}
+SUBCOMMANDS = {"build": _add_build, "compare": _add_compare, "report": add_report}
 
 
 class OneLineParser(argparse.ArgumentParser):
