@@ -41,12 +41,12 @@ def reference_exposure(reference_mean) -> float:
     return 1.0 / q if q > 0 else 1.0
 
 
-def _figure(width: float = 3.5, height: float = 3.1):
-    """A figure with fixed margins for a two-line title, axis labels and a colour bar (a
-    layout engine would take twice as long to draw)."""
+def _figure(width: float = 3.5, height: float = 3.1, colorbar: bool = True):
+    """A figure with fixed margins for a two-line title, axis labels and, on the right, a
+    colour bar with its label (a layout engine would take twice as long to draw)."""
     from matplotlib.figure import Figure  # matplotlib: heavy, imported only to draw
     figure = Figure(figsize=(width, height), dpi=100)
-    figure.subplots_adjust(left=0.15, right=0.97, bottom=0.14, top=0.85)
+    figure.subplots_adjust(left=0.15, right=0.86 if colorbar else 0.97, bottom=0.14, top=0.85)
     return figure
 
 
@@ -142,7 +142,7 @@ def convergence_uri(ladder, mse_mean, mse_se, slope: float, slope_ci) -> str:
     if error.shape != mean.shape:        # no standard errors: no bars
         error = np.zeros_like(mean)
     shown = np.isfinite(mean) & (mean > 0)
-    figure = _figure(3.8, 3.1)
+    figure = _figure(3.8, 3.1, colorbar=False)
     axes = figure.subplots()
     lower = np.minimum(error, 0.95 * mean)         # a bar below 0 cannot be drawn in log scale
     axes.errorbar(spp[shown], mean[shown], yerr=(lower[shown], error[shown]), fmt="o", color="C0",

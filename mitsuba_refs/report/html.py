@@ -199,7 +199,8 @@ def runs_table(record: dict) -> str:
     rows = []
     for purpose, runs in groups.items():
         seconds = [s for s in (to_float(run.get("seconds")) for run in runs) if math.isfinite(s)]
-        spp = sorted({run.get("spp") for run in runs if run.get("spp") is not None}, key=str)
+        spp = sorted({run.get("spp") for run in runs if run.get("spp") is not None},
+                     key=lambda n: (not isinstance(n, (int, float)), n if isinstance(n, (int, float)) else str(n)))
         timing = (f"<td>{sum(seconds):.2f}</td><td>{sum(seconds) / len(seconds):.3f}</td>" if seconds
                   else "<td>–</td><td>–</td>")
         rows.append(f"<tr><td>{_e(purpose)}</td><td>{len(runs)}</td><td>{_e(', '.join(map(str, spp)))}</td>"

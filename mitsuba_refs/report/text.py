@@ -21,11 +21,11 @@ def format_p(value) -> str:
     return f"{p:.1e}" if p > 0 else "<1e-300"
 
 
-def _pair(values, percent: bool = False) -> str:
+def _pair(values, percent: bool = False, digits: int = 3) -> str:
     low, high = (to_float(v) for v in values)
     if percent:
         return f"[{100 * low:+.1f}%, {100 * high:+.1f}%]"
-    return f"[{low:.3g}, {high:.3g}]"
+    return f"[{low:.{digits}f}, {high:.{digits}f}]"
 
 
 def interval_text(name: str, entry: dict) -> str:
@@ -37,11 +37,10 @@ def interval_text(name: str, entry: dict) -> str:
         return (f"relative bias {100 * to_float(entry['rel_bias']):+.1f}% "
                 f"{_pair(entry['rel_bias_ci'], percent=True)} ({100 * level:.0f}% CI)")
     if name == "variance":
-        low, high = (to_float(v) for v in entry["ratio_ci"])
-        return f"variance ratio {to_float(entry['ratio']):.3f} [{low:.3f}, {high:.3f}]"
+        return f"variance ratio {to_float(entry['ratio']):.3f} {_pair(entry['ratio_ci'])}"
     if name == "convergence":
         return (f"slope {to_float(entry['slope']):.3f} {_pair(entry['slope_ci'])}; "
-                f"RMSE(N)/RMSE(4N) {to_float(entry['ratio']):.3g} {_pair(entry['ratio_ci'])}")
+                f"RMSE(N)/RMSE(4N) {to_float(entry['ratio']):.2f} {_pair(entry['ratio_ci'], digits=2)}")
     if name == "bounces":
         depth = entry.get("first_diverging_depth")
         return "every depth agrees" if depth is None else f"first diverging max_depth = {depth}"
