@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import base64
 import contextlib
+import dataclasses
 import io
 import json
 import math
@@ -115,6 +116,21 @@ def test_record_saves_the_images_it_was_judged_on(agreeing, tmp_path):
 def test_record_without_a_folder_writes_no_images(agreeing):
     record = comparison_record(agreeing, None)
     assert record["images"] is None
+
+
+def test_record_of_an_external_renderer_without_images(agreeing, tmp_path):
+    # what `check` gives: runs of a command with their CPU time, notes, no arrays kept
+    runs = [{"seed": seed, "spp": 64, "seconds": 2.0, "cpu_seconds": 3.5, "command": "./smallpt --seed",
+             "exit_code": 0} for seed in (1, 2)]
+    external = dataclasses.replace(agreeing, renderer="command: ./smallpt", runs=runs, arrays={},
+                                   notes=["the variance of one run was not given"], pictures={})
+    record = comparison_record(external, tmp_path)
+    assert record["images"] is None and record["renderer"] == "command: ./smallpt"
+    assert (record["renders"], record["render_seconds"], record["cpu_seconds"]) == (2, 4.0, 7.0)
+    assert record["runs"] == runs and record["notes"] == external.notes
+    text = write_html([record], tmp_path / "html").read_text(encoding="utf-8")
+    assert "the comparison was written without them" in text and "smallpt" in text
+    ET.parse(write_junit([record], tmp_path / "junit.xml"))
 
 
 def test_disagreeing_record_lists_exactly_the_significant_tiles(disagreeing, tmp_path):
