@@ -29,6 +29,7 @@ from .cli_compare import add_compare
 from .errors import RefsInputError, one_line
 from .preflight import check_scene, check_spp, parse_xml, scene_path
 from .render import INTEGRATOR_MAP, xml_defaults
+from .report.cli import add_report
 from .variant import choose_variant
 
 #: Exit status -> meaning, for every subcommand.
@@ -175,7 +176,8 @@ def _add_compare(subparsers):
     return add_compare(subparsers)
 
 
-SUBCOMMANDS = {"build": _add_build, "compare": _add_compare, "check": add_check}
+SUBCOMMANDS = {"build": _add_build, "compare": _add_compare, "check": add_check,
+               "report": add_report}
 
 
 class OneLineParser(argparse.ArgumentParser):

@@ -17,6 +17,7 @@ from .config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 from .errors import RefsInputError
 from .external.template import PLACEHOLDERS, CommandTemplate
 from .preflight import check_ladder, check_output_folder, check_spp
+from .report.outputs import add_output_options, check_output_options, write_outputs
 
 PLACEHOLDER_HELP = "placeholders: " + "; ".join(f"{{{name}}} {text}" for name, text in PLACEHOLDERS.items())
 
@@ -79,6 +80,7 @@ def add_check(subparsers):
                    help="per-bounce localisation (needs {max_depth}): on a disagreement (auto), "
                         "always or never")
     p.add_argument("--out", default="out/check", help="folder for the diagnostic pictures")
+    add_output_options(p)
     return run_check
 
 
@@ -100,6 +102,8 @@ def run_check(args) -> int:
                    ladder_replicas=args.replicas, output_suffix=args.output_suffix,
                    log=lambda message: print(message, file=sys.stderr))
     print(result.report())
+    for line in write_outputs(args, [result], alpha=args.alpha):
+        print(line)
     return 0 if result.agree else 1
 
 
@@ -122,3 +126,4 @@ def _check_options(args) -> None:
     if args.command is not None:
         CommandTemplate.parse(args.command)
     check_output_folder(args.out)
+    check_output_options(args)

@@ -21,6 +21,7 @@ from . import config
 from .config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 from .errors import RefsInputError
 from .preflight import check_image_size, check_ladder, check_output_folder, check_scene, check_spp, scene_path
+from .report.outputs import add_output_options, check_output_options, write_outputs
 
 
 def _positive_ints(text: str) -> tuple[int, ...]:
@@ -80,6 +81,7 @@ def add_compare(subparsers):
                    help="per-bounce localisation: when the mean disagrees (auto), always or never")
     p.add_argument("--out", default="out/compare", help="folder for the diagnostic pictures")
     p.add_argument("--processes", type=int, default=None, help="worker processes (default: all cores)")
+    add_output_options(p)
     return run_compare
 
 
@@ -100,6 +102,8 @@ def run_compare(args) -> int:
                      options=options, resolution=args.resolution,
                      log=lambda message: print(message, file=sys.stderr))
     print(result.report())
+    for line in write_outputs(args, [result]):
+        print(line)
     return 0 if result.agree else 1
 
 
@@ -115,6 +119,7 @@ def check_options(args) -> None:
     if args.processes is not None and args.processes < 1:
         raise RefsInputError(f"--processes must be >= 1, got {args.processes}")
     check_output_folder(args.out)
+    check_output_options(args)
 
 
 def preload(scene, params, resolution=None) -> None:

@@ -282,7 +282,9 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     if resolution is not None:
         render = _with_options(render, {"resolution": tuple(resolution)})
 
-    mean, variance = render(scene, integrator, params, spp, TEST_SEED, processes=processes)
+    runs = []    # one dict per render of ours (purpose, seed, spp, seconds): the report's runs
+    mean, variance = _RecordingRuns(render, runs, "mean")(scene, integrator, params, spp, TEST_SEED,
+                                                           processes=processes)
     # Same estimator on both sides: a test-side variance far above the reference's is
     # itself wrong, so it may not hide a bias (stats.mean.VARIANCE_BOUND).
     bound = VARIANCE_BOUND if same else None
@@ -306,14 +308,16 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
                                             pixel_correlation=correlation)
     if convergence:
         result.convergence, result.convergence_mse = convergence_test(
-            scene, integrator, params, reference, alpha, processes, render, ladder, replicas,
-            max_growth)
+            scene, integrator, params, reference, alpha, processes,
+            _RecordingRuns(render, runs, "convergence"), ladder, replicas, max_growth)
         result.ladder = convergence_ladder(reference, ladder)
     if bounces or (bounces is None and not result.mean.agree):
         result.bounce_results = localise_bounce(scene, integrator, name, params, spp, alpha,
-                                                processes, render, log, options, resolution,
+                                                processes, _RecordingRuns(render, runs, "bounces"),
+                                                log, options, resolution,
                                                 bounce_reference(ref_name), splats)
         result.bounce = first_diverging_bounce(result.bounce_results)
+    result.runs = runs
     result.hints = hints(result)
     if out_dir is not None:
         result.pictures = write_pictures(result, Path(out_dir), mean, variance, reference)
@@ -392,6 +396,33 @@ def convergence_requests(reference, ladder, replicas, top=0):
     done, wanted = level_replicas(ladder, top), level_replicas(ladder, top + replicas)
     return [(n, convergence_seed(j, k)) for j, n in enumerate(ladder)
             for k in range(done[j], wanted[j])]
+
+
+class _RecordingRuns:
+    """``render`` that appends one dict per call to ``runs``: ``purpose``, seed, spp, seconds,
+    and max_depth where the call sets one (the per-bounce renders); its ``render_mean`` too,
+    when ``render`` has one."""
+
+    def __init__(self, render, runs: list, purpose: str):
+        self.render, self.runs, self.purpose = render, runs, purpose
+        if hasattr(render, "render_mean"):
+            self.render_mean = lambda *args, **kwargs: self._timed(render.render_mean, *args,
+                                                                   **kwargs)
+
+    def __call__(self, *args, **kwargs):
+        return self._timed(self.render, *args, **kwargs)
+
+    def _timed(self, render, scene, integrator, params, spp, seed, **kwargs):
+        start = time.perf_counter()
+        images = render(scene, integrator, params, spp, seed, **kwargs)
+        run = {"purpose": self.purpose, "seed": int(seed), "spp": int(spp),
+               "seconds": time.perf_counter() - start}
+        if kwargs.get("max_depth") is not None:
+            run["max_depth"] = int(kwargs["max_depth"])
+        self.runs.append(run)
+        return images
+
+
 
 
 def level_replicas(ladder, replicas: int) -> list[int]:

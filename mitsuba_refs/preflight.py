@@ -108,3 +108,19 @@ def check_output_folder(folder, option="--out"):
                              f"cannot be created")
     if not os.access(existing, os.W_OK | os.X_OK):
         raise RefsInputError(f"{option} {folder}: {existing} is not writable")
+
+
+def check_output_file(file, option):
+    """Refuse an output file that could not be written, before any work: a folder at its
+    path, a parent that is a file, or a folder that is not writable (the file is written
+    under a temporary name there and renamed)."""
+    path = Path(file)
+    if path.is_dir():
+        raise RefsInputError(f"{option} {file}: is a folder, not a file")
+    existing = path.parent
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise RefsInputError(f"{option} {file}: {existing} is a file, so {file} cannot be created")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise RefsInputError(f"{option} {file}: {existing} is not writable")

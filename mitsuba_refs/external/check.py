@@ -190,7 +190,7 @@ def _check_command(scene, template, params, size, transport, estimator, *, spp, 
                          out_dir=out_dir, render=renders, ladder=ladder, replicas=ladder_replicas,
                          options=options, resolution=resolution, log=log, **estimator)
     except RendererFault as fault:
-        result = faulty(scene, _label(template), params, spp, fault.lines)
+        result = faulty(scene, _label(template), params, spp, fault.lines, alpha)
     finally:
         renders.close()
     result.runs = [run.record() for run in renders.runs]
@@ -228,14 +228,14 @@ class FaultyImages:
     agree = False
     p_value = 0.0
 
-    def __init__(self, lines):
-        self.lines = list(lines)
+    def __init__(self, lines, alpha):
+        self.faults, self.alpha = list(lines), alpha
         self.verdict = "disagree: the renderer's images hold impossible values: " + "; ".join(lines)
 
 
-def faulty(scene, label, params, spp, lines) -> Comparison:
+def faulty(scene, label, params, spp, lines, alpha) -> Comparison:
     """A disagreement saying what was wrong with the renderer's values."""
-    result = Comparison(scene, label, params, spp, FaultyImages(lines))
+    result = Comparison(scene, label, params, spp, FaultyImages(lines, alpha))
     result.hints = ["the renderer wrote " + lines[0].split(": ", 1)[-1]]
     return result
 
@@ -304,7 +304,7 @@ def _check_images(scene, files, params, size, estimator, *, alpha, convergence, 
                   options, resolution, images_spp, log):
     images, faults = read_images(files, size, images_spp)
     if faults:
-        return faulty(scene, "images", params, max(i.spp for i in images), faults)
+        return faulty(scene, "images", params, max(i.spp for i in images), faults, alpha)
     mean, variance, samples = mean_and_variance(images)
     result = compare(scene, "images", params, spp=samples, alpha=alpha, convergence=False,
                      bounces=False, render=lambda *args, **kwargs: (mean, variance),

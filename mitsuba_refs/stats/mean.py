@@ -159,6 +159,11 @@ class MeanAgreement:
         Informative tiles (some channel carries evidence).
     n_significant : int
         Tiles whose largest-channel |z| exceeds the per-tile critical value.
+    critical_z : float
+        The per-tile critical |z| of the family at level ``alpha`` (nan when the test
+        agrees: then no tile can exceed it, and it is not computed).
+    significant : ndarray of bool, shape like ``z_tiles``
+        Tile-channels whose |z| exceeds ``critical_z`` (the tiles ``n_significant`` counts).
     worst_tile : tuple (row, col, channel) or None
         Tile-channel with the largest |z| (tile indices).
     worst_z : float
@@ -195,6 +200,8 @@ class MeanAgreement:
     rel_bias_channels: np.ndarray = None
     ci_level: float = 0.95
     verdict: str = ""
+    critical_z: float = math.nan
+    significant: np.ndarray = None
 
     def __bool__(self) -> bool:  # ``if compare_means(...):`` reads naturally
         return bool(self.agree)
@@ -446,14 +453,16 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
     # per-tile critical |z|: solve p_max_abs(crit, R) = Šidák per-tile level
     lvl = sidak_per_test(sidak_per_test(alpha, len(scale_p)), max(m0, 1))
     bounded_only = False
+    crit = math.nan
     if agree:          # then no tile can exceed the critical value
         sig = np.zeros(z0.shape, dtype=bool)
     else:
-        sig = inf0 & (np.abs(z0) > _solve_crit(lvl, R))
+        crit = _solve_crit(lvl, R)
+        sig = inf0 & (np.abs(z0) > crit)
         if bounded_tiles_z is not None and not sig.any():
             # only the bound rejects (a heavy-tailed test side): report the tiles it rejects
             z0, bounded_only = bounded_tiles_z, True
-            sig = inf0 & (np.abs(z0) > _solve_crit(lvl, R))
+            sig = inf0 & (np.abs(z0) > crit)
     n_sig = int(sig.any(axis=2).sum())
     if m0:
         absz = np.where(inf0, np.abs(z0), -1.0)
@@ -511,11 +520,11 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
             parts.append(f"image-level {bias_txt} (not significant)")
         verdict = f"disagree (p={_fmt_p(p_family)}): " + ", ".join(parts)
 
-    for arr in (z0, image_z, rel_ch):
+    for arr in (z0, image_z, rel_ch, sig):
         arr.flags.writeable = False
     return MeanAgreement(
         agree=agree, p_value=float(p_family), alpha=float(alpha), tile=tile, z_tiles=z0,
         n_tests=m0, n_significant=n_sig, worst_tile=worst_tile, worst_z=worst_z,
         worst_region=region, scale_p_values=scale_p, image_z=image_z, rel_bias=float(rel),
         rel_bias_ci=(float(rel_ci[0]), float(rel_ci[1])), rel_bias_channels=rel_ch,
-        ci_level=float(ci_level), verdict=verdict)
+        ci_level=float(ci_level), verdict=verdict, critical_z=float(crit), significant=sig)

@@ -1,0 +1,76 @@
+"""The short texts both reports print: p-values, intervals, a record's name and its pictures."""
+from __future__ import annotations
+
+import math
+
+from .encoding import to_float
+from .results import record_path
+
+__all__ = ["format_p", "interval_text", "suite_name", "picture_lines", "run_summary"]
+
+
+def format_p(value) -> str:
+    """A p-value as the verdict lines write it (``0.53``, ``2.2e-26``, ``<1e-300``); ``–`` for none."""
+    if value is None:
+        return "–"
+    p = to_float(value)
+    if math.isnan(p):
+        return "–"
+    if p >= 0.01:
+        return f"{p:.2f}"
+    return f"{p:.1e}" if p > 0 else "<1e-300"
+
+
+def _pair(values, percent: bool = False, digits: int = 3) -> str:
+    low, high = (to_float(v) for v in values)
+    if percent:
+        return f"[{100 * low:+.1f}%, {100 * high:+.1f}%]"
+    return f"[{low:.{digits}f}, {high:.{digits}f}]"
+
+
+def interval_text(name: str, entry: dict) -> str:
+    """The interval(s) of a verdict entry in words ("" when it has none)."""
+    if entry.get("status") == "not compared":
+        return ""
+    if name == "mean":
+        level = to_float(entry.get("ci_level", 0.95))
+        return (f"relative bias {100 * to_float(entry['rel_bias']):+.1f}% "
+                f"{_pair(entry['rel_bias_ci'], percent=True)} ({100 * level:.0f}% CI)")
+    if name == "variance":
+        return f"variance ratio {to_float(entry['ratio']):.3f} {_pair(entry['ratio_ci'])}"
+    if name == "convergence":
+        return (f"slope {to_float(entry['slope']):.3f} {_pair(entry['slope_ci'])}; "
+                f"RMSE(N)/RMSE(4N) {to_float(entry['ratio']):.2f} {_pair(entry['ratio_ci'], digits=2)}")
+    if name == "bounces":
+        depth = entry.get("first_diverging_depth")
+        return "every depth agrees" if depth is None else f"first diverging max_depth = {depth}"
+    return ""
+
+
+def suite_name(record: dict) -> str:
+    """``<scene>::<renderer>``: the name of a record in JUnit and in the summary table."""
+    return f"{record['scene']}::{record['renderer']}"
+
+
+def picture_lines(record: dict) -> list[str]:
+    """``picture (name): path`` per diagnostic picture, each path as it is from here."""
+    return [f"picture ({name}): {record_path(record, path)}"
+            for name, path in (record.get("pictures") or {}).items()]
+
+
+def run_summary(record: dict) -> str:
+    """How many renders, their total and per-run seconds, and the comparison's seconds."""
+    runs = [run for run in record.get("runs") or [] if isinstance(run, dict)]
+    seconds = [to_float(run.get("seconds")) for run in runs]
+    seconds = [s for s in seconds if math.isfinite(s)]
+    total = to_float(record.get("seconds"))
+    text = f"{len(runs)} render{'s' if len(runs) != 1 else ''}"
+    if seconds:
+        text += (f", {sum(seconds):.1f} s rendering (per run {min(seconds):.2f}–{max(seconds):.2f} s, "
+                 f"mean {sum(seconds) / len(seconds):.2f} s)")
+    cpu = record.get("cpu_seconds")
+    if cpu is not None:
+        text += f", {to_float(cpu):.1f} CPU-s"
+    if math.isfinite(total):
+        text += f"; the whole comparison {total:.1f} s"
+    return text
