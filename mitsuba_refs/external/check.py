@@ -309,6 +309,7 @@ def _check_images(scene, files, params, size, estimator, *, alpha, convergence, 
     result = compare(scene, "images", params, spp=samples, alpha=alpha, convergence=False,
                      bounces=False, render=lambda *args, **kwargs: (mean, variance),
                      options=options, resolution=resolution, log=log, **estimator)
+    result.runs = []                      # nothing was rendered here
     levels = sorted({image.spp for image in images})
     if convergence and len(levels) >= MIN_IMAGE_LEVELS:
         reference = get_reference(scene, params, estimator["reference_name"], log=log,
