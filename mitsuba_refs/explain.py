@@ -50,6 +50,9 @@ def hints(comparison) -> list[str]:
         text = factor_hint(ratio, ci)
         if text:
             out.append(text)
+        elif ci[0] > 1 or ci[1] < 1:      # no known factor: the evidence itself
+            out.append(f"the image is {ratio:.3f}x as bright as the reference [{ci[0]:.3f}, "
+                       f"{ci[1]:.3f}] ({'too bright' if ratio > 1 else 'too dark'} overall)")
         if comparison.bounce is not None and comparison.bounce[0] is not None:
             depth = comparison.bounce[0]
             out.append(f"first wrong at max_depth={depth}: {BOUNCE_CAUSES.get(depth, BOUNCE_CAUSES[3])}")

@@ -120,13 +120,12 @@ def test_pfm_layout_threads_and_seeds(binary, tmp_path):
 
 # ---- statistics -------------------------------------------------------------------------
 
-@pytest.mark.statistical(assertions=2)
-def test_agrees_with_our_smallpt_and_with_mitsuba(correct, reference):
+@pytest.mark.statistical(assertions=1)
+def test_agrees_with_our_smallpt(correct):
+    """Against Mitsuba it is judged by ``mitsuba-refs check`` (tests/test_external_renderers.py)."""
     ours = verify.render_ours(OURS_SPP, seed=2)
     against_ours = verify.against_ours(correct, SPP, ours, OURS_SPP, ALPHA)
     assert against_ours.agree, against_ours.verdict
-    against_mitsuba = verify.against_mitsuba(correct, SPP, reference, ALPHA)
-    assert against_mitsuba.agree, against_mitsuba.verdict
 
 
 @pytest.mark.parametrize("bug", ["roulette", "fresnel-split"])

@@ -82,7 +82,7 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
           timeout=DEFAULT_TIMEOUT, replicas=None, renderer_scene=None, reference=None,
           same_estimator=False, splatting=None, max_depth=None, resolution=None,
           ladder=config.CONVERGENCE_LADDER, ladder_replicas=config.CONVERGENCE_REPLICAS,
-          images_spp=None, output_suffix=".exr", log=None) -> Comparison:
+          images_spp=None, output_suffix=".exr", seed_offset=0, log=None) -> Comparison:
     """Judge an external renderer (``command``) or its images (``images``) against Mitsuba.
 
     Parameters
@@ -120,6 +120,9 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
         Film size for both sides, replacing the file's.
     images_spp : int, optional
         Sample count of images whose header and sidecar give none.
+    seed_offset : int
+        0: the renderer gets the comparison's own seeds; another value scrambles every seed
+        (one bijection per offset), for independent repetitions of one check.
 
     Returns
     -------
@@ -144,7 +147,8 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
                                 bounces=bounces, out_dir=out_dir, jobs=jobs, timeout=timeout,
                                 replicas=replicas, renderer_scene=renderer_scene or path,
                                 options=options, resolution=resolution, ladder=ladder,
-                                ladder_replicas=ladder_replicas, suffix=output_suffix, log=log)
+                                ladder_replicas=ladder_replicas, suffix=output_suffix, log=log,
+                                seed_offset=seed_offset)
         result.renderer = f"command: {command}"
     else:
         result = _check_images(scene, image_files(images), params, size, estimator, alpha=alpha,
@@ -166,11 +170,11 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
 
 def _check_command(scene, template, params, size, transport, estimator, *, spp, alpha,
                    convergence, bounces, out_dir, jobs, timeout, replicas, renderer_scene,
-                   options, resolution, ladder, ladder_replicas, suffix, log):
+                   options, resolution, ladder, ladder_replicas, suffix, log, seed_offset):
     runner = Runner(jobs or os.cpu_count() or 1, float(timeout))
     depth = int(transport.get("max_depth", -1))
     renders = ExternalRenders(template, runner, renderer_scene, size, params, depth,
-                              replicas or 8, suffix, log)
+                              replicas or 8, suffix, log, seed_offset)
     reference = get_reference(scene, params, estimator["reference_name"], log=log,
                               options=reference_options(options), resolution=resolution)
     renders.plan([renders.request(spp, TEST_SEED)])

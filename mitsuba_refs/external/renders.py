@@ -15,7 +15,8 @@ for the mean and variance verdicts, a mean alone for each render of the converge
 Requests the comparison will make are *planned* ahead (:meth:`ExternalRenders.plan`), so that
 the first one asked for runs together with the rest of its group, ``--jobs`` at a time.
 Every image is checked before it is used: its size is the film's, a sample count in its header
-is the one asked for, no two runs gave the same image (a renderer that ignores ``{seed}``), and
+is the one asked for, no two runs gave the same non-constant image (a renderer that ignores
+``{seed}``), and
 replicas do not share their noise. Non-finite or negative radiance is not bad input but a wrong
 renderer: :class:`RendererFault`, which the check reports as a disagreement.
 """
@@ -44,6 +45,11 @@ REPLICA_STRIDE = 64
 #: Replicas whose deviations from their mean correlate above this share one source of noise
 #: (independent replicas correlate at -1 / (K - 1)): refused.
 MAX_SHARED_NOISE = 0.5
+#: Seeds are 32-bit (Mitsuba's sampler seed). With a ``seed_offset`` (repeated checks, e.g. a
+#: calibration), every seed goes through ``seed * SEED_MULTIPLIER + offset * SEED_INCREMENT``
+#: modulo 2^32: one bijection per offset, so the seeds of one check stay distinct.
+SEED_MULTIPLIER = 0x9E3779B1
+SEED_INCREMENT = 0x7F4A7C15
 
 
 class RendererFault(Exception):
@@ -89,11 +95,12 @@ class ExternalRenders:
     """
 
     def __init__(self, template, runner: Runner, scene_file, size, defines=None, max_depth=-1,
-                 replicas=DEFAULT_REPLICAS, suffix=".exr", log=None):
+                 replicas=DEFAULT_REPLICAS, suffix=".exr", log=None, seed_offset=0):
         self.template, self.runner = template, runner
         self.scene_file, self.size = Path(scene_file), tuple(size)
         self.defines, self.max_depth = dict(defines or {}), max_depth
         self.replicas, self.suffix, self.log = int(replicas), suffix, log
+        self.seed_offset = int(seed_offset)
         #: None until the probe says whether the renderer writes per-pixel variance.
         self.has_variance = True if template.writes_variance else None
         self.runs: list[Run] = []
@@ -189,6 +196,8 @@ class ExternalRenders:
         out_variance = folder / f"variance{self.suffix}" if self.template.writes_variance else None
         depth = self.max_depth if max_depth is None else int(max_depth)
         width, height = self.size
+        if self.seed_offset:
+            seed = (seed * SEED_MULTIPLIER + self.seed_offset * SEED_INCREMENT) % 2 ** 32
         values = {"scene": self.scene_file, "spp": spp, "seed": seed, "out": out,
                   "out_variance": out_variance, "width": width, "height": height,
                   "max_depth": depth, "defines": self.defines}
@@ -209,7 +218,8 @@ class ExternalRenders:
             raise RendererFault([f"{run.describe()}: {fault}" for fault in faults])
         digest = hashlib.sha256(np.ascontiguousarray(image.mean).tobytes()).hexdigest()
         twin = self._seen.setdefault(digest, run)
-        if twin is not run:
+        # A constant image (black at max_depth 0, say) has no noise to repeat: it may recur.
+        if twin is not run and np.ptp(image.mean) > 0:
             raise RefsInputError(
                 f"renderer runs with seeds {twin.seed} and {run.seed} wrote identical images: the "
                 f"renderer ignores {{seed}} or its seed does not reach its random numbers; the "

@@ -1,0 +1,150 @@
+"""Real renderers judged through ``mitsuba-refs check --command``, each a separate process:
+
+* ``pathtracer render`` itself: the verdicts of ``compare`` on the same scene and seeds;
+* Mitsuba's own command-line renderer (live-Mitsuba pass): it agrees with its reference, and
+  the same renderer given a 3 % brighter light, or one bounce fewer, disagrees and says so;
+* the C++ smallpt of examples/smallpt-cpp, built here with the system compiler: it agrees in
+  mean and convergence, and a classic smallpt mistake disagrees.
+"""
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mitsuba_refs.compare import compare
+from mitsuba_refs.external.check import check
+from pathtracer.scene.load import scene_file
+from tests.budget import ALPHA
+
+ROOT = Path(__file__).resolve().parent.parent
+PATHTRACER = f"{sys.executable} -m pathtracer.cli"
+LADDER = (1, 4, 16)
+
+
+# ---- pathtracer render --------------------------------------------------------------------
+
+def test_pathtracer_render_through_a_command_gets_the_verdicts_of_compare():
+    """Same scene, seeds and sample counts: the images differ only by the EXR's float32, so
+    every verdict is the same and its p-value equal to ~1e-4 (no statistical risk of its own:
+    the two sides are the same renders)."""
+    command = (f"{PATHTRACER} render {{scene}} --resolution {{width}}x{{height}} --spp {{spp}} "
+               f"--seed {{seed}} --max-depth {{max_depth}} -o {{out}}")
+    ours = compare("cornell-box", "path", ladder=LADDER, replicas=1, alpha=ALPHA)
+    theirs = check("cornell-box", command=command, same_estimator=True, reference="path",
+                   ladder=LADDER, ladder_replicas=1, alpha=ALPHA, jobs=2)
+    assert theirs.renderer.startswith("command: ")
+    for part in ("mean", "variance", "convergence"):
+        a, b = getattr(ours, part), getattr(theirs, part)
+        assert (a.agree if part != "convergence" else a.passed) == \
+            (b.agree if part != "convergence" else b.passed), part
+        assert b.p_value == pytest.approx(a.p_value, rel=1e-3, abs=1e-4), part
+    # The probe (one eighth of the samples) finds var.* channels in its EXR, so one run gives
+    # mean and variance; then the ladder.
+    assert [run["spp"] for run in theirs.runs[:2]] == [8, 64]
+    assert len(theirs.runs) == 2 + 16 + 4 + 1
+    assert not any("replicas" in note for note in theirs.notes)
+
+
+# ---- Mitsuba's command-line renderer ------------------------------------------------------
+
+def _mitsuba_program():
+    for candidate in (Path(sys.executable).parent / "mitsuba", shutil.which("mitsuba")):
+        if candidate and Path(candidate).is_file():
+            return str(candidate)
+    return None
+
+
+def _mitsuba_command(max_depth="{max_depth}"):
+    # No -t: Mitsuba 3.9.1's command line hangs after writing its image when -t is given.
+    return (f"{_mitsuba_program()} -m scalar_rgb -o {{out}} {{defines}} -D spp={{spp}} "
+            f"-D seed={{seed}} -D max_depth={max_depth} {{scene}}")
+
+
+@pytest.fixture
+def mitsuba_cli(mi):
+    if _mitsuba_program() is None:
+        pytest.fail("Mitsuba is installed but its command-line renderer `mitsuba` is not on PATH")
+    return _mitsuba_program()
+
+
+@pytest.mark.statistical(assertions=2)
+def test_mitsuba_command_line_agrees_with_its_reference(mitsuba_cli):
+    result = check("smallpt", command=_mitsuba_command(), same_estimator=True, convergence=False,
+                   alpha=ALPHA, jobs=2)
+    assert result.agree, result.report()
+    assert result.variance is not None and result.variance.agree
+    # Its EXR has no variance channels: 8 replicas of 8 spp.
+    assert any("8 independent replicas" in note for note in result.notes)
+
+
+def test_mitsuba_command_line_with_a_brighter_light_disagrees_and_names_it(mitsuba_cli, tmp_path):
+    """Power: +3 % at 64 spp against the 4096-spp reference is ~8 standard errors (p ~ 1e-12)."""
+    text = Path(scene_file("smallpt")).read_text()
+    assert text.count('value="12, 12, 12"') == 1
+    brighter = tmp_path / "smallpt-brighter.xml"
+    brighter.write_text(text.replace('value="12, 12, 12"', 'value="12.36, 12.36, 12.36"'))
+    result = check("smallpt", command=_mitsuba_command(), renderer_scene=brighter,
+                   same_estimator=True, convergence=False, bounces=False, alpha=ALPHA, jobs=2)
+    assert not result.agree
+    assert 0.01 < result.mean.rel_bias_ci[0] and result.mean.rel_bias_ci[1] < 0.05
+    assert any("too bright" in hint or "brighter" in hint or "1.03" in hint for hint in result.hints), \
+        result.report()
+    assert any("cannot check" in note or "but not that it describes" in note for note in result.notes)
+
+
+def test_mitsuba_command_line_one_bounce_short_disagrees_at_the_first_bounce(mitsuba_cli):
+    """Power: paths one segment short lose all direct light at max_depth 2 (tens of percent)."""
+    short = "$(( {max_depth} - 1 ))"
+    result = check("smallpt", command=_mitsuba_command(short), same_estimator=True,
+                   convergence=False, max_depth=4, alpha=ALPHA, jobs=2)
+    assert not result.agree
+    assert result.bounce is not None and result.bounce[0] == 1, result.report()
+    assert any("max_depth=1" in hint for hint in result.hints), result.report()
+
+
+# ---- the C++ smallpt of examples/ ---------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def smallpt_cpp(tmp_path_factory):
+    if shutil.which("c++") is None:
+        pytest.skip("no C++ compiler (c++) on PATH to build examples/smallpt-cpp")
+    binary = tmp_path_factory.mktemp("smallpt-cpp") / "smallpt"
+    subprocess.run(["c++", "-O2", "-std=c++17", "-pthread", "-o", str(binary),
+                    str(ROOT / "examples/smallpt-cpp/smallpt.cpp")], check=True)
+    return binary
+
+
+def _cpp_command(binary, bug=""):
+    return (f"{binary} --width {{width}} --height {{height}} --spp {{spp}} --seed {{seed}} "
+            f"--max-depth {{max_depth}} --out {{out}}" + (f" --bug {bug}" if bug else ""))
+
+
+@pytest.mark.statistical(assertions=2)
+def test_cpp_smallpt_agrees_in_mean_and_convergence(smallpt_cpp):
+    result = check("smallpt", command=_cpp_command(smallpt_cpp), reference="path_bsdf",
+                   output_suffix=".pfm", alpha=ALPHA, jobs=2)
+    assert result.agree, result.report()
+    assert result.convergence is not None and result.convergence.passed
+    assert result.variance is None          # its estimator is not Mitsuba's path_bsdf
+
+
+@pytest.mark.statistical(assertions=1)
+def test_cpp_smallpt_with_its_variance_image_needs_one_run(smallpt_cpp, tmp_path):
+    """``{out_variance}``: one run gives mean and variance."""
+    command = _cpp_command(smallpt_cpp) + " --variance {out_variance}"
+    result = check("smallpt", command=command, reference="path_bsdf", output_suffix=".pfm",
+                   convergence=False, bounces=False, alpha=ALPHA, jobs=2)
+    assert len(result.runs) == 1 and result.runs[0]["spp"] == 64
+    assert result.mean.agree, result.report()
+
+
+def test_cpp_smallpt_with_fresnel_split_bug_disagrees(smallpt_cpp):
+    """Power: the split without its 1/P, 1/(1-P) loses ~3.5 % (p ~ 1e-30 at 64 spp x 8)."""
+    result = check("smallpt", command=_cpp_command(smallpt_cpp, "fresnel-split"),
+                   reference="path_bsdf", output_suffix=".pfm", convergence=False, alpha=ALPHA,
+                   jobs=2)
+    assert not result.agree
+    assert result.mean.rel_bias_ci[1] < 0, result.report()
+    assert result.bounce is not None          # it takes {max_depth}: bounces were localised
