@@ -108,6 +108,7 @@ class ExternalRenders:
         self._plans: list[list[Request]] = []
         self._extend = None
         self._seen: dict = {}              # sha256 of an image -> the run that made it
+        self._runs_by_key: dict = {}       # (spp, seed, max_depth) asked for -> its Run
         self._workdir = Path(tempfile.mkdtemp(prefix="mitsuba-refs-check-"))
 
     # ---- the render hook ------------------------------------------------------------------
@@ -173,7 +174,6 @@ class ExternalRenders:
         self.runner.run_all([first])
         first.image = self._read(first)
         self.has_variance = first.image.variance is not None
-        self._probed = first
 
     def _runs_of(self, request: Request, probe=False) -> list[Run]:
         if not request.variance or self.has_variance:
@@ -184,11 +184,11 @@ class ExternalRenders:
                 for seed in (seeds[:1] if probe else seeds)]
 
     def _reuse(self, spp, seed, max_depth) -> Run:
-        """The run of (spp, seed, max_depth): the probe's if it is that one, else a new one."""
-        probed = getattr(self, "_probed", None)
-        if probed is not None and (probed.spp, probed.seed, probed.max_depth) == (spp, seed, max_depth):
-            return probed
-        return self._new_run(spp, seed, max_depth)
+        """The run of (spp, seed, max_depth): the one made already (the probe's), else a new one."""
+        key = (spp, seed, max_depth)
+        if key not in self._runs_by_key:
+            self._runs_by_key[key] = self._new_run(spp, seed, max_depth)
+        return self._runs_by_key[key]
 
     def _new_run(self, spp, seed, max_depth) -> Run:
         folder = Path(tempfile.mkdtemp(prefix=f"run-{seed}-", dir=self._workdir))
