@@ -53,12 +53,15 @@ def main(runtime: str, config_json: str) -> None:
 
     from . import wire
     single_threaded_blas()     # reads /proc/self/maps to find BLAS: done before the hook
-    sandbox = []
-    if CONFIG.get("seccomp", True):
-        from . import seccomp
-        reason = seccomp.install()
-        sandbox.append(reason or "seccomp")
+    try:
+        sandbox = _sandbox()
+    except SandboxError as error:
+        wire.write_frame(CONFIG["reply_fd"], _error("setup", str(error)))
+        return
     _install_audit_hook()
+    if CONFIG.get("probe"):      # the grader asks what holds here, before grading anything
+        wire.write_frame(CONFIG["reply_fd"], {"status": "ready", "sandbox": sandbox})
+        return
     server = Server(CONFIG, wire)
     header = {"status": "ready", "sandbox": sandbox}
     if server.load_error:
@@ -72,6 +75,7 @@ def main(runtime: str, config_json: str) -> None:
 
 
 def _limits(limits: dict) -> None:
+    from . import privileges
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
     cpu = int(limits["cpu_seconds"])
     resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
@@ -79,9 +83,73 @@ def _limits(limits: dict) -> None:
     resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
     memory = int(limits["memory_mb"]) << 20
     resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
-    if limits.get("processes"):
-        count = int(limits["processes"])
-        resource.setrlimit(resource.RLIMIT_NPROC, (count, count))
+    # Kernel memory outside RLIMIT_AS: open files, locked pages, message queues, queued
+    # signals (pipes, sockets, memfd and SysV IPC are refused by the seccomp filter).
+    files = int(limits.get("files", 64))
+    resource.setrlimit(resource.RLIMIT_NOFILE, (files, files))
+    for name in ("RLIMIT_MEMLOCK", "RLIMIT_MSGQUEUE"):
+        resource.setrlimit(getattr(resource, name), (0, 0))
+    resource.setrlimit(resource.RLIMIT_SIGPENDING, (64, 64))
+    # Threads (tasks) of the real uid: its own as the student user or as root (whose real
+    # uid privileges.drop moves to a uid of its own); the user's others too otherwise.
+    count = int(limits["processes"])
+    if os.getuid() != 0 and not limits.get("own_user"):
+        count += privileges.user_tasks(os.getuid())
+    resource.setrlimit(resource.RLIMIT_NPROC, (count, count))
+
+
+class SandboxError(Exception):
+    """The sandbox could not be closed: the child refuses to run the submission."""
+
+
+#: What the student process may read once the sandbox is closed, besides the runtime, the
+#: submission's folder and the libraries (their folders beneath the site folders).
+SYSTEM_READABLE = ("/dev/null", "/dev/zero", "/dev/urandom", "/dev/random", "/etc/ld.so.cache",
+                   "/etc/localtime", "/sys/devices/system/cpu")
+#: The only packages of the site folders it may read (the rest of a site folder, e.g. a
+#: virtual environment's editable-install finders naming the grader's source, stays closed).
+LIBRARIES = ("numpy", "numpy.libs", "scipy", "scipy.libs", "threadpoolctl", "threadpoolctl.py")
+
+
+def readable_paths() -> tuple:
+    """``(readable, listable)`` paths of the Landlock rules: read beneath the first, only
+    list the second (the site folders, so that imports find the libraries in them)."""
+    import sysconfig
+    readable = [RUNTIME, CONFIG["submission_root"], f"/proc/{os.getpid()}", *SYSTEM_READABLE]
+    readable += [sysconfig.get_path(name) for name in ("stdlib", "platstdlib")]
+    listable = []
+    for site in CONFIG["site"]:
+        if os.path.isdir(site) and any(os.path.exists(os.path.join(site, n)) for n in LIBRARIES):
+            listable.append(site)
+            readable += [os.path.join(site, name) for name in LIBRARIES]
+        else:
+            readable.append(site)
+    with open("/proc/self/maps") as maps:       # folders of the native libraries loaded
+        for line in maps:
+            path = line.split(None, 5)[-1].strip() if line.count(" ") >= 5 else ""
+            if path.startswith("/") and ".so" in os.path.basename(path):
+                readable.append(os.path.dirname(path))
+    return readable, listable
+
+
+def _sandbox() -> list:
+    """Drop capabilities, confine the file system, install the seccomp filter; returns the
+    layers that hold (SandboxError when one that must hold does not)."""
+    from . import landlock, privileges, seccomp
+    problem, layers = privileges.drop()
+    if problem:
+        raise SandboxError(f"the student process keeps privileges ({problem}); refusing to "
+                           "run a submission")
+    version = landlock.abi()
+    readable, listable = readable_paths()
+    problem = landlock.restrict(readable, listable, version)
+    layers.append(f"landlock ABI {version}" if not problem else
+                  f"no file-system confinement ({problem})")
+    problem = seccomp.install()
+    if problem:
+        raise SandboxError(f"{problem}; refusing to run a submission")
+    layers.append("seccomp")
+    return layers
 
 
 #: Audit events that start processes, signal others or open sockets.
