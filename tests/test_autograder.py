@@ -257,7 +257,9 @@ def test_hostile_submission_scores_nothing_and_leaves_nothing(path, tmp_path):
     seconds = 5 if expect["kind"] == "timeout" else QUICK.seconds * CI_TIME_SCALE
     result = grading.run_check(QUICK, path, limits=Limits(seconds, grading.MEMORY_MB, 64 * 1024))
     assert result.score == 0 and not result.passed, result.report()
-    if expect["kind"]:
+    if expect["kind"] == "black":           # the attack ran to its end and returned black
+        assert not result.failure, result.report()
+    elif expect["kind"]:
         assert result.failure_kind == expect["kind"], result.report()
         assert expect["words"] in result.failure, result.report()
     assert not any(word in result.report() for word in ESCAPES), result.report()

@@ -28,6 +28,7 @@ Every error becomes an ``{"status": "error", "kind": ..., "message": ...}`` fram
 """
 from __future__ import annotations
 
+import errno
 import json
 import os
 import resource
@@ -201,9 +202,27 @@ class ContractError(Exception):
     """The submission's output or shape breaks the contract (message for the student)."""
 
 
+#: Added to the message of an error that the sandbox's refusal of a system call explains.
+REFUSED_NOTE = ("\n(the grading sandbox refused a system call: a submission may compute, read its "
+                "own folder, the tracer and NumPy/SciPy, and print; it may not start processes, "
+                "write files, open pipes or sockets, or signal, trace or limit other processes)")
+
+
+def _refused(error: BaseException) -> bool:
+    """Whether ``error`` (or what caused it) is an EPERM or EACCES from the kernel."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        seen.add(id(error))
+        if isinstance(error, OSError) and error.errno in (errno.EPERM, errno.EACCES):
+            return True
+        error = error.__cause__ or error.__context__
+    return False
+
+
 def _traceback(error: BaseException, limit: int = 3000) -> str:
     text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
-    return text if len(text) <= limit else "...\n" + text[-limit:]
+    text = text if len(text) <= limit else "...\n" + text[-limit:]
+    return text + (REFUSED_NOTE if _refused(error) else "")
 
 
 def load_submission(path: str):

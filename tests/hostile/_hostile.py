@@ -4,6 +4,12 @@ Each hostile submission is written as a student who has read the grader's source
 write it: it uses only what a submission may import (the tracer's building blocks, NumPy,
 the standard library) and returns a black image when its attack fails, so a submission
 that gets any point has cheated.
+
+Each attack's ``EXPECT`` says how its test must end: ``kind="black"`` the attack ran to its
+end and returned black (no failure: an attack that crashed or raised would prove nothing),
+another kind that failure with ``words`` in its message, ``None`` any zero. An attack that
+works raises :class:`Escaped`, whose message says ESCAPED, LEAK or WROTE; the tests look for
+those words.
 """
 import numpy as np
 

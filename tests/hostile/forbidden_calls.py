@@ -16,7 +16,7 @@ import platform
 
 from _hostile import Escaped, black, libc, registry
 
-EXPECT = dict(kind=None, words="")
+EXPECT = dict(kind="black", words="")
 CLONE_THREAD, CLONE_NEWUSER = 0x00010000, 0x10000000
 FS_IOC_SETFLAGS, TIOCSTI, F_SETPIPE_SZ, F_SETLK = 0x40086602, 0x5412, 1031, 6
 

@@ -15,7 +15,7 @@ import sys
 
 from _hostile import Escaped, black, grader_argv, libc, registry
 
-EXPECT = dict(kind=None, words="")
+EXPECT = dict(kind="black", words="")
 AT_FDCWD = -100
 FS_IOC_SETFLAGS, FS_IMMUTABLE_FL = 0x40086602, 0x00000010
 FORGERY = b'{"score": 1000, "tests": []}'

@@ -14,7 +14,7 @@ import time
 
 from _hostile import Escaped, black, libc, registry
 
-EXPECT = dict(kind=None, words="")
+EXPECT = dict(kind="black", words="")
 MB = 1 << 20
 #: More than this outside RLIMIT_AS (or more files or threads than the limits) is a hole.
 PINNED_LIMIT, FILES_LIMIT, THREADS_LIMIT = 4 * MB, 128, 128

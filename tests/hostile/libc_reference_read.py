@@ -15,7 +15,7 @@ import sys
 
 from _hostile import Escaped, black, libc, registry
 
-EXPECT = dict(kind=None, words="")
+EXPECT = dict(kind="black", words="")
 
 
 def read(c, path, size=4096):

@@ -14,7 +14,7 @@ import os
 
 from _hostile import Escaped, black, grader_pids, libc, registry
 
-EXPECT = dict(kind=None, words="")
+EXPECT = dict(kind="black", words="")
 PTRACE_SEIZE, PTRACE_DETACH = 0x4206, 17
 
 
