@@ -6,17 +6,26 @@ running :mod:`autograder.sandbox.child`, and talks to it over two pipes in plain
 (:mod:`autograder.sandbox.wire`: a JSON header and raw float64 arrays, checked against the
 exact names, dtypes and shapes expected; never pickle, so a reply cannot run code here).
 
-Layers, from the strongest:
+Layers, from the strongest (docs/autograder.md, "Which boundary holds where"):
 
 * **A user of its own** when the grader runs as root and ``AUTOGRADER_STUDENT_USER`` names
   one (Gradescope's setup creates ``student``): the references, the solution, the grader
   and the results are not readable or writable by it (:func:`autograder.environment.audit_environment` checks
   this before grading and refuses to grade otherwise), it cannot signal the grader, and
   every process of that user is killed when the test ends.
-* **A seccomp filter** (:mod:`autograder.sandbox.seccomp`): no new processes, no signals to
-  other processes, no file writes, no sockets, whatever the user.
+* **No capabilities, no new privileges** (:mod:`autograder.sandbox.privileges`): a child of a
+  root grader without a student user drops every capability before the submission runs, or
+  refuses to run it.
+* **Landlock** (:mod:`autograder.sandbox.landlock`, where the kernel has it): the child reads
+  only the runtime, the submission's folder and the libraries, and writes nothing, whatever
+  its user; no ptrace of, nor signals to, processes outside it.
+* **A seccomp allowlist** (:mod:`autograder.sandbox.seccomp`, :mod:`autograder.sandbox.syscalls`):
+  default deny; no new processes, no signals or prlimit to other processes, no file writes,
+  no pipes, sockets or memfd, whatever the user.
+* **The grader not dumpable** (:func:`autograder.environment.protect_grader`): its memory is
+  closed to the child even where both are one user.
 * **Resource limits**: address space, CPU time (behind the grader's wall-clock deadline),
-  output size, no core dumps, a process count under its own user.
+  output size, no core dumps, open files, threads of its real uid, queued signals.
 * **Its own session**: the whole process group is killed at the end of the test.
 * **An audit hook** in the child, for clear messages only (reading files outside the
   runtime, the submission and the libraries; starting processes).

@@ -498,3 +498,44 @@ def test_a_results_file_that_cannot_be_written_is_one_line(tmp_path):
     assert done.returncode == 3, done.stdout[-2000:] + done.stderr[-2000:]
     assert lines and all(line == lines[0] for line in lines) and str(out) in lines[0], done.stderr
     assert "Traceback" not in done.stderr + done.stdout and "INTERNALERROR" not in done.stdout
+
+
+def _patched_student(tmp_path, module: str, old: str, new: str):
+    """A StudentProcess (probe) whose runtime has ``old`` replaced by ``new`` in ``module``."""
+    from autograder import runtime as runtimes
+    from autograder.isolation import Limits, StudentProcess
+    folder = runtimes.build(tmp_path / "runtime", "student")
+    path = folder / "grading_child" / module
+    assert old in path.read_text()
+    path.write_text(path.read_text().replace(old, new))
+    student = StudentProcess(str(folder), Limits(60), probe=True)
+    student.runtime = folder
+    return student
+
+
+def test_a_sandbox_that_cannot_close_is_refused_in_one_line(tmp_path):
+    """A child that cannot install its filter (an unsupported machine, here pretended) sends a
+    setup error before it imports anything: the grader raises SetupError, one line."""
+    from autograder.environment import SetupError
+    student = _patched_student(tmp_path, "seccomp.py", '    reason = supported()\n',
+                               '    reason = "the grading sandbox\'s seccomp filter exists for '
+                               'Linux on x86-64 and aarch64 only, not Linux ppc64le"\n')
+    with pytest.raises(SetupError) as error:
+        student.start()
+    message = str(error.value)
+    assert "\n" not in message and "ppc64le; refusing to run a submission" in message, message
+    assert student.process.poll() is not None
+
+
+def test_no_file_system_confinement_is_said_in_one_line(tmp_path, capsys):
+    """Without Landlock (here pretended) a child of the grader's own user still closes every
+    other layer, and the grader says once, on stderr, that this is not a security boundary."""
+    from autograder import isolation
+    student = _patched_student(tmp_path, "landlock.py", "    version = abi() if version is None else version\n",
+                               "    version = 0\n")
+    isolation._WARNED.clear()
+    with student:
+        layers = student.sandbox
+    assert "seccomp" in layers and any(layer.startswith("no file-system confinement") for layer in layers)
+    lines = [line for line in capsys.readouterr().err.splitlines() if "not a security boundary" in line]
+    assert lines == [isolation.NOT_A_BOUNDARY.format(why="Landlock is not available in this kernel")]

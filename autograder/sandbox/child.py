@@ -3,15 +3,22 @@
 Started by :class:`autograder.isolation.StudentProcess` as a fresh interpreter
 (``python -S -E -s -B -c BOOT RUNTIME CONFIG``) from the *student runtime*
 (:mod:`autograder.runtime`), already running as the unprivileged student user when the
-grader runs as root. This file is copied there with :mod:`wire` and :mod:`seccomp`; it
-imports nothing of the grader. Before the submission is imported it
+grader runs as root with one. This file is copied there with :mod:`wire`, :mod:`seccomp`,
+:mod:`syscalls`, :mod:`landlock` and :mod:`privileges`; it imports nothing of the grader.
+Before the submission is imported it
 
 1. puts the runtime and the dependency folders (NumPy, ...) on ``sys.path``;
-2. sets the resource limits (address space, CPU time, output size, no core dumps; a process
-   count when it has a user of its own);
-3. installs the seccomp filter (:mod:`seccomp`: no processes, no signals to others, no file
-   writes, no sockets) and an audit hook that turns reading files outside the runtime, the
-   submission and the libraries into a clear ``PermissionError``.
+2. sets the resource limits (address space, CPU time, output size, no core dumps, open
+   files, locked memory, message queues, queued signals, threads of its real uid);
+3. closes the sandbox (:func:`_sandbox`): no capabilities and no new privileges
+   (:mod:`privileges`), Landlock (:mod:`landlock`: read the runtime, the submission's folder
+   and the libraries, write nothing), the seccomp allowlist (:mod:`seccomp`), then an audit
+   hook that turns reading files outside those folders into a clear ``PermissionError``. If
+   the capabilities or the filter cannot be given up or installed it sends a ``setup`` error
+   and never imports the submission (the grader stops grading); without Landlock it says so
+   in its list of layers.
+
+With ``probe`` in its configuration it stops there and only reports the layers.
 
 Then it serves requests, one frame each (:mod:`wire`), until the grader closes the pipe:
 
