@@ -95,9 +95,9 @@ def _limits(limits: dict) -> None:
     # signals (pipes, sockets, memfd and SysV IPC are refused by the seccomp filter).
     files = int(limits.get("files", 64))
     resource.setrlimit(resource.RLIMIT_NOFILE, (files, files))
-    for name in ("RLIMIT_MEMLOCK", "RLIMIT_MSGQUEUE"):
-        resource.setrlimit(getattr(resource, name), (0, 0))
-    resource.setrlimit(resource.RLIMIT_SIGPENDING, (64, 64))
+    for name, value in (("RLIMIT_MEMLOCK", 0), ("RLIMIT_MSGQUEUE", 0), ("RLIMIT_SIGPENDING", 64)):
+        if hasattr(resource, name):         # Linux's; elsewhere the sandbox refuses anyway
+            resource.setrlimit(getattr(resource, name), (value, value))
     # Threads (tasks) of the real uid: its own as the student user or as root (whose real
     # uid privileges.drop moves to a uid of its own); the user's others too otherwise.
     count = int(limits["processes"])
@@ -134,7 +134,8 @@ def readable_paths() -> tuple:
             readable.append(site)
     with open("/proc/self/maps") as maps:       # folders of the native libraries loaded
         for line in maps:
-            path = line.split(None, 5)[-1].strip() if line.count(" ") >= 5 else ""
+            fields = line.split(None, 5)      # address perms offset device inode [path]
+            path = fields[5].strip() if len(fields) == 6 else ""
             if path.startswith("/") and ".so" in os.path.basename(path):
                 readable.append(os.path.dirname(path))
     return readable, listable
@@ -144,6 +145,9 @@ def _sandbox() -> list:
     """Drop capabilities, confine the file system, install the seccomp filter; returns the
     layers that hold (SandboxError when one that must hold does not)."""
     from . import landlock, privileges, seccomp
+    problem = seccomp.supported()
+    if problem:
+        raise SandboxError(f"{problem}; refusing to run a submission")
     problem, layers = privileges.drop()
     if problem:
         raise SandboxError(f"the student process keeps privileges ({problem}); refusing to "
