@@ -2,11 +2,12 @@
 
 * :mod:`autograder.contract`  -- what a student implements and how ``--impl`` finds it
 * :mod:`autograder.isolation` -- the student's code in a sandboxed child process (own user,
-  seccomp, limits), plain-data replies
+  no capabilities, Landlock, a seccomp allowlist, limits), plain-data replies
 * :mod:`autograder.environment` -- where and as whom it runs, and the audit that the student user
   can read nothing private
 * :mod:`autograder.runtime`   -- the student runtime: the tracer without the reference solution
-* :mod:`autograder.sandbox`   -- the child's side: request loop, wire format, seccomp filter
+* :mod:`autograder.sandbox`   -- the child's side: request loop, wire format, seccomp allowlist,
+  Landlock, capabilities
 * :mod:`autograder.power`     -- ``python -m autograder.power``: the smallest bias each check detects
 * :mod:`autograder.calibrate` -- ``python -m autograder.calibrate``: the false-failure sweep
 * :mod:`autograder.grading`   -- the checks (scene x integrator), their parts, points and

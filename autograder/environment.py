@@ -8,6 +8,7 @@ references, the solution and the grader are out of reach before anything is grad
 """
 from __future__ import annotations
 
+import ctypes
 import json
 import os
 import pwd
@@ -71,6 +72,27 @@ def _site_dirs() -> list:
 
 class SetupError(Exception):
     """The grading environment is not safe or not usable (a message for the course staff)."""
+
+
+PR_GET_DUMPABLE, PR_SET_DUMPABLE = 3, 4
+
+
+def protect_grader() -> None:
+    """Make the grader's process non-dumpable (``PR_SET_DUMPABLE`` 0) before a child starts.
+
+    The kernel then lets no process without CAP_SYS_PTRACE trace it or open its
+    ``/proc/<pid>/mem``, ``environ``, ``maps`` or ``fd`` (the ptrace access check), even one
+    of the same user: the references and results in its memory stay its own. Raises
+    :class:`SetupError` on Linux if the flag does not stick; elsewhere the sandbox refuses
+    to start anyway.
+    """
+    if not sys.platform.startswith("linux"):
+        return
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(PR_SET_DUMPABLE, 0, 0, 0, 0)
+    if libc.prctl(PR_GET_DUMPABLE, 0, 0, 0, 0) != 0:
+        raise SetupError("cannot make the grader's process non-dumpable (prctl PR_SET_DUMPABLE: "
+                         f"{os.strerror(ctypes.get_errno())}); refusing to start a submission")
 
 
 # ----------------------------------------------------------------------------------------

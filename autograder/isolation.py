@@ -6,17 +6,26 @@ running :mod:`autograder.sandbox.child`, and talks to it over two pipes in plain
 (:mod:`autograder.sandbox.wire`: a JSON header and raw float64 arrays, checked against the
 exact names, dtypes and shapes expected; never pickle, so a reply cannot run code here).
 
-Layers, from the strongest:
+Layers, from the strongest (docs/autograder.md, "Which boundary holds where"):
 
 * **A user of its own** when the grader runs as root and ``AUTOGRADER_STUDENT_USER`` names
   one (Gradescope's setup creates ``student``): the references, the solution, the grader
   and the results are not readable or writable by it (:func:`autograder.environment.audit_environment` checks
   this before grading and refuses to grade otherwise), it cannot signal the grader, and
   every process of that user is killed when the test ends.
-* **A seccomp filter** (:mod:`autograder.sandbox.seccomp`): no new processes, no signals to
-  other processes, no file writes, no sockets, whatever the user.
+* **No capabilities, no new privileges** (:mod:`autograder.sandbox.privileges`): a child of a
+  root grader without a student user drops every capability before the submission runs, or
+  refuses to run it.
+* **Landlock** (:mod:`autograder.sandbox.landlock`, where the kernel has it): the child reads
+  only the runtime, the submission's folder and the libraries, and writes nothing, whatever
+  its user; no ptrace of, nor signals to, processes outside it.
+* **A seccomp allowlist** (:mod:`autograder.sandbox.seccomp`, :mod:`autograder.sandbox.syscalls`):
+  default deny; no new processes, no signals or prlimit to other processes, no file writes,
+  no pipes, sockets or memfd, whatever the user.
+* **The grader not dumpable** (:func:`autograder.environment.protect_grader`): its memory is
+  closed to the child even where both are one user.
 * **Resource limits**: address space, CPU time (behind the grader's wall-clock deadline),
-  output size, no core dumps, a process count under its own user.
+  output size, no core dumps, open files, threads of its real uid, queued signals.
 * **Its own session**: the whole process group is killed at the end of the test.
 * **An audit hook** in the child, for clear messages only (reading files outside the
   runtime, the submission and the libraries; starting processes).
@@ -32,6 +41,7 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
 import tempfile
 import time
 from dataclasses import dataclass
@@ -46,17 +56,21 @@ from pathtracer.render.driver import integrator_for
 from pathtracer.sensors.perspective import Rays, camera_rays
 
 from . import runtime as runtimes
-from .environment import Environment, SetupError, kill_user_processes
+from .environment import Environment, SetupError, kill_user_processes, protect_grader
 from .sandbox import wire
 
 #: The implementation that means "the reference solution" (graded in the solution runtime).
 SOLUTION = "autograder.solution"
-#: Most processes (threads included) of the student user while it runs.
+#: Most processes (threads included) of the student process's real uid while it runs (as
+#: the grader's own non-root user: that many more than the user runs when it starts).
 STUDENT_PROCESSES = 64
+#: Most open files of the student process.
+STUDENT_FILES = 64
 #: Largest batch of camera rays the child may ask the grader for at once.
 MAX_CAMERA_BATCH = 1 << 20
 #: What an error frame may say it is.
-ERROR_KINDS = ("import", "memory", "not-implemented", "output", "exception", "protocol")
+ERROR_KINDS = ("import", "memory", "not-implemented", "output", "exception", "protocol",
+               "setup")
 
 
 @dataclass
@@ -106,7 +120,7 @@ class StudentProcess:
     """
 
     def __init__(self, impl: str, limits: Limits | None = None, *, trusted: bool = False,
-                 environment: Environment | None = None):
+                 environment: Environment | None = None, probe: bool = False):
         self.trusted = trusted or impl == SOLUTION
         self.environment = environment or Environment()
         # A solution runtime is readable by others only when the child needs it to be.
@@ -126,6 +140,7 @@ class StudentProcess:
         os.chmod(self._scratch, 0o755)
         self.output_path = os.path.join(self._private, "student-output.txt")
         self._pipes = ()
+        self.probe_only = probe
 
     # -- lifecycle -----------------------------------------------------------------------
     def __enter__(self):
@@ -142,17 +157,19 @@ class StudentProcess:
         if self.process is not None:
             raise RuntimeError("this StudentProcess was started already")
         ids = self.environment.ids()
+        protect_grader()        # before the child exists: its memory is not the child's to read
         request_r, request_w = os.pipe()
         reply_r, reply_w = os.pipe()
         # The folder the submission was handed in: its package or file and their siblings.
-        root = os.path.dirname(self.impl)
+        root = self.impl if self.probe_only else os.path.dirname(self.impl)
         config = dict(
             request_fd=request_r, reply_fd=reply_w, site=self.environment.site,
             submission=self.impl, submission_root=root, trusted=self.trusted,
             limits=dict(cpu_seconds=int(self.limits.seconds) + 10,
                         memory_mb=int(self.limits.memory_mb),
                         output_bytes=int(self.limits.output_bytes),
-                        processes=STUDENT_PROCESSES if ids else 0))
+                        processes=STUDENT_PROCESSES, files=STUDENT_FILES, own_user=bool(ids)),
+            probe=self.probe_only)
         argv = [self.environment.python, "-S", "-E", "-s", "-B", "-c", runtimes.BOOT,
                 str(self.runtime), json.dumps(config)]
         env = {"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8", "HOME": self._scratch,
@@ -177,11 +194,15 @@ class StudentProcess:
         try:
             header, _ = self._receive({})
             if header["status"] != "ready":
+                if header.get("kind") == "setup" and isinstance(header.get("message"), str):
+                    raise SetupError(header["message"][:2000])
                 raise self._error(header)
         except BaseException:
             self.close()
             raise
         self.sandbox = [str(s) for s in header.get("sandbox", [])]
+        if not ids:
+            warn_unconfined(self.sandbox)
 
     def close(self):
         """Stop the child and every process it may have left behind."""
@@ -349,6 +370,8 @@ class StudentProcess:
                    "SIGKILL": "it was killed (out of memory?)",
                    "SIGXCPU": "it used up its CPU-time limit",
                    "SIGXFSZ": "it printed more output than allowed",
+                   "SIGSYS": "a system call of another architecture, which the grading "
+                             "sandbox forbids",
                    "SIGABRT": "it aborted"}.get(name, "a signal")
             return StudentFailure(f"your code crashed the grading process: {name}, {why}" + tail,
                                   "crash")
@@ -423,6 +446,29 @@ class StudentProcess:
                            {"o": ("f8", (n, 3)), "d": ("f8", (n, 3))})
         return (validate_array(out["o"], "ray origins", (n, 3)),
                 validate_array(out["d"], "ray directions", (n, 3)))
+
+
+def probe_sandbox(environment: Environment | None = None) -> list:
+    """The layers a student process closes around itself here (SetupError when one that
+    must hold cannot): a child that closes its sandbox and loads no submission."""
+    runtime = runtimes.cached("student", (environment or Environment()).ids() is not None)
+    with StudentProcess(str(runtime), Limits(60), environment=environment, probe=True) as student:
+        return student.sandbox
+
+
+#: Said once, on stderr, where nothing confines the file system of a submission running as
+#: the grader's own user.
+NOT_A_BOUNDARY = ("autograder: local grading is not a security boundary here: the submission runs "
+                  "as the grader's own user and nothing confines its file system ({why})")
+_WARNED = []
+
+
+def warn_unconfined(layers) -> None:
+    """Print :data:`NOT_A_BOUNDARY` once when ``layers`` have no file-system confinement."""
+    missing = [layer for layer in layers if layer.startswith("no file-system confinement")]
+    if missing and not _WARNED:
+        _WARNED.append(True)
+        print(NOT_A_BOUNDARY.format(why=missing[0].split("(", 1)[-1].rstrip(")")), file=sys.stderr)
 
 
 def _distinct(values: np.ndarray) -> int:

@@ -102,8 +102,12 @@ path = sys.argv[1]
 try:
     json.load(open(path))
 except Exception:
-    json.dump({"score": 0, "output": "The autograder could not run; please contact the course staff.",
-               "tests": []}, open(path, "w"))
+    try:
+        with open(path, "w") as f:
+            json.dump({"score": 0, "output": "The autograder could not run; please contact the "
+                       "course staff.", "tests": []}, f)
+    except OSError as error:
+        sys.exit(f"autograder: cannot write the results file {path}: {error.strerror}")
 PY
 """
 

@@ -13,8 +13,13 @@ Options
 
 Before the first test, when the student's code runs as its own user
 (``AUTOGRADER_STUDENT_USER``), the grader checks as that user that nothing private is
-readable (:func:`autograder.environment.require_safe_environment`); if something is, it
-writes a results file that says so and stops without grading.
+readable (:func:`autograder.environment.require_safe_environment`), and in every setup it
+starts one student process that closes its sandbox and loads nothing
+(:func:`autograder.isolation.probe_sandbox`: capabilities, Landlock, seccomp); if either
+fails, it writes a results file that says so and stops without grading. Where nothing
+confines the file system of a submission running as the grader's own user, it says so in
+one line. The results file is the grader's alone (no student process can write anywhere); a
+write that fails is one line on stderr and exit status 3, not a traceback.
 
 Markers
 -------
@@ -28,10 +33,11 @@ gets full points, a failing one its score so far (0 by default).
 from __future__ import annotations
 
 import os
+import sys
 
 import pytest
 
-from .results import Results
+from .results import Results, ResultsError
 
 _RESULTS = pytest.StashKey[Results]()
 
@@ -69,18 +75,35 @@ def pytest_configure(config):
 
 
 def pytest_sessionstart(session):
-    """Refuse to grade in an environment where the submission could read private files."""
+    """Refuse to grade in an environment where the submission could read private files or
+    where the student process cannot close its sandbox."""
     from .environment import SetupError, require_safe_environment
+    from .isolation import probe_sandbox
     results = session.config.stash.get(_RESULTS, None)
     extra = [os.path.dirname(results.path)] if results is not None else []
     try:
         require_safe_environment(extra=extra)
+        probe_sandbox()
     except SetupError as error:
         message = f"The autograder is not set up safely; please contact the course staff. ({error})"
         if results is not None:
             results.output = message
-            results.write()
+            _write(session.config, results)
         pytest.exit(message, returncode=3)
+
+
+_WRITE_FAILED = pytest.StashKey[str]()
+
+
+def _write(config, results: Results, record=None) -> None:
+    """``results.write()`` (or ``record``); a failure is one line on stderr, remembered for
+    the exit status, never a traceback."""
+    try:
+        (record or results.write)()
+    except ResultsError as error:
+        if config.stash.get(_WRITE_FAILED, None) != str(error):
+            print(str(error), file=sys.stderr)
+        config.stash[_WRITE_FAILED] = str(error)
 
 
 class Grade:
@@ -158,7 +181,7 @@ def pytest_collection_finish(session):
         return
     for item in session.items:
         results.add_pending(item.nodeid, test_name(item), points_of(item), visibility_of(item))
-    results.write()
+    _write(session.config, results)
 
 
 @pytest.hookimpl(hookwrapper=True)
@@ -185,8 +208,9 @@ def pytest_runtest_makereport(item, call):
         output = _failure_text(report)
     elif report.skipped:
         output = f"skipped: {report.longrepr[2] if isinstance(report.longrepr, tuple) else report.longrepr}"
-    results.record(item.nodeid, test_name(item), score, max_score, passed and score >= max_score,
-                   output, visibility_of(item))
+    _write(item.config, results, lambda: results.record(
+        item.nodeid, test_name(item), score, max_score, passed and score >= max_score, output,
+        visibility_of(item)))
 
 
 def _failure_text(report) -> str:
@@ -199,5 +223,10 @@ def _failure_text(report) -> str:
 def pytest_sessionfinish(session, exitstatus):
     """Write Gradescope's results file once every test has run."""
     results = session.config.stash.get(_RESULTS, None)
-    if results is not None:
-        results.write()
+    if results is None:
+        return
+    failed = session.config.stash.get(_WRITE_FAILED, None)
+    session.config.stash[_WRITE_FAILED] = ""          # the last write decides
+    _write(session.config, results)
+    if session.config.stash[_WRITE_FAILED] or (failed and not os.path.exists(results.path)):
+        session.exitstatus = 3

@@ -11,17 +11,26 @@ At collection every test is entered with score 0 and "not run"; each finished te
 its entry and the whole file is rewritten (temp file + ``os.replace``), so whatever stops the
 grader (the platform's timeout, a crash of the grader itself) leaves a valid file whose
 score counts the tests finished so far.
+
+The file is written through a descriptor of its folder that the grader opens at its first
+write and keeps (no child inherits it): a folder renamed or replaced by a link later does
+not move the grader's writes. A write that fails raises :class:`ResultsError`, whose message
+is one line (the plugin prints it and exits non-zero; it is never a traceback).
 """
 from __future__ import annotations
 
+import errno
 import json
 import os
-import tempfile
 import time
 
 VISIBILITIES = ("visible", "after_due_date", "after_published", "hidden")
 #: Longest output kept per test (Gradescope shows it as text).
 MAX_OUTPUT = 8000
+
+
+class ResultsError(Exception):
+    """The results file could not be written (a one-line message)."""
 
 
 class Results:
@@ -32,6 +41,7 @@ class Results:
         self.start = time.monotonic()
         self.tests = {}
         self.output = output
+        self._folder = None
 
     def add_pending(self, key, name, max_score, visibility="visible"):
         self.tests[key] = dict(name=name, score=0.0, max_score=float(max_score), status="failed",
@@ -66,20 +76,44 @@ class Results:
                 "tests": list(self.tests.values())}
 
     def write(self) -> None:
-        """Atomic rewrite: a reader sees the old file or the new one, never a partial one."""
-        directory = os.path.dirname(self.path) or "."
-        os.makedirs(directory, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".results-", suffix=".json", dir=directory)
+        """Atomic rewrite: a reader sees the old file or the new one, never a partial one.
+
+        Raises
+        ------
+        ResultsError
+            The file could not be written (one line: the path and the system's reason).
+        """
         try:
-            with os.fdopen(fd, "w") as f:
-                json.dump(self.document(), f, indent=1)
-                f.flush()
-                os.fsync(f.fileno())
-            os.chmod(tmp, 0o644)
-            os.replace(tmp, self.path)
+            self._write()
+        except OSError as error:
+            reason = error.strerror or str(error)
+            raise ResultsError(f"autograder: cannot write the results file {self.path}: {reason}"
+                               + (" (is the file immutable? see lsattr)"
+                                  if error.errno == errno.EPERM else "")) from None
+
+    def _write(self) -> None:
+        if self._folder is None:
+            directory = os.path.dirname(self.path) or "."
+            os.makedirs(directory, exist_ok=True)
+            self._folder = os.open(directory, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+        name = os.path.basename(self.path)
+        tmp = f".results-{os.getpid()}-{time.monotonic_ns()}.json"
+        data = json.dumps(self.document(), indent=1).encode()
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o644,
+                     dir_fd=self._folder)
+        try:
+            try:
+                view = memoryview(data)
+                while view:
+                    view = view[os.write(fd, view):]
+                os.fsync(fd)
+                os.fchmod(fd, 0o644)
+            finally:
+                os.close(fd)
+            os.replace(tmp, name, src_dir_fd=self._folder, dst_dir_fd=self._folder)
         except BaseException:
             try:
-                os.unlink(tmp)
+                os.unlink(tmp, dir_fd=self._folder)
             except OSError:
                 pass
             raise

@@ -33,7 +33,8 @@ from .skeleton import STUBS, stub_source
 
 PATHTRACER = Path(pathtracer.__file__).resolve().parent
 SANDBOX = Path(__file__).resolve().parent / "sandbox"
-SANDBOX_FILES = ("__init__.py", "child.py", "wire.py", "seccomp.py")
+SANDBOX_FILES = ("__init__.py", "child.py", "wire.py", "seccomp.py", "syscalls.py", "landlock.py",
+                 "privileges.py")
 #: Solution code that is not a stub target of the skeleton: left out of the student runtime.
 PRIVATE_MODULES = ("integrators/pathclass.py", "cli.py")
 #: Integrators the course does not grade (yet): the registry imports them, so the student

@@ -35,6 +35,8 @@ HOSTILE = ROOT / "tests" / "hostile"
 CI_TIME_SCALE = float(os.environ.get("AUTOGRADER_CI_TIME_SCALE", "6"))
 MUTANTS = sorted(p for p in glob.glob(str(ZOO / "*.py")) if not Path(p).name.startswith("_"))
 ATTACKS = sorted(p for p in glob.glob(str(HOSTILE / "*.py")) if not Path(p).name.startswith("_"))
+#: Words a hostile submission's message contains when its attack worked (tests/hostile).
+ESCAPES = ("LEAK", "WROTE", "ESCAPED")
 
 
 def constants(path) -> SimpleNamespace:
@@ -255,10 +257,12 @@ def test_hostile_submission_scores_nothing_and_leaves_nothing(path, tmp_path):
     seconds = 5 if expect["kind"] == "timeout" else QUICK.seconds * CI_TIME_SCALE
     result = grading.run_check(QUICK, path, limits=Limits(seconds, grading.MEMORY_MB, 64 * 1024))
     assert result.score == 0 and not result.passed, result.report()
-    if expect["kind"]:
+    if expect["kind"] == "black":           # the attack ran to its end and returned black
+        assert not result.failure, result.report()
+    elif expect["kind"]:
         assert result.failure_kind == expect["kind"], result.report()
         assert expect["words"] in result.failure, result.report()
-    assert "LEAK" not in result.report() and "WROTE" not in result.report(), result.report()
+    assert not any(word in result.report() for word in ESCAPES), result.report()
     assert not _runtime_processes()
     import time
     time.sleep(3.5 if "daemon" in path else 0)         # the daemon would write after 3 s

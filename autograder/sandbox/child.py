@@ -3,15 +3,22 @@
 Started by :class:`autograder.isolation.StudentProcess` as a fresh interpreter
 (``python -S -E -s -B -c BOOT RUNTIME CONFIG``) from the *student runtime*
 (:mod:`autograder.runtime`), already running as the unprivileged student user when the
-grader runs as root. This file is copied there with :mod:`wire` and :mod:`seccomp`; it
-imports nothing of the grader. Before the submission is imported it
+grader runs as root with one. This file is copied there with :mod:`wire`, :mod:`seccomp`,
+:mod:`syscalls`, :mod:`landlock` and :mod:`privileges`; it imports nothing of the grader.
+Before the submission is imported it
 
 1. puts the runtime and the dependency folders (NumPy, ...) on ``sys.path``;
-2. sets the resource limits (address space, CPU time, output size, no core dumps; a process
-   count when it has a user of its own);
-3. installs the seccomp filter (:mod:`seccomp`: no processes, no signals to others, no file
-   writes, no sockets) and an audit hook that turns reading files outside the runtime, the
-   submission and the libraries into a clear ``PermissionError``.
+2. sets the resource limits (address space, CPU time, output size, no core dumps, open
+   files, locked memory, message queues, queued signals, threads of its real uid);
+3. closes the sandbox (:func:`_sandbox`): no capabilities and no new privileges
+   (:mod:`privileges`), Landlock (:mod:`landlock`: read the runtime, the submission's folder
+   and the libraries, write nothing), the seccomp allowlist (:mod:`seccomp`), then an audit
+   hook that turns reading files outside those folders into a clear ``PermissionError``. If
+   the capabilities or the filter cannot be given up or installed it sends a ``setup`` error
+   and never imports the submission (the grader stops grading); without Landlock it says so
+   in its list of layers.
+
+With ``probe`` in its configuration it stops there and only reports the layers.
 
 Then it serves requests, one frame each (:mod:`wire`), until the grader closes the pipe:
 
@@ -28,6 +35,7 @@ Every error becomes an ``{"status": "error", "kind": ..., "message": ...}`` fram
 """
 from __future__ import annotations
 
+import errno
 import json
 import os
 import resource
@@ -53,12 +61,15 @@ def main(runtime: str, config_json: str) -> None:
 
     from . import wire
     single_threaded_blas()     # reads /proc/self/maps to find BLAS: done before the hook
-    sandbox = []
-    if CONFIG.get("seccomp", True):
-        from . import seccomp
-        reason = seccomp.install()
-        sandbox.append(reason or "seccomp")
+    try:
+        sandbox = _sandbox()
+    except SandboxError as error:
+        wire.write_frame(CONFIG["reply_fd"], _error("setup", str(error)))
+        return
     _install_audit_hook()
+    if CONFIG.get("probe"):      # the grader asks what holds here, before grading anything
+        wire.write_frame(CONFIG["reply_fd"], {"status": "ready", "sandbox": sandbox})
+        return
     server = Server(CONFIG, wire)
     header = {"status": "ready", "sandbox": sandbox}
     if server.load_error:
@@ -72,6 +83,7 @@ def main(runtime: str, config_json: str) -> None:
 
 
 def _limits(limits: dict) -> None:
+    from . import privileges
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
     cpu = int(limits["cpu_seconds"])
     resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
@@ -79,9 +91,77 @@ def _limits(limits: dict) -> None:
     resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
     memory = int(limits["memory_mb"]) << 20
     resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
-    if limits.get("processes"):
-        count = int(limits["processes"])
-        resource.setrlimit(resource.RLIMIT_NPROC, (count, count))
+    # Kernel memory outside RLIMIT_AS: open files, locked pages, message queues, queued
+    # signals (pipes, sockets, memfd and SysV IPC are refused by the seccomp filter).
+    files = int(limits.get("files", 64))
+    resource.setrlimit(resource.RLIMIT_NOFILE, (files, files))
+    for name, value in (("RLIMIT_MEMLOCK", 0), ("RLIMIT_MSGQUEUE", 0), ("RLIMIT_SIGPENDING", 64)):
+        if hasattr(resource, name):         # Linux's; elsewhere the sandbox refuses anyway
+            resource.setrlimit(getattr(resource, name), (value, value))
+    # Threads (tasks) of the real uid: its own as the student user or as root (whose real
+    # uid privileges.drop moves to a uid of its own); the user's others too otherwise.
+    count = int(limits["processes"])
+    if os.getuid() != 0 and not limits.get("own_user"):
+        count += privileges.user_tasks(os.getuid())
+    resource.setrlimit(resource.RLIMIT_NPROC, (count, count))
+
+
+class SandboxError(Exception):
+    """The sandbox could not be closed: the child refuses to run the submission."""
+
+
+#: What the student process may read once the sandbox is closed, besides the runtime, the
+#: submission's folder and the libraries (their folders beneath the site folders).
+SYSTEM_READABLE = ("/dev/null", "/dev/zero", "/dev/urandom", "/dev/random", "/etc/ld.so.cache",
+                   "/etc/localtime", "/sys/devices/system/cpu")
+#: The only packages of the site folders it may read (the rest of a site folder, e.g. a
+#: virtual environment's editable-install finders naming the grader's source, stays closed).
+LIBRARIES = ("numpy", "numpy.libs", "scipy", "scipy.libs", "threadpoolctl", "threadpoolctl.py")
+
+
+def readable_paths() -> tuple:
+    """``(readable, listable)`` paths of the Landlock rules: read beneath the first, only
+    list the second (the site folders, so that imports find the libraries in them)."""
+    import sysconfig
+    readable = [RUNTIME, CONFIG["submission_root"], f"/proc/{os.getpid()}", *SYSTEM_READABLE]
+    readable += [sysconfig.get_path(name) for name in ("stdlib", "platstdlib")]
+    listable = []
+    for site in CONFIG["site"]:
+        if os.path.isdir(site) and any(os.path.exists(os.path.join(site, n)) for n in LIBRARIES):
+            listable.append(site)
+            readable += [os.path.join(site, name) for name in LIBRARIES]
+        else:
+            readable.append(site)
+    with open("/proc/self/maps") as maps:       # folders of the native libraries loaded
+        for line in maps:
+            fields = line.split(None, 5)      # address perms offset device inode [path]
+            path = fields[5].strip() if len(fields) == 6 else ""
+            if path.startswith("/") and ".so" in os.path.basename(path):
+                readable.append(os.path.dirname(path))
+    return readable, listable
+
+
+def _sandbox() -> list:
+    """Drop capabilities, confine the file system, install the seccomp filter; returns the
+    layers that hold (SandboxError when one that must hold does not)."""
+    from . import landlock, privileges, seccomp
+    problem = seccomp.supported()
+    if problem:
+        raise SandboxError(f"{problem}; refusing to run a submission")
+    problem, layers = privileges.drop()
+    if problem:
+        raise SandboxError(f"the student process keeps privileges ({problem}); refusing to "
+                           "run a submission")
+    version = landlock.abi()
+    readable, listable = readable_paths()
+    problem = landlock.restrict(readable, listable, version)
+    layers.append(f"landlock ABI {version}" if not problem else
+                  f"no file-system confinement ({problem})")
+    problem = seccomp.install()
+    if problem:
+        raise SandboxError(f"{problem}; refusing to run a submission")
+    layers.append("seccomp")
+    return layers
 
 
 #: Audit events that start processes, signal others or open sockets.
@@ -133,9 +213,27 @@ class ContractError(Exception):
     """The submission's output or shape breaks the contract (message for the student)."""
 
 
+#: Added to the message of an error that the sandbox's refusal of a system call explains.
+REFUSED_NOTE = ("\n(the grading sandbox refused a system call: a submission may compute, read its "
+                "own folder, the tracer and NumPy/SciPy, and print; it may not start processes, "
+                "write files, open pipes or sockets, or signal, trace or limit other processes)")
+
+
+def _refused(error: BaseException) -> bool:
+    """Whether ``error`` (or what caused it) is an EPERM or EACCES from the kernel."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        seen.add(id(error))
+        if isinstance(error, OSError) and error.errno in (errno.EPERM, errno.EACCES):
+            return True
+        error = error.__cause__ or error.__context__
+    return False
+
+
 def _traceback(error: BaseException, limit: int = 3000) -> str:
     text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
-    return text if len(text) <= limit else "...\n" + text[-limit:]
+    text = text if len(text) <= limit else "...\n" + text[-limit:]
+    return text + (REFUSED_NOTE if _refused(error) else "")
 
 
 def load_submission(path: str):

@@ -1,31 +1,33 @@
-"""A seccomp filter for the student process: no new processes, no signals to others, no
-file writes, no sockets; everything else runs as usual.
+"""The student process's seccomp filter: an allowlist, everything else refused.
 
 The kernel checks every system call of the process (and of its threads) against a small
-BPF program built here, so no Python trick inside the process can undo it:
+classic-BPF program built here from :mod:`.syscalls`, so no Python trick inside the process
+can undo it:
 
-=========================================  =================================================
-system call                                verdict
-=========================================  =================================================
-fork, vfork, clone without CLONE_THREAD    EPERM (threads still work: clone3 answers ENOSYS
-                                           and glibc falls back to clone with CLONE_THREAD)
-execve, execveat                           EPERM
-kill / tgkill to another process           EPERM (to itself, or kill(0): allowed)
-tkill, rt_(tg)sigqueueinfo, pidfd_*        EPERM
-ptrace, process_vm_readv/writev            EPERM
-open/openat/creat for writing              EACCES (O_WRONLY, O_RDWR, O_CREAT, O_TRUNC, O_APPEND)
-openat2                                    ENOSYS (its flags live in memory; libc falls back)
-unlink, rename, mkdir, chmod, chown,       EACCES
-truncate, link, symlink, mknod, utime,
-setxattr and their *at variants
-socket, socketpair                         EACCES
-io_uring_*, bpf, perf_event_open,          EPERM (io_uring would bypass the checks above)
-userfaultfd, mount, unshare, setns, ...
-=========================================  =================================================
+=====================================  ======================================================
+system call                            verdict
+=====================================  ======================================================
+``syscalls.ALLOWED``                   allowed (memory, reading open files and metadata,
+                                       threads' futexes, signals, time, getpid ...)
+``clone``                              only with CLONE_THREAD and no namespace flag (threads;
+                                       no processes)
+``kill`` / ``tgkill``                  only to itself (``kill(0)``: its own process group,
+                                       which is itself: it cannot fork)
+``prlimit64``                          only on itself (pid 0 or its own)
+``open`` / ``openat``                  only read-only: ``EACCES`` with O_WRONLY, O_RDWR,
+                                       O_CREAT, O_TRUNC or O_APPEND
+``ioctl`` / ``fcntl``                  only the few commands listed in ``syscalls.FILTERED``
+``clone3``, ``openat2``                ``ENOSYS`` (glibc falls back to clone / openat)
+a call of another architecture         the process is killed (an i386 ``int 0x80`` on
+                                       x86-64); x32 calls answer ``ENOSYS``
+anything else                          ``EPERM``: no fork, exec, ptrace, process_vm_*,
+                                       open_by_handle_at, pipes, sockets, memfd, io_uring,
+                                       bpf, mount, unshare, setuid, prctl, mlock ...
+=====================================  ======================================================
 
-Output already open (stdout, stderr and the reply pipe) stays writable. Only x86-64 is
-supported (:func:`install` returns a reason otherwise); numbers from the kernel's
-``arch/x86/entry/syscalls/syscall_64.tbl``.
+Output already open (stdout, stderr and the reply pipe) stays writable. x86-64 and aarch64
+are supported; :func:`install` returns the reason elsewhere (the child then refuses to run
+a submission).
 """
 from __future__ import annotations
 
@@ -35,40 +37,7 @@ import os
 import platform
 import struct
 
-AUDIT_ARCH_X86_64 = 0xC000003E
-CLONE_THREAD = 0x00010000
-WRITE_FLAGS = 0o1 | 0o2 | 0o100 | 0o1000 | 0o2000      # O_WRONLY O_RDWR O_CREAT O_TRUNC O_APPEND
-
-# x86-64 system call numbers.
-NR = dict(
-    open=2, socket=41, socketpair=53, clone=56, fork=57, vfork=58, execve=59, kill=62,
-    truncate=76, ftruncate=77, rename=82, mkdir=83, rmdir=84, creat=85, link=86, unlink=87,
-    symlink=88, chmod=90, fchmod=91, chown=92, fchown=93, lchown=94, ptrace=101,
-    rt_sigqueueinfo=129, utime=132, mknod=133, chroot=161, mount=165, umount2=166,
-    setxattr=188, lsetxattr=189, fsetxattr=190, removexattr=197, lremovexattr=198,
-    fremovexattr=199, tkill=200, tgkill=234, utimes=235, keyctl=250, openat=257, mkdirat=258,
-    mknodat=259, fchownat=260, futimesat=261, unlinkat=263, renameat=264, linkat=265,
-    symlinkat=266, fchmodat=268, unshare=272, utimensat=280, rt_tgsigqueueinfo=297,
-    perf_event_open=298, setns=308, process_vm_readv=310, process_vm_writev=311,
-    renameat2=316, bpf=321, execveat=322, userfaultfd=323, pidfd_send_signal=424,
-    io_uring_setup=425, io_uring_enter=426, io_uring_register=427, pidfd_open=434,
-    clone3=435, openat2=437, pidfd_getfd=438, fchmodat2=452,
-)
-
-DENY = {
-    errno.EPERM: ("fork", "vfork", "execve", "execveat", "tkill", "rt_sigqueueinfo",
-                  "rt_tgsigqueueinfo", "pidfd_open", "pidfd_send_signal", "pidfd_getfd",
-                  "ptrace", "process_vm_readv", "process_vm_writev", "io_uring_setup",
-                  "io_uring_enter", "io_uring_register", "bpf", "perf_event_open",
-                  "userfaultfd", "keyctl", "mount", "umount2", "chroot", "unshare", "setns"),
-    errno.EACCES: ("creat", "truncate", "ftruncate", "rename", "renameat", "renameat2", "mkdir",
-                   "mkdirat", "rmdir", "unlink", "unlinkat", "link", "linkat", "symlink",
-                   "symlinkat", "chmod", "fchmod", "fchmodat", "fchmodat2", "chown", "fchown",
-                   "lchown", "fchownat", "mknod", "mknodat", "utime", "utimes", "utimensat",
-                   "futimesat", "setxattr", "lsetxattr", "fsetxattr", "removexattr",
-                   "lremovexattr", "fremovexattr", "socket", "socketpair"),
-    errno.ENOSYS: ("clone3", "openat2"),
-}
+from . import syscalls
 
 # Classic BPF opcodes and seccomp return values.
 LD_ABS = 0x20          # BPF_LD | BPF_W | BPF_ABS
@@ -78,7 +47,9 @@ JSET = 0x45            # BPF_JMP | BPF_JSET | BPF_K
 RET = 0x06             # BPF_RET | BPF_K
 ALLOW = 0x7FFF0000
 KILL_PROCESS = 0x80000000
-# Offsets in struct seccomp_data: nr, arch, then the low 32 bits of args[i] (little-endian).
+X32_BIT = 0x40000000
+# Offsets in struct seccomp_data: nr, arch, then the low 32 bits of args[i] (little-endian;
+# every argument checked here is an int the kernel truncates to 32 bits).
 NR_OFFSET, ARCH_OFFSET = 0, 4
 
 
@@ -90,31 +61,63 @@ def _errno(code: int) -> int:
     return 0x00050000 | code
 
 
-def program(pid: int) -> list:
+def _one_of(values) -> list:
+    """Allow when the accumulator is one of ``values``, else EPERM."""
+    n = len(values)
+    body = [(JEQ, n - i, 0, value) for i, value in enumerate(values)]
+    return body + [(RET, 0, 0, _errno(errno.EPERM)), (RET, 0, 0, ALLOW)]
+
+
+def _check(rule, pid: int) -> list:
+    """Instructions that decide a call from its argument (``syscalls.FILTERED`` rule)."""
+    index, what = rule
+    body = [(LD_ABS, 0, 0, _arg(index))]
+    if what == "thread":
+        return body + [(JSET, 1, 0, syscalls.CLONE_NAMESPACES), (JSET, 1, 0, syscalls.CLONE_THREAD),
+                       (RET, 0, 0, _errno(errno.EPERM)), (RET, 0, 0, ALLOW)]
+    if what == "read-only":
+        return body + [(JSET, 0, 1, syscalls.WRITE_FLAGS), (RET, 0, 0, _errno(errno.EACCES)),
+                       (RET, 0, 0, ALLOW)]
+    return body + _one_of([pid if value == "self" else value for value in what])
+
+
+def program(pid: int, machine: str | None = None) -> list:
     """The filter as (code, jt, jf, k) instructions for a process whose pid is ``pid``."""
-    p = [(LD_ABS, 0, 0, ARCH_OFFSET), (JEQ, 1, 0, AUDIT_ARCH_X86_64), (RET, 0, 0, KILL_PROCESS),
-         (LD_ABS, 0, 0, NR_OFFSET), (JGE, 0, 1, 0x40000000), (RET, 0, 0, _errno(errno.ENOSYS))]
-    for code, names in DENY.items():
-        for name in names:
-            p += [(JEQ, 0, 1, NR[name]), (RET, 0, 0, _errno(code))]
-    # Each block below ends in a return, so the accumulator only changes inside it.
-    p += [(JEQ, 0, 4, NR["clone"]), (LD_ABS, 0, 0, _arg(0)), (JSET, 1, 0, CLONE_THREAD),
-          (RET, 0, 0, _errno(errno.EPERM)), (RET, 0, 0, ALLOW)]
-    p += [(JEQ, 0, 5, NR["kill"]), (LD_ABS, 0, 0, _arg(0)), (JEQ, 2, 0, pid), (JEQ, 1, 0, 0),
-          (RET, 0, 0, _errno(errno.EPERM)), (RET, 0, 0, ALLOW)]
-    p += [(JEQ, 0, 4, NR["tgkill"]), (LD_ABS, 0, 0, _arg(0)), (JEQ, 1, 0, pid),
-          (RET, 0, 0, _errno(errno.EPERM)), (RET, 0, 0, ALLOW)]
-    for name, flags_arg in (("open", 1), ("openat", 2)):
-        p += [(JEQ, 0, 4, NR[name]), (LD_ABS, 0, 0, _arg(flags_arg)), (JSET, 0, 1, WRITE_FLAGS),
-              (RET, 0, 0, _errno(errno.EACCES)), (RET, 0, 0, ALLOW)]
-    p.append((RET, 0, 0, ALLOW))
+    machine = machine or platform.machine()
+    arch, table = syscalls.ARCHITECTURES[machine]
+    p = [(LD_ABS, 0, 0, ARCH_OFFSET), (JEQ, 1, 0, arch), (RET, 0, 0, KILL_PROCESS),
+         (LD_ABS, 0, 0, NR_OFFSET)]
+    if table is syscalls.X86_64:
+        p += [(JGE, 0, 1, X32_BIT), (RET, 0, 0, _errno(errno.ENOSYS))]
+    for name in syscalls.ALLOWED:
+        if name in table:
+            p += [(JEQ, 0, 1, table[name]), (RET, 0, 0, ALLOW)]
+    for name, rule in syscalls.FILTERED.items():
+        if name in table:
+            body = _check(rule, pid)
+            # Each block ends in a return, so the accumulator only changes inside it.
+            p += [(JEQ, 0, len(body), table[name])] + body
+    for name in syscalls.UNIMPLEMENTED:
+        p += [(JEQ, 0, 1, table[name]), (RET, 0, 0, _errno(errno.ENOSYS))]
+    p.append((RET, 0, 0, _errno(errno.EPERM)))
     return p
+
+
+def supported() -> str:
+    """"" where the filter can be built, else why not."""
+    if platform.system() != "Linux" or platform.machine() not in syscalls.ARCHITECTURES:
+        return (f"the grading sandbox's seccomp filter exists for Linux on x86-64 and aarch64 "
+                f"only, not {platform.system()} {platform.machine()}")
+    if struct.pack("=I", 1) != struct.pack("<I", 1):
+        return "the grading sandbox's seccomp filter is written for little-endian machines"
+    return ""
 
 
 def install() -> str:
     """Install the filter on this process; returns "" on success, else why not."""
-    if platform.system() != "Linux" or platform.machine() not in ("x86_64", "AMD64"):
-        return f"seccomp filter not available on {platform.system()} {platform.machine()}"
+    reason = supported()
+    if reason:
+        return reason
     instructions = program(os.getpid())
     raw = b"".join(struct.pack("=HBBI", *ins) for ins in instructions)
     buffer = ctypes.create_string_buffer(raw, len(raw))
@@ -124,11 +127,11 @@ def install() -> str:
 
     fprog = SockFprog(len(instructions), ctypes.addressof(buffer))
     libc = ctypes.CDLL(None, use_errno=True)
-    PR_SET_NO_NEW_PRIVS, SYS_SECCOMP, SECCOMP_SET_MODE_FILTER, FILTER_FLAG_TSYNC = 38, 317, 1, 1
+    PR_SET_NO_NEW_PRIVS, SECCOMP_SET_MODE_FILTER, FILTER_FLAG_TSYNC = 38, 1, 1
     if libc.prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0:
         return f"prctl(PR_SET_NO_NEW_PRIVS) failed: {os.strerror(ctypes.get_errno())}"
     # TSYNC: every thread of the process gets the filter, not only the calling one.
-    if libc.syscall(SYS_SECCOMP, SECCOMP_SET_MODE_FILTER, FILTER_FLAG_TSYNC,
-                    ctypes.byref(fprog)) != 0:
+    if libc.syscall(syscalls.numbers(platform.machine())["seccomp"], SECCOMP_SET_MODE_FILTER,
+                    FILTER_FLAG_TSYNC, ctypes.byref(fprog)) != 0:
         return f"seccomp(SECCOMP_SET_MODE_FILTER) failed: {os.strerror(ctypes.get_errno())}"
     return ""

@@ -9,7 +9,7 @@ import time
 
 from _hostile import black, registry
 
-EXPECT = dict(kind=None, words="")
+EXPECT = dict(kind="black", words="")
 MARKER = "/tmp/autograder-hostile-daemon-ran"
 
 

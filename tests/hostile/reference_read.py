@@ -11,7 +11,7 @@ import sys
 
 from _hostile import black, registry
 
-EXPECT = dict(kind=None, words="")
+EXPECT = dict(kind="black", words="")
 
 
 def candidates():

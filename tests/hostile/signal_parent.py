@@ -8,7 +8,7 @@ import signal
 
 from _hostile import black, registry
 
-EXPECT = dict(kind=None, words="")
+EXPECT = dict(kind="black", words="")
 
 
 def radiance(self, scene, rays, rng):

@@ -9,7 +9,7 @@ import sys
 
 from _hostile import black, registry
 
-EXPECT = dict(kind=None, words="")
+EXPECT = dict(kind="black", words="")
 
 
 def radiance(self, scene, rays, rng):
