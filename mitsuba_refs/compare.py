@@ -32,6 +32,7 @@ from pathtracer.render.driver import SCENE_OPTIONS
 from . import config
 from .cache import get_reference, scene_hash
 from .explain import hints
+from .hooks import RecordingRuns, WithOptions, mean_of
 from .render import resolve_scene, xml_defaults
 from .rfilter import pixel_value_counts, reference_correlation
 from .stats import (
@@ -278,12 +279,12 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     reference = get_reference(scene, params, ref_name, log=log, options=reference_options(options),
                               resolution=resolution)
     if options:
-        render = _with_options(render, options)
+        render = WithOptions(render, options)
     if resolution is not None:
-        render = _with_options(render, {"resolution": tuple(resolution)})
+        render = WithOptions(render, {"resolution": tuple(resolution)})
 
     runs = []    # one dict per render of ours (purpose, seed, spp, seconds): the report's runs
-    mean, variance = _RecordingRuns(render, runs, "mean")(scene, integrator, params, spp, TEST_SEED,
+    mean, variance = RecordingRuns(render, runs, "mean")(scene, integrator, params, spp, TEST_SEED,
                                                            processes=processes)
     # Same estimator on both sides: a test-side variance far above the reference's is
     # itself wrong, so it may not hide a bias (stats.mean.VARIANCE_BOUND).
@@ -309,11 +310,11 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     if convergence:
         result.convergence, result.convergence_mse = convergence_test(
             scene, integrator, params, reference, alpha, processes,
-            _RecordingRuns(render, runs, "convergence"), ladder, replicas, max_growth)
+            RecordingRuns(render, runs, "convergence"), ladder, replicas, max_growth)
         result.ladder = convergence_ladder(reference, ladder)
     if bounces or (bounces is None and not result.mean.agree):
         result.bounce_results = localise_bounce(scene, integrator, name, params, spp, alpha,
-                                                processes, _RecordingRuns(render, runs, "bounces"),
+                                                processes, RecordingRuns(render, runs, "bounces"),
                                                 log, options, resolution,
                                                 bounce_reference(ref_name), splats)
         result.bounce = first_diverging_bounce(result.bounce_results)
@@ -353,35 +354,11 @@ def check_convergence(scene: str, integrator="path", params: dict | None = None,
     reference = get_reference(scene, params, reference_integrator(name), log=log,
                               options=reference_options(options), resolution=resolution)
     if options:
-        render = _with_options(render, options)
+        render = WithOptions(render, options)
     if resolution is not None:
-        render = _with_options(render, {"resolution": tuple(resolution)})
+        render = WithOptions(render, {"resolution": tuple(resolution)})
     return convergence_test(scene, integrator, params, reference, alpha, processes, render,
                             ladder, replicas)
-
-
-class _WithOptions:
-    """``render`` (and its ``render_mean``, if it has one) called with ``options`` added."""
-
-    def __init__(self, render, options):
-        self.render, self.options = render, dict(options)
-        if hasattr(render, "render_mean"):
-            self.render_mean = lambda *args, **kwargs: render.render_mean(
-                *args, **{**self.options, **kwargs})
-
-    def __call__(self, *args, **kwargs):
-        return self.render(*args, **{**self.options, **kwargs})
-
-
-def _with_options(render, options):
-    return _WithOptions(render, options)
-
-
-def _mean_of(render):
-    """A ``render_mean`` for a hook that only gives (mean, variance)."""
-    def render_mean(*args, **kwargs):
-        return render(*args, **kwargs)[0]
-    return render_mean
 
 
 def convergence_seed(level: int, replica: int) -> int:
@@ -396,33 +373,6 @@ def convergence_requests(reference, ladder, replicas, top=0):
     done, wanted = level_replicas(ladder, top), level_replicas(ladder, top + replicas)
     return [(n, convergence_seed(j, k)) for j, n in enumerate(ladder)
             for k in range(done[j], wanted[j])]
-
-
-class _RecordingRuns:
-    """``render`` that appends one dict per call to ``runs``: ``purpose``, seed, spp, seconds,
-    and max_depth where the call sets one (the per-bounce renders); its ``render_mean`` too,
-    when ``render`` has one."""
-
-    def __init__(self, render, runs: list, purpose: str):
-        self.render, self.runs, self.purpose = render, runs, purpose
-        if hasattr(render, "render_mean"):
-            self.render_mean = lambda *args, **kwargs: self._timed(render.render_mean, *args,
-                                                                   **kwargs)
-
-    def __call__(self, *args, **kwargs):
-        return self._timed(self.render, *args, **kwargs)
-
-    def _timed(self, render, scene, integrator, params, spp, seed, **kwargs):
-        start = time.perf_counter()
-        images = render(scene, integrator, params, spp, seed, **kwargs)
-        run = {"purpose": self.purpose, "seed": int(seed), "spp": int(spp),
-               "seconds": time.perf_counter() - start}
-        if kwargs.get("max_depth") is not None:
-            run["max_depth"] = int(kwargs["max_depth"])
-        self.runs.append(run)
-        return images
-
-
 
 
 def level_replicas(ladder, replicas: int) -> list[int]:
@@ -543,7 +493,7 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
     """
     parts = ConvergenceParts.of(reference, ladder)
     ladder = parts.ladder
-    render_mean = getattr(render, "render_mean", None) or _mean_of(render)
+    render_mean = getattr(render, "render_mean", None) or mean_of(render)
     mse = [[] for _ in ladder]
     lowest_image_mse = []
     top, batch = 0, replicas
