@@ -233,7 +233,7 @@ def run(args) -> dict:
     res = args.resolution
     report = dict(
         date=datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
-        machine=f"{platform.machine()}, {os.cpu_count()} cores, {platform.processor() or _cpu_name()},"
+        machine=f"{platform.machine()}, {os.cpu_count()} cores, {platform.processor() or cpu_name()},"
                 f" Python {platform.python_version()}",
         resolution=res, spp=args.spp, repeats=args.repeats, scenes={})
     mitsuba_variants = [] if args.no_mitsuba else ["scalar_rgb", "llvm_ad_rgb"]
@@ -270,7 +270,8 @@ def run(args) -> dict:
     return report
 
 
-def _cpu_name() -> str:
+def cpu_name() -> str:
+    """The CPU's model name (every speed figure names its CPU)."""
     try:
         for line in open("/proc/cpuinfo"):
             if line.startswith("model name"):

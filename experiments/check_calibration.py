@@ -29,6 +29,8 @@ from pathlib import Path
 from mitsuba_refs.external.check import check
 from mitsuba_refs.stats import clopper_pearson
 
+from .bench import cpu_name
+
 ROOT = Path(__file__).resolve().parent.parent
 LEVELS = (0.05, 0.01, 1e-3)
 SCALE = Path(__file__).with_name("scale_pfm.py")
@@ -124,16 +126,6 @@ def summarise(rows) -> dict:
                                          "ci": [round(low, 5), round(high, 5)]}
     return summary
 
-
-def cpu_name() -> str:
-    """The CPU's model name (speed figures name their CPU)."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return "unknown CPU"
 
 
 if __name__ == "__main__":

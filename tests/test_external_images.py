@@ -22,6 +22,7 @@ from mitsuba_refs.external import images
 from mitsuba_refs.external.images import ExternalImage, ImageError, image_faults, read_image
 from pathtracer.core import interrupts
 from tests.image_pattern import HEIGHT, WIDE_WIDTH, WIDTH, grey_pattern, pattern, variance_pattern
+from tests.interrupting import swallowing_reader
 
 FIXTURES = Path(__file__).resolve().parent / "data" / "images"
 #: Half floats keep 11 significant bits: relative error at most 2^-11.
@@ -368,16 +369,9 @@ def test_keyboard_interrupt_during_an_exr_read_propagates(monkeypatch):
 
 @pytest.mark.parametrize("interrupt", [True, False])
 def test_an_interrupt_openexr_swallowed_is_still_an_interrupt(monkeypatch, interrupt):
-    def swallowing(path):                            # as OpenEXR turns a Ctrl-C into its own error
-        try:
-            if interrupt:
-                signal.raise_signal(signal.SIGINT)
-        except KeyboardInterrupt:
-            pass
-        raise RuntimeError("initialization failed")
     previous = signal.getsignal(signal.SIGINT)
     signal.signal(signal.SIGINT, interrupts.remember)
-    monkeypatch.setattr(images, "read_channels", swallowing)
+    monkeypatch.setattr(images, "read_channels", swallowing_reader(interrupt))
     try:
         if interrupt:
             with pytest.raises(KeyboardInterrupt):

@@ -17,6 +17,7 @@ import pytest
 from mitsuba_refs import cache
 from pathtracer.core import interrupts
 from pathtracer.io import bitmap
+from tests.interrupting import swallowing_reader
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -29,18 +30,6 @@ def remembering():
     assert interrupts.install()
     yield
     signal.signal(signal.SIGINT, previous)
-
-
-def _swallowing_reader(interrupt: bool):
-    """A reader that, like OpenEXR's, turns an interrupt during the read into its own error."""
-    def read(*args, **kwargs):
-        try:
-            if interrupt:
-                signal.raise_signal(signal.SIGINT)
-        except KeyboardInterrupt:
-            pass
-        raise RuntimeError("initialization failed")
-    return read
 
 
 def test_the_handler_counts_and_raises(remembering):
@@ -63,7 +52,7 @@ def test_install_keeps_a_handler_of_someone_else():
 
 @pytest.mark.parametrize("interrupt", [True, False])
 def test_reference_read_interrupted_is_an_interrupt(remembering, monkeypatch, interrupt):
-    monkeypatch.setattr(cache, "read_mean_variance", _swallowing_reader(interrupt))
+    monkeypatch.setattr(cache, "read_mean_variance", swallowing_reader(interrupt))
     args = ("quad-light", {"width": 64, "height": 48}, "path", 4096, 1)
     if interrupt:
         with pytest.raises(KeyboardInterrupt):
@@ -77,7 +66,7 @@ def test_reference_read_interrupted_is_an_interrupt(remembering, monkeypatch, in
 def test_bitmap_read_interrupted_is_an_interrupt(remembering, monkeypatch, tmp_path, interrupt):
     image = tmp_path / "sky.exr"
     image.write_bytes(b"not read")
-    monkeypatch.setattr(bitmap, "read_channels", _swallowing_reader(interrupt))
+    monkeypatch.setattr(bitmap, "read_channels", swallowing_reader(interrupt))
     if interrupt:
         with pytest.raises(KeyboardInterrupt):
             bitmap.read_bitmap(image)
