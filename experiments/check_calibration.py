@@ -9,6 +9,7 @@ intervals, for a correct renderer; with ``--bias B`` the renderer's images are s
     python -m experiments.check_calibration --renderer cpp --seeds 200
     python -m experiments.check_calibration --renderer pathtracer --seeds 200 --no-convergence
     python -m experiments.check_calibration --renderer cpp --seeds 100 --bias 0.02 --no-convergence
+    python -m experiments.check_calibration --renderer cpp --seeds 50 --bias 0.02 --spp 1024 --no-convergence
 
 Renderers: ``cpp`` is examples/smallpt-cpp (built here with ``c++``) on the ``smallpt`` scene
 against Mitsuba's ``path_bsdf`` (mean and convergence; another estimator, so no variance
@@ -73,11 +74,12 @@ def main(argv=None) -> int:
     parser.add_argument("--seeds", type=int, default=200, help="independent checks")
     parser.add_argument("--first-seed", type=int, default=1, help="seed_offset of the first check")
     parser.add_argument("--bias", type=float, default=0.0, help="relative bias of the images")
+    parser.add_argument("--spp", type=int, default=64, help="samples of the mean/variance render")
     parser.add_argument("--no-convergence", action="store_true")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--json", default=None)
     args = parser.parse_args(argv)
-    suffix = f"_bias{args.bias:g}" if args.bias else ""
+    suffix = (f"_bias{args.bias:g}" if args.bias else "") + (f"_spp{args.spp}" if args.spp != 64 else "")
     out = Path(args.json or ROOT / f"docs/data/check_calibration_{args.renderer}{suffix}.json")
     rows = []
     with tempfile.TemporaryDirectory() as folder:
@@ -85,7 +87,8 @@ def main(argv=None) -> int:
         scene = settings.pop("scene")
         start = time.perf_counter()
         for k in range(args.seeds):
-            result = check(scene, **settings, convergence=not args.no_convergence, bounces=False,
+            result = check(scene, **settings, spp=args.spp, convergence=not args.no_convergence,
+                           bounces=False,
                            seed_offset=args.first_seed + k, jobs=args.jobs)
             rows.append({"seed_offset": args.first_seed + k,
                          "mean": result.mean.p_value,
@@ -99,7 +102,8 @@ def main(argv=None) -> int:
                 if rows[-1][name] is not None), flush=True)
         elapsed = time.perf_counter() - start
     summary = summarise(rows)
-    record = {"renderer": args.renderer, "scene": scene, "bias": args.bias, "seeds": args.seeds,
+    record = {"renderer": args.renderer, "scene": scene, "bias": args.bias, "spp": args.spp,
+              "seeds": args.seeds,
               "cpu": cpu_name(), "seconds": round(elapsed, 1), "summary": summary, "checks": rows}
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(record, indent=1))
