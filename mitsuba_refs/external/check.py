@@ -171,6 +171,9 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
 def _check_command(scene, template, params, size, transport, estimator, *, spp, alpha,
                    convergence, bounces, out_dir, jobs, timeout, replicas, renderer_scene,
                    options, resolution, ladder, ladder_replicas, suffix, log, seed_offset):
+    if bounces and not template.takes_max_depth:
+        raise RefsInputError("--bounces always needs {max_depth} in --command: the renderer must "
+                             "be told the path length to localise a bounce")
     runner = Runner(jobs or os.cpu_count() or 1, float(timeout))
     depth = int(transport.get("max_depth", -1))
     renders = ExternalRenders(template, runner, renderer_scene, size, params, depth,
@@ -184,9 +187,6 @@ def _check_command(scene, template, params, size, transport, estimator, *, spp, 
         renders.extend_with(_GrowingLadder(renders, reference, ladder, ladder_replicas))
     if template.takes_max_depth:
         renders.plan([renders.request(spp, TEST_SEED + d, d) for d in config.PER_BOUNCE_DEPTHS])
-    elif bounces:
-        raise RefsInputError("--bounces always needs {max_depth} in --command: the renderer must "
-                             "be told the path length to localise a bounce")
     try:
         result = compare(scene, _label(template), params, spp=spp, alpha=alpha,
                          convergence=convergence,
