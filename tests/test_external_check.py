@@ -260,3 +260,10 @@ def test_pytest_plugin_counts_the_checks_and_sets_their_level(pytester, rendered
     outcome = pytester.runpytest("--mitsuba-refs-budget", repr(budget), "-p", "no:cacheprovider")
     outcome.assert_outcomes(passed=2)
     outcome.stdout.fnmatch_lines([f"*suite false-failure budget {budget:g} shared by 3 check(s)*"])
+
+
+def test_bounces_always_needs_max_depth_in_the_command(capsys):
+    code = main(["check", SCENE, "--bounces", "always", "--out", "out/test-check",
+                 "--command", fake()])
+    err = capsys.readouterr().err
+    assert code == 2 and "--bounces always needs {max_depth}" in err and err.count("\n") == 1
