@@ -66,6 +66,7 @@ import numpy as np
 from mitsuba_refs.errors import one_line
 from pathtracer.core import interrupts
 from pathtracer.io.exr import MEAN_CHANNELS, VARIANCE_CHANNELS, read_channels
+from pathtracer.io.rgbe import RADIANCE_OFFSET, RGBEError, rgbe_pixels, rgbe_to_float
 
 #: The formats read, as :attr:`ExternalImage.format` names them.
 FORMATS = ("exr", "pfm", "hdr")
@@ -355,10 +356,11 @@ def _read_radiance(path: Path, data: bytes) -> tuple[np.ndarray, None, dict]:
         raise _error(path, f"resolution line {resolution[:60]!r} is not the standard orientation "
                            "'-Y <height> +X <width>' (rows from the top, columns from the left): not read")
     height, width = _dimension(path, tokens[1].encode(), "height"), _dimension(path, tokens[3].encode(), "width")
-    rgbe = _radiance_pixels(path, data, line_end + 1, width, height)
-    exponent = rgbe[:, :, 3].astype(np.int32)
-    unit = np.where(exponent > 0, np.ldexp(1.0, exponent - (128 + 8)), 0.0)[:, :, None]
-    mean = (rgbe[:, :, :3] + 0.5) * unit / factor
+    try:
+        rgbe = rgbe_pixels(data, line_end + 1, width, height)
+    except RGBEError as error:
+        raise _error(path, str(error)) from None
+    mean = rgbe_to_float(rgbe, RADIANCE_OFFSET) / factor
     return mean, None, attributes
 
 
@@ -394,81 +396,6 @@ def _positive_numbers(path: Path, line: str, count: int) -> np.ndarray:
     if numbers.shape != (count,) or not np.all(np.isfinite(numbers) & (numbers > 0)):
         raise _error(path, f"header line {line.strip()[:60]!r} does not hold {count} positive number(s)")
     return numbers
-
-
-def _radiance_pixels(path: Path, data: bytes, start: int, width: int, height: int) -> np.ndarray:
-    """The (H, W, 4) uint8 RGBE values of the scanlines from ``start`` to the end of ``data``."""
-    run_length_possible = 8 <= width <= 0x7FFF
-    flat_size = 4 * width
-    smallest_scanline = min(flat_size, 4 + 8 * -(-width // 127)) if run_length_possible else flat_size
-    available = len(data) - start
-    if available < height * smallest_scanline:
-        raise _error(path, f"truncated: {height} scanlines of {width} pixels need at least "
-                           f"{height * smallest_scanline} bytes, the file has {available}")
-    buffer = np.frombuffer(data, dtype=np.uint8)
-    if not run_length_possible:                   # only flat scanlines: one array
-        if available != height * flat_size:
-            raise _error(path, f"{width}x{height} flat RGBE pixels are {height * flat_size} bytes, the file "
-                               f"has {available} after its header")
-        pixels = buffer[start:].reshape(height, width, 4)
-        _refuse_old_run_length(path, pixels)
-        return pixels
-    pixels = np.empty((height, width, 4), dtype=np.uint8)
-    flat_rows = []
-    position = start
-    for row in range(height):
-        if data[position:position + 2] == b"\x02\x02" and position + 4 <= len(data) and data[position + 2] < 128:
-            encoded_width = data[position + 2] << 8 | data[position + 3]
-            if encoded_width != width:
-                raise _error(path, f"scanline {row} says it is {encoded_width} pixels wide, the picture is {width}")
-            position = _run_length_scanline(path, data, buffer, position + 4, pixels[row], row)
-        else:
-            if position + flat_size > len(data):
-                raise _error(path, f"truncated in scanline {row} of {height} (flat pixels)")
-            pixels[row] = buffer[position:position + flat_size].reshape(width, 4)
-            flat_rows.append(row)
-            position += flat_size
-    if position != len(data):
-        raise _error(path, f"{len(data) - position} bytes after the last of {height} scanlines "
-                           "(is the resolution line's height right?)")
-    _refuse_old_run_length(path, pixels[flat_rows])
-    return pixels
-
-
-def _run_length_scanline(path: Path, data: bytes, buffer: np.ndarray, position: int, row_pixels: np.ndarray,
-                         row: int) -> int:
-    """Decode one new-style run-length scanline (four channels one after the other, each as
-    runs, a count byte over 128 then one value, and literals, a count up to 128 then the
-    values) into ``row_pixels``; returns the position after it."""
-    width = len(row_pixels)
-    for channel in range(4):
-        x = 0
-        while x < width:
-            if position >= len(data):
-                raise _error(path, f"truncated in scanline {row} (run-length encoded)")
-            count = data[position]
-            if count > 128:
-                count -= 128
-                value_end = position + 2
-                values = data[position + 1] if value_end <= len(data) else None
-            else:
-                value_end = position + 1 + count
-                values = buffer[position + 1:value_end] if value_end <= len(data) else None
-            if count == 0 or x + count > width:
-                raise _error(path, f"corrupt run-length data in scanline {row}: a run of {count} at pixel {x} "
-                                   f"of {width}")
-            if values is None:
-                raise _error(path, f"truncated in scanline {row} (run-length encoded)")
-            row_pixels[x:x + count, channel] = values
-            position = value_end
-            x += count
-    return position
-
-
-def _refuse_old_run_length(path: Path, flat_pixels: np.ndarray) -> None:
-    """Refuse flat pixels (1, 1, 1, n): old-style Radiance run-length codes, not read here."""
-    if np.any(np.all(flat_pixels[..., :3] == 1, axis=-1)):
-        raise _error(path, "old-style Radiance run-length encoding (pixels 1, 1, 1, n) is not read")
 
 
 # --- sample count and seed ---------------------------------------------------------------

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core import interrupts
 from .exr import read_channels
+from .rgbe import MITSUBA_OFFSET, RGBEError, rgbe_pixels, rgbe_to_float
 
 
 class BitmapError(ValueError):
@@ -95,42 +96,10 @@ def _read_rgbe(path: Path) -> np.ndarray:
                           "(only the standard '-Y H +X W')")
     height, width = int(size[1]), int(size[3])
     try:
-        rgbe = _rgbe_scanlines(memoryview(data)[size_end + 1:], width, height)
-    except (IndexError, ValueError):
+        rgbe = rgbe_pixels(data, size_end + 1, width, height, exact_end=False)
+    except RGBEError:
         raise BitmapError(f"{path.name}: truncated or corrupt Radiance HDR pixel data") from None
-    exponent = rgbe[:, :, 3:].astype(np.int64)
-    scale = np.where(exponent > 0, np.ldexp(1.0, exponent - 136), 0.0)
-    return rgbe[:, :, :3] * scale
-
-
-def _rgbe_scanlines(data, width: int, height: int) -> np.ndarray:
-    """(H, W, 4) bytes from run-length encoded (per channel) or flat scanlines."""
-    out = np.empty((height, width, 4), dtype=np.uint8)
-    pos = 0
-    for y in range(height):
-        encoded = 8 <= width < 32768 and data[pos] == 2 and data[pos + 1] == 2 and data[pos + 2] < 128
-        if not encoded:                               # flat pixels, 4 bytes each
-            out[y] = np.frombuffer(data[pos:pos + 4 * width], dtype=np.uint8).reshape(width, 4)
-            if np.any(np.all(out[y, :, :3] == 1, axis=1)):
-                raise ValueError("old-style run-length encoding (1, 1, 1, n) is not supported")
-            pos += 4 * width
-            continue
-        pos += 4
-        for channel in range(4):
-            x = 0
-            while x < width:
-                count = data[pos]
-                if count == 0 or x + (count - 128 if count > 128 else count) > width:
-                    raise ValueError("run past the end of the scanline")
-                if count > 128:                       # a run of one value
-                    count -= 128
-                    out[y, x:x + count, channel] = data[pos + 1]
-                    pos += 2
-                else:                                 # literal values
-                    out[y, x:x + count, channel] = np.frombuffer(data[pos + 1:pos + 1 + count], dtype=np.uint8)
-                    pos += 1 + count
-                x += count
-    return out.astype(np.float64)
+    return rgbe_to_float(rgbe, MITSUBA_OFFSET)
 
 
 def _read_pillow(path: Path, raw: bool) -> np.ndarray:
