@@ -63,12 +63,11 @@ MIN_IMAGE_LEVELS = 3
 DEFAULT_TIMEOUT = 600.0
 
 
-def reference_name(scene_file, given=None, params=None, resolution=None) -> str:
+def reference_name(scene_file, file_integrator: str, given=None) -> str:
     """The reference estimator: ``given`` (a Mitsuba type or one of our names), else the file's
-    own ``<integrator>``; a one-line error for one without a reference here."""
+    own ``<integrator>`` (``file_integrator``); a one-line error for one without a reference here."""
     if given is None:
-        _, _, settings = reference_settings(scene_file, params, resolution=resolution)
-        given, where = settings.integrator.name, f"{scene_file}: the file's integrator"
+        given, where = file_integrator, f"{scene_file}: the file's integrator"
     else:
         where = "--reference-integrator"
     if given not in REFERENCES:
@@ -135,10 +134,10 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
     path = scene_path(scene)
     params = {**default_params(scene), **(params or {})}
     check_scene(scene, params)
-    ref_name = reference_name(path, reference, params, resolution)
-    splats = ref_name in SPLATTING_REFERENCES if splatting is None else bool(splatting)
     options = {"max_depth": int(max_depth)} if max_depth is not None else None
     _, transport, settings = reference_settings(path, params, options, resolution)
+    ref_name = reference_name(path, settings.integrator.name, reference)
+    splats = ref_name in SPLATTING_REFERENCES if splatting is None else bool(splatting)
     size = settings.resolution
     estimator = dict(reference_name=ref_name, same_estimator=same_estimator, splatting=splats)
     if command is not None:
@@ -314,23 +313,20 @@ def _check_images(scene, files, params, size, estimator, *, alpha, convergence, 
                      bounces=False, render=lambda *args, **kwargs: (mean, variance),
                      options=options, resolution=resolution, log=log, **estimator)
     result.runs = []                      # nothing was rendered here
+    # compare() found or built the reference: this is the cached file, read once more.
+    reference = get_reference(scene, params, estimator["reference_name"], log=log,
+                              options=reference_options(options), resolution=resolution)
     levels = sorted({image.spp for image in images})
     if convergence and len(levels) >= MIN_IMAGE_LEVELS:
-        reference = get_reference(scene, params, estimator["reference_name"], log=log,
-                                  options=reference_options(options), resolution=resolution)
         parts = ConvergenceParts.of(reference, levels)
-        used = [n for n in parts.ladder]
-        mse = [sum((parts.mse(i.mean) for i in images if i.spp == n), []) for n in used]
-        result.convergence, result.convergence_mse = parts.verdict(mse, reference, alpha,
-                                                                   ladder=used)
-        result.ladder = tuple(used)
+        mse = [sum((parts.mse(i.mean) for i in images if i.spp == n), []) for n in parts.ladder]
+        result.convergence, result.convergence_mse = parts.verdict(mse, reference, alpha)
+        result.ladder = parts.ladder
     elif convergence:
         result.notes.append(f"convergence not judged: the images have {len(levels)} sample "
                             f"count(s), it needs >= {MIN_IMAGE_LEVELS}")
     result.notes.append(f"{len(images)} images; mean and variance from {samples} samples per pixel")
     result.hints = hints(result)
     if out_dir is not None:
-        reference = get_reference(scene, params, estimator["reference_name"], log=log,
-                                  options=reference_options(options), resolution=resolution)
         result.pictures = write_pictures(result, Path(out_dir), mean, variance, reference)
     return result

@@ -22,6 +22,7 @@ renderer: :class:`RendererFault`, which the check reports as a disagreement.
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import shutil
 import tempfile
@@ -211,8 +212,7 @@ class ExternalRenders:
         image = self._read_file(run, run.out)
         if run.out_variance is not None:
             variance = self._read_file(run, run.out_variance)
-            image = ExternalImage(image.path, image.format, image.mean, variance.mean, image.spp,
-                                  image.seed, image.attributes)
+            image = dataclasses.replace(image, variance=variance.mean)
         faults = image_faults(image)
         if faults:
             raise RendererFault([f"{run.describe()}: {fault}" for fault in faults])
