@@ -456,21 +456,19 @@ class ConvergenceParts:
         """The MSE of ``test_mean`` on the whole image (one value)."""
         return image_mse_parts(test_mean, *self.whole)
 
-    def verdict(self, mse, reference, alpha, rare=False, top=0, ladder=None):
+    def verdict(self, mse, reference, alpha, rare=False, top=0):
         """The convergence law on per-level MSE lists (one value per render and part);
         ``rare``: rare bright paths still carried the error with ``top`` replicas.
 
         Returns the :class:`ConvergenceResult` and the MSE arrays (for a filtered film, a
         (blocks, levels) table of each block's mean MSE).
         """
-        ladder = self.ladder if ladder is None else tuple(ladder)
         mse = [np.array(level) for level in mse]
         if self.filtered:   # rows: blocks (each block's mean MSE over its renders), paired
             mse = np.stack([level.reshape(-1, len(self.lattices)).mean(axis=0) for level in mse],
                            axis=1)
-        law = convergence_law(np.array(ladder), mse,
-                              ref_mse_floor=reference_mse_floor(reference.var,
-                                                                pixel_value_counts(reference)),
+        whole_floor = self.whole[1][0]    # the reference's share of the whole image's MSE
+        law = convergence_law(np.array(self.ladder), mse, ref_mse_floor=whole_floor,
                               alpha=alpha, image_mean=float(reference.mean.mean()))
         if rare:
             note = (f"rare bright paths carry the error even with {top} replicas at the top "
