@@ -104,13 +104,17 @@ class ExternalRenders:
         self.seed_offset = int(seed_offset)
         #: None until the probe says whether the renderer writes per-pixel variance.
         self.has_variance = True if template.writes_variance else None
-        self.runs: list[Run] = []
         self._results: dict = {}           # Request -> (mean, variance or None)
         self._plans: list[list[Request]] = []
         self._extend = None
         self._seen: dict = {}              # sha256 of an image -> the run that made it
         self._runs_by_key: dict = {}       # (spp, seed, max_depth) asked for -> its Run
         self._workdir = Path(tempfile.mkdtemp(prefix="mitsuba-refs-check-"))
+
+    @property
+    def runs(self) -> list[Run]:
+        """Every run made so far, in the order they were made."""
+        return list(self._runs_by_key.values())
 
     # ---- the render hook ------------------------------------------------------------------
     def __call__(self, scene, integrator, params, spp, seed, processes=None, max_depth=None,
@@ -195,17 +199,14 @@ class ExternalRenders:
         folder = Path(tempfile.mkdtemp(prefix=f"run-{seed}-", dir=self._workdir))
         out = folder / f"image{self.suffix}"
         out_variance = folder / f"variance{self.suffix}" if self.template.writes_variance else None
-        depth = self.max_depth if max_depth is None else int(max_depth)
         width, height = self.size
         if self.seed_offset:
             seed = (seed * SEED_MULTIPLIER + self.seed_offset * SEED_INCREMENT) % 2 ** 32
         values = {"scene": self.scene_file, "spp": spp, "seed": seed, "out": out,
                   "out_variance": out_variance, "width": width, "height": height,
-                  "max_depth": depth, "defines": self.defines}
-        run = Run(spp, seed, depth if self.template.takes_max_depth else None,
-                  self.template.fill(values), out, out_variance)
-        self.runs.append(run)
-        return run
+                  "max_depth": max_depth, "defines": self.defines}
+        return Run(spp, seed, max_depth if self.template.takes_max_depth else None,
+                   self.template.fill(values), out, out_variance)
 
     # ---- images ---------------------------------------------------------------------------
     def _read(self, run: Run) -> ExternalImage:
