@@ -270,6 +270,42 @@ def test_hostile_submission_scores_nothing_and_leaves_nothing(path, tmp_path):
     assert not (HOSTILE / "pathtracer").exists() and Path(path).exists()
 
 
+MISSTATED = sorted(p for p in (HOSTILE / "misstated").glob("*.py") if not p.name.startswith("_"))
+
+
+@pytest.mark.parametrize("path", MISSTATED, ids=[p.stem for p in MISSTATED])
+def test_misstated_variance_scores_zero_on_the_part_it_attacks(path):
+    """A submission that reports 100x or 0.1x its variance (tests/hostile/misstated): zero on the
+    part the lie attacks, the parts it does not attack as they would be, and a finding that
+    names the ratio; with the reported variance believed, the attack would have worked."""
+    from mitsuba_refs.cache import get_reference
+    from mitsuba_refs.compare import reference_integrator
+    from mitsuba_refs.stats import compare_means, compare_variances
+    expect = constants(path).EXPECT
+    check, trusted = grading.CHECKS_BY_ID[expect["check"]], expect.get("trusted", False)
+    result = grading.run_check(check, str(path), limits=_limits(check), trusted=trusted)
+    assert not result.failure, result.report()
+    for part in result.parts:
+        assert part.passed == (part.name not in expect["zero"]), result.report()
+    ratios = [float(m.group(1)) for f in result.findings
+              for m in [re.search(r"variance your renders reported is ([0-9.]+)x", f)] if m]
+    assert len(ratios) == 1 and 1 / 1.5 < ratios[0] / expect["misstated"] < 1.5, result.report()
+    # The control: one render at the check's spp, its reported variance believed by the
+    # components it scales (the mean part's own-variance tiles and image; the variance part).
+    reference = get_reference(check.scene, grading.check_params(check),
+                              reference_integrator(check.integrator))
+    with StudentProcess(str(path), _limits(check), trusted=trusted) as student:
+        mean, variance = student.render(check.scene, check.integrator, grading.check_params(check),
+                                        check.spp, 1000)
+    alpha = grading.alpha_of(check)
+    believed_mean = compare_means(mean, variance, check.spp, reference.mean, reference.var,
+                                  reference.n, alpha=alpha)
+    believed_variance = compare_variances(variance, check.spp, reference.var, reference.n,
+                                          alpha=alpha)
+    believed = {"mean": bool(believed_mean.agree), "variance": bool(believed_variance.policy_agree)}
+    assert believed[expect["zero"][0]], (believed_mean.verdict, believed_variance.policy_verdict)
+
+
 def test_student_runtime_has_no_solution(tmp_path):
     """The runtime a submission imports from: integrators and camera are the skeleton's stubs,
     no path-class integrator, no references, no grader."""
