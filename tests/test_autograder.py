@@ -15,6 +15,7 @@ import importlib.metadata
 import json
 import os
 import re
+import signal
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -452,6 +453,36 @@ def _run_grader(impl, out, *extra, timeout=900, env_extra=None):
     document = json.loads(Path(out).read_text())
     results.validate(document)
     return proc, document
+
+
+def test_an_interrupt_while_reading_the_reply_is_an_interrupt(monkeypatch):
+    """SIGINT while the grader reads the student's reply: KeyboardInterrupt, the child gone;
+    never a verdict on the submission (a crash, a malformed reply, zero points)."""
+    from autograder.sandbox import wire
+    honest = wire._read_exact
+    reads = []
+
+    def interrupted_read(fd, size, deadline):
+        reads.append(size)
+        if len(reads) == 3:                 # inside the render's reply, after the "ready" frame
+            signal.raise_signal(signal.SIGINT)
+        return honest(fd, size, deadline)
+    monkeypatch.setattr(wire, "_read_exact", interrupted_read)
+    with pytest.raises(KeyboardInterrupt):
+        grading.run_check(QUICK, "autograder.solution", limits=_limits(QUICK))
+    assert len(reads) >= 3 and not _runtime_processes()
+
+
+def test_interrupted_grading_writes_no_grade(tmp_path):
+    """Ctrl-C between two tests (tests/interrupting.py, deterministic): the finished test keeps
+    its score, the rest say they were interrupted, the file says it is no grade, exit 2."""
+    proc, document = _run_grader("autograder.solution", tmp_path / "results.json", "-k",
+                                 "direct-cornell-box or camera", "-p", "tests.interrupting")
+    assert proc.returncode == pytest.ExitCode.INTERRUPTED, proc.stdout[-2000:]
+    assert document["output"] == results.INTERRUPTED
+    first, second = document["tests"]
+    assert first["score"] == first["max_score"] == 10, first
+    assert second["score"] == 0 and second["output"] == results.NOT_RUN_INTERRUPTED, second
 
 
 @pytest.mark.parametrize("assignment", list(grading.ASSIGNMENTS))
