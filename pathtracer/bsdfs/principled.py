@@ -68,11 +68,6 @@ def eta_from_specular(specular: float) -> float:
     return 2.0 / (1.0 - np.sqrt(0.08 * specular)) - 1.0
 
 
-def _is_on(value) -> bool:
-    """A lobe is on when its parameter is a texture or a non-zero number (Mitsuba's get_flag)."""
-    return isinstance(value, Texture) or float(value) != 0.0
-
-
 class Principled(BSDF):
     """Mitsuba's principled BSDF; every parameter but ``eta`` may be a texture.
 
@@ -97,7 +92,7 @@ class Principled(BSDF):
         self.on = {}
         for name, default in SCALAR_DEFAULTS.items():
             value = scalars.get(name, default)
-            self.on[name] = _is_on(value)
+            self.on[name] = lobes.lobe_is_on(value)
             # An off lobe reads 0 wherever Mitsuba skips its texture.
             value = value if self.on[name] or name in ("roughness", "clearcoat_gloss") else 0.0
             setattr(self, _ATTRIBUTE.get(name, name), value if isinstance(value, Texture)

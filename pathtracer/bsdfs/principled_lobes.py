@@ -35,11 +35,17 @@ import numpy as np
 
 from ..core.color import LUMINANCE
 from ..core.vec import dot_einsum
+from ..textures.base import Texture
 
 #: Smallest roughness of the main lobe (Mitsuba's ``calc_dist_params``).
 ALPHA_FLOOR = 0.001
 #: Roughness of the clearcoat's masking term (fixed, as in Burley's notes).
 CLEARCOAT_G_ALPHA = 0.25
+
+
+def lobe_is_on(value) -> bool:
+    """A lobe is on when its parameter is a texture or a non-zero number (Mitsuba's get_flag)."""
+    return isinstance(value, Texture) or float(value) != 0.0
 
 
 def luminance(colour: np.ndarray) -> np.ndarray:
@@ -112,6 +118,14 @@ def principled_fresnel(F_dielectric, metallic, spec_tint, base_color, cos_theta_
         + (1.0 - metallic) * spec_tint * F_tinted
     back = np.asarray(bsdf_weight, dtype=np.float64)[..., None] * F_d
     return np.where(front_side[:, None], front, back)
+
+
+def thin_fresnel(F_dielectric, spec_tint, base_color, cos_theta_i, eta) -> np.ndarray:
+    r"""``principledthin``'s Fresnel factor -> (n, 3):
+    :math:`\mathrm{lerp}(F_d, F_{Schlick}(c/\mathrm{lum}(c)\,R_0(\eta), c_i), t)`."""
+    spec_tint = np.asarray(spec_tint, dtype=np.float64)[..., None]
+    F_tinted = schlick_fresnel(tint(base_color) * schlick_r0(eta)[..., None], cos_theta_i, eta)
+    return (1.0 - spec_tint) * F_dielectric[:, None] + spec_tint * F_tinted
 
 
 def clearcoat_alpha(clearcoat_gloss) -> np.ndarray:
