@@ -347,3 +347,18 @@ def test_mitsuba_textured_parameters(mi):
     _assert_close(bound.pdf(wi, wo), pdf, rtol=1e-3, floor=1e-5, what="textured pdf")
     u1, u2 = _f32(rng.random(2 * n)), _f32(np.clip(rng.random((2 * n, 2)), 1e-6, 1 - 1e-6))
     _compare_samples(bound.sample(wi, u1, u2), theirs.sample(wi, u1, u2, uv), 2 * n)
+
+
+@pytest.mark.mitsuba
+def test_mitsuba_twosided_principled(mi):
+    """Blender's exporter may wrap the material in twosided: the back side is the front's."""
+    from pathtracer.bsdfs import TwoSided
+    params = dict(base_color=[0.8, 0.3, 0.2], roughness=0.3, metallic=0.4, sheen=0.6,
+                  clearcoat=0.7, anisotropic=0.5)
+    ours = TwoSided(Principled(**params))
+    theirs = _MitsubaBSDF(mi, {"type": "twosided", "material": _spec(params)})
+    wi, wo = _pairs(300, 890, ours)
+    value, pdf = theirs.eval_pdf(wi, wo)
+    assert np.count_nonzero(pdf[wi[:, 2] < 0]) > 200
+    _assert_close(ours.eval(wi, wo), value, rtol=1e-3, floor=1e-5, what="twosided eval")
+    _assert_close(ours.pdf(wi, wo), pdf, rtol=1e-3, floor=1e-5, what="twosided pdf")
