@@ -38,7 +38,7 @@ from .rfilter import reference_correlation
 from .stats.detectable import DetectableBias, MeanTestPower
 from .stats.mean import VARIANCE_BOUND
 
-__all__ = ["POWER", "WEAK_BIAS", "Detect", "SppChoice", "parse_bias", "mean_test_power",
+__all__ = ["POWER", "WEAK_BIAS", "Detect", "percent", "SppChoice", "parse_bias", "mean_test_power",
            "comparison_bound", "is_weak", "status_text", "mean_line", "plan", "choose_spp"]
 
 #: The detection probability every printed bound is for.
@@ -60,7 +60,7 @@ FLOOR_SLACK = 1.1
 _MOST_SPP = 1 << 40
 
 
-def _pct(x: float) -> str:
+def percent(x: float) -> str:
     """A bias in percent, as the verdicts write it (``2.4%``, ``13%``, ``0.02%``)."""
     if not math.isfinite(x):
         return "any"
@@ -123,7 +123,7 @@ def _sees(bound: DetectableBias) -> str:
     if not math.isfinite(bound.bias):
         return "a global bias is invisible to it (the reference image is black)"
     where = ", tiles only" if bound.component == "tiles" else ""
-    return (f"detects a global bias of +{_pct(bound.brighter)} / \u2212{_pct(bound.darker)} "
+    return (f"detects a global bias of +{percent(bound.brighter)} / \u2212{percent(bound.darker)} "
             f"with probability {bound.power:g} (alpha {bound.alpha:.2g}{where})")
 
 
@@ -132,7 +132,7 @@ def status_text(result) -> str:
     if not result.agree:
         return "DISAGREES with Mitsuba"
     if is_weak(result):
-        return f"AGREES with Mitsuba, weakly (could not see less than {_pct(result.detectable.bias)})"
+        return f"AGREES with Mitsuba, weakly (could not see less than {percent(result.detectable.bias)})"
     return "AGREES with Mitsuba"
 
 
@@ -144,11 +144,11 @@ def mean_line(result) -> str:
         return verdict
     if is_weak(result):
         verdict = verdict.replace("agree", f"agrees, but could not see less than "
-                                  f"{_pct(bound.bias)}", 1)
+                                  f"{percent(bound.bias)}", 1)
         if bound.floor <= 0.02:
             hint = "--detect 2% picks the spp that would see 2%"
         else:
-            hint = f"the reference's own noise alone hides less than {_pct(bound.floor)}"
+            hint = f"the reference's own noise alone hides less than {percent(bound.floor)}"
         return f"{verdict}; {_sees(bound)}; {hint}"
     return f"{verdict}; {_sees(bound)}"
 
@@ -229,19 +229,19 @@ def plan(model: MeanTestPower, target: float, reference_spp: int, *, seconds_per
     allowed = max(2, int(max_time / seconds_per_spp) // step * step) if seconds_per_spp > 0 \
         else _MOST_SPP
     allowed = max(allowed, 2)
-    what = f"--detect {_pct(target)}"
+    what = f"--detect {percent(target)}"
     pace = (f"{seconds_per_spp:.3g} s per spp in the pilot" if seconds_per_spp > 0 else "")
     if floor > target:
         need_ref = _smallest(lambda r: model.floor(r, power=POWER) <= target, int(reference_spp))
-        close = _smallest(lambda n: bias_at(n) <= FLOOR_SLACK * floor, 2)
+        close = _smallest(lambda n: bias_at(n) <= FLOOR_SLACK * floor, 2) or allowed
         spp = min(max(_round_up(close, step), minimum), max(allowed, 2))
         spp = max(2, min(spp, allowed))
-        needs = (f"a reference of {need_ref:,} spp would have a floor of {_pct(target)}"
+        needs = (f"a reference of {need_ref:,} spp would have a floor of {percent(target)}"
                  if need_ref is not None else "no reference sample count reaches it")
         reason = (f"{what} cannot be met: the reference's own noise ({int(reference_spp)} spp) "
-                  f"alone hides global biases below {_pct(floor)} (its floor); {needs} "
+                  f"alone hides global biases below {percent(floor)} (its floor); {needs} "
                   f"(mitsuba-refs build renders references); rendering {spp} spp, where the test "
-                  f"sees {_pct(bias_at(spp))}")
+                  f"sees {percent(bias_at(spp))}")
         return SppChoice(spp, target, bias_at(spp), None, allowed, floor, need_ref,
                          seconds_per_spp, reason)
     exact = _smallest(lambda n: bias_at(n) <= target, 2)
@@ -250,10 +250,10 @@ def plan(model: MeanTestPower, target: float, reference_spp: int, *, seconds_per
     if spp <= allowed:
         predicted = bias_at(spp)
         if needed <= minimum:
-            reason = (f"{what}: {spp} spp (the default) already sees {_pct(bias_at(spp))} "
+            reason = (f"{what}: {spp} spp (the default) already sees {percent(bias_at(spp))} "
                       f"(the pilot's variance asks for {exact} spp)")
         else:
-            reason = (f"{what}: {spp} spp, where the test sees {_pct(predicted)} (the pilot's "
+            reason = (f"{what}: {spp} spp, where the test sees {percent(predicted)} (the pilot's "
                       f"variance asks for {exact} spp, {margin:g}x for its own noise"
                       + (f"; ~{spp * seconds_per_spp:.0f} s at {pace}" if pace else "") + ")")
         return SppChoice(spp, target, predicted, needed, allowed, floor, None, seconds_per_spp,
@@ -261,8 +261,8 @@ def plan(model: MeanTestPower, target: float, reference_spp: int, *, seconds_per
     spp = allowed
     predicted = bias_at(spp)
     reason = (f"{what} is not met within --max-time {max_time:g} s: {spp} spp (the most it allows "
-              f"at {pace}) sees {_pct(predicted)}; {needed} spp (~{needed * seconds_per_spp:.0f} s) "
-              f"would see {_pct(target)}")
+              f"at {pace}) sees {percent(predicted)}; {needed} spp (~{needed * seconds_per_spp:.0f} s) "
+              f"would see {percent(target)}")
     return SppChoice(spp, target, predicted, needed, allowed, floor, None, seconds_per_spp, reason)
 
 

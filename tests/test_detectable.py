@@ -30,6 +30,7 @@ from mitsuba_refs.detect import (
     plan,
 )
 from mitsuba_refs.errors import RefsInputError
+from mitsuba_refs.report.html import page
 from mitsuba_refs.report.junit import junit_tree
 from mitsuba_refs.report.results import comparison_record
 from mitsuba_refs.stats import VARIANCE_BOUND, compare_means, detectable_bias
@@ -203,6 +204,7 @@ def test_an_agreement_that_could_not_see_five_percent_is_weak(tmp_path):
     assert record["weak"] is True and record["verdicts"]["mean"]["line"] == line
     entry = record["verdicts"]["mean"]["detectable_bias"]
     assert entry["bias"] == result.detectable.bias and entry["weak"] and entry["power"] == 0.95
+    assert f"AGREES with Mitsuba, weakly (could not see less than {shown})" in page([record])
     properties = {p.get("name"): p.get("value") for p in junit_tree([record]).iter("property")}
     assert properties["weak"] == "true"
     assert float(properties["mean.detectable_bias"]) == pytest.approx(result.detectable.bias)

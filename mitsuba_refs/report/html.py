@@ -24,6 +24,7 @@ from pathlib import Path
 from pathtracer.io.exr import read_mean_variance
 from pathtracer.io.output import atomic_path
 
+from ..detect import percent
 from ..errors import one_line
 from . import figures
 from .encoding import to_array, to_float
@@ -216,7 +217,7 @@ def record_section(record: dict, anchor: str) -> str:
     word = "AGREES with Mitsuba" if record["agree"] else "DISAGREES with Mitsuba"
     bound = record["verdicts"].get("mean", {}).get("detectable_bias") or {}
     if record.get("weak") and bound:
-        word += f", weakly (could not see less than {100 * to_float(bound['bias']):.0f}%)"
+        word += f", weakly (could not see less than {percent(to_float(bound['bias']))})"
     reference = record.get("reference") or {}
     size = (f"{reference.get('width')}x{reference.get('height')}" if reference.get("width") else "size unknown")
     meta = (f"renderer: {record['renderer']}; {record['spp']} spp; rendered: {record.get('rendered') or '–'}; "
