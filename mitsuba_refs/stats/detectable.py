@@ -31,7 +31,7 @@ probability
   component rejects with probability :math:`1 - \prod_T (1 - \max_c \pi_{Tc})`. Where a
   few pixels carry most of the image's variance (a caustic, a glossy highlight of a small
   light) the image mean is noisy but the other tiles see a global bias clearly: on
-  ``veach-mis`` the tiles see 17 % where the image mean alone needs 29 %.
+  ``veach-mis`` (``path``, 64 spp) the tiles see 1.8 % where the image mean alone needs 29 %.
 
 The numerical floor of the real test (``rel_floor`` = 1e-5 of the mean) is added to
 :math:`s` and :math:`\sigma`. Three simplifications make the result an **upper bound** on the
