@@ -104,3 +104,17 @@ def test_every_scored_render_is_eight_replicas():
 def test_an_spp_without_a_divisor_is_refused_in_one_line():
     with pytest.raises(ValueError, match="cannot be 1 replicas"):
         scored_render(FakeStudent(), "s", "path", {}, 7, TEST_SEED, replicas=1)
+
+
+def test_one_huge_sample_is_not_shared_noise():
+    """A replica with a firefly moves the replicas' average in that pixel, so every other
+    replica's deviation from the average carries it; from the median none does."""
+    from mitsuba_refs.stats.replicas import shared_noise
+    rng = np.random.default_rng(3)
+    stack = 1.0 + 0.1 * rng.standard_normal((8, 32, 32, 3))
+    stack[2, 5, 7] = 1e4                     # a grazing 1/cos sample, say
+    deviations = (stack - stack.mean(axis=0)).reshape(8, -1)
+    others = deviations[[0, 1]]
+    from_mean = others[0] @ others[1] / np.linalg.norm(others[0]) / np.linalg.norm(others[1])
+    assert from_mean > 0.9                   # what the average would have said
+    assert shared_noise(stack)[2] < 0.1

@@ -15,9 +15,11 @@ variance does (``K - 1`` degrees of freedom per pixel; the mean and variance tes
 over tiles and the image, so a tile's variance keeps hundreds of them).
 
 Replicas that share part of their noise (a seed ignored, one random stream reused) make the
-spread too small. Independent replicas' deviations from their average correlate at exactly
-:math:`-1/(K-1)`; two that share a fraction :math:`s` of their noise correlate near :math:`s`
-(:func:`shared_noise`).
+spread too small. Two that share a fraction :math:`s` of their noise have deviations from the
+replicas' per-pixel *median* that correlate near :math:`s`; independent ones near 0 (-0.09 for
+8 Gaussian replicas) (:func:`shared_noise`). The median, not the average: one replica with a
+huge sample in a pixel moves the average there, so that every other replica's deviation from it
+would carry the same large value and they would all seem to share their noise.
 """
 from __future__ import annotations
 
@@ -43,16 +45,16 @@ def replica_moments(stack, samples_per_replica: int = 1):
 
 def shared_noise(stack):
     """The most correlated pair of replicas: ``(k, l, correlation)`` of their deviations from
-    the replicas' average, or None for fewer than 3 replicas or an image without noise.
+    the replicas' per-pixel median, or None for fewer than 3 replicas or an image without noise.
 
-    Independent replicas give about ``-1 / (K - 1)``; the standard error of one pair's
-    correlation is about ``1 / sqrt(H W C)`` (0.01 for 64 x 48 x 3).
+    Independent replicas give about 0 (-0.09 for 8, -0.25 for 4); the standard error of one
+    pair's correlation is about ``1 / sqrt(H W C)`` (0.01 for 64 x 48 x 3).
     """
     stack = np.asarray(stack, dtype=np.float64)
     count = stack.shape[0]
     if count < 3:
         return None
-    deviations = (stack - stack.mean(axis=0)).reshape(count, -1)
+    deviations = (stack - np.median(stack, axis=0)).reshape(count, -1)
     norms = np.sqrt(np.einsum("ij,ij->i", deviations, deviations))
     if not np.all(norms > 0):
         return None
@@ -60,8 +62,3 @@ def shared_noise(stack):
     np.fill_diagonal(correlation, -np.inf)
     k, l = np.unravel_index(int(np.argmax(correlation)), correlation.shape)
     return int(k), int(l), float(correlation[k, l])
-
-
-def independent_correlation(count: int) -> float:
-    """The correlation of two independent replicas' deviations from the average of ``count``."""
-    return -1.0 / (count - 1)
