@@ -30,11 +30,12 @@ from .constant import ConstantEmitter
 from .directional import DirectionalEmitter
 from .envmap import EnvironmentMap
 from .point import PointEmitter
+from .projector import ProjectorEmitter
 from .spot import SpotEmitter
 
 #: Every emitter class (the order of the supported list in the loader's messages).
 EMITTER_CLASSES = (AreaEmitter, PointEmitter, SpotEmitter, DirectionalEmitter, ConstantEmitter,
-                   EnvironmentMap)
+                   EnvironmentMap, ProjectorEmitter)
 
 
 def hit_emitter(scene: Scene, hit) -> np.ndarray:
