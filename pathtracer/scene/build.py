@@ -245,6 +245,10 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         if emitter_plugin is not None:
             _attach(emitter_plugin, plugin, attached)
             emitters.append(build_emitter(emitter_plugin, folders, shape_id))
+            if getattr(emitters[-1], "by_texture", False) and geo.kind[shape_id] != "mesh":
+                raise emitter_plugin.error(
+                    f"a textured radiance on a {geo.kind[shape_id]} is not supported (only on "
+                    "meshes: rectangle, cube, obj, ply, serialized)")
             shape_emitter.append(len(emitters) - 1)
         else:
             shape_emitter.append(-1)
