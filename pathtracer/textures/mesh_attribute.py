@@ -124,19 +124,25 @@ def create(plugin: Plugin, folders: list[str], cache: dict) -> MeshAttribute:
     return MeshAttribute(name, scale, plugin)
 
 
+#: Attributes that read their texture as one number per hit (``eval_1``) besides a BSDF's
+#: ``scalar_texture_params``: a blend's weight and a mask's opacity.
+SCALAR_NAMES = ("weight", "opacity")
+
+
 def textures_in(obj, seen=None):
-    """Every :class:`MeshAttribute` reachable from a BSDF, texture or emitter (its attributes,
-    nested BSDFs and textures, tuples of them)."""
+    """``(texture, as_scalar)`` for every :class:`MeshAttribute` reachable from a BSDF,
+    texture or emitter (its attributes, nested BSDFs and textures, tuples of them);
+    ``as_scalar`` where its owner reads one number per hit from it."""
     seen = set() if seen is None else seen
     if id(obj) in seen:
         return
     seen.add(id(obj))
-    if isinstance(obj, MeshAttribute):
-        yield obj
-        return
-    values = obj if isinstance(obj, (list, tuple)) else vars(obj).values()
-    for value in values:
-        if isinstance(value, (list, tuple)) or _is_plugin_object(value):
+    items = enumerate(obj) if isinstance(obj, (list, tuple)) else vars(obj).items()
+    scalar = set(getattr(obj, "scalar_texture_params", ())) | set(SCALAR_NAMES)
+    for name, value in items:
+        if isinstance(value, MeshAttribute):
+            yield value, name in scalar
+        elif isinstance(value, (list, tuple)) or _is_plugin_object(value):
             yield from textures_in(value, seen)
 
 
@@ -153,13 +159,18 @@ def bind_mesh_attributes(users, shape_attributes: dict, shape_prim, shape_name) 
 
     ``users`` is ``[(shape index, object)]``: each shape with its BSDF and, where it emits,
     its area emitter. A shape without the attribute is refused (Mitsuba fails when it
-    renders: "Invalid attribute requested").
+    renders: "Invalid attribute requested"), and so is a three-channel attribute where one
+    number is read (Mitsuba's ``eval_attribute_1`` throws).
     """
     for shape, obj in users:
-        for texture in textures_in(obj):
+        for texture, as_scalar in textures_in(obj):
             table = shape_attributes.get(shape, {}).get(texture.name)
             if table is None:
                 have = sorted(shape_attributes.get(shape, {}))
                 raise texture._error(f"the shape {shape_name[shape]} has no attribute "
                                      f"\"{texture.name}\" (it has: {', '.join(have) or 'none'})")
+            if as_scalar and table.shape[-1] != 1:
+                raise texture._error(f"attribute \"{texture.name}\" has {table.shape[-1]} "
+                                     "channels where one value is needed (a roughness, weight "
+                                     "or opacity)")
             texture.bind(shape, table, int(shape_prim[shape][0]))
