@@ -64,6 +64,7 @@ MEDIA_SCENES = tuple(f"lecture-media-{step}" for step in (1, 2, 3, 4))
 #: name -> (our integrators with a reference, width, height)
 FEATURE_SCENES = {
     "materials": (("path", "path_bsdf", "path_nee"), 32, 32),
+    "principled": (("path",), 32, 32),
     "caustics": (("path", "light"), 32, 32),
     **{scene: (("volpath",), 32, 32) for scene in MEDIA_SCENES},
 }
