@@ -120,6 +120,14 @@ def test_splatting_integrators_refuse_the_sensor(tmp_path, kind, extra, integrat
         render(scene, integrator, spp=1, seed=0, processes=1)
 
 
+def test_bdpt_strategy_images_refuse_the_thin_lens(tmp_path):
+    from pathtracer.integrators.bdpt import BDPTIntegrator
+    from pathtracer.render.strategies import render_strategies
+    _, scene = load(tmp_path, "thinlens", '<float name="aperture_radius" value="0.1"/>')
+    with pytest.raises(ValueError, match="the bdpt integrator does not support the thinlens sensor"):
+        render_strategies(scene, BDPTIntegrator(max_depth=3), spp=1, seed=0)
+
+
 @pytest.mark.parametrize("kind,extra", [
     ("orthographic", '<float name="near_clip" value="0.3"/>'),
     ("thinlens", '<float name="fov" value="40"/><float name="aperture_radius" value="0.2"/>'
