@@ -310,7 +310,10 @@ def check_framing(path, mi_scene, settings):
     if size != settings.resolution:
         raise ValueError(f"{path}: Mitsuba's film is {size[0]}x{size[1]}, the tracer's "
                          f"{settings.resolution[0]}x{settings.resolution[1]}")
-    x_fov = float(np.ravel(np.array(mi.traverse(sensor)["x_fov"]))[0])
+    params = mi.traverse(sensor)
+    if "x_fov" not in params:   # an orthographic sensor has no field of view
+        return
+    x_fov = float(np.ravel(np.array(params["x_fov"]))[0])
     if abs(x_fov - settings.camera.x_fov) > 1e-3:
         raise ValueError(f"{path}: Mitsuba's horizontal field of view is {x_fov:.4f} degrees, "
                          f"the tracer's {settings.camera.x_fov:.4f}")
