@@ -45,7 +45,6 @@ from ..core import sampling
 from ..core.vec import dot_einsum
 from ..scene.properties import Props
 from ..scene.registry import register
-from ..textures.base import Texture
 from . import principled_lobes as lobes
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .fresnel import fresnel_dielectric, reflect_about, refract_about
@@ -85,18 +84,9 @@ class Principled(BSDF):
                  diffuse_reflectance_sampling_rate: float = 1.0,
                  main_specular_sampling_rate: float = 1.0, clearcoat_sampling_rate: float = 1.0,
                  **scalars):
-        unknown = set(scalars) - set(SCALAR_DEFAULTS)
-        if unknown:
-            raise TypeError(f"unknown principled parameters: {', '.join(sorted(unknown))}")
+        lobes.set_scalars(self, "principled", scalars, SCALAR_DEFAULTS, _ATTRIBUTE,
+                          always=("roughness", "clearcoat_gloss"))
         self.base_color = as_colour_or_texture(base_color)
-        self.on = {}
-        for name, default in SCALAR_DEFAULTS.items():
-            value = scalars.get(name, default)
-            self.on[name] = lobes.lobe_is_on(value)
-            # An off lobe reads 0 wherever Mitsuba skips its texture.
-            value = value if self.on[name] or name in ("roughness", "clearcoat_gloss") else 0.0
-            setattr(self, _ATTRIBUTE.get(name, name), value if isinstance(value, Texture)
-                    else float(value))
         has_st = self.on["spec_trans"]
         if eta is None:
             specular = 1e-3 if has_st and specular == 0.0 else float(specular)

@@ -48,6 +48,22 @@ def lobe_is_on(value) -> bool:
     return isinstance(value, Texture) or float(value) != 0.0
 
 
+def set_scalars(bsdf, kind: str, given: dict, defaults: dict, attribute: dict, always=()) -> None:
+    """Set ``bsdf``'s scalar parameters (numbers or textures) from ``given`` over ``defaults``,
+    and ``bsdf.on[name]`` (:func:`lobe_is_on`). An off lobe's parameter reads 0 (Mitsuba skips
+    its texture) unless it is in ``always``; ``attribute`` renames a parameter's attribute."""
+    unknown = set(given) - set(defaults)
+    if unknown:
+        raise TypeError(f"unknown {kind} parameters: {', '.join(sorted(unknown))}")
+    bsdf.on = {}
+    for name, default in defaults.items():
+        value = given.get(name, default)
+        bsdf.on[name] = lobe_is_on(value)
+        value = value if bsdf.on[name] or name in always else 0.0
+        setattr(bsdf, attribute.get(name, name),
+                value if isinstance(value, Texture) else float(value))
+
+
 def luminance(colour: np.ndarray) -> np.ndarray:
     """Luminance of (3,) or (n, 3) linear RGB -> () or (n,)."""
     return np.asarray(colour) @ LUMINANCE

@@ -62,17 +62,9 @@ class PrincipledThin(BSDF):
                  specular_transmittance_sampling_rate: float = 1.0,
                  diffuse_reflectance_sampling_rate: float = 1.0,
                  diffuse_transmittance_sampling_rate: float = 1.0, **scalars):
-        unknown = set(scalars) - set(SCALAR_DEFAULTS)
-        if unknown:
-            raise TypeError(f"unknown principledthin parameters: {', '.join(sorted(unknown))}")
+        lobes.set_scalars(self, "principledthin", scalars, SCALAR_DEFAULTS, _ATTRIBUTE,
+                          always=_ALWAYS)
         self.base_color = as_colour_or_texture(base_color)
-        self.on = {}
-        for name, default in SCALAR_DEFAULTS.items():
-            value = scalars.get(name, default)
-            self.on[name] = lobes.lobe_is_on(value)
-            value = value if self.on[name] or name in _ALWAYS else 0.0
-            setattr(self, _ATTRIBUTE.get(name, name), value if isinstance(value, Texture)
-                    else float(value))
         self.rates = (float(specular_reflectance_sampling_rate),
                       float(specular_transmittance_sampling_rate),
                       float(diffuse_reflectance_sampling_rate),
