@@ -5,8 +5,8 @@ Mitsuba's scalar film weights samples with a 31-entry table of the filter
 Mitsuba's vectorised variants use. So the samples are rendered as for a box film
 (:mod:`mitsuba_refs.batch`: ``k`` copies of the camera side by side, one sample per pixel,
 the C++ estimator alone), the film position of each is computed exactly as Mitsuba drew it
-(:mod:`mitsuba_refs.positions`), and NumPy splats them with the tracer's own filter code
-(:func:`pathtracer.sensors.film.splat`). Per pixel ``p`` this accumulates over all
+(:mod:`mitsuba_refs.positions`), and NumPy splats them with the tracer's filter weights
+(:meth:`pathtracer.sensors.film.ReconstructionFilter.eval`). Per pixel ``p`` this accumulates over all
 ``n`` samples of the whole film
 
 .. math::
@@ -23,12 +23,10 @@ filtered film's: ``n`` per pixel, uniform in it (no sample border).
 A sample is grouped with the pixel the box film stored it in; the rare one whose traced
 position lies outside that pixel (float32 rounding of ``pixel + u`` up to the pixel's right
 edge, or of the batch sensor's copy index across a copy boundary) is moved to where it was
-traced (:func:`_move`).
+traced (:meth:`FilteredSums.add`).
 """
 
 import numpy as np
-
-from pathtracer.sensors.film import splat
 
 from .batch import batch_sensor, copies_per_call
 from .positions import BLOCK_SIZE, batch_positions, check_positions
@@ -36,63 +34,80 @@ from .seeds import pass_seeds
 
 
 class FilteredSums:
-    """Running per-pixel ``sum w``, ``sum w f``, ``sum w f^2`` (float64) of one film."""
+    """Running per-pixel ``sum w``, ``sum w f``, ``sum w f^2`` (float64) of one film.
+
+    The sums are kept on the film padded by the filter's reach on every side, so that a
+    sample's weights on pixels outside the image land in the padding and are dropped
+    (:meth:`moments` crops it), as Mitsuba's film drops them.
+    """
 
     def __init__(self, rfilter, width, height):
         self.rfilter, self.width, self.height = rfilter, width, height
-        size = width * height
-        self.w, self.wf, self.wf2 = np.zeros(size), np.zeros((size, 3)), np.zeros((size, 3))
+        self.reach = rfilter.reach
+        pad = 2 * self.reach
+        # channels: w, w f (R, G, B), w f^2 (R, G, B)
+        self.sums = np.zeros((height + pad, width + pad, 7))
+
+    def _weights(self, u):
+        """Per-axis weights (..., K) of samples at offsets ``u`` in their pixels for the
+        pixel offsets ``-reach..reach``, from the tracer's filter (:meth:`eval`)."""
+        offsets = np.arange(-self.reach, self.reach + 1, dtype=np.float64)
+        return self.rfilter.eval(offsets + 0.5 - u[..., None])
+
+    @staticmethod
+    def _terms(values):
+        """``(1, f, f^2)`` per sample: (..., 7)."""
+        ones = np.ones(values.shape[:-1] + (1,))
+        return np.concatenate([ones, values, values * values], axis=-1)
 
     def add(self, values, x, y):
         """Add samples ``values`` (H, S, W, 3) traced at film positions ``x``, ``y`` (H, S, W):
         ``S`` samples of every pixel, each stored in the pixel of its row and column."""
         height, samples, width = x.shape
-        rows = np.arange(height)[:, None, None]
-        cols = np.arange(width)[None, None, :]
-        u = np.stack([x - cols, y - rows], axis=-1)                       # (H, S, W, 2)
+        u = np.stack([x - np.arange(width)[None, None, :],
+                      y - np.arange(height)[:, None, None]], axis=-1)       # (H, S, W, 2)
         clipped = np.clip(u, 0.0, 1.0)
-        pixel = np.arange(height * width)
-        per_pixel = [a.transpose(0, 2, 1, 3).reshape(height * width, samples, -1)
-                     for a in (clipped, values)]
-        self._accumulate(1.0, splat(self.rfilter, width, height, pixel, *per_pixel))
+        # per pixel and pixel offset (oy, ox): sum over its samples of wy wx (1, f, f^2)
+        wx = self._weights(clipped[..., 0]).transpose(0, 2, 1, 3)          # (H, W, S, K)
+        wy = self._weights(clipped[..., 1]).transpose(0, 2, 3, 1)          # (H, W, K, S)
+        terms = self._terms(values).transpose(0, 2, 1, 3)                   # (H, W, S, 7)
+        k = 2 * self.reach + 1
+        for c in range(terms.shape[-1]):
+            block = (wy * terms[:, :, None, :, c]) @ wx                    # (H, W, K, K)
+            for oy in range(k):
+                for ox in range(k):
+                    self.sums[oy:oy + height, ox:ox + width, c] += block[:, :, oy, ox]
         moved = np.nonzero(np.any(u != clipped, axis=-1))
         if moved[0].size:
-            row, col = moved[0], moved[2]
-            self._move(row * width + col, clipped[moved], values[moved], x[moved], y[moved])
+            rows, cols = moved[0], moved[2]
+            self._scatter(-1.0, rows, cols, clipped[moved], values[moved])
+            self._move(values[moved], x[moved], y[moved])
 
-    def _move(self, stored, u_stored, values, x, y):
-        """Take samples out of the pixels ``stored`` (at ``u_stored``, where :meth:`add` put
-        them) and splat them where they were traced, ``(x, y)``."""
-        col = np.clip(np.floor(x).astype(np.int64), 0, self.width - 1)
-        row = np.clip(np.floor(y).astype(np.int64), 0, self.height - 1)
-        traced = row * self.width + col
-        u_traced = np.stack([x - col, y - row], axis=-1)
-        self._scattered(-1.0, stored, u_stored, values)
-        self._scattered(1.0, traced, u_traced, values)
+    def _move(self, values, x, y):
+        """Splat samples where they were traced, ``(x, y)`` (pixels), after :meth:`add` has
+        taken them out of the pixel the box film stored them in."""
+        cols = np.clip(np.floor(x).astype(np.int64), 0, self.width - 1)
+        rows = np.clip(np.floor(y).astype(np.int64), 0, self.height - 1)
+        self._scatter(1.0, rows, cols, np.stack([x - cols, y - rows], axis=-1), values)
 
-    def _scattered(self, sign, pixel, u, values):
-        """Splat one sample per entry; entries that share a pixel go in separate rounds
-        (:func:`splat` takes distinct pixels)."""
-        left = np.arange(pixel.size)
-        while left.size:
-            _, first = np.unique(pixel[left], return_index=True)
-            now = left[first]
-            sums = splat(self.rfilter, self.width, self.height, pixel[now],
-                         u[now][:, None, :], values[now][:, None, :])
-            self._accumulate(sign, sums)
-            left = np.delete(left, first)
-
-    def _accumulate(self, sign, sums):
-        w, wf, wf2 = sums
-        self.w += sign * w
-        self.wf += sign * wf
-        self.wf2 += sign * wf2
+    def _scatter(self, sign, rows, cols, u, values):
+        """Add ``sign`` times the weighted terms of single samples in pixels ``(rows,
+        cols)`` at offsets ``u`` (M, 2) (repeated pixels allowed)."""
+        k = 2 * self.reach + 1
+        wx, wy = self._weights(u[:, 0]), self._weights(u[:, 1])            # (M, K)
+        weights = wy[:, :, None] * wx[:, None, :]                           # (M, K, K)
+        terms = sign * weights[..., None] * self._terms(values)[:, None, None, :]
+        target_rows = rows[:, None, None] + np.arange(k)[None, :, None]     # padded rows
+        target_cols = cols[:, None, None] + np.arange(k)[None, None, :]
+        np.add.at(self.sums, (np.broadcast_to(target_rows, weights.shape),
+                              np.broadcast_to(target_cols, weights.shape)), terms)
 
     def moments(self):
         """``(m1, m2)``: (H, W, 3) weighted first and second moments."""
-        shape = (self.height, self.width, 3)
-        w = self.w[:, None]
-        return (self.wf / w).reshape(shape), (self.wf2 / w).reshape(shape)
+        r = self.reach
+        inner = self.sums[r:r + self.height, r:r + self.width]
+        w = inner[..., :1]
+        return inner[..., 1:4] / w, inner[..., 4:7] / w
 
 
 def integrator_with_blocks(nested):
