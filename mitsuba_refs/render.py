@@ -8,7 +8,10 @@ matching one of ours. Per-pixel mean and per-sample variance come from single
 samples (:mod:`mitsuba_refs.batch`: ``k`` copies of the camera side by side,
 one sample per pixel each, no Python per sample) in ``scalar_rgb``; in JIT
 variants the ``rgb_moments`` wrapper (:mod:`mitsuba_refs.moments`), which
-runs there once per wavefront (:func:`default_method`).
+runs there once per wavefront (:func:`default_method`). A tent or gaussian film's
+samples are weighted by Mitsuba's film in JIT variants, and in ``scalar_rgb``, whose
+film tabulates the weights, by NumPy at their recomputed positions
+(:mod:`mitsuba_refs.filtered`; :func:`choose_method`).
 
 Integrator mapping (ours -> Mitsuba):
 
@@ -390,7 +393,7 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         ``batch``: single samples from a batch of camera copies (no Python per
         sample); ``moments``: the ``rgb_moments`` wrapper (one Python call per
         sample in ``scalar_rgb``, per wavefront in JIT variants). Same
-        statistics. Default: :func:`default_method`.
+        statistics. Default and the combinations allowed: :func:`choose_method`.
 
     Returns
     -------
