@@ -27,6 +27,8 @@ import functools
 
 import numpy as np
 
+from .batch import batch_sensor
+
 #: Block size given to the integrator (``block_size``), so that Mitsuba's choice of it
 #: cannot depend on the number of threads.
 BLOCK_SIZE = 32
@@ -216,8 +218,7 @@ def position_error(copies, width, height, seed):
     """
     import mitsuba as mi
 
-    from .batch import batch_sensor
-    from .integrators._common import make_class
+    from .integrators._common import make_class  # Mitsuba's classes: a variant must be set
     mi.register_integrator("refs_ray_probe", lambda props, cls=make_class(_RayProbe): cls(props))
     sensor = mi.load_dict({
         "type": "perspective", "fov": 40,
