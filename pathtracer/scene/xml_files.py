@@ -130,11 +130,18 @@ class FileState:
         if real in self.chain or len(self.chain) > MAX_INCLUDE_DEPTH:
             cycle = " -> ".join(os.path.basename(p) for p in self.chain + (real,))
             raise SceneError(f"include cycle {cycle}", el.file, el.line, "<include>")
-        display = os.path.relpath(real, top_dir)
-        if display.startswith(".."):
-            display = real
-        root = read_elements(target, display)
+        root = read_elements(target, display_name(target, top_dir))
         return root, FileState([root.folder] + self.lookup, self.chain + (real,))
+
+
+def display_name(path: str, top_dir: str) -> str:
+    """The name messages give an included file: relative to the top-level scene's folder
+    ``top_dir`` (``parts/bad.xml``, ``../lib/mid.xml``), as docs/scene-format.md says; an
+    absolute path only where none relative exists (another drive on Windows)."""
+    try:
+        return os.path.relpath(os.path.abspath(path), top_dir)
+    except ValueError:
+        return os.path.abspath(path)
 
 
 def find_in(name: str, folders: list[str]) -> str | None:
