@@ -146,6 +146,19 @@ def test_errors_inside_included_files_name_that_file(tree):
         os.path.join("parts", "bad.xml") + ':4: <bsdf type="hair">: unsupported BSDF')
 
 
+def test_included_files_outside_the_scene_folder_are_named_relative_to_it(tree):
+    """``../lib/bad.xml``, not an absolute path (docs/scene-format.md: relative to the
+    top-level scene), also for a file included by an included file."""
+    write(tree / "lib" / "bad.xml", scene_text('\n\n<bsdf type="hair"/>'))
+    write(tree / "lib" / "mid.xml", scene_text('<include filename="bad.xml"/>'))
+    for name in ("../lib/bad.xml", "../lib/mid.xml"):
+        path = write(tree / "scene" / "main.xml", scene_text(f'<include filename="{name}"/>'))
+        with pytest.raises(SceneError) as info:
+            load_scene(path)
+        assert str(info.value).startswith(
+            os.path.join("..", "lib", "bad.xml") + ':4: <bsdf type="hair">: unsupported BSDF')
+
+
 def test_missing_include_names_the_including_line(tree):
     path = write(tree / "scene" / "main.xml", scene_text('\n<include filename="nothere.xml"/>'))
     with pytest.raises(SceneError, match=r'main.xml:3: <include>: file "nothere.xml" not found'):
