@@ -151,7 +151,7 @@ def tracer_verdict(path: str, timeout: float) -> tuple[bool, str, str]:
             integrator_for(load_scene(path))
     except TimeoutError as e:
         return False, "tracer timed out", str(e)
-    except Exception as e:  # noqa: BLE001  (any refusal or crash is recorded, not raised)
+    except Exception as e:   # any refusal or crash is recorded, not raised
         return False, feature_of(e), str(e).splitlines()[0] if str(e) else type(e).__name__
     return True, "", ""
 
@@ -282,6 +282,7 @@ def table(entries: list[Entry], folder: str, mitsuba_checked: bool) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The command line of the script."""
     p = argparse.ArgumentParser(prog="python -m experiments.scene_coverage",
                                 description=__doc__.split("\n\n")[0])
     p.add_argument("folder", metavar="DIR", help="folder of Mitsuba XML files (searched recursively)")
@@ -299,6 +300,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    """Classify, optionally compare, print the table, write the JSON; 2 for a bad folder."""
     args = build_parser().parse_args(argv)
     if not os.path.isdir(args.folder):
         print(f"error: {args.folder} is not a folder", file=sys.stderr)
