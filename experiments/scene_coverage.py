@@ -32,6 +32,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 import warnings
 from collections import Counter
@@ -124,8 +125,9 @@ def feature_of(error: Exception) -> str:
 
 @contextlib.contextmanager
 def time_limit(seconds: float):
-    """Raise TimeoutError in this thread after ``seconds`` (Unix; no limit elsewhere)."""
-    if not hasattr(signal, "SIGALRM") or seconds <= 0:
+    """Raise TimeoutError after ``seconds`` (Unix, main thread; no limit elsewhere)."""
+    if (not hasattr(signal, "SIGALRM") or seconds <= 0
+            or threading.current_thread() is not threading.main_thread()):
         yield
         return
 

@@ -34,7 +34,7 @@ from ..sensors.film import effective_counts
 from ..sensors.perspective import camera_rays
 from ..shapes import intersect
 from .allocator import keep_freed_memory
-from .jobs import CameraJob, FilteredJob
+from .jobs import CameraJob, FilteredJob, sample_grid_size
 from .moments import film_sums, filtered_mean_and_variance, mean_and_variance, merge_sums, pixel_statistics
 from .resources import POOL_UNITS
 from .result import RenderResult
@@ -160,7 +160,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
     if spp < 1:
         raise ValueError(f"spp must be >= 1, got {spp}")
     n_pixels = scene.camera.width * scene.camera.height
-    units = plan_units(n_pixels, spp, batch_size)
+    units = plan_units(sample_grid_size(scene.camera), spp, batch_size)
     processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
     if progress is None:
         progress = sys.stderr.isatty() and n_pixels * spp >= 1 << 20
