@@ -474,3 +474,12 @@ def test_moment_integrator_renders_its_nested_integrator(tmp_path):
     path.write_text(f'<scene version="3.0.0">\n<integrator type="moment"/>{SENSOR}</scene>')
     with pytest.raises(SceneError, match="m.xml:2: .*exactly one nested <integrator>"):
         load_scene(str(path))
+
+
+def test_a_root_other_than_scene_names_its_element(tmp_path):
+    path = tmp_path / "fragment.xml"
+    path.write_text('<?xml version="1.0"?>\n<shape type="sphere"/>\n')
+    with pytest.raises(SceneError) as info:
+        load_scene(str(path))
+    assert str(info.value) == ('fragment.xml:2: <shape>: the root element must be <scene>, '
+                               'not <shape>')

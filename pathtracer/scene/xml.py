@@ -213,7 +213,7 @@ class _Reader:
     def check_root(self, root: Element) -> None:
         if root.tag != "scene":
             raise SceneError(f"the root element must be <scene>, not <{root.tag}>",
-                             root.file, root.line)
+                             root.file, root.line, f"<{root.tag}>")
         attrs = self.substitute(root, "<scene>")
         unknown = set(attrs) - {"version"}
         if unknown:
