@@ -179,8 +179,10 @@ def mitsuba_verdict(python: str, path: str, timeout: float) -> tuple[str, str]:
     return "refuses", text
 
 
-def classify(folder: str, timeout: float, use_mitsuba: bool, jobs: int) -> tuple[list[Entry], bool]:
-    """The class of every XML file under ``folder``, and whether Mitsuba was asked."""
+def classify(folder: str, timeout: float, use_mitsuba: bool, jobs: int,
+             progress: bool = False) -> tuple[list[Entry], bool]:
+    """The class of every XML file under ``folder``, and whether Mitsuba was asked
+    (``progress``: a line on stderr per file loaded)."""
     names = xml_files(folder)
     roots, included, reads = read_files(folder, names)
     entries = {name: Entry(name) for name in names}
@@ -208,17 +210,23 @@ def classify(folder: str, timeout: float, use_mitsuba: bool, jobs: int) -> tuple
         with ThreadPoolExecutor(max(1, jobs)) as pool:
             answers = pool.map(lambda n: mitsuba_verdict(python, os.path.join(folder, n), timeout),
                                candidates)
-            for name, (verdict, text) in zip(candidates, answers):
+            for i, (name, (verdict, text)) in enumerate(zip(candidates, answers)):
                 entries[name].mitsuba = text or verdict
+                if progress:
+                    print(f"[Mitsuba {i + 1}/{len(candidates)}] {name}: {verdict}",
+                          file=sys.stderr, flush=True)
                 if verdict == "refuses":
                     entries[name].cls = "refused by Mitsuba"
                 elif verdict == "timeout":
                     entries[name].cls = "Mitsuba timed out"
-    for name in candidates:
+    for i, name in enumerate(candidates):
         entry = entries[name]
         start = time.perf_counter()
         loads, feature, message = tracer_verdict(os.path.join(folder, name), timeout)
         entry.seconds = round(time.perf_counter() - start, 3)
+        if progress:
+            print(f"[{i + 1}/{len(candidates)}] {name}: {'loads' if loads else feature} "
+                  f"({entry.seconds:.1f} s)", file=sys.stderr, flush=True)
         if not entry.cls:
             entry.cls = "loads" if loads else "blocked"
             entry.feature, entry.message = feature, message
@@ -293,6 +301,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seconds for one load, by Mitsuba or the tracer (default 120)")
     p.add_argument("--no-mitsuba", action="store_true", help="do not ask Mitsuba, even if importable")
     p.add_argument("--jobs", type=int, default=2, help="Mitsuba loads at once (default 2)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.add_argument("--compare", action="store_true",
                    help="run mitsuba-refs compare on every file that loads (renders: slow)")
     p.add_argument("--resolution", default="64x48", help="film size of --compare (default 64x48)")
@@ -307,7 +316,8 @@ def main(argv=None) -> int:
     if not os.path.isdir(args.folder):
         print(f"error: {args.folder} is not a folder", file=sys.stderr)
         return 2
-    entries, mitsuba_checked = classify(args.folder, args.timeout, not args.no_mitsuba, args.jobs)
+    entries, mitsuba_checked = classify(args.folder, args.timeout, not args.no_mitsuba, args.jobs,
+                                        progress=not args.quiet)
     if args.compare:
         compare_loaded(args.folder, entries, args.compare_timeout, args.resolution)
     print(table(entries, args.folder, mitsuba_checked))
