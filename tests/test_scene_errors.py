@@ -274,10 +274,6 @@ SENSOR_CASES = {
         SENSOR.replace('<rfilter type="box"/>',
                        f'<rfilter type="gaussian">\n<float name="radius" value="2"/>{MARK}</rfilter>'),
         '<rfilter type="gaussian">', 'unsupported property "radius"'),
-    "sample border": (
-        SENSOR.replace('<rfilter type="box"/>',
-                       f'<rfilter type="tent"/>\n<boolean name="sample_border" value="true"/>{MARK}'),
-        '<film type="hdrfilm">', "sample_border = true is not supported with a tent filter"),
     "crop": (
         SENSOR.replace('<rfilter type="box"/>', f'<rfilter type="box"/>\n<integer name="crop_width" value="8"/>{MARK}'),
         '<film type="hdrfilm">', 'crop_width is not supported'),

@@ -22,7 +22,7 @@ import numpy as np
 
 from . import spectra, transform, upgrade
 from .errors import SceneError
-from .xml_files import Element, FileState, find_in, path_folder, read_elements
+from .xml_files import Element, FileState, find_in, read_elements, resolve_folder
 
 # Elements that instantiate a plugin (they carry a ``type`` attribute).
 PLUGIN_TAGS = {"shape", "bsdf", "emitter", "sensor", "film", "sampler",
@@ -253,10 +253,10 @@ class _Reader:
         attrs = self.substitute(el, "<path>")
         if set(attrs) != {"value"}:
             raise SceneError("<path> needs exactly the attribute value", el.file, el.line, "<path>")
-        folder = path_folder(el, attrs["value"])
-        if not os.path.isdir(folder):
-            raise SceneError(f"folder \"{attrs['value']}\" not found (looked for {folder})",
-                             el.file, el.line, "<path>")
+        folder, tried = resolve_folder(el, attrs["value"], state.lookup)
+        if folder is None:
+            raise SceneError(f"folder \"{attrs['value']}\" not found (looked for "
+                             f"{', '.join(tried)})", el.file, el.line, "<path>")
         state.add_path(folder)
         if top:
             # Only the top-level file's <path>s reach mesh and texture
