@@ -35,9 +35,11 @@ def film_filter(film):
         raise ValueError(f"film reconstruction filter {name} is not supported "
                          f"(supported: {', '.join(sorted(_KINDS.values()))})")
     radius = float(rfilter.radius())
+    # The film's sample_border (a box filter has no border: the tracer keeps it False).
+    border = bool(film.sample_border()) and kind != "box"
     if kind == "gaussian":
-        return ReconstructionFilter.make("gaussian", round(radius / 4.0, 6))
-    return ReconstructionFilter.make(kind, round(radius, 6))
+        return ReconstructionFilter.make("gaussian", round(radius / 4.0, 6), border)
+    return ReconstructionFilter.make(kind, round(radius, 6), border)
 
 
 def check_variant(variant, rfilter, route):
@@ -54,16 +56,17 @@ def check_variant(variant, rfilter, route):
 
 def filter_metadata(rfilter):
     """JSON-able description of the filter for the reference's metadata."""
+    border = {"sample_border": True} if rfilter.sample_border else {}
     if rfilter.kind == "gaussian":
-        return {"type": "gaussian", "stddev": rfilter.stddev}
-    return {"type": rfilter.kind, "radius": rfilter.radius}
+        return {"type": "gaussian", "stddev": rfilter.stddev, **border}
+    return {"type": rfilter.kind, "radius": rfilter.radius, **border}
 
 
 def filter_from_metadata(metadata):
     """The filter recorded in a reference's metadata (box when none is recorded)."""
     spec = (metadata or {}).get("rfilter") or {"type": "box"}
     value = spec.get("stddev", spec.get("radius"))
-    return ReconstructionFilter.make(spec["type"], value)
+    return ReconstructionFilter.make(spec["type"], value, bool(spec.get("sample_border", False)))
 
 
 def per_sample_variance(m1, m2, n, rfilter):

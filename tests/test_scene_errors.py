@@ -275,10 +275,6 @@ SENSOR_CASES = {
         SENSOR.replace('<rfilter type="box"/>',
                        f'<rfilter type="gaussian">\n<float name="radius" value="2"/>{MARK}</rfilter>'),
         '<rfilter type="gaussian">', 'unsupported property "radius"'),
-    "sample border": (
-        SENSOR.replace('<rfilter type="box"/>',
-                       f'<rfilter type="tent"/>\n<boolean name="sample_border" value="true"/>{MARK}'),
-        '<film type="hdrfilm">', "sample_border = true is not supported with a tent filter"),
     "crop": (
         SENSOR.replace('<rfilter type="box"/>', f'<rfilter type="box"/>\n<integer name="crop_width" value="8"/>{MARK}'),
         '<film type="hdrfilm">', 'crop_width is not supported'),
@@ -478,3 +474,12 @@ def test_moment_integrator_renders_its_nested_integrator(tmp_path):
     path.write_text(f'<scene version="3.0.0">\n<integrator type="moment"/>{SENSOR}</scene>')
     with pytest.raises(SceneError, match="m.xml:2: .*exactly one nested <integrator>"):
         load_scene(str(path))
+
+
+def test_a_root_other_than_scene_names_its_element(tmp_path):
+    path = tmp_path / "fragment.xml"
+    path.write_text('<?xml version="1.0"?>\n<shape type="sphere"/>\n')
+    with pytest.raises(SceneError) as info:
+        load_scene(str(path))
+    assert str(info.value) == ('fragment.xml:2: <shape>: the root element must be <scene>, '
+                               'not <shape>')

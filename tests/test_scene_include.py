@@ -146,6 +146,49 @@ def test_errors_inside_included_files_name_that_file(tree):
         os.path.join("parts", "bad.xml") + ':4: <bsdf type="hair">: unsupported BSDF')
 
 
+def test_included_files_outside_the_scene_folder_are_named_relative_to_it(tree):
+    """``../lib/bad.xml``, not an absolute path (docs/scene-format.md: relative to the
+    top-level scene), also for a file included by an included file."""
+    write(tree / "lib" / "bad.xml", scene_text('\n\n<bsdf type="hair"/>'))
+    write(tree / "lib" / "mid.xml", scene_text('<include filename="bad.xml"/>'))
+    for name in ("../lib/bad.xml", "../lib/mid.xml"):
+        path = write(tree / "scene" / "main.xml", scene_text(f'<include filename="{name}"/>'))
+        with pytest.raises(SceneError) as info:
+            load_scene(path)
+        assert str(info.value).startswith(
+            os.path.join("..", "lib", "bad.xml") + ':4: <bsdf type="hair">: unsupported BSDF')
+
+
+def fallback_path_scene(tree) -> str:
+    """An included file's ``<path value="lib"/>`` that exists only relative to the top-level
+    scene's folder (not the included file's), and an include found through it."""
+    write(tree / "scene" / "lib" / "leaf.xml", scene_text(shape("m.ply")))
+    write(tree / "scene" / "inc" / "part.xml", scene_text('<path value="lib"/>\n'
+                                                          '<include filename="leaf.xml"/>'))
+    return write(tree / "scene" / "main.xml", scene_text(
+        '<default name="res" value="8"/>' + SENSOR + '<include filename="inc/part.xml"/>'))
+
+
+def test_a_path_is_also_resolved_by_the_file_resolver(tree):
+    """Mitsuba tries a ``<path>`` relative to its file, then through its file resolver (the
+    top-level scene's folder here), as mitsuba-data's docs/scenes/include/*.xml need."""
+    assert mesh_x(load_scene(fallback_path_scene(tree))) == [1.0]
+    text = (tree / "scene" / "inc" / "part.xml").read_text().replace('"lib"', '"nowhere"')
+    (tree / "scene" / "inc" / "part.xml").write_text(text)
+    with pytest.raises(SceneError) as info:
+        load_scene(str(tree / "scene" / "main.xml"))
+    message = str(info.value)
+    assert message.startswith(os.path.join("inc", "part.xml") + ':2: <path>: folder "nowhere" '
+                              "not found (looked for ")
+    for folder in (tree / "scene" / "inc" / "nowhere", tree / "scene" / "nowhere"):
+        assert str(folder) in message
+
+
+def test_path_resolution_matches_mitsuba(tree, mi):
+    scene = mi.load_file(fallback_path_scene(tree))
+    assert len(scene.shapes()) == 1
+
+
 def test_missing_include_names_the_including_line(tree):
     path = write(tree / "scene" / "main.xml", scene_text('\n<include filename="nothere.xml"/>'))
     with pytest.raises(SceneError, match=r'main.xml:3: <include>: file "nothere.xml" not found'):

@@ -93,6 +93,9 @@ class Integrator:
     camera_subpaths = False
     #: Renders participating media (the renderer refuses media scenes for the others).
     handles_media = False
+    #: Renders ``null`` BSDFs in a scene without media (a Dirac pass-through event, as
+    #: Mitsuba's ``path`` does); media scenes still need :attr:`handles_media`.
+    handles_null = False
     #: ``radiance`` may run on a refilled pool of paths (set from :func:`~.wavefront.refills`).
     refills = False
     #: Live paths at once when ``radiance`` runs on more camera rays than that (a

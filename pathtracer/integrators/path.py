@@ -16,6 +16,10 @@ At vertex x_k reached with throughput beta along direction d from x_{k-1}::
 Emission reached through a Dirac (specular) bounce, or seen directly from the
 camera, has w_bsdf = 1; a Dirac light (point) has w_light = 1. Next-event
 estimation only happens on BSDFs with a smooth lobe.
+
+A ``null`` BSDF (in a scene without media) is such a Dirac event: ``w = -d``, weight 1,
+counted as a bounce of ``max_depth``, and a shadow ray that meets it is blocked, as in
+Mitsuba's ``path``.
 """
 from __future__ import annotations
 
@@ -34,6 +38,7 @@ class PathIntegrator(CameraIntegrator):
     """MIS path tracer, Mitsuba's ``path``."""
 
     name = "path"
+    handles_null = True
 
     @refills
     def radiance(self, scene, rays, rng):

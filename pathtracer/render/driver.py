@@ -27,13 +27,14 @@ import time
 from ..integrators import Integrator, make_integrator
 from ..integrators.wavefront import pooled
 from ..media.homogeneous import has_media
+from ..scene.errors import SceneError
 from ..scene.load import load_scene
 from ..scene.types import Scene
 from ..sensors.film import effective_counts
 from ..sensors.perspective import camera_rays
 from ..shapes import intersect
 from .allocator import keep_freed_memory
-from .jobs import CameraJob, FilteredJob
+from .jobs import CameraJob, FilteredJob, sample_grid_size
 from .moments import film_sums, filtered_mean_and_variance, mean_and_variance, merge_sums, pixel_statistics
 from .resources import POOL_UNITS
 from .result import RenderResult
@@ -89,10 +90,26 @@ def integrator_for(scene: Scene, integrator=None, **options) -> Integrator:
     else:
         chosen = make_integrator(integrator or spec.name, **params)
     if has_media(scene) and not chosen.handles_media:
-        raise ValueError(f"{scene.source} has participating media or null boundaries, which "
-                         f"integrator {chosen.name!r} does not render: use volpath or "
-                         "volpath_phase")
+        _refuse_media(scene, chosen)
     return chosen
+
+
+def _refuse_media(scene: Scene, chosen: Integrator) -> None:
+    """Refuse ``chosen`` on a scene with media or null boundaries it does not render, at the
+    element that needs them (``FILE:LINE: <element>: why``).
+
+    A null boundary without media is rendered by an integrator that ``handles_null`` (Mitsuba's
+    ``path`` passes rays through it as a Dirac event of weight 1; shadow rays stop there).
+    """
+    if not scene.media and chosen.handles_null:
+        return
+    kind = "medium" if scene.media else "null"
+    what = ("a participating medium" if kind == "medium" else
+            "a null BSDF (an index-matched boundary)")
+    use = "volpath or volpath_phase" if kind == "medium" else "path, volpath or volpath_phase"
+    file, line, element = scene.volume_elements.get(kind, (scene.source, None, None))
+    raise SceneError(f"integrator {chosen.name!r} does not render {what}: use {use}", file, line,
+                     element)
 
 
 def _with_options(integrator: Integrator, options: dict) -> Integrator:
@@ -143,7 +160,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
     if spp < 1:
         raise ValueError(f"spp must be >= 1, got {spp}")
     n_pixels = scene.camera.width * scene.camera.height
-    units = plan_units(n_pixels, spp, batch_size)
+    units = plan_units(sample_grid_size(scene.camera), spp, batch_size)
     processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
     if progress is None:
         progress = sys.stderr.isatty() and n_pixels * spp >= 1 << 20

@@ -218,6 +218,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     shape_bsdf, shape_emitter = [], []
     folders = search_folders(root, base_dir)
     attached: dict[int, Plugin] = {}  # area emitter plugin -> the shape it lights
+    volume_elements: dict[str, tuple] = {}   # first null BSDF (the media table has its own)
 
     def bsdf_id(plugin: Plugin | None, emitter: bool = False) -> int:
         # Mitsuba's default BSDF: diffuse 0.5, but black on an emitting shape.
@@ -227,6 +228,8 @@ def build_scene(root: Plugin, source: str, base_dir: str,
                 bsdf_objects.append(Diffuse(np.full(3, 0.0 if emitter else 0.5)))
             else:
                 bsdf_objects.append(build_bsdf(plugin, folders, textures))
+                if getattr(bsdf_objects[-1], "is_null", False):
+                    volume_elements.setdefault("null", _where(plugin))
             bsdf_index[key] = len(bsdf_objects) - 1
         return bsdf_index[key]
 
@@ -280,7 +283,13 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         shape_emitter=np.array(shape_emitter, dtype=np.int32),
         bsdfs=bsdf_objects, emitters=emitters, environment=environment,
         camera=camera, spp=spp, seed=seed, integrator=integrator,
-        source=source, **_media_fields(media, shape_media, camera_medium))
+        source=source, volume_elements={**media.elements, **volume_elements},
+        **_media_fields(media, shape_media, camera_medium))
+
+
+def _where(plugin: Plugin) -> tuple[str, int, str]:
+    """``(file, line, element)`` of a plugin, for messages given after loading."""
+    return plugin.file, plugin.line, plugin.label
 
 
 SHAPE_MEDIUM_NAMES = ("interior", "exterior")
@@ -297,6 +306,8 @@ class MediaTable:
     def __init__(self):
         self.media: list[HomogeneousMedium] = []
         self._index: dict[int, int] = {}
+        #: ``{"medium": (file, line, element)}`` of the first medium built.
+        self.elements: dict[str, tuple] = {}
 
     def index(self, plugin: Plugin) -> int:
         """Index of the medium of ``plugin`` in :attr:`media` (building it the first time)."""
@@ -304,6 +315,7 @@ class MediaTable:
         if key not in self._index:
             self.media.append(build_medium(plugin))
             self._index[key] = len(self.media) - 1
+            self.elements.setdefault("medium", _where(plugin))
         return self._index[key]
 
     def shape_media(self, shape: Plugin) -> tuple[int, int]:

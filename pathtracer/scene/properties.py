@@ -13,6 +13,7 @@ import numpy as np
 
 from . import spectra
 from .registry import factory, names
+from .upgrade import camel_to_underscore
 from .xml import Plugin
 
 # Media and phase functions of Mitsuba 3 refused, with the reason.
@@ -224,7 +225,17 @@ class Props:
                 known = sorted(self.used)
                 raise self.plugin.error(
                     f"unsupported property \"{name}\" (this tracer understands: "
-                    f"{', '.join(known) or 'none'})", prop.line)
+                    f"{', '.join(known) or 'none'}){_legacy_hint(name)}", prop.line)
+
+
+def _legacy_hint(name: str) -> str:
+    """For a camelCase name: that Mitsuba 3 renames it only in files of Mitsuba 0.x."""
+    new = camel_to_underscore(name)
+    if new == name:
+        return ""
+    return (f"; \"{name}\" is a Mitsuba 0.x name: Mitsuba 3 renames it to \"{new}\" in files of "
+            f"version below 2.0.0, unless \"{new}\" is given too (docs/scene-format.md, \"Files "
+            "of Mitsuba 0.x\")")
 
 
 def children(plugin: Plugin, allowed: dict[str, int]) -> dict[str, list[Plugin]]:

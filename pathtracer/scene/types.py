@@ -110,6 +110,10 @@ class Scene:
         none (vacuum); None when the scene has no media.
     camera_medium : int
         Index into ``media`` of the medium around the camera, -1 for vacuum.
+    volume_elements : dict
+        Where the first ``<medium>`` (key ``"medium"``) and the first ``null`` BSDF (key
+        ``"null"``) are written: ``(file, line, element)``, for the renderer's refusal of an
+        integrator that renders neither (:func:`pathtracer.render.driver.integrator_for`).
     """
 
     tri_p: np.ndarray
@@ -147,6 +151,7 @@ class Scene:
     shape_exterior: np.ndarray | None = None
     camera_medium: int = -1
     shape_attributes: dict = field(default_factory=dict)
+    volume_elements: dict = field(default_factory=dict)
     # Analytic cylinders (pathtracer.shapes.cylinder): object-to-world maps of the unit tube,
     # their inverses, flip_normals and shape ids.
     cylinder_to_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))

@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from . import spectra, transform
+from . import spectra, transform, upgrade
 from .errors import SceneError
-from .xml_files import Element, FileState, find_in, path_folder, read_elements
+from .xml_files import Element, FileState, find_in, read_elements, resolve_folder
 
 # Elements that instantiate a plugin (they carry a ``type`` attribute).
 PLUGIN_TAGS = {"shape", "bsdf", "emitter", "sensor", "film", "sampler",
@@ -165,6 +165,8 @@ class _Reader:
         self.ids: dict[str, Plugin] = {}
         self.search_paths: list[str] = []
         self.defaults_later: dict[str, int] = {}
+        #: Files (display names) of Mitsuba 0.x whose elements are upgraded (:mod:`.upgrade`).
+        self.legacy_files: set[str] = set()
 
     # -- substitution -----------------------------------------------------
     def substitute(self, el: Element, owner: str) -> dict[str, str]:
@@ -211,7 +213,7 @@ class _Reader:
     def check_root(self, root: Element) -> None:
         if root.tag != "scene":
             raise SceneError(f"the root element must be <scene>, not <{root.tag}>",
-                             root.file, root.line)
+                             root.file, root.line, f"<{root.tag}>")
         attrs = self.substitute(root, "<scene>")
         unknown = set(attrs) - {"version"}
         if unknown:
@@ -223,6 +225,8 @@ class _Reader:
         if not VERSION_RE.fullmatch(attrs["version"]):
             raise SceneError(f"invalid version \"{attrs['version']}\": Mitsuba 3 needs three "
                              "numbers, e.g. version=\"3.0.0\"", root.file, root.line, "<scene>")
+        if upgrade.needs_upgrade(attrs["version"]):
+            self.legacy_files.add(root.file)
 
     def fill_scene(self, plugin: Plugin, root: Element, state: FileState, top: bool) -> None:
         """The children of a ``<scene>`` (the top file's or an included one's)."""
@@ -249,10 +253,10 @@ class _Reader:
         attrs = self.substitute(el, "<path>")
         if set(attrs) != {"value"}:
             raise SceneError("<path> needs exactly the attribute value", el.file, el.line, "<path>")
-        folder = path_folder(el, attrs["value"])
-        if not os.path.isdir(folder):
-            raise SceneError(f"folder \"{attrs['value']}\" not found (looked for {folder})",
-                             el.file, el.line, "<path>")
+        folder, tried = resolve_folder(el, attrs["value"], state.lookup)
+        if folder is None:
+            raise SceneError(f"folder \"{attrs['value']}\" not found (looked for "
+                             f"{', '.join(tried)})", el.file, el.line, "<path>")
         state.add_path(folder)
         if top:
             # Only the top-level file's <path>s reach mesh and texture
@@ -324,6 +328,8 @@ class _Reader:
                               f"on line {first.line})")
             self.ids[p.id] = p
         self.fill(p, el, state)
+        if el.file in self.legacy_files:
+            upgrade.upgrade_plugin(p, Prop)
         return p
 
     def add_prop(self, plugin: Plugin, tag: str, attrs: dict, el: Element, value: Any) -> None:

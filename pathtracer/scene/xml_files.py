@@ -130,11 +130,18 @@ class FileState:
         if real in self.chain or len(self.chain) > MAX_INCLUDE_DEPTH:
             cycle = " -> ".join(os.path.basename(p) for p in self.chain + (real,))
             raise SceneError(f"include cycle {cycle}", el.file, el.line, "<include>")
-        display = os.path.relpath(real, top_dir)
-        if display.startswith(".."):
-            display = real
-        root = read_elements(target, display)
+        root = read_elements(target, display_name(target, top_dir))
         return root, FileState([root.folder] + self.lookup, self.chain + (real,))
+
+
+def display_name(path: str, top_dir: str) -> str:
+    """The name messages give an included file: relative to the top-level scene's folder
+    ``top_dir`` (``parts/bad.xml``, ``../lib/mid.xml``), as docs/scene-format.md says; an
+    absolute path only where none relative exists (another drive on Windows)."""
+    try:
+        return os.path.relpath(os.path.abspath(path), top_dir)
+    except ValueError:
+        return os.path.abspath(path)
 
 
 def find_in(name: str, folders: list[str]) -> str | None:
@@ -156,13 +163,34 @@ def path_folder(el: Element, value: str) -> str:
     return os.path.normpath(os.path.join(el.folder, value))
 
 
+def resolve_folder(el: Element, value: str, lookup: list[str]) -> tuple[str | None, list[str]]:
+    """The folder a ``<path value="...">`` names, as Mitsuba resolves it: relative to its
+    file's folder first, else the first folder of the file resolver ``lookup`` (a
+    :attr:`FileState.lookup`) where it exists; None where it exists nowhere.
+
+    An included file's ``<path value="../../common"/>`` written relative to the top-level
+    scene is found that way (Mitsuba's ``fs->resolve``). Returns ``(folder, tried)``.
+    """
+    tried = [path_folder(el, value)]
+    if os.path.isdir(tried[0]):
+        return tried[0], tried
+    if not os.path.isabs(value):
+        for folder in lookup:
+            candidate = os.path.normpath(os.path.join(folder, value))
+            if candidate not in tried:
+                tried.append(candidate)
+                if os.path.isdir(candidate):
+                    return candidate, tried
+    return None, tried
+
+
 def search_paths(root: Element) -> list[str]:
     """The folders of the top-level file's ``<path>`` elements, the last one first: where
     file names other than ``<include>``s (meshes, textures) are looked up first; a
     ``$param`` folder or one that does not exist is left out (the loader refuses it)."""
-    folders = [path_folder(el, el.attrs.get("value", "")) for el in root.children
-               if el.tag == "path" and "$" not in el.attrs.get("value", "$")]
-    return [folder for folder in folders if os.path.isdir(folder)][::-1]
+    folders = [resolve_folder(el, el.attrs.get("value", ""), [os.getcwd()])[0]
+               for el in root.children if el.tag == "path" and "$" not in el.attrs.get("value", "$")]
+    return [folder for folder in folders if folder is not None][::-1]
 
 
 def scene_tree(path: str) -> Element:
@@ -209,8 +237,10 @@ def _splice(root: Element, state: FileState, folders: list[str], top_dir: str, f
         children = []
         for child in el.children:
             value = child.attrs.get("value", "")
-            if top and child.tag == "path" and "$" not in value and os.path.isdir(path_folder(child, value)):
-                state.add_path(path_folder(child, value))
+            if top and child.tag == "path" and "$" not in value:
+                folder = resolve_folder(child, value, state.lookup)[0]
+                if folder is not None:
+                    state.add_path(folder)
             if child.tag == "string" and child.attrs.get("name") == "filename" and value:
                 files.extend(_lookup(value, folders))
             if child.tag == "include" and child.attrs.get("filename"):

@@ -5,8 +5,14 @@ A camera sample at film position ``(x, y)`` (pixels; pixel ``(i, j)`` spans
 ``w(i + 0.5 - x) * w(j + 0.5 - y)`` times its value to every pixel whose centre lies
 within the filter's radius along both axes, and the pixel's value is the weighted
 sum divided by the sum of the weights. Samples are drawn uniformly inside their own
-pixel (``sample_border`` false); weights that would fall outside the image are
-dropped, so the edge pixels are normalised by the weights they did receive.
+pixel; weights that would fall outside the image are dropped, so the edge pixels are
+normalised by the weights they did receive.
+
+With ``sample_border`` (Mitsuba's ``hdrfilm`` option), samples are also drawn in a border of
+:attr:`ReconstructionFilter.border` pixels around the image (``ceil(radius - 0.5)``, the
+filter's reach; none for the box), ``spp`` per border pixel as inside: the pixels of the
+sample grid are ``(W + 2b) x (H + 2b)``, column ``-b`` first. Their weights that land inside
+the image count, so the edge pixels get the filter's full support, as inside.
 
 One-dimensional weights, as Mitsuba 3.9.1 evaluates them in its vectorised (LLVM)
 variants, which render the references:
@@ -25,7 +31,7 @@ that moves pixel values.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -54,15 +60,19 @@ class ReconstructionFilter:
     kind: str = "box"
     radius: float = 0.5
     stddev: float = 0.0
+    #: The film's ``sample_border``: samples are drawn in :attr:`border` pixels around the image.
+    sample_border: bool = False
 
     @classmethod
-    def make(cls, kind: str, value: float | None = None) -> "ReconstructionFilter":
-        """The filter ``kind`` with its parameter (``radius``, or ``stddev`` for the gaussian)."""
+    def make(cls, kind: str, value: float | None = None,
+             sample_border: bool = False) -> "ReconstructionFilter":
+        """The filter ``kind`` with its parameter (``radius``, or ``stddev`` for the gaussian)
+        and the film's ``sample_border``."""
         name, default = FILTER_PARAMS[kind]
         value = default if value is None else float(value)
         if kind == "gaussian":
-            return cls("gaussian", 4.0 * value, value)
-        return cls(kind, value)
+            return cls("gaussian", 4.0 * value, value, sample_border)
+        return cls(kind, value, 0.0, sample_border)
 
     @property
     def is_box(self) -> bool:
@@ -74,11 +84,18 @@ class ReconstructionFilter:
         """Largest pixel offset a sample's weights can reach from its own pixel."""
         return max(0, math.ceil(self.radius + 0.5) - 1)
 
+    @property
+    def border(self) -> int:
+        """Pixels of samples drawn beyond each edge of the image: the reach with
+        ``sample_border`` (Mitsuba's ``border_size``, ``ceil(radius - 0.5)``), else 0."""
+        return self.reach if self.sample_border else 0
+
     def describe(self) -> str:
         """``'gaussian (stddev 0.5)'``, ``'tent (radius 1)'``: for metadata and messages."""
+        border = ", sample border" if self.border else ""
         if self.kind == "gaussian":
-            return f"gaussian (stddev {self.stddev:g})"
-        return f"{self.kind} (radius {self.radius:g})"
+            return f"gaussian (stddev {self.stddev:g}{border})"
+        return f"{self.kind} (radius {self.radius:g}{border})"
 
     def eval(self, d: np.ndarray) -> np.ndarray:
         """One-dimensional weight at signed distance ``d`` (pixels) from a pixel centre."""
@@ -106,7 +123,9 @@ def splat(rfilter: ReconstructionFilter, width: int, height: int, pixel: np.ndar
     width, height : int
         Film size.
     pixel : (P,) int
-        Distinct flat indices (row * width + column) of the pixels the samples belong to.
+        Distinct flat indices of the pixels the samples belong to, in the sample grid: row *
+        width + column, or with a sample border ``b`` (:attr:`ReconstructionFilter.border`)
+        ``(row + b) * (width + 2b) + column + b``.
     u_film : (P, S, 2) float
         Position of each sample inside its pixel, in [0, 1)^2.
     values : (P, S, C) float
@@ -123,7 +142,8 @@ def splat(rfilter: ReconstructionFilter, width: int, height: int, pixel: np.ndar
     """
     hi = width * height if hi is None else hi
     size, channels = hi - lo, values.shape[2]
-    col, row = pixel % width, pixel // width
+    b = rfilter.border
+    col, row = pixel % (width + 2 * b) - b, pixel // (width + 2 * b) - b
     offsets = np.arange(-rfilter.reach, rfilter.reach + 1)
     # weights of every sample for every pixel offset along each axis: (P, K, S)
     wx = rfilter.eval(offsets[None, :, None] + 0.5 - u_film[:, None, :, 0])
@@ -155,7 +175,8 @@ def _axis_integrals(rfilter: ReconstructionFilter, size: int, power: int, steps:
     """``∫ w(c_i - x)^power dx`` over the film ``[0, size)`` for every pixel centre ``c_i``.
 
     Midpoint rule with ``steps`` points per pixel (the weights are smooth within a pixel
-    except at the tent's kinks, which the fine grid resolves to ~1e-6).
+    except at the tent's kinks, which the fine grid resolves to ~1e-6). With a sample border
+    the film is ``[-b, size + b)``.
     """
     k = rfilter.reach
     u = (np.arange(steps) + 0.5) / steps
@@ -163,9 +184,10 @@ def _axis_integrals(rfilter: ReconstructionFilter, size: int, power: int, steps:
     w = rfilter.eval(d) ** power / steps
     per_offset = w.reshape(2 * k + 1, steps).sum(axis=1)                   # offset o = i - column
     out = np.zeros(size)
+    b = rfilter.border
     for o, value in zip(range(-k, k + 1), per_offset):
-        # pixel i receives from the samples of column i - o, which must lie inside the film
-        lo, hi = max(0, o), min(size, size + o)
+        # pixel i receives from the samples of column i - o, which must lie in [-b, size + b)
+        lo, hi = max(0, o - b), min(size, size + o + b)
         out[lo:hi] += value
     return out
 
@@ -251,8 +273,8 @@ def build_film(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
 
 @register("film", "hdrfilm")
 def create_hdrfilm(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
-    """``width`` (768), ``height`` (576) and the ``<rfilter>``; crops and a sample border
-    (with a filter wider than the box) are refused, storage formats accepted."""
+    """``width`` (768), ``height`` (576) and the ``<rfilter>`` (with the film's
+    ``sample_border``); crops are refused, storage formats accepted."""
     props = Props(plugin)
     filters = children(plugin, {"rfilter": 1})["rfilter"]
     rfilter = build_rfilter(filters[0] if filters else None)
@@ -266,9 +288,7 @@ def create_hdrfilm(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
                                props.line(name))
     # Mitsuba's sample border is ceil(radius - 0.5) pixels: empty for the box filter.
     if props.bool("sample_border", False) and not rfilter.is_box:
-        raise plugin.error(f"sample_border = true is not supported with a {rfilter.kind} filter "
-                           "(samples are drawn inside the image only, Mitsuba's default)",
-                           props.line("sample_border"))
+        rfilter = replace(rfilter, sample_border=True)
     # Formats change storage, not values; compensate only changes summation accuracy; a
     # banner is drawn on LDR output only.
     props.ignore("pixel_format", "component_format", "file_format", "compensate", "banner")

@@ -1,0 +1,81 @@
+"""experiments/scene_coverage.py: every class of file, the blocking feature, the share, the JSON."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from experiments import scene_coverage
+
+SENSOR = ('<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>'
+          '<integer name="height" value="6"/><rfilter type="box"/></film></sensor>')
+
+
+def scene(body: str = "", version: str = "3.0.0") -> str:
+    return f'<scene version="{version}">\n{SENSOR}\n{body}\n</scene>\n'
+
+
+@pytest.fixture
+def folder(tmp_path):
+    files = {
+        "ok.xml": scene('<shape type="sphere"/>'),
+        "old.xml": scene('<shape type="sphere"><transform name="toWorld"><translate x="1"/>'
+                         '</transform></shape>', version="0.6.0"),
+        "hair.xml": scene('<shape type="sphere"><bsdf type="hair"/></shape>'),
+        "hair2.xml": scene('<shape type="cube"><bsdf type="hair"/></shape>'),
+        "prop.xml": scene('<shape type="sphere"><float name="radiuss" value="1"/></shape>'),
+        "main.xml": scene('<include filename="parts/part.xml"/>'),
+        "parts/part.xml": '<scene version="3.0.0"><shape type="sphere"/></scene>',
+        "shape-only.xml": '<shape type="sphere"/>\n',
+        "pol.xml": scene('<shape type="sphere"><bsdf type="polarizer"/></shape>'),
+        "mesh.xml": scene('<shape type="ply"><string name="filename" value="gone.ply"/></shape>'),
+        "broken.xml": "<scene version='3.0.0'>\n<shape>\n</scene>\n",
+        "media.xml": scene('<integrator type="direct"/><shape type="sphere"><bsdf type="null"/>'
+                           '</shape>'),
+    }
+    for name, text in files.items():
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text(text)
+    return tmp_path
+
+
+WANT = {"ok.xml": "loads", "old.xml": "loads", "main.xml": "loads", "hair.xml": "blocked",
+        "hair2.xml": "blocked", "prop.xml": "blocked", "parts/part.xml": "fragment",
+        "shape-only.xml": "fragment", "pol.xml": "polarized", "mesh.xml": "assets missing",
+        "broken.xml": "malformed", "media.xml": "blocked"}
+
+
+def test_classes_features_and_share(folder, capsys, tmp_path):
+    out = tmp_path / "coverage.json"
+    assert scene_coverage.main([str(folder), "--no-mitsuba", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    got = {f["file"]: f["cls"] for f in data["files"]}
+    assert got == WANT
+    features = data["features"]
+    assert features['<bsdf type="hair">: unsupported BSDF'] == 2
+    assert features['<shape type="sphere"> property "radiuss"'] == 1
+    assert features['<bsdf type="null">: integrator \'direct\' does not render a null BSDF'] == 1
+    assert data["considered"] == 7 and data["share"] == pytest.approx(3 / 7)
+    assert data["mitsuba_checked"] is False
+    missing = next(f for f in data["files"] if f["file"] == "mesh.xml")["missing"]
+    assert missing == ["gone.ply"]
+    table = capsys.readouterr().out
+    assert "| blocked | 4 |" in table and "The tracer loads 3 of the 7 files" in table
+
+
+def test_mitsuba_refusals_are_their_own_class(folder, tmp_path, mi):
+    (folder / "unknown.xml").write_text(scene('<shape type="no_such_shape"/>'))
+    out = tmp_path / "coverage.json"
+    assert scene_coverage.main([str(folder), "--json", str(out), "--jobs", "1"]) == 0
+    data = json.loads(out.read_text())
+    files = {f["file"]: f for f in data["files"]}
+    assert data["mitsuba_checked"] is True
+    assert files["unknown.xml"]["cls"] == "refused by Mitsuba"
+    assert "no_such_shape" in files["unknown.xml"]["mitsuba"]
+    assert files["hair.xml"]["cls"] == "blocked" and files["hair.xml"]["mitsuba"] == "loads"
+    assert files["ok.xml"]["cls"] == "loads" and files["old.xml"]["cls"] == "loads"
+
+
+def test_not_a_folder(tmp_path, capsys):
+    assert scene_coverage.main([str(tmp_path / "nothere")]) == 2
+    assert "is not a folder" in capsys.readouterr().err
