@@ -355,6 +355,10 @@ def choose_method(variant, rfilter, mitsuba_integrator, camera_in_medium, reques
     if not rfilter.is_box:
         if scalar and requested == "moments":
             check_variant(variant, rfilter, "the rgb_moments method")
+        if scalar and rfilter.sample_border:
+            # The batch route's positions are the image's pixels; Mitsuba's bordered film
+            # also samples a border around them.
+            check_variant(variant, rfilter, "a film with sample_border")
         if not scalar and requested == "batch":
             raise ValueError(f"the batch method with a {rfilter.describe()} film needs "
                              f"scalar_rgb (it recomputes scalar Mitsuba's sample positions); "

@@ -145,6 +145,12 @@ def test_methods_of_a_filtered_film():
         choose_method("llvm_ad_rgb", GAUSSIAN, "path", False, "batch")
     with pytest.raises(ValueError, match="light tracer's references need a box filter"):
         choose_method("scalar_rgb", GAUSSIAN, "ptracer", False)
+    # The batch route samples the image's pixels only; a bordered film needs llvm_ad_rgb.
+    from pathtracer.sensors.film import ReconstructionFilter
+    bordered = ReconstructionFilter.make("gaussian", None, True)
+    with pytest.raises(ValueError, match="film with sample_border needs a vectorised"):
+        choose_method("scalar_rgb", bordered, "path", False)
+    assert choose_method("llvm_ad_rgb", bordered, "path", False) == "moments"
 
 
 # ------------------------------------------------------------------ against Mitsuba
