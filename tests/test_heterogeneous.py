@@ -149,12 +149,14 @@ def test_bad_volumes_are_one_line_errors_naming_the_line(tmp_path, body, message
 # -- closed forms -----------------------------------------------------------------------------
 
 #: A slab 0.8 thick (z in [-0.4, 0.4]) between null boundaries; its grid has two cells along
-#: z (nearest): the lower half has extinction a, the upper half b, per channel.
+#: z (nearest): the lower half has extinction a, the upper half b, per channel. ``max_value``
+#: raises the majorant to 2 x 2.5 = 5: most collisions are null ones.
 HALVES = np.array([[0.25, 0.5, 1.0], [1.0, 0.75, 0.125]])
 SLAB = """
     <medium type="heterogeneous" id="slab">
         <volume type="gridvolume" name="sigma_t"><string name="filename" value="halves.vol"/>
             <string name="filter_type" value="nearest"/>
+            <float name="max_value" value="2.5"/>
             <transform name="to_world"><translate value="-0.5, -0.5, -0.5"/>
                 <scale value="20, 20, 0.8"/></transform>
         </volume>
@@ -180,6 +182,7 @@ SLAB_SIGMA = 2 * HALVES.sum(0) * 0.4      # the optical depth across the slab, p
 def test_slab_of_two_densities_has_transmittance_exp_minus_sum(tmp_path):
     """Ratio tracking through the slab: E[T] = exp(-(sigma_a + sigma_b) d / 2) per channel."""
     scene = slab_scene(tmp_path, 0.5)
+    assert scene.media[0].majorant == 5.0
     n = 40_000
     start = np.tile([0.3, -0.2, 2.0], (n, 1))
     wo = np.tile([0.0, 0.0, -1.0], (n, 1))

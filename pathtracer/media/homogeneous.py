@@ -341,6 +341,11 @@ def create(plugin: Plugin, folders: list[str] | None = None) -> HomogeneousMediu
     which Mitsuba 3 refuses; the error says the equivalent ``sigma_t`` and ``albedo``.
     """
     props = Props(plugin)
+    for child in plugin.children:
+        if child.kind == "volume":
+            raise child.error("only a heterogeneous medium reads a <volume>: write <medium "
+                              "type=\"heterogeneous\"> (homogeneous takes constant sigma_t "
+                              "and albedo)")
     kids = children(plugin, {"phase": 1})
     if props.has("sigma_a") or props.has("sigma_s"):
         raise _mitsuba06_coefficients(plugin, props)
