@@ -4,7 +4,9 @@ r"""Volumetric path tracing with shadow rays through media and MIS (Mitsuba's ``
 the medium and on surfaces, combined with phase / BSDF sampling by the power
 heuristic. A shadow ray's visibility becomes a transmittance: it is estimated
 by the same free-flight sampling (0 if a collision falls before the light,
-:math:`T / T_c` otherwise), passes through ``null`` (index-matched)
+:math:`T / T_c` otherwise; in a heterogeneous medium ratio tracking, the
+product of :math:`\sigma_n / \bar\sigma` over the tentative collisions),
+passes through ``null`` (index-matched)
 boundaries, updating the medium it is in, and is blocked by any other surface,
 a dielectric with :math:`\eta = 1.00001` included: that is why a medium behind
 such a boundary is lit only by the paths that find the light on their own.

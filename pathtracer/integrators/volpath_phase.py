@@ -20,6 +20,12 @@ away, :math:`P(t > s) = e^{-\sigma_{t,c} s}`. Per segment::
 For a grey medium the two throughput factors are the albedo and 1. Light
 reaches the camera only through paths that happen to hit an emitter, so a
 light a medium hides is found rarely; ``volpath`` adds shadow rays.
+
+In a heterogeneous medium (:mod:`pathtracer.media.heterogeneous`) the free
+flight is a tentative collision against the grey majorant; a null collision
+(probability P_n, beta *= sigma_n / (majorant P_n)) starts a new segment at
+the collision, straight on, without a bounce; a real one scatters
+(beta *= sigma_s / mean(sigma_t)) as above.
 """
 from __future__ import annotations
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from pathtracer.io.vol import write_vol  # noqa: E402
+from pathtracer.io.vol import write_vol
 
 #: Where the built-in scenes live (the default output).
 SCENES = Path(__file__).resolve().parents[2] / "pathtracer" / "data" / "scenes"
