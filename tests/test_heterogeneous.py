@@ -248,6 +248,34 @@ def test_constvolume_medium_equals_the_homogeneous_one_in_mean(tmp_path, integra
     assert agreement.agree, agreement.verdict
 
 
+@pytest.mark.parametrize("integrator", VOLUMETRIC)
+def test_homogeneous_medium_with_an_albedo_volume(tmp_path, integrator):
+    """Mitsuba's homogeneous medium takes a <volume name="albedo">: a constvolume of the
+    rgb albedo renders the same image (to rounding) with the same seed; a grid of two
+    albedos (0 on the left half) darkens it."""
+    rgb = '<rgb name="sigma_t" value="0.2, 0.6, 1"/>'
+    kw = dict(fov=50, origin="0.5, 0.7, 4", target="0.5, 0.4, 0", size=8)
+    plain = write_scene(tmp_path, CONST_CUBE.format(kind="homogeneous", sigma_t=rgb), **kw)
+    volume = CONST_CUBE.format(kind="homogeneous", sigma_t=rgb).replace(
+        '<rgb name="albedo" value="0.9, 0.7, 0.5"/>',
+        '<volume type="constvolume" name="albedo"><rgb name="value" value="0.9, 0.7, 0.5"/></volume>')
+    textured = write_scene(tmp_path, volume, **kw)
+    assert textured.media[0].albedo_volume is not None
+    a = render(plain, integrator, spp=4, seed=35, processes=1)
+    b = render(textured, integrator, spp=4, seed=35, processes=1)
+    np.testing.assert_allclose(b.mean, a.mean, rtol=1e-9, atol=1e-12)
+    write_vol(str(tmp_path / "two.vol"), np.array([[0.0, 0.0, 0.0], [0.875, 0.75, 0.5]]).reshape(1, 1, 2, 3))
+    halves = write_scene(tmp_path, volume.replace(
+        '<volume type="constvolume" name="albedo"><rgb name="value" value="0.9, 0.7, 0.5"/></volume>',
+        '<volume type="gridvolume" name="albedo"><string name="filename" value="two.vol"/>'
+        '<string name="filter_type" value="nearest"/></volume>'), **kw)
+    np.testing.assert_array_equal(halves.media[0].albedo_volume.eval(np.array([[0.2, 0.5, 0.5],
+                                                                               [0.7, 0.5, 0.5]])),
+                                  [[0, 0, 0], [0.875, 0.75, 0.5]])
+    c = render(halves, integrator, spp=4, seed=35, processes=1)
+    assert c.mean.sum() < a.mean.sum()
+
+
 def test_heterogeneous_image_does_not_depend_on_batching():
     """Paths take different numbers of null collisions, each its own segment: the numbers a
     path draws are still fixed by its counters, whatever its batch."""

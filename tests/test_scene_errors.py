@@ -227,8 +227,8 @@ CASES = {
         f'<medium type="homogeneous">\n<phase type="rayleigh"/>{MARK}</medium>',
         '<phase type="rayleigh">', "spectral variants"),
     "grid volume": (
-        f'<medium type="homogeneous">\n<volume type="gridvolume" name="albedo"/>{MARK}</medium>',
-        '<volume type="gridvolume">', "only a heterogeneous medium reads a <volume>"),
+        f'<medium type="homogeneous">\n<volume type="gridvolume" name="sigma_t"/>{MARK}</medium>',
+        '<volume type="gridvolume">', "a homogeneous medium reads one <volume>, its albedo"),
     "mitsuba 0.6 coefficients": (
         f'<medium type="homogeneous">\n<rgb name="sigma_a" value="0.5"/>{MARK}\n'
         f'<rgb name="sigma_s" value="1.5, 1, 0.5"/></medium>',

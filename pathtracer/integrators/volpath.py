@@ -39,7 +39,14 @@ import numpy as np
 from ..bsdfs.shading import eval_bsdf, has_smooth
 from ..core.sampling import power_heuristic
 from ..emitters.scene_emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
-from ..media.homogeneous import next_medium, phase_eval, phase_sample, samples_emitters, shadow_transmittance
+from ..media.homogeneous import (
+    next_medium,
+    phase_eval,
+    phase_sample,
+    samples_emitters,
+    scattering_albedo,
+    shadow_transmittance,
+)
 from ..scene.registry import register
 from .base import subset_hit
 from .volpath_phase import VolPathPhaseIntegrator
@@ -60,6 +67,7 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
         """Scatter inside the medium: a shadow ray (phase MIS), then sample the phase function."""
         x = paths.o[rows] + t[:, None] * paths.d[rows]
         wi, medium = -paths.d[rows], paths.medium[rows]
+        paths.beta[rows] *= scattering_albedo(scene, medium, x)
         paths.depth[rows] += 1
         alive = paths.depth[rows] < self.depth_limit
         nee = alive & samples_emitters(scene, medium) & np.any(paths.beta[rows] > 0, axis=1)

@@ -34,7 +34,13 @@ import numpy as np
 from ..bsdfs.shading import sample_bsdf
 from ..emitters.scene_emitters import emitted_radiance
 from ..media.heterogeneous import has_heterogeneous, track_heterogeneous
-from ..media.homogeneous import next_medium, null_event, phase_sample, sample_free_flight
+from ..media.homogeneous import (
+    next_medium,
+    null_event,
+    phase_sample,
+    sample_free_flight,
+    scattering_albedo,
+)
 from ..scene.registry import register
 from .base import subset_hit
 from .volume import (
@@ -110,6 +116,7 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
     def in_medium(self, scene, paths, rows, t, segment, add_radiance):
         """Scatter inside the medium: sample the phase function (weight 1)."""
         x = paths.o[rows] + t[:, None] * paths.d[rows]
+        paths.beta[rows] *= scattering_albedo(scene, paths.medium[rows], x)
         paths.depth[rows] += 1
         wo, pdf = phase_sample(scene, paths.medium[rows], -paths.d[rows],
                                self.uniform(paths, segment, SLOT_DIRECTION, 2)[rows])

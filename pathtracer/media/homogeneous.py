@@ -60,6 +60,7 @@ from ..scene.registry import register
 from ..scene.types import Scene
 from ..scene.xml import Plugin
 from ..shapes import intersect
+from ..volumes import build_volume
 from .heterogeneous import has_heterogeneous, heterogeneous_table, track_heterogeneous
 from .phase import IsotropicPhase, build_phase
 
@@ -79,6 +80,10 @@ class HomogeneousMedium:
         in it counts in full, as after a specular bounce.
     name : str
         Where it was defined, for messages.
+    albedo_volume : Volume or None
+        A spatially varying albedo (Mitsuba's homogeneous medium takes a ``<volume
+        name="albedo">``); ``albedo`` is then 1 and the integrators multiply by the
+        volume's value where the path scatters (:func:`scattering_albedo`).
     """
 
     sigma_t: np.ndarray
@@ -86,6 +91,7 @@ class HomogeneousMedium:
     phase: object = field(default_factory=IsotropicPhase)
     sample_emitters: bool = True
     name: str = "homogeneous"
+    albedo_volume: object = None
     is_homogeneous = True
 
     @property
@@ -184,6 +190,19 @@ def phase_sample(scene: Scene, medium: np.ndarray, wi: np.ndarray,
         rows = np.flatnonzero(medium == k)
         wo[rows], pdf[rows] = scene.media[k].phase.sample(wi[rows], u[rows])
     return wo, pdf
+
+
+def scattering_albedo(scene: Scene, medium: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The factor (n, 3) of a spatially varying albedo at scattering points ``x`` (n, 3) in
+    ``medium`` (n,), all >= 0: the albedo volume's value in homogeneous media that have one,
+    1 elsewhere (the free flight's weight holds the constant albedos)."""
+    factor = np.ones((len(medium), 3))
+    for k in np.unique(medium):
+        volume = getattr(scene.media[k], "albedo_volume", None)
+        if volume is not None:
+            rows = np.flatnonzero(medium == k)
+            factor[rows] = volume.eval(x[rows])
+    return factor
 
 
 def samples_emitters(scene: Scene, medium: np.ndarray) -> np.ndarray:
@@ -341,12 +360,15 @@ def create(plugin: Plugin, folders: list[str] | None = None) -> HomogeneousMediu
     which Mitsuba 3 refuses; the error says the equivalent ``sigma_t`` and ``albedo``.
     """
     props = Props(plugin)
-    for child in plugin.children:
-        if child.kind == "volume":
-            raise child.error("only a heterogeneous medium reads a <volume>: write <medium "
-                              "type=\"heterogeneous\"> (homogeneous takes constant sigma_t "
-                              "and albedo)")
-    kids = children(plugin, {"phase": 1})
+    albedo_volume = None
+    for name, child in plugin.named_children():
+        if child.kind != "volume":
+            continue
+        if name != "albedo" or albedo_volume is not None or props.has("albedo"):
+            raise child.error("a homogeneous medium reads one <volume>, its albedo: for a "
+                              "varying sigma_t write <medium type=\"heterogeneous\">")
+        albedo_volume = child
+    kids = children(plugin, {"phase": 1, "volume": 1})
     if props.has("sigma_a") or props.has("sigma_s"):
         raise _mitsuba06_coefficients(plugin, props)
     sigma_t = props.color("sigma_t", 1.0)
@@ -357,7 +379,7 @@ def create(plugin: Plugin, folders: list[str] | None = None) -> HomogeneousMediu
                            "magnitude in <float name=\"scale\">", props.line("sigma_t"))
     if not np.all(sigma_t >= 0):
         raise plugin.error("sigma_t must be >= 0", props.line("sigma_t"))
-    albedo = props.reflectance("albedo", 0.75)
+    albedo = props.reflectance("albedo", 0.75) if albedo_volume is None else np.ones(3)
     scale = props.float("scale", 1.0)
     if not (np.isfinite(scale) and scale >= 0):
         raise plugin.error(f"scale must be a finite number >= 0, got {scale}", props.line("scale"))
@@ -368,8 +390,11 @@ def create(plugin: Plugin, folders: list[str] | None = None) -> HomogeneousMediu
                            "weights); leave it true", props.line("has_spectral_extinction"))
     props.finish()
     phase = build_phase(kids["phase"][0]) if kids["phase"] else IsotropicPhase()
+    if albedo_volume is not None:
+        albedo_volume = build_volume(albedo_volume, folders or ["."])
     return HomogeneousMedium(sigma_t * scale, albedo, phase, sample_emitters,
-                             name=f"homogeneous ({plugin.file}:{plugin.line})")
+                             name=f"homogeneous ({plugin.file}:{plugin.line})",
+                             albedo_volume=albedo_volume)
 
 
 def _mitsuba06_coefficients(plugin: Plugin, props: Props):
