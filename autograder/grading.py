@@ -31,6 +31,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from mitsuba_refs import config as refs_config
 from mitsuba_refs.cache import get_reference
 from mitsuba_refs.compare import (
@@ -43,10 +45,12 @@ from mitsuba_refs.compare import (
     write_pictures,
 )
 from mitsuba_refs.stats import MAX_VARIANCE_RATIO, ErrorBudget, compare_means
+from pathtracer.render.splats import replica_count
 
 from . import hints
 from .contract import refusal
 from .isolation import SOLUTION, Limits, StudentFailure, StudentProcess
+from .replicas import REPLICAS, reported_variance_finding, scored_render
 
 #: Chance that grading a correct submission costs it any point (whole submission).
 SUBMISSION_ALPHA = 1e-3
@@ -68,8 +72,6 @@ BOUNCE_DEPTHS = refs_config.PER_BOUNCE_DEPTHS
 #: hint rules were tuned at, not the check's scoring spp (a failing submission must still finish
 #: inside its time limit with its explanations).
 BOUNCE_SPP = SPP
-#: Samples per pixel of the second, independent render of the sample-independence evidence.
-INDEPENDENCE_SPP = 16
 #: Convergence test of a graded check: ladder, renders at its top level, most growth while
 #: rare paths dominate (mitsuba_refs.compare.convergence_test). Equal work per level: 256
 #: image-spp (64 renders at 1 spp ... 1 at 64), at most 512, inside the time limits.
@@ -377,24 +379,37 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
         return _failed(result, failure, start)
     with student:
         def render(scene, integrator, params, spp, seed, processes=None, max_depth=None, **_):
-            main = seed == TEST_SEED and max_depth is None and spp == check.spp
             if max_depth is None:
                 max_depth = check.max_depth     # the check's depth unless the sweep sets one
-            image = student.render(scene, run_as, params, spp, seed + seed_offset,
-                                   max_depth=max_depth, camera=camera)
-            if main:
-                main_render["image"] = image
-            return image
+            return student.render(scene, run_as, params, spp, seed + seed_offset,
+                                  max_depth=max_depth, camera=camera)
+
+        def scored(scene, integrator, params, spp, seed, processes=None, max_depth=None, **_):
+            # compare()'s hook: its mean-and-variance render is the scored one, from replicas
+            # (autograder.replicas) unless the grader renders it itself (the camera check).
+            if not (seed == TEST_SEED and max_depth is None and spp == check.spp):
+                return render(scene, integrator, params, spp, seed, max_depth=max_depth)
+            if not scored_replicas(check):
+                main_render["image"] = render(scene, integrator, params, spp, seed)
+            else:
+                replicas = scored_render(render, scene, integrator, params, spp, seed,
+                                         replicas=scored_replicas(check),
+                                         reference_noisy=_reference_noisy(check))
+                main_render["image"] = replicas.mean, replicas.variance
+                main_render["replicas"] = replicas
+            return main_render["image"]
 
         wants_convergence = any(name == "convergence" for name, _ in check.parts)
         try:
             comparison = compare(check.scene, check.integrator, check_params(check),
                                  spp=check.spp, alpha=alpha, convergence=wants_convergence,
-                                 bounces=False, render=render, **CONVERGENCE)
+                                 bounces=False, render=scored, **CONVERGENCE)
         except StudentFailure as failure:
             return _failed(result, failure, start)
         result.comparison = comparison
         result.parts = score_parts(check, comparison)
+        if "replicas" in main_render:
+            result.findings.extend(filter(None, [reported_variance_finding(main_render["replicas"])]))
         camera_geometry = None
         if check.camera:
             # The camera's geometry is measured on every submission (a few rays, no render):
@@ -419,11 +434,10 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
                     result.bounce = {d: s[0] for d, s in evidence.sweep.items()} or None
                     evidence.probe = student.probe(check.scene, default_params(check.scene),
                                                    check.integrator)
-                    if "image" in main_render:
-                        extra = render(check.scene, check.integrator, check_params(check),
-                                       INDEPENDENCE_SPP, TEST_SEED + 7919)
-                        evidence.independence = hints.independence(
-                            main_render["image"], check.spp, extra, INDEPENDENCE_SPP)
+                    if "replicas" in main_render:
+                        # Do the reported variances predict how much independent renders
+                        # differ? (Samples of a pixel that share random numbers do not.)
+                        evidence.independence = hints.independence(*main_render["replicas"].halves())
             except StudentFailure as failure:
                 evidence.incomplete = str(failure).splitlines()[0]
             result.hints = hints.explain(evidence)
@@ -475,6 +489,20 @@ def score_parts(check: Check, comparison) -> list:
             raise ValueError(f"unknown part {name!r}")
         parts.append(Part(name, float(points) if ok else 0.0, float(points), ok, detail))
     return parts
+
+
+def scored_replicas(check: Check) -> int | None:
+    """Replicas of the check's scored render (:mod:`autograder.replicas`): REPLICAS, or the
+    largest divisor of ``spp`` below it; None where the grader renders it itself (the camera
+    check: the student sends rays, not images)."""
+    return None if check.camera else replica_count(check.spp, REPLICAS)
+
+
+def _reference_noisy(check: Check) -> bool:
+    """Whether the check's reference has any noise (then identical replicas are a failure)."""
+    reference = get_reference(check.scene, check_params(check),
+                              reference_integrator(check.integrator))
+    return bool(np.any(reference.var > 0))
 
 
 def _images(check: Check, main_render) -> dict | None:

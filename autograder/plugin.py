@@ -227,6 +227,8 @@ def pytest_sessionfinish(session, exitstatus):
         return
     failed = session.config.stash.get(_WRITE_FAILED, None)
     session.config.stash[_WRITE_FAILED] = ""          # the last write decides
+    if exitstatus == pytest.ExitCode.INTERRUPTED:
+        results.interrupted()                         # an interrupt is not a verdict
     _write(session.config, results)
     if session.config.stash[_WRITE_FAILED] or (failed and not os.path.exists(results.path)):
         session.exitstatus = 3

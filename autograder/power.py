@@ -38,8 +38,10 @@ from mitsuba_refs.cache import get_reference
 from mitsuba_refs.compare import SPLATTING, reference_integrator, render_ours
 from mitsuba_refs.stats import VARIANCE_BOUND, compare_means, detectable_bias
 from mitsuba_refs.stats.power import gross_error_bound, tile_gross_error_bound
+from mitsuba_refs.stats.replicas import replica_moments
 
 from . import grading
+from .replicas import scored_render
 
 #: The bias every integrator check must detect (probability >= POWER at its per-part level).
 TARGET_BIAS = 0.015
@@ -103,14 +105,16 @@ def tile_detectable_bias(ref_mean, ref_var, ref_n, n_test, *, alpha: float, powe
 
 def injected_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float, seeds: int,
                    seed: int = 0, max_var_ratio: float | None = VARIANCE_BOUND,
-                   image_components: bool = True) -> float:
+                   image_components: bool = True, replicas: int | None = None) -> float:
     """Fraction of ``seeds`` simulated renders ``(1+b)`` times the truth that the mean test rejects.
 
     The committed reference image is taken as the truth ``T``.  Each seed draws a reference
     ``T + e_b`` and a test ``(1+b)(T + e_a)`` with per-pixel normal errors of variance
     ``v/ref_n`` and ``v/n_test`` (``v`` the reference's per-sample variances; one standard
     normal per pixel shared by the channels, as one path carries all three) and runs
-    :func:`compare_means` exactly as the grader does.
+    :func:`compare_means` exactly as the grader does. With ``replicas`` = K the test is K
+    such renders of ``n_test / K`` samples and its variance their spread, as the grader
+    measures it (:mod:`autograder.replicas`); otherwise the test's variance is the true one.
 
     Parameters
     ----------
@@ -122,31 +126,56 @@ def injected_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float, 
     seed : int  seed of the generator (results are deterministic)
     max_var_ratio : float or None  as the grader passes it (same estimator)
     image_components : bool  as the grader passes it (False for a light tracer)
+    replicas : int, optional  the test's variance from this many replicas
     """
     rng = np.random.default_rng(seed)
     truth = np.asarray(ref_mean, dtype=np.float64)
     v = np.maximum(np.asarray(ref_var, dtype=np.float64), 0.0)
-    sd_ref, sd_test = np.sqrt(v / ref_n), np.sqrt(v / n_test)
+    sd_ref = np.sqrt(v / ref_n)
     h, w = truth.shape[:2]
     rejected = 0
     for _ in range(seeds):
         reference = truth + sd_ref * rng.standard_normal((h, w, 1))
-        test = (1.0 + b) * (truth + sd_test * rng.standard_normal((h, w, 1)))
-        result = compare_means(test, v * (1.0 + b) ** 2, n_test, reference, v, ref_n,
+        test, test_var = _simulated_test(rng, truth, v, n_test, b, replicas)
+        result = compare_means(test, test_var, n_test, reference, v, ref_n,
                                alpha=alpha, max_var_ratio=max_var_ratio,
                                image_components=image_components)
         rejected += not result.agree
     return rejected / seeds
 
 
+def _simulated_test(rng, truth, v, n_test, b, replicas):
+    """A simulated test render ``(1+b)(T + e)`` and its per-sample variance: the true one, or
+    the spread of ``replicas`` simulated replicas of ``n_test / replicas`` samples."""
+    h, w = truth.shape[:2]
+    if not replicas:
+        return ((1.0 + b) * (truth + np.sqrt(v / n_test) * rng.standard_normal((h, w, 1))),
+                v * (1.0 + b) ** 2)
+    per_replica = n_test // replicas
+    stack = (1.0 + b) * (truth + np.sqrt(v / per_replica)
+                         * rng.standard_normal((replicas, h, w, 1)))
+    return replica_moments(stack, per_replica)
+
+
 def rendered_power(check, b: float, renders: int, *, alpha: float, seed: int = 70_000) -> float:
-    """Fraction of ``renders`` real renders of the reference solution at ``check.spp``,
-    multiplied by ``1+b``, whose mean part fails against the committed reference."""
+    """Fraction of ``renders`` real renders of the reference solution at ``check.spp`` (as the
+    grader renders them: replicas, :func:`autograder.grading.scored_replicas`), multiplied by
+    ``1+b``, whose mean part fails against the committed reference."""
     reference = reference_of(check)
+    count = grading.scored_replicas(check)
+
+    def render(scene, integrator, params, spp, render_seed):
+        return render_ours(scene, integrator, params, spp, render_seed, processes=1)
     rejected = 0
     for k in range(renders):
-        mean, var = render_ours(check.scene, check.integrator, grading.check_params(check),
-                                check.spp, seed + k, processes=1)
+        if count:
+            scored = scored_render(render, check.scene, check.integrator,
+                                   grading.check_params(check), check.spp, seed + k,
+                                   replicas=count)
+            mean, var = scored.mean, scored.variance
+        else:
+            mean, var = render(check.scene, check.integrator, grading.check_params(check),
+                               check.spp, seed + k)
         result = compare_means(mean * (1 + b), var * (1 + b) ** 2, check.spp, reference.mean,
                                reference.var, reference.n, alpha=alpha,
                                max_var_ratio=VARIANCE_BOUND, image_components=not splats(check))
@@ -176,7 +205,8 @@ def power_table(checks=None, *, alpha: float | None = None, seeds: int = 200,
             row[f"injected_power_{key}"] = injected_power(sign * b, ref.mean, ref.var, ref.n,
                                                           check.spp, alpha=level, seeds=seeds,
                                                           seed=1000 * i + (sign > 0),
-                                                          image_components=not tiles_only)
+                                                          image_components=not tiles_only,
+                                                          replicas=grading.scored_replicas(check))
             if renders:
                 row[f"rendered_power_{key}"] = rendered_power(check, sign * b, renders,
                                                               alpha=level)

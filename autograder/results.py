@@ -25,6 +25,12 @@ import os
 import time
 
 VISIBILITIES = ("visible", "after_due_date", "after_published", "hidden")
+#: What a test that has not finished says.
+NOT_RUN = "not run: the grader stopped before this test"
+NOT_RUN_INTERRUPTED = "not run: grading was interrupted before this test finished"
+#: The top-level output of an interrupted grading.
+INTERRUPTED = ("INTERRUPTED: grading stopped (Ctrl-C or SIGINT) before every test had run; these "
+               "scores are not a grade: grade the submission again")
 #: Longest output kept per test (Gradescope shows it as text).
 MAX_OUTPUT = 8000
 
@@ -45,8 +51,15 @@ class Results:
 
     def add_pending(self, key, name, max_score, visibility="visible"):
         self.tests[key] = dict(name=name, score=0.0, max_score=float(max_score), status="failed",
-                               output="not run: the grader stopped before this test",
-                               visibility=visibility)
+                               output=NOT_RUN, visibility=visibility)
+
+    def interrupted(self) -> None:
+        """Grading was interrupted (Ctrl-C, SIGINT): the file says so and is no grade; the
+        tests that had not finished say they were interrupted, not that they failed."""
+        self.output = INTERRUPTED
+        for test in self.tests.values():
+            if test["output"] == NOT_RUN:
+                test["output"] = NOT_RUN_INTERRUPTED
 
     def record(self, key, name, score, max_score, passed, output, visibility="visible"):
         if visibility not in VISIBILITIES:

@@ -12,7 +12,7 @@ import sys
 from pathtracer.scene.defines import parse_defines
 
 from . import config
-from .cli_compare import _positive_ints, _resolution
+from .cli_compare import _positive_ints, _resolution, add_detect_options, detect_of
 from .config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 from .errors import RefsInputError
 from .external.template import PLACEHOLDERS, CommandTemplate
@@ -80,6 +80,7 @@ def add_check(subparsers):
                    help="per-bounce localisation (needs {max_depth}): on a disagreement (auto), "
                         "always or never")
     p.add_argument("--out", default="out/check", help="folder for the diagnostic pictures")
+    add_detect_options(p)
     add_output_options(p)
     return run_check
 
@@ -88,6 +89,10 @@ def run_check(args) -> int:
     """Handler of ``check``."""
     params = parse_defines(args.defines)
     _check_options(args)
+    detect = detect_of(args)
+    if detect is not None and args.command is None:
+        raise RefsInputError("--detect goes with --command: images rendered elsewhere have "
+                             "their sample count (the verdict says what they could see)")
     from .external.check import check  # the statistics load inside main, where Ctrl-C is caught
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
     command_mode = args.command is not None
@@ -99,7 +104,7 @@ def run_check(args) -> int:
                    renderer_scene=args.renderer_scene, reference=args.reference_integrator,
                    same_estimator=args.same_estimator, splatting=args.splatting,
                    max_depth=args.max_depth, resolution=args.resolution, ladder=args.ladder,
-                   ladder_replicas=args.replicas, output_suffix=args.output_suffix,
+                   ladder_replicas=args.replicas, output_suffix=args.output_suffix, detect=detect,
                    log=lambda message: print(message, file=sys.stderr))
     print(result.report())
     for line in write_outputs(args, [result], alpha=args.alpha):

@@ -42,6 +42,34 @@ def _resolution(text: str) -> tuple[int, int]:
         raise argparse.ArgumentTypeError(str(error)) from None
 
 
+def add_detect_options(p) -> None:
+    """``--detect BIAS`` and ``--max-time SECONDS`` (compare and check)."""
+    p.add_argument("--detect", default=None, metavar="BIAS",
+                   help="choose the spp (instead of --spp) from a short pilot render so that the "
+                        "mean test detects a global bias of BIAS (e.g. 2%%) with probability 0.95, "
+                        "or say why it cannot (the reference's own noise)")
+    p.add_argument("--max-time", type=float, default=None, metavar="SECONDS",
+                   help="with --detect: the most seconds the mean-and-variance render may take, "
+                        "at the pilot's pace (default 300)")
+
+
+def detect_of(args):
+    """The :class:`mitsuba_refs.detect.Detect` of ``--detect`` / ``--max-time`` (None without
+    --detect); one-line errors for a bad value or a conflicting option."""
+    if args.detect is None:
+        if args.max_time is not None:
+            raise RefsInputError("--max-time goes with --detect (it caps the spp --detect chooses)")
+        return None
+    from .detect import DEFAULT_MAX_TIME, Detect, parse_bias
+    target = parse_bias(args.detect)
+    if args.spp is not None:
+        raise RefsInputError("--spp and --detect both set the sample count: give one of them")
+    max_time = DEFAULT_MAX_TIME if args.max_time is None else args.max_time
+    if not (max_time > 0 and max_time < float("inf")):
+        raise RefsInputError(f"--max-time must be a number of seconds > 0, got {args.max_time}")
+    return Detect(target, max_time)
+
+
 def add_compare(subparsers):
     """Add the ``compare`` subcommand to ``subparsers``; return its handler."""
     p = subparsers.add_parser(
@@ -58,7 +86,7 @@ def add_compare(subparsers):
                         "to the committed references' film size")
     p.add_argument("--integrator", default="path", choices=sorted(INTEGRATORS),
                    help="pathtracer integrator to test (default: path)")
-    p.add_argument("--spp", type=int, default=config.TEST_MAX_SPP,
+    p.add_argument("--spp", type=int, default=None,
                    help="samples per pixel of the mean/variance render, whatever the file's sampler "
                         f"says (default {config.TEST_MAX_SPP}; the reference has {config.REF_SPP})")
     p.add_argument("--resolution", type=_resolution, default=None, metavar="WxH",
@@ -81,6 +109,7 @@ def add_compare(subparsers):
                    help="per-bounce localisation: when the mean disagrees (auto), always or never")
     p.add_argument("--out", default="out/compare", help="folder for the diagnostic pictures")
     p.add_argument("--processes", type=int, default=None, help="worker processes (default: all cores)")
+    add_detect_options(p)
     add_output_options(p)
     return run_compare
 
@@ -90,13 +119,15 @@ def run_compare(args) -> int:
     (one line, exit status 2)."""
     params = parse_defines(args.defines)
     check_options(args)
+    detect = detect_of(args)
     preload(args.scene, params, args.resolution)
     # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught.
     from .compare import compare
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
     options = {k: v for k, v in (("max_depth", args.max_depth), ("rr_depth", args.rr_depth))
                if v is not None} or None
-    result = compare(args.scene, args.integrator, params, spp=args.spp, alpha=args.alpha,
+    result = compare(args.scene, args.integrator, params, spp=args.spp or config.TEST_MAX_SPP,
+                     alpha=args.alpha, detect=detect,
                      convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
                      processes=args.processes, ladder=args.ladder, replicas=args.replicas,
                      options=options, resolution=args.resolution,
@@ -109,7 +140,8 @@ def run_compare(args) -> int:
 
 def check_options(args) -> None:
     """Refuse out-of-range options in one line saying what to change."""
-    check_spp(args.spp)
+    if args.spp is not None:
+        check_spp(args.spp)
     if not 0 < args.alpha < 1:
         raise RefsInputError(f"--alpha must be between 0 and 1 (e.g. 1e-3), got {args.alpha}")
     if not args.no_convergence:

@@ -31,6 +31,7 @@ from pathtracer.render.driver import SCENE_OPTIONS
 
 from . import config
 from .cache import get_reference, scene_hash
+from .detect import choose_spp, comparison_bound, mean_line, status_text
 from .explain import hints
 from .hooks import RecordingRuns, WithOptions, mean_of
 from .render import resolve_scene, xml_defaults
@@ -129,6 +130,10 @@ class Comparison:
     #: The images the verdicts were drawn from, (H, W, 3) float arrays: test_mean,
     #: test_variance (per sample), reference_mean, reference_variance. Not serialised.
     arrays: dict = field(default_factory=dict, repr=False)
+    #: The smallest global bias the mean test detects (stats.detectable.DetectableBias), and
+    #: what --detect chose (detect.SppChoice); None when not computed / not asked.
+    detectable: object = None
+    detect: object = None
 
     @property
     def agree(self) -> bool:
@@ -157,9 +162,8 @@ class Comparison:
 
     def report(self) -> str:
         """A few lines a student can read."""
-        status = "AGREES with Mitsuba" if self.agree else "DISAGREES with Mitsuba"
-        lines = [f"{self.integrator} on {self.scene} ({self.spp} spp): {status}",
-                 f"  mean:        {self.mean.verdict}"]
+        lines = [f"{self.integrator} on {self.scene} ({self.spp} spp): {status_text(self)}",
+                 f"  mean:        {mean_line(self)}"]
         if self.rendered:
             lines.insert(1, f"  rendered:    {self.rendered}")
         if self.variance is not None:
@@ -229,7 +233,7 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
             ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS,
             max_growth=CONVERGENCE_MAX_GROWTH, options=None, resolution=None,
             log=None, reference_name=None, same_estimator=None,
-            splatting=None) -> Comparison:
+            splatting=None, detect=None) -> Comparison:
     """Compare one integrator with Mitsuba on ``scene``.
 
     Parameters
@@ -269,6 +273,9 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
         estimator (our name for it, e.g. ``light`` for Mitsuba's ``ptracer``), whether the test
         side runs that same estimator (then the variance verdict applies), and whether its
         paths splat into many pixels. By default all three follow from ``integrator``.
+    detect : mitsuba_refs.detect.Detect, optional
+        Choose ``spp`` from a pilot render so that the mean test sees ``detect.target``
+        (:func:`mitsuba_refs.detect.choose_spp`); replaces ``spp``.
     """
     start = time.perf_counter()
     name = integrator if isinstance(integrator, str) else integrator.name
@@ -284,6 +291,10 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
         render = WithOptions(render, {"resolution": tuple(resolution)})
 
     runs = []    # one dict per render of ours (purpose, seed, spp, seconds): the report's runs
+    choice = None if detect is None else choose_spp(
+        detect, RecordingRuns(render, runs, "pilot"), scene, integrator, params, reference,
+        alpha=alpha, same=same, splats=splats, processes=processes, log=log)
+    spp = spp if choice is None else choice.spp
     mean, variance = RecordingRuns(render, runs, "mean")(scene, integrator, params, spp, TEST_SEED,
                                                            processes=processes)
     # Same estimator on both sides: a test-side variance far above the reference's is
@@ -296,6 +307,10 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
                                       reference.n, alpha=alpha, max_var_ratio=bound,
                                       pixel_correlation=correlation,
                                       image_components=not splats))
+    result.detectable = comparison_bound(reference, variance, spp, alpha=alpha, same=same,
+                                         splats=splats)
+    result.detect = choice
+    result.notes += [choice.reason] if choice is not None else []
     result.rendered = rendered_settings(reference.metadata)
     result.reference_key = str(reference.metadata.get("key", ""))
     result.reference_integrator = ref_name

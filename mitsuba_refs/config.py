@@ -64,6 +64,7 @@ MEDIA_SCENES = tuple(f"lecture-media-{step}" for step in (1, 2, 3, 4))
 #: name -> (our integrators with a reference, width, height)
 FEATURE_SCENES = {
     "materials": (("path", "path_bsdf", "path_nee"), 32, 32),
+    "principled": (("path",), 32, 32),
     "caustics": (("path", "light"), 32, 32),
     **{scene: (("volpath",), 32, 32) for scene in MEDIA_SCENES},
 }
@@ -75,10 +76,12 @@ LIGHT_SCENES = ("cornell-box",)
 #: references those need, built by hand: ``textured`` (``path`` at 32 x 32) and
 #: ``quad-light-filtered`` (``path`` on a tent and a gaussian film), and the autograder's
 #: ``media-box`` (``volpath`` at its own 32 x 32, and at max_depth 1, 2, 3: the ``media``
-#: checks, tests/test_autograder.py), ``glass-lamp`` (``light`` at 64 x 48: the
-#: ``light-tracing`` check) and ``hetero-smoke`` (``volpath`` at its own 32 x 32:
-#: tests/test_heterogeneous.py). Not in BUILTIN_SCENES.
-OWN_TEST_SCENES = ("textured", "quad-light-filtered", "media-box", "glass-lamp", "hetero-smoke")
+#: checks, tests/test_autograder.py) and ``glass-lamp`` (``light`` at 64 x 48: the
+#: ``light-tracing`` check), ``lights-cameras`` (``path`` at its own 32 x 24: thin lens,
+#: mesh attributes, textured area lights, projectors) and ``hetero-smoke`` (``volpath`` at
+#: its own 32 x 32: tests/test_heterogeneous.py). Not in BUILTIN_SCENES.
+OWN_TEST_SCENES = ("textured", "quad-light-filtered", "media-box", "glass-lamp", "lights-cameras",
+                   "hetero-smoke")
 
 #: Built-in scenes only the autograder renders, each a variant of a built-in scene (name ->
 #: that scene) with larger, dimmer lights of the same power, where BSDF sampling alone

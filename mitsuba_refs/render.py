@@ -8,7 +8,10 @@ matching one of ours. Per-pixel mean and per-sample variance come from single
 samples (:mod:`mitsuba_refs.batch`: ``k`` copies of the camera side by side,
 one sample per pixel each, no Python per sample) in ``scalar_rgb``; in JIT
 variants the ``rgb_moments`` wrapper (:mod:`mitsuba_refs.moments`), which
-runs there once per wavefront (:func:`default_method`).
+runs there once per wavefront (:func:`default_method`). A tent or gaussian film's
+samples are weighted by Mitsuba's film in JIT variants, and in ``scalar_rgb``, whose
+film tabulates the weights, by NumPy at their recomputed positions
+(:mod:`mitsuba_refs.filtered`; :func:`choose_method`).
 
 Integrator mapping (ours -> Mitsuba):
 
@@ -50,6 +53,7 @@ from pathtracer.scene.xml_files import read_elements, scene_tree, walk
 
 from . import config, moments
 from .batch import render_moments
+from .filtered import integrator_with_blocks, render_filtered_moments
 from .rfilter import check_variant, film_filter, filter_metadata, per_sample_variance
 from .seeds import pass_seeds
 from .variant import set_variant
@@ -310,7 +314,10 @@ def check_framing(path, mi_scene, settings):
     if size != settings.resolution:
         raise ValueError(f"{path}: Mitsuba's film is {size[0]}x{size[1]}, the tracer's "
                          f"{settings.resolution[0]}x{settings.resolution[1]}")
-    x_fov = float(np.ravel(np.array(mi.traverse(sensor)["x_fov"]))[0])
+    params = mi.traverse(sensor)
+    if "x_fov" not in params:   # an orthographic sensor has no field of view
+        return
+    x_fov = float(np.ravel(np.array(params["x_fov"]))[0])
     if abs(x_fov - settings.camera.x_fov) > 1e-3:
         raise ValueError(f"{path}: Mitsuba's horizontal field of view is {x_fov:.4f} degrees, "
                          f"the tracer's {settings.camera.x_fov:.4f}")
@@ -321,6 +328,39 @@ def default_method(variant):
     ``moments`` in JIT variants, where it runs once per wavefront and measured as fast
     or faster (docs/references.md)."""
     return "batch" if variant.startswith("scalar") else "moments"
+
+
+def choose_method(variant, rfilter, mitsuba_integrator, camera_in_medium, requested=None):
+    """How a reference is rendered: ``batch``, ``moments`` or ``replicas``.
+
+    ``replicas`` for the particle tracer (box films only); the wrapper (``moments``) where
+    the camera sits in a medium (the batch sensor drops it); otherwise ``requested`` or
+    :func:`default_method`. A tent or gaussian film takes ``moments`` in JIT variants (their
+    film weighs exactly) and ``batch`` in scalar ones (:mod:`mitsuba_refs.filtered`: the
+    scalar film's weights are tabulated, :func:`mitsuba_refs.rfilter.check_variant`).
+    ``ValueError`` for a combination that has no exact route.
+    """
+    scalar = variant.startswith("scalar")
+    if mitsuba_integrator == "ptracer":
+        if not rfilter.is_box:
+            raise ValueError(f"the light tracer's references need a box filter, the film "
+                             f"has {rfilter.describe()}")
+        return "replicas"
+    if camera_in_medium:
+        if requested == "batch":
+            raise ValueError("the batch method cannot render a camera inside a medium "
+                             "(Mitsuba's batch sensor drops the medium)")
+        check_variant(variant, rfilter, "a camera inside a medium")
+        return "moments"
+    if not rfilter.is_box:
+        if scalar and requested == "moments":
+            check_variant(variant, rfilter, "the rgb_moments method")
+        if not scalar and requested == "batch":
+            raise ValueError(f"the batch method with a {rfilter.describe()} film needs "
+                             f"scalar_rgb (it recomputes scalar Mitsuba's sample positions); "
+                             f"{variant} filters exactly with the moments method")
+        return requested or ("batch" if scalar else "moments")
+    return requested or default_method(variant)
 
 
 def render_reference(scene_path_or_name, params, integrator, spp, seed,
@@ -356,7 +396,7 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         ``batch``: single samples from a batch of camera copies (no Python per
         sample); ``moments``: the ``rgb_moments`` wrapper (one Python call per
         sample in ``scalar_rgb``, per wavefront in JIT variants). Same
-        statistics. Default: :func:`default_method`.
+        statistics. Default and the combinations allowed: :func:`choose_method`.
 
     Returns
     -------
@@ -373,32 +413,23 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     # The film's filter (box, tent, gaussian) also shapes the statistics (.rfilter).
     try:
         rfilter = film_filter(film)
-        check_variant(chosen, rfilter)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
     check_framing(path, scene, settings)
     width, height = settings.resolution
     nested = integrator_dict(integrator, transport)
     stream = stream_id(integrator, params, options, resolution)
-    if nested["type"] == "ptracer":
-        if rfilter.kind != "box":
-            raise ValueError(f"{path}: the light tracer's references need a box filter, "
-                             f"the film has {rfilter.kind}")
-        method = "replicas"
-    elif rfilter.kind != "box":
-        # Camera copies side by side would splat samples across each other's borders.
-        if method == "batch":
-            raise ValueError(f"{path}: the batch method needs a box filter, the film has "
-                             f"{rfilter.kind}")
-        method = "moments"
-    if sensor_has_medium(path):
-        if method == "batch":
-            raise ValueError(f"{path}: the batch method cannot render a camera inside a "
-                             "medium (Mitsuba's batch sensor drops the medium)")
-        method = "moments"
-    method = method or default_method(chosen)
+    try:
+        method = choose_method(chosen, rfilter, nested["type"], sensor_has_medium(path), method)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
     t0 = time.time()
-    if method == "batch":
+    if method == "batch" and not rfilter.is_box:
+        m1, m2, n, calls, per_call, seeds = render_filtered_moments(
+            scene, mi.load_dict(integrator_with_blocks(nested)), spp, seed, stream, rfilter,
+            log=log)
+        var = per_sample_variance(m1, m2, n, rfilter)
+    elif method == "batch":
         m1, var, n, calls, per_call, seeds = render_moments(
             scene, mi.load_dict(nested), spp, seed, stream, log=log)
     elif method == "replicas":

@@ -10,8 +10,10 @@ filters") says what the tests then assume.
 
 Mitsuba's scalar variants evaluate tent and gaussian weights from a 31-entry table,
 which moves pixel values at sharp edges by up to 0.4 % (tent) / 0.8 % (gaussian) of the
-edge's contrast; the tracer follows the exact weights of the vectorised variants, so
-filtered references must come from one of those.
+edge's contrast; the tracer follows the exact weights of the vectorised variants. So a
+filtered reference comes either from a vectorised variant's film, or, in ``scalar_rgb``,
+from single samples at known positions splatted by NumPy with the exact weights
+(:mod:`mitsuba_refs.filtered`): the same ``m1``, ``m2`` either way.
 """
 
 from pathtracer.render.moments import variance_from_power_means
@@ -38,12 +40,16 @@ def film_filter(film):
     return ReconstructionFilter.make(kind, round(radius, 6))
 
 
-def check_variant(variant, rfilter):
-    """Refuse a scalar variant for a tent or gaussian film (its weights are tabulated)."""
+def check_variant(variant, rfilter, route):
+    """Refuse a scalar variant's own film for a tent or gaussian filter (its weights are
+    tabulated) on ``route``, a route that would use it (the ``rgb_moments`` wrapper, a
+    camera inside a medium); the ``batch`` method (:mod:`mitsuba_refs.filtered`) splats
+    with the exact weights instead."""
     if not rfilter.is_box and variant.startswith("scalar"):
-        raise ValueError(f"a {rfilter.describe()} film needs a vectorised Mitsuba variant "
-                         f"(e.g. llvm_ad_rgb): {variant} tabulates the filter weights, which "
-                         "moves edge pixels by up to 0.8 % of the edge's contrast")
+        raise ValueError(f"a {rfilter.describe()} film with {route} needs a vectorised "
+                         f"Mitsuba variant (e.g. llvm_ad_rgb): {variant}'s film tabulates the "
+                         "filter weights, which moves edge pixels by up to 0.8 % of the "
+                         "edge's contrast")
 
 
 def filter_metadata(rfilter):

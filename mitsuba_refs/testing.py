@@ -84,7 +84,9 @@ def assert_agrees(scene, *, command=None, images=None, alpha=None, budget=None, 
         The suite's budget (default: one check with the default budget).
     **options
         Keyword arguments of :func:`mitsuba_refs.external.check.check` (``params``,
-        ``same_estimator``, ``reference``, ``out_dir``, ``jobs``, ...).
+        ``same_estimator``, ``reference``, ``out_dir``, ``jobs``, ``detect`` (a
+        :class:`mitsuba_refs.detect.Detect`: the spp that sees a target bias), ...). The
+        result's ``detectable`` says what its mean test could see.
 
     Returns
     -------

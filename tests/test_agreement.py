@@ -60,3 +60,14 @@ def test_filtered_film_agrees_with_mitsuba(rfilter):
                          convergence=False, bounces=False, processes=2)
     assert comparison.mean.agree, comparison.report()
     assert comparison.variance is not None and comparison.variance.agree, comparison.report()
+
+
+def test_lights_and_cameras_scene_agrees_with_mitsuba():
+    """A thin-lens camera (depth of field), mesh attributes (vertex colours as a reflectance,
+    a face attribute as a roughness), area lights with a bitmap and a checkerboard radiance
+    (sampled by the texture) and two projectors: the committed ``path`` reference at 32 x 24
+    (mitsuba-refs build lights-cameras --integrators path --no-per-bounce)."""
+    comparison = compare("lights-cameras", "path", spp=64, alpha=ALPHA,
+                         convergence=False, bounces=False, processes=2)
+    assert comparison.mean.agree, comparison.report()
+    assert comparison.variance is not None and comparison.variance.agree, comparison.report()

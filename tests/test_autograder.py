@@ -15,6 +15,7 @@ import importlib.metadata
 import json
 import os
 import re
+import signal
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -270,6 +271,42 @@ def test_hostile_submission_scores_nothing_and_leaves_nothing(path, tmp_path):
     assert not (HOSTILE / "pathtracer").exists() and Path(path).exists()
 
 
+MISSTATED = sorted(p for p in (HOSTILE / "misstated").glob("*.py") if not p.name.startswith("_"))
+
+
+@pytest.mark.parametrize("path", MISSTATED, ids=[p.stem for p in MISSTATED])
+def test_misstated_variance_scores_zero_on_the_part_it_attacks(path):
+    """A submission that reports 100x or 0.1x its variance (tests/hostile/misstated): zero on the
+    part the lie attacks, the parts it does not attack as they would be, and a finding that
+    names the ratio; with the reported variance believed, the attack would have worked."""
+    from mitsuba_refs.cache import get_reference
+    from mitsuba_refs.compare import reference_integrator
+    from mitsuba_refs.stats import compare_means, compare_variances
+    expect = constants(path).EXPECT
+    check, trusted = grading.CHECKS_BY_ID[expect["check"]], expect.get("trusted", False)
+    result = grading.run_check(check, str(path), limits=_limits(check), trusted=trusted)
+    assert not result.failure, result.report()
+    for part in result.parts:
+        assert part.passed == (part.name not in expect["zero"]), result.report()
+    ratios = [float(m.group(1)) for f in result.findings
+              for m in [re.search(r"variance your renders reported is ([0-9.]+)x", f)] if m]
+    assert len(ratios) == 1 and 1 / 1.5 < ratios[0] / expect["misstated"] < 1.5, result.report()
+    # The control: one render at the check's spp, its reported variance believed by the
+    # components it scales (the mean part's own-variance tiles and image; the variance part).
+    reference = get_reference(check.scene, grading.check_params(check),
+                              reference_integrator(check.integrator))
+    with StudentProcess(str(path), _limits(check), trusted=trusted) as student:
+        mean, variance = student.render(check.scene, check.integrator, grading.check_params(check),
+                                        check.spp, 1000)
+    alpha = grading.alpha_of(check)
+    believed_mean = compare_means(mean, variance, check.spp, reference.mean, reference.var,
+                                  reference.n, alpha=alpha)
+    believed_variance = compare_variances(variance, check.spp, reference.var, reference.n,
+                                          alpha=alpha)
+    believed = {"mean": bool(believed_mean.agree), "variance": bool(believed_variance.policy_agree)}
+    assert believed[expect["zero"][0]], (believed_mean.verdict, believed_variance.policy_verdict)
+
+
 def test_student_runtime_has_no_solution(tmp_path):
     """The runtime a submission imports from: integrators and camera are the skeleton's stubs,
     no path-class integrator, no references, no grader."""
@@ -416,6 +453,36 @@ def _run_grader(impl, out, *extra, timeout=900, env_extra=None):
     document = json.loads(Path(out).read_text())
     results.validate(document)
     return proc, document
+
+
+def test_an_interrupt_while_reading_the_reply_is_an_interrupt(monkeypatch):
+    """SIGINT while the grader reads the student's reply: KeyboardInterrupt, the child gone;
+    never a verdict on the submission (a crash, a malformed reply, zero points)."""
+    from autograder.sandbox import wire
+    honest = wire._read_exact
+    reads = []
+
+    def interrupted_read(fd, size, deadline):
+        reads.append(size)
+        if len(reads) == 3:                 # inside the render's reply, after the "ready" frame
+            signal.raise_signal(signal.SIGINT)
+        return honest(fd, size, deadline)
+    monkeypatch.setattr(wire, "_read_exact", interrupted_read)
+    with pytest.raises(KeyboardInterrupt):
+        grading.run_check(QUICK, "autograder.solution", limits=_limits(QUICK))
+    assert len(reads) >= 3 and not _runtime_processes()
+
+
+def test_interrupted_grading_writes_no_grade(tmp_path):
+    """Ctrl-C between two tests (tests/interrupting.py, deterministic): the finished test keeps
+    its score, the rest say they were interrupted, the file says it is no grade, exit 2."""
+    proc, document = _run_grader("autograder.solution", tmp_path / "results.json", "-k",
+                                 "direct-cornell-box or camera", "-p", "tests.interrupting")
+    assert proc.returncode == pytest.ExitCode.INTERRUPTED, proc.stdout[-2000:]
+    assert document["output"] == results.INTERRUPTED
+    first, second = document["tests"]
+    assert first["score"] == first["max_score"] == 10, first
+    assert second["score"] == 0 and second["output"] == results.NOT_RUN_INTERRUPTED, second
 
 
 @pytest.mark.parametrize("assignment", list(grading.ASSIGNMENTS))

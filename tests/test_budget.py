@@ -34,4 +34,5 @@ def test_statistical_assertions_fit_the_budget():
     assertions = int(line[-1].split("=")[1])
     assert assertions > 100          # the suites were found
     assert assertions <= MAX_STATISTICAL_TESTS
-    assert assertions * ALPHA <= SUITE_ALPHA
+    # SUITE_ALPHA / MAX * MAX may round one ulp above SUITE_ALPHA (it does for MAX = 519).
+    assert assertions * ALPHA <= SUITE_ALPHA * (1 + 1e-12)

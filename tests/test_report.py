@@ -25,6 +25,7 @@ import pytest
 
 from mitsuba_refs.cli import main
 from mitsuba_refs.compare import compare, render_ours
+from mitsuba_refs.detect import mean_line
 from mitsuba_refs.report import encoding
 from mitsuba_refs.report.html import write_html
 from mitsuba_refs.report.junit import write_junit
@@ -76,7 +77,9 @@ def test_record_holds_the_comparisons_values(agreeing, tmp_path):
     assert record["alpha"] == agreeing.mean.alpha
     mean = record["verdicts"]["mean"]
     assert mean["status"] == ("agree" if agreeing.mean.agree else "disagree")
-    assert mean["p_value"] == agreeing.mean.p_value and mean["line"] == agreeing.mean.verdict
+    assert mean["p_value"] == agreeing.mean.p_value and mean["line"] == mean_line(agreeing)
+    assert mean["line"].startswith(agreeing.mean.verdict)
+    assert mean["detectable_bias"]["bias"] == agreeing.detectable.bias
     assert mean["rel_bias"] == agreeing.mean.rel_bias
     assert mean["rel_bias_ci"] == list(agreeing.mean.rel_bias_ci)
     assert mean["component_p_values"] == agreeing.mean.scale_p_values

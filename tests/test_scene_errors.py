@@ -36,7 +36,7 @@ CASES = {
     "unknown shape": (
         f'<shape type="heightfield">{MARK}</shape>', '<shape type="heightfield">', "unsupported shape"),
     "unknown emitter": (
-        f'<emitter type="projector"/>{MARK}', '<emitter type="projector">', "unsupported emitter"),
+        f'<emitter type="sunsky"/>{MARK}', '<emitter type="sunsky">', "unsupported emitter"),
     "unknown integrator": (
         f'<integrator type="aov"/>{MARK}', '<integrator type="aov">', "unsupported integrator"),
     "integrator parameter": (
@@ -88,8 +88,9 @@ CASES = {
         f'<string name="wrap_mode" value="wrap"/>{MARK}</texture></bsdf>',
         '<texture type="bitmap">', 'unknown wrap_mode "wrap" (supported: repeat, mirror, clamp)'),
     "unknown texture": (
-        f'<bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"/>{MARK}</bsdf>',
-        '<texture type="mesh_attribute">', "unsupported texture (supported: bitmap, checkerboard, rawconstant)"),
+        f'<bsdf type="diffuse"><texture type="volume" name="reflectance"/>{MARK}</bsdf>',
+        '<texture type="volume">',
+        "unsupported texture (supported: bitmap, checkerboard, rawconstant, mesh_attribute)"),
     "texture for a scalar parameter": (
         f'<bsdf type="roughplastic">\n<texture type="checkerboard" name="alpha"/>{MARK}</bsdf>',
         '<texture type="checkerboard">', 'roughplastic takes a number for "alpha"'),
@@ -284,9 +285,12 @@ SENSOR_CASES = {
     "sampler": (
         SENSOR.replace("</sensor>", f'\n<sampler type="halton"/>{MARK}</sensor>'),
         '<sampler type="halton">', "unsupported sampler (supported: independent, stratified"),
-    "thinlens": (
-        SENSOR.replace('"perspective">', f'"thinlens">{MARK}'), '<sensor type="thinlens">',
+    "radiancemeter": (
+        SENSOR.replace('"perspective">', f'"radiancemeter">{MARK}'), '<sensor type="radiancemeter">',
         "unsupported sensor"),
+    "thinlens without aperture": (
+        SENSOR.replace('"perspective">', f'"thinlens">{MARK}'), '<sensor type="thinlens">',
+        "needs aperture_radius"),
     "camera scale": (
         SENSOR.replace("</sensor>", f'\n<transform name="to_world"><scale value="2"/></transform>{MARK}</sensor>')
         .replace("<sensor", "<sensor"),

@@ -81,7 +81,8 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
           timeout=DEFAULT_TIMEOUT, replicas=None, renderer_scene=None, reference=None,
           same_estimator=False, splatting=None, max_depth=None, resolution=None,
           ladder=config.CONVERGENCE_LADDER, ladder_replicas=config.CONVERGENCE_REPLICAS,
-          images_spp=None, output_suffix=".exr", seed_offset=0, log=None) -> Comparison:
+          images_spp=None, output_suffix=".exr", seed_offset=0, log=None,
+          detect=None) -> Comparison:
     """Judge an external renderer (``command``) or its images (``images``) against Mitsuba.
 
     Parameters
@@ -122,6 +123,9 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
     seed_offset : int
         0: the renderer gets the comparison's own seeds; another value scrambles every seed
         (one bijection per offset), for independent repetitions of one check.
+    detect : mitsuba_refs.detect.Detect, optional
+        ``command`` only: choose ``spp`` from a pilot run so that the mean test sees
+        ``detect.target`` (:func:`mitsuba_refs.detect.choose_spp`).
 
     Returns
     -------
@@ -130,6 +134,8 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
     """
     if (command is None) == (images is None):
         raise RefsInputError("check needs exactly one of --command and --images")
+    if detect is not None and command is None:
+        raise RefsInputError("--detect goes with --command (images have their sample count)")
     start = time.perf_counter()
     path = scene_path(scene)
     params = {**default_params(scene), **(params or {})}
@@ -147,7 +153,7 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
                                 replicas=replicas, renderer_scene=renderer_scene or path,
                                 options=options, resolution=resolution, ladder=ladder,
                                 ladder_replicas=ladder_replicas, suffix=output_suffix, log=log,
-                                seed_offset=seed_offset)
+                                seed_offset=seed_offset, detect=detect)
         result.renderer = f"command: {command}"
     else:
         result = _check_images(scene, image_files(images), params, size, estimator, alpha=alpha,
@@ -169,7 +175,8 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
 
 def _check_command(scene, template, params, size, transport, estimator, *, spp, alpha,
                    convergence, bounces, out_dir, jobs, timeout, replicas, renderer_scene,
-                   options, resolution, ladder, ladder_replicas, suffix, log, seed_offset):
+                   options, resolution, ladder, ladder_replicas, suffix, log, seed_offset,
+                   detect=None):
     if bounces and not template.takes_max_depth:
         raise RefsInputError("--bounces always needs {max_depth} in --command: the renderer must "
                              "be told the path length to localise a bounce")
@@ -179,7 +186,8 @@ def _check_command(scene, template, params, size, transport, estimator, *, spp, 
                               replicas or 8, suffix, log, seed_offset)
     reference = get_reference(scene, params, estimator["reference_name"], log=log,
                               options=reference_options(options), resolution=resolution)
-    renders.plan([renders.request(spp, TEST_SEED)])
+    if detect is None:      # with --detect the pilot chooses the spp inside compare()
+        renders.plan([renders.request(spp, TEST_SEED)])
     if convergence:
         renders.plan([renders.request(n, seed, variance=False)
                       for n, seed in convergence_requests(reference, ladder, ladder_replicas)])
@@ -191,14 +199,15 @@ def _check_command(scene, template, params, size, transport, estimator, *, spp, 
                          convergence=convergence,
                          bounces=bounces if template.takes_max_depth else False,
                          out_dir=out_dir, render=renders, ladder=ladder, replicas=ladder_replicas,
-                         options=options, resolution=resolution, log=log, **estimator)
+                         options=options, resolution=resolution, log=log, detect=detect,
+                         **estimator)
     except RendererFault as fault:
         result = faulty(scene, _label(template), params, spp, fault.lines, alpha)
     finally:
         renders.close()
     result.runs = [run.record() for run in renders.runs]
     if renders.has_variance is False:
-        count = replica_count(spp, replicas or 8)
+        count = replica_count(result.spp, replicas or 8)
         result.notes.append(f"its images carry no variance: mean and variance from {count} "
                             "independent replicas with seeds of their own")
     return result

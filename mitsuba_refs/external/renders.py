@@ -34,6 +34,7 @@ import numpy as np
 from pathtracer.render.splats import replica_count
 
 from ..errors import RefsInputError
+from ..stats import replicas as stats_replicas
 from .images import ExternalImage, ImageError, image_faults, read_image
 from .runner import Run, Runner, quoted
 
@@ -43,8 +44,8 @@ DEFAULT_REPLICAS = 8
 #: comparison's own seeds (< 10^6), so no two runs of a check share one.
 REPLICA_SEED_BASE = 10_000_000
 REPLICA_STRIDE = 64
-#: Replicas whose deviations from their mean correlate above this share one source of noise
-#: (independent replicas correlate at -1 / (K - 1)): refused.
+#: Replicas whose deviations from their median correlate above this share one source of noise
+#: (independent ones correlate near 0, :func:`mitsuba_refs.stats.replicas.shared_noise`): refused.
 MAX_SHARED_NOISE = 0.5
 #: Seeds are 32-bit (Mitsuba's sampler seed). With a ``seed_offset`` (repeated checks, e.g. a
 #: calibration), every seed goes through ``seed * SEED_MULTIPLIER + offset * SEED_INCREMENT``
@@ -252,7 +253,7 @@ class ExternalRenders:
 
 def replica_moments(means, runs=None):
     """Mean and per-sample variance of ``K`` independent replica images of ``spp / K`` samples
-    each: their average, and their spread (ddof 1) times the replicas' sample count.
+    each (:func:`mitsuba_refs.stats.replicas.replica_moments`).
 
     Raises
     ------
@@ -261,29 +262,19 @@ def replica_moments(means, runs=None):
     """
     stack = np.stack([np.asarray(m, dtype=np.float64) for m in means])
     check_independent(stack, runs)
-    per_replica = runs[0].spp if runs else 1
-    return stack.mean(axis=0), stack.var(axis=0, ddof=1) * per_replica
+    return stats_replicas.replica_moments(stack, runs[0].spp if runs else 1)
 
 
 def check_independent(stack: np.ndarray, runs=None) -> None:
-    """Refuse replicas (K, H, W, C) of which two correlate above :data:`MAX_SHARED_NOISE`.
-
-    Independent replicas' deviations from their average correlate at -1 / (K - 1); two that
-    share a share ``s`` of their noise correlate near ``s``.
-    """
-    count = stack.shape[0]
-    if count < 3:
-        return
-    deviations = (stack - stack.mean(axis=0)).reshape(count, -1)
-    norms = np.sqrt(np.einsum("ij,ij->i", deviations, deviations))
-    if not np.all(norms > 0):
-        return                                 # a noiseless image: nothing to correlate
-    correlation = (deviations @ deviations.T) / np.outer(norms, norms)
-    np.fill_diagonal(correlation, -np.inf)
-    k, l = np.unravel_index(int(np.argmax(correlation)), correlation.shape)
-    if correlation[k, l] > MAX_SHARED_NOISE:
+    """Refuse replicas (K, H, W, C) of which two correlate above :data:`MAX_SHARED_NOISE`
+    (:func:`mitsuba_refs.stats.replicas.shared_noise`)."""
+    pair = stats_replicas.shared_noise(stack)
+    if pair is None:
+        return                                 # too few, or a noiseless image
+    k, l, correlation = pair
+    if correlation > MAX_SHARED_NOISE:
         which = (f"seeds {runs[k].seed} and {runs[l].seed}" if runs
                  else f"images {k + 1} and {l + 1}")
         raise RefsInputError(f"replicas with {which} are not independent: their noise correlates "
-                             f"at {correlation[k, l]:.2f} (independent ones: {-1 / (count - 1):.2f}); "
+                             f"at {correlation:.2f} (independent ones: near 0); "
                              "each render needs random numbers of its own")

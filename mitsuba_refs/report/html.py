@@ -24,6 +24,7 @@ from pathlib import Path
 from pathtracer.io.exr import read_mean_variance
 from pathtracer.io.output import atomic_path
 
+from ..detect import percent
 from ..errors import one_line
 from . import figures
 from .encoding import to_array, to_float
@@ -98,9 +99,10 @@ def summary_table(records: list, ids: list) -> str:
     rows = []
     for record, anchor in zip(records, ids):
         overall = "agree" if record["agree"] else "disagree"
+        shown = f"{overall} (weak)" if record.get("weak") else overall
         cells = "".join(_status_cell(record["verdicts"].get(name)) for name in VERDICTS)
         rows.append(f'<tr><td><a href="#{anchor}">{_e(record["scene"])}</a></td><td>{_e(record["renderer"])}</td>'
-                    f'<td>{_e(record["spp"])}</td><td class="{overall}">{overall}</td>{cells}</tr>')
+                    f'<td>{_e(record["spp"])}</td><td class="{overall}">{shown}</td>{cells}</tr>')
     return ("<table class=\"summary\"><tr><th>scene</th><th>renderer</th><th>spp</th><th>overall</th>"
             f"{head}</tr>\n" + "\n".join(rows) + "\n</table>")
 
@@ -213,6 +215,9 @@ def record_section(record: dict, anchor: str) -> str:
     """The section of one comparison."""
     overall = "agree" if record["agree"] else "disagree"
     word = "AGREES with Mitsuba" if record["agree"] else "DISAGREES with Mitsuba"
+    bound = record["verdicts"].get("mean", {}).get("detectable_bias") or {}
+    if record.get("weak") and bound:
+        word += f", weakly (could not see less than {percent(to_float(bound['bias']))})"
     reference = record.get("reference") or {}
     size = (f"{reference.get('width')}x{reference.get('height')}" if reference.get("width") else "size unknown")
     meta = (f"renderer: {record['renderer']}; {record['spp']} spp; rendered: {record.get('rendered') or '–'}; "

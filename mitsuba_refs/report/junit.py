@@ -57,6 +57,12 @@ def verdict_seconds(record: dict) -> dict:
     return spent
 
 
+def _bias(mean: dict) -> str:
+    """The mean test's detectable global bias (a fraction), "" when not recorded."""
+    bound = mean.get("detectable_bias") if isinstance(mean, dict) else None
+    return "" if not isinstance(bound, dict) else str(bound.get("bias"))
+
+
 def _failure_text(record: dict, name: str, entry: dict) -> str:
     alpha = entry.get("alpha")
     level = f" (alpha {to_float(alpha):g})" if alpha is not None else ""
@@ -85,6 +91,8 @@ def _suite(record: dict) -> ET.Element:
     for key, value in (("scene", record["scene"]), ("renderer", record["renderer"]),
                        ("integrator", record["integrator"]), ("spp", record["spp"]),
                        ("rendered", record.get("rendered", "")),
+                       ("mean.detectable_bias", _bias(verdicts.get("mean", {}))),
+                       ("weak", str(bool(record.get("weak"))).lower()),
                        ("reference.key", reference.get("key", "")),
                        ("reference.integrator", reference.get("integrator", "")),
                        ("results", record.get("source", ""))):

@@ -20,6 +20,7 @@ import numpy as np
 from pathtracer.io.exr import warn_clamped, write_mean_variance
 from pathtracer.io.output import atomic_path
 
+from ..detect import is_weak
 from ..errors import RefsInputError
 from .encoding import number, plain
 from .verdicts import verdict_entries
@@ -94,6 +95,18 @@ def _run_totals(runs: list) -> dict:
                             else None)}
 
 
+def _detect(result: Comparison) -> dict | None:
+    """What ``--detect`` chose (:class:`mitsuba_refs.detect.SppChoice`), JSON-able."""
+    choice = getattr(result, "detect", None)
+    if choice is None:
+        return None
+    return plain({"target": choice.target, "spp": choice.spp, "met": choice.met,
+                  "predicted": choice.predicted, "needed_spp": choice.needed,
+                  "allowed_spp": choice.allowed, "floor": choice.floor,
+                  "reference_spp_needed": choice.reference_needed,
+                  "seconds_per_spp": choice.seconds_per_spp, "reason": choice.reason})
+
+
 def comparison_record(result: Comparison, out_dir, *, stem: str | None = None) -> dict:
     """A JSON-serialisable record of one comparison (schema :data:`SCHEMA`).
 
@@ -113,6 +126,8 @@ def comparison_record(result: Comparison, out_dir, *, stem: str | None = None) -
     -------
     dict
         ``schema``, ``scene``, ``renderer``, ``integrator``, ``params``, ``spp``, ``agree``,
+        ``weak`` (an agreement whose mean test could not see a 5 % global bias), ``detect``
+        (what ``--detect`` chose and why, or None),
         ``rendered``, ``reference`` (``key``, ``integrator``, ``width``, ``height``), ``alpha``,
         ``verdicts`` (:mod:`.verdicts`: mean, variance, convergence, bounces), ``hints``,
         ``notes``, ``pictures`` (name -> path), ``images`` (``test``, ``reference`` -> EXR
@@ -132,6 +147,8 @@ def comparison_record(result: Comparison, out_dir, *, stem: str | None = None) -
         "params": plain(dict(result.params or {})),
         "spp": int(result.spp),
         "agree": bool(result.agree),
+        "weak": is_weak(result),
+        "detect": _detect(result),
         "rendered": result.rendered,
         "reference": {"key": result.reference_key, "integrator": result.reference_integrator,
                       **_film(result)},

@@ -6,7 +6,8 @@ import math
 from .encoding import to_float
 from .results import record_path
 
-__all__ = ["format_p", "interval_text", "suite_name", "picture_lines", "run_summary"]
+__all__ = ["format_p", "interval_text", "detectable_text", "suite_name", "picture_lines",
+           "run_summary"]
 
 
 def format_p(value) -> str:
@@ -34,8 +35,9 @@ def interval_text(name: str, entry: dict) -> str:
         return ""
     if name == "mean":
         level = to_float(entry.get("ci_level", 0.95))
-        return (f"relative bias {100 * to_float(entry['rel_bias']):+.1f}% "
+        text = (f"relative bias {100 * to_float(entry['rel_bias']):+.1f}% "
                 f"{_pair(entry['rel_bias_ci'], percent=True)} ({100 * level:.0f}% CI)")
+        return text + detectable_text(entry.get("detectable_bias"))
     if name == "variance":
         return f"variance ratio {to_float(entry['ratio']):.3f} {_pair(entry['ratio_ci'])}"
     if name == "convergence":
@@ -45,6 +47,17 @@ def interval_text(name: str, entry: dict) -> str:
         depth = entry.get("first_diverging_depth")
         return "every depth agrees" if depth is None else f"first diverging max_depth = {depth}"
     return ""
+
+
+def detectable_text(bound) -> str:
+    """``"; detects ±2.4% (95%)"``: what a mean entry's test could see ("" when not recorded)."""
+    if not isinstance(bound, dict):
+        return ""
+    bias = to_float(bound.get("bias"))
+    if not math.isfinite(bias):
+        return "; detects no global bias (black reference)"
+    weak = " (weak)" if bound.get("weak") else ""
+    return f"; detects ±{100 * bias:.1f}% ({100 * to_float(bound.get('power', 0.95)):.0f}%){weak}"
 
 
 def suite_name(record: dict) -> str:

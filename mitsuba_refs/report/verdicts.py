@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..detect import WEAK_BIAS, is_weak, mean_line
 from ..stats.convergence import mse_levels
 from .encoding import plain
 
 __all__ = ["VERDICTS", "mean_entry", "variance_entry", "convergence_entry", "bounces_entry",
-           "verdict_entries"]
+           "verdict_entries", "detectable_entry"]
 
 #: The verdicts of a record, in the order reports show them.
 VERDICTS = ("mean", "variance", "convergence", "bounces")
@@ -55,6 +56,24 @@ def mean_entry(mean) -> dict:
         "worst_tile": mean.worst_tile, "worst_z": mean.worst_z, "worst_region": mean.worst_region,
         "z_tiles": z,
     })
+
+
+def detectable_entry(result) -> dict | None:
+    """What the comparison's mean test could see (:mod:`mitsuba_refs.detect`), or None.
+
+    ``bias``: every global bias at least this large (brighter or darker) is detected with
+    probability ``power`` at level ``alpha``; ``brighter`` / ``darker`` per sign; ``floor``: the
+    same with infinitely many test samples (the reference's own noise); ``component``:
+    ``"image"`` or ``"tiles"``; ``weak``: an agreement that could not see ``weak_above``.
+    """
+    bound = getattr(result, "detectable", None)
+    if bound is None:
+        return None
+    return plain({"bias": bound.bias, "brighter": bound.brighter, "darker": bound.darker,
+                  "floor": bound.floor, "power": bound.power, "alpha": bound.alpha,
+                  "test_spp": bound.test_spp, "reference_spp": bound.reference_spp,
+                  "component": bound.component, "weak": is_weak(result),
+                  "weak_above": WEAK_BIAS})
 
 
 def variance_entry(result) -> dict:
@@ -146,5 +165,9 @@ def bounces_entry(result) -> dict:
 
 def verdict_entries(result) -> dict:
     """All four verdicts of a comparison, by name (:data:`VERDICTS`)."""
-    return {"mean": mean_entry(result.mean), "variance": variance_entry(result),
+    mean = mean_entry(result.mean)
+    detectable = detectable_entry(result)
+    if detectable is not None:
+        mean.update(line=mean_line(result), detectable_bias=detectable)
+    return {"mean": mean, "variance": variance_entry(result),
             "convergence": convergence_entry(result), "bounces": bounces_entry(result)}

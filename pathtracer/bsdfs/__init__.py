@@ -19,6 +19,8 @@ from .thindielectric import ThinDielectric
 from .roughdielectric import RoughDielectric
 from .plastic import Plastic
 from .roughplastic import RoughPlastic
+from .principled import Principled
+from .principledthin import PrincipledThin
 from .null import NullBSDF
 from .blend import BlendBSDF
 from .mask import MaskBSDF
@@ -27,7 +29,8 @@ from .perturbed import BumpMap, NormalMap
 
 __all__ = [
     "BSDF", "BSDFSample", "BlendBSDF", "BumpMap", "Conductor", "Dielectric", "Diffuse", "MaskBSDF",
-    "MicrofacetDistribution", "NormalMap", "NullBSDF", "Plastic", "RoughConductor", "RoughDielectric",
+    "MicrofacetDistribution", "NormalMap", "NullBSDF", "Plastic", "Principled", "PrincipledThin",
+    "RoughConductor", "RoughDielectric",
     "RoughPlastic", "ThinDielectric", "TwoSided", "fresnel_conductor",
     "fresnel_dielectric", "fresnel_schlick", "reflect", "refract",
 ]

@@ -7,7 +7,7 @@ The names below are the student contract (submissions import them from ``pathtra
 # isort: off
 # Each module registers its emitter when imported; this order is the order in which the
 # loader lists the supported emitters.
-from . import area, point, spot, directional, constant, envmap  # noqa: F401
+from . import area, point, spot, directional, constant, envmap, projector  # noqa: F401
 # isort: on
 from .scene_emitters import (
     EmitterPosition,

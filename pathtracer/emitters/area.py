@@ -27,6 +27,8 @@ from ..scene.properties import children
 from ..scene.registry import register
 from ..scene.types import Scene
 from ..shapes import intersect
+from ..textures.base import ConstantTexture, Texture
+from . import area_texture
 from .base import Emitter, EmitterSample
 
 
@@ -42,14 +44,30 @@ class AreaEmitter(Emitter):
     """
 
     shape: int
-    radiance: np.ndarray  # (3,)
+    radiance: np.ndarray  # (3,), or a Texture (pathtracer.emitters.area_texture)
 
     kind = "area"
     on_surface = True
     starts_light_paths = True
 
-    def pdf_hit(self, scene, ref_p, p, n, d):
-        """Cone pdf from outside a sphere, else the area pdf converted to solid angle."""
+    def __post_init__(self):
+        self.textured = isinstance(self.radiance, Texture)
+        self.by_texture = self.textured and self.radiance.spatially_varying
+        if self.textured:   # light paths would need the radiance at their start: refused
+            self.starts_light_paths = False
+            self.light_path_name = "area emitters with a textured radiance"
+
+    def radiance_at(self, surface) -> np.ndarray:
+        """Radiance (n, 3) at surface points (:class:`~pathtracer.core.surface_uv.SurfaceUV`)."""
+        if self.textured:
+            return self.radiance.eval(surface)
+        return np.broadcast_to(self.radiance, (len(surface), 3)).copy()
+
+    def pdf_hit(self, scene, ref_p, p, n, d, surface=None):
+        """Cone pdf from outside a sphere, else the area pdf converted to solid angle; for a
+        spatially varying radiance, the texture's density (``surface``: the hits' coordinates)."""
+        if self.by_texture:
+            return area_texture.pdf_by_texture(self, scene, ref_p, p, d, surface)
         dist2 = np.sum((p - ref_p) ** 2, axis=1)
         cos_light = np.abs(dot(d, n))
         if scene.shape_kind[self.shape] == "sphere":
@@ -59,12 +77,19 @@ class AreaEmitter(Emitter):
     def sample_direction(self, scene, ref_p, u):
         """A point on the shape (see the module's docstring); samples that see its back, or graze
         it, get pdf and weight 0."""
+        if self.by_texture:
+            return area_texture.sample_by_texture(self, scene, ref_p, u)
         shape = self.shape
         kind = scene.shape_kind[shape]
+        surface = None
         if kind == "sphere":
             point, normal, pdf = _sample_sphere(scene, shape, ref_p, u)
+        elif kind == "disk":
+            point, normal = _sample_disk(scene, shape, u)
+            pdf = None
         else:
-            point, normal = (_sample_disk if kind == "disk" else _sample_mesh)(scene, shape, u)
+            point, normal, *rest = _sample_mesh(scene, shape, u, with_surface=self.textured)
+            surface = rest[0] if rest else None
             pdf = None
         to_light = point - ref_p
         dist = norm(to_light)
@@ -77,7 +102,8 @@ class AreaEmitter(Emitter):
         # One-sided: the light emits only on the side its normal faces.
         facing = (cos_light < 0) & (dist > 0) & np.isfinite(pdf) & (pdf > 0)
         pdf = np.where(facing, pdf, 0.0)
-        weight = select(facing, unscale(self.radiance, np.where(facing, pdf, 1.0)))
+        radiance = self.radiance_at(surface) if self.textured else self.radiance
+        weight = select(facing, unscale(radiance, np.where(facing, pdf, 1.0)))
         return EmitterSample(wo, dist, pdf, weight, np.zeros(len(u), dtype=bool))
 
     def sample_position(self, scene, u):
@@ -108,8 +134,11 @@ def create(props, folders, shape):
     if shape is None:
         raise plugin.error("an area emitter emits from a shape: nest it in a <shape> or "
                            "reference it there with <ref id=\"...\"/>")
-    children(plugin, {})
-    radiance = props.color("radiance", 1.0)
+    children(plugin, {"texture": 1})
+    props.folders = list(folders)
+    radiance = props.emission_or_texture("radiance", 1.0, folders)
+    if isinstance(radiance, ConstantTexture):   # the same everywhere: a plain colour
+        radiance = radiance.value.copy()
     return AreaEmitter(shape=shape, radiance=radiance)
 
 
@@ -131,8 +160,9 @@ def _cone_pdf(cos_max: np.ndarray) -> np.ndarray:
     return square_to_uniform_cone_pdf(axis, cos_max)
 
 
-def _sample_mesh(scene, shape, u):
-    """Triangle chosen proportionally to area (u_x reused), then a uniform point on it."""
+def _sample_mesh(scene, shape, u, with_surface=False):
+    """Triangle chosen proportionally to area (u_x reused), then a uniform point on it;
+    with ``with_surface``, also the points' surface coordinates (for a textured radiance)."""
     cdf = scene.shape_tri_cdf[shape]
     begin = scene.shape_prim[shape, 0]
     local = np.minimum(np.searchsorted(cdf, u[:, 0], side="right"), len(cdf) - 1)
@@ -146,8 +176,12 @@ def _sample_mesh(scene, shape, u):
     point += scale(np.take(tables.e1, tri, axis=0), b1)
     point += scale(np.take(tables.e2, tri, axis=0), b2)
     if not tables.smooth[begin:begin + len(cdf)].any():   # flat lights: one normal each
-        return point, np.take(tables.flat_n, tri, axis=0)
-    return point, intersect.smooth_normals(scene, tri, b1, b2)
+        normal = np.take(tables.flat_n, tri, axis=0)
+    else:
+        normal = intersect.smooth_normals(scene, tri, b1, b2)
+    if with_surface:
+        return point, normal, area_texture.surface_at(scene, shape, tri, b1, b2)
+    return point, normal
 
 
 def _sample_disk(scene, shape, u):

@@ -64,6 +64,10 @@ class Emitter:
     """
 
     kind = ""
+    #: Not on a surface, or on one with a constant radiance (area lights set it per light).
+    textured = False
+    #: How light tracing's refusal names it, when not ``"<kind> emitters"``.
+    light_path_name = None
     delta_position = False
     delta_direction = False
     environment = False

@@ -30,11 +30,12 @@ from .constant import ConstantEmitter
 from .directional import DirectionalEmitter
 from .envmap import EnvironmentMap
 from .point import PointEmitter
+from .projector import ProjectorEmitter
 from .spot import SpotEmitter
 
 #: Every emitter class (the order of the supported list in the loader's messages).
 EMITTER_CLASSES = (AreaEmitter, PointEmitter, SpotEmitter, DirectionalEmitter, ConstantEmitter,
-                   EnvironmentMap)
+                   EnvironmentMap, ProjectorEmitter)
 
 
 def hit_emitter(scene: Scene, hit) -> np.ndarray:
@@ -56,6 +57,10 @@ def emitted_radiance(scene: Scene, hit, wi: np.ndarray) -> np.ndarray:
     if front.any():
         table = _surface_radiance_table(scene)
         radiance[front] = table[scene.shape_emitter[hit.shape[front]]]
+        for e in _textured_emitters(scene):
+            rows = np.flatnonzero(front & (hit.shape == scene.emitters[e].shape))
+            if len(rows):
+                radiance[rows] = scene.emitters[e].radiance_at(intersect.texture_uv(scene, hit, rows))
     miss = ~hit.valid
     if scene.environment is not None and miss.any():
         radiance[miss] = scene.environment.eval(-wi[miss])
@@ -63,9 +68,15 @@ def emitted_radiance(scene: Scene, hit, wi: np.ndarray) -> np.ndarray:
 
 
 def _surface_radiance_table(scene: Scene) -> np.ndarray:
-    """Radiance of each emitter as an (N_emitters, 3) table (zero for those not on a surface):
-    one gather serves every light a batch hit."""
-    return np.array([e.radiance if e.on_surface else np.zeros(3) for e in scene.emitters])
+    """Radiance of each emitter as an (N_emitters, 3) table (zero for those not on a surface
+    and for textured ones, evaluated at their hits): one gather serves every light a batch hit."""
+    return np.array([e.radiance if e.on_surface and not e.textured else np.zeros(3)
+                     for e in scene.emitters])
+
+
+def _textured_emitters(scene: Scene) -> list[int]:
+    """Indices of the area emitters whose radiance is a texture."""
+    return [i for i, e in enumerate(scene.emitters) if e.on_surface and e.textured]
 
 
 def pdf_emitter_direction(scene: Scene, ref_p: np.ndarray, hit, d: np.ndarray) -> np.ndarray:
@@ -92,7 +103,11 @@ def pdf_emitter_direction(scene: Scene, ref_p: np.ndarray, hit, d: np.ndarray) -
     for s in np.unique(hit.shape[lit]):
         rows = np.flatnonzero(lit & (hit.shape == s))
         light = scene.emitters[scene.shape_emitter[s]]
-        pdf[rows] = light.pdf_hit(scene, ref_p[rows], hit.p[rows], hit.sh_n[rows], d[rows])
+        if getattr(light, "by_texture", False):
+            pdf[rows] = light.pdf_hit(scene, ref_p[rows], hit.p[rows], hit.sh_n[rows], d[rows],
+                                      intersect.texture_uv(scene, hit, rows))
+        else:
+            pdf[rows] = light.pdf_hit(scene, ref_p[rows], hit.p[rows], hit.sh_n[rows], d[rows])
     pdf[lit] /= n_emitters
     return pdf
 
@@ -178,7 +193,8 @@ def check_light_paths(scene: Scene) -> None:
     """
     for light in scene.emitters:
         if not light.starts_light_paths:
-            raise ValueError(f"light tracing does not support {light.kind} emitters yet "
+            name = light.light_path_name or f"{light.kind} emitters"
+            raise ValueError(f"light tracing does not support {name} yet "
                              f"(supported: {', '.join(LIGHT_PATH_EMITTERS)})")
 
 

@@ -10,11 +10,12 @@ import math
 import os
 import struct
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..core.vec import dot_einsum, unit
+from .ply_attributes import ply_attributes
 
 
 class MeshFormatError(ValueError):
@@ -35,12 +36,18 @@ class MeshData:
     texcoords : (V, 2) float64 or None
         Per-vertex texture coordinates stored in the file, if any, as stored
         (the loader applies ``flip_tex_coords``).
+    attributes : dict
+        Mitsuba's mesh attributes: ``"vertex_<name>"`` -> (V, C), ``"face_<name>"`` ->
+        (F, C) float64 arrays, C = 1 or 3 (4 for a colour with alpha), e.g.
+        ``vertex_color`` (:mod:`pathtracer.io.ply_attributes`). Only PLY files carry them
+        (Mitsuba 3.9.1's OBJ reader reads none and its serialized reader skips the colours).
     """
 
     positions: np.ndarray
     normals: np.ndarray | None
     faces: np.ndarray
     texcoords: np.ndarray | None = None
+    attributes: dict = field(default_factory=dict)
 
 
 def read_obj(path: str) -> MeshData:
@@ -286,7 +293,19 @@ def _ply_mesh(data: dict, elements, name: str) -> MeshData:
     idx = faces[face_field].astype(np.int64)
     if idx.size and (idx.min() < 0 or idx.max() >= len(positions)):
         raise MeshFormatError(f"{name}: face refers to a vertex that does not exist")
-    return MeshData(positions, normals, idx.reshape(-1, 3), texcoords)
+    attributes = ply_attributes("vertex_", v, _reserved_vertex_names(props["vertex"]))
+    attributes.update(ply_attributes("face_", faces, {face_field}))
+    return MeshData(positions, normals, idx.reshape(-1, 3), texcoords, attributes)
+
+
+def _reserved_vertex_names(names) -> set:
+    """Vertex properties that are positions, normals or texture coordinates, not attributes."""
+    reserved = {"x", "y", "z", "nx", "ny", "nz"}
+    for pair in PLY_TEXCOORD_NAMES:
+        if set(pair) <= set(names):
+            reserved |= set(pair)
+            break
+    return reserved
 
 
 #: Magic number and versions of Mitsuba's serialized format.

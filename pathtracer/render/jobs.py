@@ -15,6 +15,7 @@ import numpy as np
 from ..core.rng import RandomStream, sample_keys
 from ..sensors.film import splat
 from ..sensors.perspective import camera_rays
+from ..sensors.primary import sample_camera_rays
 from .moments import block_statistics
 
 
@@ -38,7 +39,8 @@ class CameraJob:
         sample = np.concatenate([np.tile(np.arange(s0, s1), p1 - p0) for p0, p1, s0, s1 in group])
         rng = RandomStream(sample_keys(self.seed, pixel.astype(np.int64) * self.spp + sample))
         u_film = rng.next_2d()
-        return self.estimate(self.camera(self.scene.camera, pixel, u_film), rng), u_film
+        rays = sample_camera_rays(self.scene.camera, pixel, u_film, rng, self.camera)
+        return self.estimate(rays, rng), u_film
 
     def estimate(self, rays, rng):
         """(n, channels) values of the camera rays: the integrator's radiance."""

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..core.rng import RandomStream, sample_keys
 from ..emitters.scene_emitters import check_light_paths
+from ..sensors.primary import require_pinhole
 from .moments import add_sample
 from .result import RenderResult
 from .scheduling import DEFAULT_BATCH, run_units
@@ -48,6 +49,7 @@ def render_splats(scene, integrator, spp: int, seed: int, processes: int,
     if not camera.rfilter.is_box:
         raise ValueError(f"the {integrator.name} integrator splats with the box filter only; "
                          f"the film has {camera.rfilter.describe()}")
+    require_pinhole(camera, integrator.name)
     check_light_paths(scene)
     n_pixels = camera.width * camera.height
     replicas = replica_count(spp, integrator.replicas)

@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.rng import RandomStream, sample_keys
+from ..emitters.scene_emitters import check_light_paths
 from ..integrators.bdpt import BDPTIntegrator
+from ..sensors.primary import require_pinhole
 from .moments import add_power_sums, mean_and_variance_from_sums, power_sums
 from .scheduling import DEFAULT_BATCH
 from .splats import replica_count
@@ -22,6 +24,8 @@ def render_strategies(scene, integrator: BDPTIntegrator, spp: int, seed: int,
     s + t - 1 segments (Veach's figure 10.3).
     """
     camera = scene.camera
+    require_pinhole(camera, integrator.name)   # the refusals of every splatting render
+    check_light_paths(scene)
     n_pixels = camera.width * camera.height
     replicas = replica_count(spp, integrator.replicas)
     per_pixel = spp // replicas

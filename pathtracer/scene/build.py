@@ -31,6 +31,7 @@ from ..sensors.perspective_sensor import Camera
 from ..sensors.sampler import build_sampler
 from ..shapes import instances
 from ..shapes.accumulator import GeometryAccumulator, ShapeParams, shape_label
+from ..textures.mesh_attribute import bind_mesh_attributes
 from ..volumes import build_volume
 from .properties import (
     Props,
@@ -247,6 +248,10 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         if emitter_plugin is not None:
             _attach(emitter_plugin, plugin, attached)
             emitters.append(build_emitter(emitter_plugin, folders, shape_id))
+            if getattr(emitters[-1], "by_texture", False) and geo.kind[shape_id] != "mesh":
+                raise emitter_plugin.error(
+                    f"a textured radiance on a {geo.kind[shape_id]} is not supported (only on "
+                    "meshes: rectangle, cube, obj, ply, serialized)")
             shape_emitter.append(len(emitters) - 1)
         else:
             shape_emitter.append(-1)
@@ -266,9 +271,14 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     camera, spp, seed = build_sensor(kids["sensor"][0], resolution, spp)
     camera_medium = media.sensor_medium(kids["sensor"][0])
     integrator = build_integrator(kids["integrator"][0] if kids["integrator"] else None)
+    fields = geo.scene_fields()
+    users = [(s, bsdf_objects[b]) for s, b in enumerate(shape_bsdf)]
+    users += [(s, emitters[e]) for s, e in enumerate(shape_emitter) if e >= 0]
+    bind_mesh_attributes(users, fields["shape_attributes"], fields["shape_prim"],
+                         fields["shape_name"])
 
     return Scene(
-        **geo.scene_fields(),
+        **fields,
         shape_bsdf=np.array(shape_bsdf, dtype=np.int32),
         shape_emitter=np.array(shape_emitter, dtype=np.int32),
         bsdfs=bsdf_objects, emitters=emitters, environment=environment,

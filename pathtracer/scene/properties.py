@@ -25,7 +25,8 @@ NOT_IMPLEMENTED_MEDIA = {
 }
 # BSDF parameters that take a <texture> (and the checkerboard's colours).
 TEXTURED_PARAMS = ("reflectance", "specular_reflectance", "specular_transmittance",
-                   "diffuse_reflectance", "alpha", "alpha_u", "alpha_v", "color0", "color1")
+                   "diffuse_reflectance", "alpha", "alpha_u", "alpha_v", "color0", "color1",
+                   "radiance", "irradiance")
 COLOR_TAGS = ("rgb", "float", "integer", "spectrum")
 # Plugins that exist in Mitsuba 3 but only make sense in other variants or
 # renderers, with the reason shown to the user (merged into the errors of
@@ -151,6 +152,16 @@ class Props:
         if child is None:
             return self.reflectance(name, default)
         return build_texture(child, folders, cache)
+
+    def emission_or_texture(self, name: str, default: float, folders: list[str]):
+        """An emitted colour (:meth:`color`, not range-checked) that may also be a nested
+        ``<texture>`` (Mitsuba's ``get_emissive_texture``): a (3,) array or the built
+        :class:`~pathtracer.textures.Texture`."""
+        child = self.textures.get(name)
+        self.used.add(name)
+        if child is None:
+            return self.color(name, default, "emission")
+        return build_texture(child, folders, self.texture_cache)
 
     def float(self, name: str, default):
         v = self._get(name, FLOAT_TAGS, "a <float>")

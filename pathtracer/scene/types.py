@@ -82,6 +82,10 @@ class Scene:
         (for choosing a triangle proportionally to area); None otherwise.
     shape_name : list of str
         Human-readable origin, e.g. ``'rectangle "light" (scene.xml:42)'``.
+    shape_attributes : dict
+        Mitsuba's mesh attributes of the mesh shapes that have some, by shape index:
+        ``{name: array}``, ``vertex_*`` per triangle corner (k, 3, C), ``face_*`` per
+        triangle (k, C), rows in the shape's triangle order (see ``mesh_attribute``).
     bsdfs : list
         BSDF objects from :mod:`pathtracer.bsdfs`.
     emitters : list
@@ -142,6 +146,7 @@ class Scene:
     shape_interior: np.ndarray | None = None
     shape_exterior: np.ndarray | None = None
     camera_medium: int = -1
+    shape_attributes: dict = field(default_factory=dict)
     # Analytic cylinders (pathtracer.shapes.cylinder): object-to-world maps of the unit tube,
     # their inverses, flip_normals and shape ids.
     cylinder_to_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))

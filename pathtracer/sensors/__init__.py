@@ -2,4 +2,4 @@
 camera), the film's reconstruction filters and the samplers."""
 # Each module registers its plugins when imported: the sensor, the film and its filters,
 # the samplers.
-from . import film, perspective_sensor, sampler  # noqa: F401
+from . import film, perspective_sensor, orthographic, thinlens, sampler  # noqa: F401  # isort: skip

@@ -47,6 +47,13 @@ class Camera:
     height: int = 256
     rfilter: ReconstructionFilter = BOX
 
+    #: Mitsuba's plugin name; the other sensors (``orthographic``, ``thinlens``) subclass this.
+    kind = "perspective"
+    #: Rays from one point through the film (:func:`pathtracer.sensors.perspective.camera_rays`),
+    #: the camera light paths connect to (:mod:`pathtracer.sensors.importance`). The other
+    #: sensors give their own rays (``sample_rays(pixel, u_film, rng)``).
+    pinhole = True
+
 
 def x_fov_from(fov: float, axis: str, aspect: float) -> float:
     """Horizontal field of view in degrees, following Mitsuba's ``parse_fov``.
@@ -74,17 +81,9 @@ def x_fov_from(fov: float, axis: str, aspect: float) -> float:
     raise ValueError(f"fov_axis must be x, y, diagonal, smaller or larger, not \"{axis}\"")
 
 
-@register("sensor", "perspective")
-def create(plugin: Plugin, resolution: tuple[int, int] | None = None,
-           spp: int | None = None) -> tuple[Camera, int, int]:
-    """The perspective camera, with the film resolution and sampler settings.
-
-    ``resolution`` (width, height) and ``spp`` replace the file's film size and
-    sample count whatever it says; the field of view is then converted with the new
-    aspect, as Mitsuba does for a film of that size (``fov_axis`` keeps its meaning).
-    """
-    props = Props(plugin)
-    kids = children(plugin, {"film": 1, "sampler": 1, "medium": 1})
+def film_and_sampler(plugin: Plugin, kids: dict, resolution, spp):
+    """``(width, height, rfilter, spp, seed)`` of a sensor's ``<film>`` and ``<sampler>``
+    (Mitsuba's defaults where absent), ``resolution`` and ``spp`` replacing the file's."""
     if kids["film"]:
         width, height, rfilter = build_film(kids["film"][0])
     else:   # Mitsuba's default film
@@ -92,8 +91,13 @@ def create(plugin: Plugin, resolution: tuple[int, int] | None = None,
     spp_file, seed = build_sampler(kids["sampler"][0]) if kids["sampler"] else (4, 0)
     if resolution is not None:
         width, height = (int(v) for v in resolution)
-    spp = spp_file if spp is None else int(spp)
-    aspect = width / height
+    return width, height, rfilter, (spp_file if spp is None else int(spp)), seed
+
+
+def read_x_fov(plugin: Plugin, props: Props, aspect: float) -> float:
+    """The horizontal field of view in degrees from ``fov`` (with ``fov_axis``) or
+    ``focal_length``, as Mitsuba's ``parse_fov`` (shared by the perspective and thin-lens
+    sensors and the projector)."""
     if props.has("fov") and props.has("focal_length"):
         raise plugin.error("give either fov or focal_length, not both")
     if props.has("fov"):
@@ -113,15 +117,51 @@ def create(plugin: Plugin, resolution: tuple[int, int] | None = None,
         raise plugin.error(str(e), props.line("fov_axis")) from None
     if not 0.0 < x_fov < 180.0:
         raise plugin.error(f"horizontal field of view {x_fov} must lie in (0, 180) degrees")
-    to_world = props.transform("to_world")
-    if transform.has_scale(to_world):
-        raise plugin.error("scale factors in the camera's to_world are not allowed (as in Mitsuba)")
+    return x_fov
+
+
+def read_clip(plugin: Plugin, props: Props) -> tuple[float, float]:
+    """``near_clip`` (1e-2) and ``far_clip`` (1e4), with Mitsuba's ``0 < near < far``."""
     near, far = props.float("near_clip", 1e-2), props.float("far_clip", 1e4)
     if not 0 < near < far:
         raise plugin.error("need 0 < near_clip < far_clip")
+    return near, far
+
+
+def unscaled_to_world(plugin: Plugin, props: Props) -> np.ndarray:
+    """The sensor's ``to_world``, refused when it scales (as Mitsuba refuses it)."""
+    to_world = props.transform("to_world")
+    if transform.has_scale(to_world):
+        raise plugin.error("scale factors in the camera's to_world are not allowed (as in Mitsuba)")
+    return to_world
+
+
+def no_principal_point_offset(plugin: Plugin, props: Props) -> None:
+    """Refuse a shifted principal point (not implemented)."""
     for name in ("principal_point_offset_x", "principal_point_offset_y"):
         if props.float(name, 0.0) != 0.0:
             raise plugin.error(f"{name} is not supported", props.line(name))
+
+
+SENSOR_CHILDREN = {"film": 1, "sampler": 1, "medium": 1}
+
+
+@register("sensor", "perspective")
+def create(plugin: Plugin, resolution: tuple[int, int] | None = None,
+           spp: int | None = None) -> tuple[Camera, int, int]:
+    """The perspective camera, with the film resolution and sampler settings.
+
+    ``resolution`` (width, height) and ``spp`` replace the file's film size and
+    sample count whatever it says; the field of view is then converted with the new
+    aspect, as Mitsuba does for a film of that size (``fov_axis`` keeps its meaning).
+    """
+    props = Props(plugin)
+    kids = children(plugin, SENSOR_CHILDREN)
+    width, height, rfilter, spp, seed = film_and_sampler(plugin, kids, resolution, spp)
+    x_fov = read_x_fov(plugin, props, width / height)
+    to_world = unscaled_to_world(plugin, props)
+    near, far = read_clip(plugin, props)
+    no_principal_point_offset(plugin, props)
     # A pinhole ignores the focus distance; without motion the shutter is irrelevant.
     props.ignore("focus_distance", "shutter_open", "shutter_close")
     props.finish()

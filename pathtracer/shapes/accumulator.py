@@ -67,9 +67,14 @@ class GeometryAccumulator:
         self.ntri = 0
         self.spheres, self.disks, self.curves, self.cylinders = [], [], [], []
         self.kind, self.prim, self.area, self.cdf, self.name = [], [], [], [], []
+        self.attributes: dict[int, dict] = {}
 
-    def add_mesh(self, shape_id: int, p: np.ndarray, n: np.ndarray, uv: np.ndarray) -> None:
-        """Add a mesh shape: (k, 3, 3) vertices, normals and (k, 3, 2) texture coordinates."""
+    def add_mesh(self, shape_id: int, p: np.ndarray, n: np.ndarray, uv: np.ndarray,
+                 attributes: dict | None = None) -> None:
+        """Add a mesh shape: (k, 3, 3) vertices, normals and (k, 3, 2) texture coordinates;
+        its mesh attributes (``vertex_*``: (k, 3, C) per corner, ``face_*``: (k, C)), if any."""
+        if attributes:
+            self.attributes[shape_id] = attributes
         areas = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
         total = areas.sum()
         cdf = np.cumsum(areas) / total if total > 0 else np.arange(1, len(p) + 1) / len(p)
@@ -120,7 +125,7 @@ class GeometryAccumulator:
             shape_kind=self.kind,
             shape_prim=np.array(self.prim, dtype=np.int64).reshape(-1, 2),
             shape_area=np.array(self.area, dtype=float),
-            shape_tri_cdf=self.cdf, shape_name=self.name,
+            shape_tri_cdf=self.cdf, shape_name=self.name, shape_attributes=self.attributes,
             bbox=self._bounds(tri_p))
 
     def _bounds(self, tri_p: np.ndarray) -> np.ndarray:

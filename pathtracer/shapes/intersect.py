@@ -21,6 +21,7 @@ import numpy as np
 
 from ..accel.bvh import BVH
 from ..accel.small_mesh import SMALL_MAX, SmallMesh, SplitMesh, small_shapes
+from ..core.surface_uv import SurfaceUV
 from ..core.vec import dot, max_abs, normalize, put_rows, scale, unscale
 from .curves import fill_curve
 from .cylinder import cylinder_t, fill_cylinders
@@ -329,7 +330,9 @@ def texture_uv(scene, hit, rows: np.ndarray) -> np.ndarray:
       segments)``, computed at the hit (:mod:`pathtracer.shapes.curves`).
     * Cylinders: ``(phi / 2pi, z)`` in the unit tube's frame (:mod:`pathtracer.shapes.cylinder`).
 
-    Computed only where a texture needs it, so untextured scenes never pay.
+    Computed only where a texture needs it, so untextured scenes never pay. Returned as
+    a :class:`~pathtracer.core.surface_uv.SurfaceUV` that also carries the hits' shapes,
+    triangles and barycentrics (for ``mesh_attribute``).
     """
     rows = np.asarray(rows)
     out = np.empty((len(rows), 2))
@@ -364,7 +367,9 @@ def texture_uv(scene, hit, rows: np.ndarray) -> np.ndarray:
         local = hit.uv[rows[dsk]]
         out[dsk, 0] = np.hypot(local[:, 0], local[:, 1])
         out[dsk, 1] = _unit_angle(np.arctan2(local[:, 1], local[:, 0]))
-    return out
+    on_mesh = kind == "mesh"
+    bary = np.where(on_mesh[:, None], hit.uv[rows], 0.0)
+    return SurfaceUV(out, shape, np.where(on_mesh, prim, -1), bary)
 
 
 def _unit_angle(phi: np.ndarray) -> np.ndarray:

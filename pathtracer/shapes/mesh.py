@@ -22,10 +22,13 @@ def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
     """An ``obj``, ``ply`` or ``serialized`` mesh: ``filename``, ``face_normals`` (false),
     ``flip_tex_coords`` (true for obj files, false for ply; not for serialized) and the
     serialized file's ``shape_index`` (0)."""
-    p, n, uv = _mesh_triangles(shape.plugin, shape.props, shape.folders, shape.to_world)
+    p, n, uv, attributes = _mesh_triangles(shape.plugin, shape.props, shape.folders,
+                                           shape.to_world)
     if shape.flip:
         p, n, uv = flip_winding(p, n, uv)
-    geometry.add_mesh(shape.shape_id, p, n, uv)
+        # Vertex attributes follow their corners, as the texture coordinates do.
+        attributes = {k: (v[:, ::-1].copy() if v.ndim == 3 else v) for k, v in attributes.items()}
+    geometry.add_mesh(shape.shape_id, p, n, uv, attributes)
 
 
 def _load_mesh(plugin: Plugin, props: Props, folders: list[str]) -> meshes.MeshData:
@@ -46,7 +49,8 @@ def _load_mesh(plugin: Plugin, props: Props, folders: list[str]) -> meshes.MeshD
 
 
 def _mesh_triangles(plugin, props, folders, m):
-    """World-space triangles and shading normals of an obj/ply/serialized shape."""
+    """World-space triangles, shading normals, texture coordinates and mesh attributes of an
+    obj/ply/serialized shape (vertex attributes per corner (k, 3, C), face ones (k, C))."""
     data = _load_mesh(plugin, props, folders)
     face_normals = props.bool("face_normals", False)
     # Mitsuba flips v (v -> 1 - v) by default for OBJ files only; its serialized
@@ -69,4 +73,6 @@ def _mesh_triangles(plugin, props, folders, m):
     else:
         # Mitsuba recomputes after applying to_world, so angles are world angles.
         n = meshes.smooth_vertex_normals(pos, data.faces)[data.faces]
-    return p, n, uv
+    attributes = {name: (values[data.faces] if name.startswith("vertex_") else values)
+                  for name, values in data.attributes.items()}
+    return p, n, uv, attributes

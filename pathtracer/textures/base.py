@@ -73,6 +73,19 @@ class Texture:
         """Mitsuba's ``Texture::mean()``: the number BSDFs pick lobes by (see subclasses)."""
         raise NotImplementedError
 
+    #: Mitsuba's ``is_spatially_varying``: an area light with such a radiance samples its
+    #: surface through :meth:`sample_position` in uv space instead of by area.
+    spatially_varying = False
+
+    def sample_position(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Surface coordinates (n, 2) drawn from uniform ``u`` (n, 2) and their density
+        over the unit square: Mitsuba's default, ``u`` itself with density 1."""
+        return np.asarray(u, np.float64), np.ones(len(u))
+
+    def pdf_position(self, uv: np.ndarray) -> np.ndarray:
+        """The density (n,) with which :meth:`sample_position` picks ``uv``."""
+        return np.ones(len(uv))
+
 
 def finite_uv(uv):
     """(n, 2) float64 coordinates with non-finite rows set to 0, and the mask of those

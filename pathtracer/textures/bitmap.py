@@ -18,6 +18,7 @@ import os
 import numpy as np
 
 from ..core.color import LUMINANCE
+from ..core.sampling import sample_discrete
 from ..io.bitmap import read_bitmap
 from ..scene.properties import Props, children, find_file
 from ..scene.registry import register
@@ -130,6 +131,70 @@ class BitmapTexture(Texture):
     def mean(self) -> float:
         """Mean texel luminance, as Mitsuba's RGB variants compute a bitmap's mean."""
         return float(np.mean(self.texels.astype(np.float64) @ LUMINANCE))
+
+    # -- sampling positions by the image (an area light's radiance) ------------------------
+
+    spatially_varying = True
+
+    def _texel_pmf(self) -> tuple[np.ndarray, np.ndarray]:
+        """The texels' probabilities (row-major, proportional to luminance) and their
+        cumulative sums, built once."""
+        if getattr(self, "_pmf", None) is None:
+            lum = np.maximum(self.texels.astype(np.float64) @ LUMINANCE, 0.0)
+            total = lum.sum()
+            pmf = lum / total if total > 0 else np.full(len(lum), 1.0 / len(lum))
+            self._pmf, self._cdf = pmf, np.cumsum(pmf)
+        return self._pmf, self._cdf
+
+    def sample_position(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        r"""Mitsuba's ``BitmapTexture::sample_position`` (``to_uv`` not applied): a texel
+        with probability :math:`p_i` proportional to its luminance, then a point in it:
+        uniform for ``nearest``; for ``bilinear`` the texel's centre plus a tent of one
+        texel each way, folded back into the unit square (repeat: wrapped; clamp and
+        mirror: reflected). Density: :meth:`pdf_position`."""
+        _, cdf = self._texel_pmf()
+        index, u_x = sample_discrete(cdf, np.asarray(u[:, 0], np.float64))
+        texel = np.stack((index % self.width, index // self.width), axis=1).astype(np.float64)
+        offset = np.stack((u_x, u[:, 1]), axis=1)
+        res = np.array([self.width, self.height], np.float64)
+        if self.filter_type == "nearest":
+            uv = (texel + offset) / res
+        else:
+            uv = (texel + 0.5 + _square_to_tent(offset)) / res
+            if self.wrap_mode == "repeat":
+                uv = np.where(uv < 0.0, uv + 1.0, np.where(uv > 1.0, uv - 1.0, uv))
+            else:
+                uv = np.where(uv < 0.0, -uv, np.where(uv > 1.0, 2.0 - uv, uv))
+        return uv, self.pdf_position(uv)
+
+    def pdf_position(self, uv: np.ndarray) -> np.ndarray:
+        """Density over the unit square: ``W H p`` of the texel (``nearest``), or the
+        bilinear interpolation of the texels' ``W H p`` with the lookup's weights and wrap
+        mode (``bilinear``), as Mitsuba's ``pdf_position``."""
+        pmf, _ = self._texel_pmf()
+        uv = np.asarray(uv, np.float64)
+        scale = self.width * self.height
+
+        def p(x, y):
+            x = wrap_index(x, self.width, self.wrap_mode)
+            y = wrap_index(y, self.height, self.wrap_mode)
+            return pmf[y * self.width + x]
+
+        x, y = uv[:, 0] * self.width, uv[:, 1] * self.height
+        if self.filter_type == "nearest":
+            return p(np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)) * scale
+        x, y = x - 0.5, y - 0.5
+        x0, y0 = np.floor(x), np.floor(y)
+        fx, fy = x - x0, y - y0
+        x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
+        top = (1.0 - fx) * p(x0, y0) + fx * p(x0 + 1, y0)
+        bottom = (1.0 - fx) * p(x0, y0 + 1) + fx * p(x0 + 1, y0 + 1)
+        return ((1.0 - fy) * top + fy * bottom) * scale
+
+
+def _square_to_tent(u: np.ndarray) -> np.ndarray:
+    """Mitsuba's ``square_to_tent``: each coordinate to [-1, 1] with density ``1 - |x|``."""
+    return np.where(u < 0.5, np.sqrt(2.0 * u) - 1.0, 1.0 - np.sqrt(2.0 - 2.0 * u))
 
 
 @register("texture", "bitmap")

@@ -26,6 +26,8 @@ class Checkerboard(Texture):
     to_uv : see :class:`Texture`
     """
 
+    spatially_varying = True   # sampled uniformly in uv (Mitsuba's default sample_position)
+
     def __init__(self, color0=0.4, color1=0.2, to_uv=None):
         super().__init__(to_uv)
         self.color0 = _as_texture(color0)
