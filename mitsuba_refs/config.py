@@ -77,9 +77,11 @@ LIGHT_SCENES = ("cornell-box",)
 #: ``quad-light-filtered`` (``path`` on a tent and a gaussian film), and the autograder's
 #: ``media-box`` (``volpath`` at its own 32 x 32, and at max_depth 1, 2, 3: the ``media``
 #: checks, tests/test_autograder.py) and ``glass-lamp`` (``light`` at 64 x 48: the
-#: ``light-tracing`` check), and ``lights-cameras`` (``path`` at its own 32 x 24: thin lens,
-#: mesh attributes, textured area lights, projectors). Not in BUILTIN_SCENES.
-OWN_TEST_SCENES = ("textured", "quad-light-filtered", "media-box", "glass-lamp", "lights-cameras")
+#: ``light-tracing`` check), ``lights-cameras`` (``path`` at its own 32 x 24: thin lens,
+#: mesh attributes, textured area lights, projectors) and ``hetero-smoke`` (``volpath`` at
+#: its own 32 x 32: tests/test_heterogeneous.py). Not in BUILTIN_SCENES.
+OWN_TEST_SCENES = ("textured", "quad-light-filtered", "media-box", "glass-lamp", "lights-cameras",
+                   "hetero-smoke")
 
 #: Built-in scenes only the autograder renders, each a variant of a built-in scene (name ->
 #: that scene) with larger, dimmer lights of the same power, where BSDF sampling alone

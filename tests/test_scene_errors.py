@@ -221,15 +221,15 @@ CASES = {
         f'<bsdf type="blendbsdf">{MARK}<float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf>',
         '<bsdf type="blendbsdf">', "needs exactly 2 nested <bsdf>"),
     # participating media (tests/test_media.py tests what they render)
-    "heterogeneous medium": (
-        f'<medium type="heterogeneous" id="m"/>{MARK}', '<medium type="heterogeneous">',
-        "heterogeneous (grid volume) media are not implemented"),
+    "grid volume without a file": (
+        f'<medium type="heterogeneous" id="m">\n<volume type="gridvolume" name="sigma_t"/>{MARK}'
+        '</medium>', '<volume type="gridvolume">', 'missing <string name="filename">'),
     "spectral-only phase": (
         f'<medium type="homogeneous">\n<phase type="rayleigh"/>{MARK}</medium>',
         '<phase type="rayleigh">', "spectral variants"),
     "grid volume": (
-        f'<medium type="homogeneous">\n<volume type="gridvolume" name="albedo"/>{MARK}</medium>',
-        '<volume type="gridvolume">', "only homogeneous media"),
+        f'<medium type="homogeneous">\n<volume type="gridvolume" name="sigma_t"/>{MARK}</medium>',
+        '<volume type="gridvolume">', "a homogeneous medium reads one <volume>, its albedo"),
     "mitsuba 0.6 coefficients": (
         f'<medium type="homogeneous">\n<rgb name="sigma_a" value="0.5"/>{MARK}\n'
         f'<rgb name="sigma_s" value="1.5, 1, 0.5"/></medium>',

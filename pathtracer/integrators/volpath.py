@@ -4,7 +4,9 @@ r"""Volumetric path tracing with shadow rays through media and MIS (Mitsuba's ``
 the medium and on surfaces, combined with phase / BSDF sampling by the power
 heuristic. A shadow ray's visibility becomes a transmittance: it is estimated
 by the same free-flight sampling (0 if a collision falls before the light,
-:math:`T / T_c` otherwise), passes through ``null`` (index-matched)
+:math:`T / T_c` otherwise; in a heterogeneous medium ratio tracking, the
+product of :math:`\sigma_n / \bar\sigma` over the tentative collisions),
+passes through ``null`` (index-matched)
 boundaries, updating the medium it is in, and is blocked by any other surface,
 a dielectric with :math:`\eta = 1.00001` included: that is why a medium behind
 such a boundary is lit only by the paths that find the light on their own.
@@ -37,7 +39,14 @@ import numpy as np
 from ..bsdfs.shading import eval_bsdf, has_smooth
 from ..core.sampling import power_heuristic
 from ..emitters.scene_emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
-from ..media.homogeneous import next_medium, phase_eval, phase_sample, samples_emitters, shadow_transmittance
+from ..media.homogeneous import (
+    next_medium,
+    phase_eval,
+    phase_sample,
+    samples_emitters,
+    scattering_albedo,
+    shadow_transmittance,
+)
 from ..scene.registry import register
 from .base import subset_hit
 from .volpath_phase import VolPathPhaseIntegrator
@@ -58,6 +67,7 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
         """Scatter inside the medium: a shadow ray (phase MIS), then sample the phase function."""
         x = paths.o[rows] + t[:, None] * paths.d[rows]
         wi, medium = -paths.d[rows], paths.medium[rows]
+        paths.beta[rows] *= scattering_albedo(scene, medium, x)
         paths.depth[rows] += 1
         alive = paths.depth[rows] < self.depth_limit
         nee = alive & samples_emitters(scene, medium) & np.any(paths.beta[rows] > 0, axis=1)

@@ -20,6 +20,12 @@ away, :math:`P(t > s) = e^{-\sigma_{t,c} s}`. Per segment::
 For a grey medium the two throughput factors are the albedo and 1. Light
 reaches the camera only through paths that happen to hit an emitter, so a
 light a medium hides is found rarely; ``volpath`` adds shadow rays.
+
+In a heterogeneous medium (:mod:`pathtracer.media.heterogeneous`) the free
+flight is a tentative collision against the grey majorant; a null collision
+(probability P_n, beta *= sigma_n / (majorant P_n)) starts a new segment at
+the collision, straight on, without a bounce; a real one scatters
+(beta *= sigma_s / mean(sigma_t)) as above.
 """
 from __future__ import annotations
 
@@ -27,10 +33,25 @@ import numpy as np
 
 from ..bsdfs.shading import sample_bsdf
 from ..emitters.scene_emitters import emitted_radiance
-from ..media.homogeneous import next_medium, null_event, phase_sample, sample_free_flight
+from ..media.heterogeneous import has_heterogeneous, track_heterogeneous
+from ..media.homogeneous import (
+    next_medium,
+    null_event,
+    phase_sample,
+    sample_free_flight,
+    scattering_albedo,
+)
 from ..scene.registry import register
 from .base import subset_hit
-from .volume import MAX_SEGMENTS, SLOT_DIRECTION, SLOT_FLIGHT, SLOT_LOBE, VolumeIntegrator, move
+from .volume import (
+    MAX_SEGMENTS,
+    SLOT_DIRECTION,
+    SLOT_FLIGHT,
+    SLOT_LOBE,
+    SLOT_NULL,
+    VolumeIntegrator,
+    move,
+)
 from .wavefront import Paths
 
 
@@ -53,21 +74,29 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
             return np.zeros((len(rays), 3))
         paths = self.start(scene, rays, rng)
         add_radiance = paths.add_radiance
+        tracking = has_heterogeneous(scene)
         for segment in range(MAX_SEGMENTS):
             paths.keep(self.survivors(paths, segment))
             if not paths:
                 break
             hit = self.trace_segment(scene, paths)
             # ---- Free flight: scatter in the medium before the surface, or reach it ----
-            flight = sample_free_flight(scene, paths.medium, paths.channel, hit.t,
-                                        self.uniform(paths, segment, SLOT_FLIGHT))
+            u_flight = self.uniform(paths, segment, SLOT_FLIGHT)
+            flight = sample_free_flight(scene, paths.medium, paths.channel, hit.t, u_flight)
+            if tracking:     # heterogeneous media: a tentative collision, null or real
+                track_heterogeneous(scene, flight, paths.medium, paths.o, paths.d, hit.t,
+                                    u_flight, self.uniform(paths, segment, SLOT_NULL))
             paths.beta = paths.beta * flight.weight       # T / pdf (x sigma_s where it scatters)
             goes_on = np.zeros(len(paths), dtype=bool)
+            null_rows = np.flatnonzero(flight.null) if flight.null is not None else ()
+            if len(null_rows):
+                goes_on[null_rows] = self.null_collision(paths, null_rows, flight.t[null_rows])
             medium_rows = np.flatnonzero(flight.scattered)
             if len(medium_rows):
                 goes_on[medium_rows] = self.in_medium(scene, paths, medium_rows,
                                                       flight.t[medium_rows], segment, add_radiance)
-            surface_rows = np.flatnonzero(~flight.scattered)
+            surface_rows = np.flatnonzero(~flight.scattered if flight.null is None
+                                          else ~flight.scattered & ~flight.null)
             if len(surface_rows):
                 goes_on[surface_rows] = self.on_surface(scene, paths, surface_rows,
                                                         subset_hit(hit, surface_rows), segment,
@@ -75,9 +104,19 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
             paths.keep(goes_on)
         return paths.L
 
+    @staticmethod
+    def null_collision(paths, rows, t):
+        """A null collision ``t`` along the ray of paths ``rows`` (a heterogeneous medium):
+        the next segment starts there in the same direction, not a scattering event (depth,
+        last vertex and roulette's count unchanged) -> all go on."""
+        paths.o[rows] = paths.o[rows] + t[:, None] * paths.d[rows]
+        paths.tmax[rows] = paths.tmax[rows] - t
+        return np.ones(len(rows), dtype=bool)
+
     def in_medium(self, scene, paths, rows, t, segment, add_radiance):
         """Scatter inside the medium: sample the phase function (weight 1)."""
         x = paths.o[rows] + t[:, None] * paths.d[rows]
+        paths.beta[rows] *= scattering_albedo(scene, paths.medium[rows], x)
         paths.depth[rows] += 1
         wo, pdf = phase_sample(scene, paths.medium[rows], -paths.d[rows],
                                self.uniform(paths, segment, SLOT_DIRECTION, 2)[rows])

@@ -17,7 +17,8 @@ vertex and its pdf are per-path arrays here.
 
 Random numbers: segment ``k`` of every path draws from its own block of
 counters (``SLOTS`` numbers, at fixed offsets for roulette, free flight,
-light choice, lobe and direction, then one per surface a shadow ray crosses),
+light choice, lobe, direction and the null-collision choice, then one per step
+of a shadow ray: a surface crossed or a tentative collision),
 so a path sees the same numbers whatever else is in its batch and the image
 does not depend on batching.
 """
@@ -31,9 +32,11 @@ from ..shapes.intersect import offset_p
 from .base import CameraIntegrator, replace_hits, skip_emitters, subset_hit, trace
 from .wavefront import Paths
 
-#: Counters reserved per segment; shadow rays use SLOT_SHADOW + k for their k-th crossing.
+#: Counters reserved per segment; shadow rays use SLOT_SHADOW + k for their k-th step.
 SLOTS = 512
 SLOT_ROULETTE, SLOT_FLIGHT, SLOT_LIGHT, SLOT_LOBE, SLOT_DIRECTION, SLOT_SHADOW = 0, 1, 2, 5, 6, 16
+#: Null or real collision in a heterogeneous medium.
+SLOT_NULL = 8
 #: Hard cap on segments (null crossings add segments without adding depth).
 MAX_SEGMENTS = 4000
 

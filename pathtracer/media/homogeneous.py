@@ -60,6 +60,8 @@ from ..scene.registry import register
 from ..scene.types import Scene
 from ..scene.xml import Plugin
 from ..shapes import intersect
+from ..volumes import build_volume
+from .heterogeneous import has_heterogeneous, heterogeneous_table, track_heterogeneous
 from .phase import IsotropicPhase, build_phase
 
 
@@ -78,6 +80,10 @@ class HomogeneousMedium:
         in it counts in full, as after a specular bounce.
     name : str
         Where it was defined, for messages.
+    albedo_volume : Volume or None
+        A spatially varying albedo (Mitsuba's homogeneous medium takes a ``<volume
+        name="albedo">``); ``albedo`` is then 1 and the integrators multiply by the
+        volume's value where the path scatters (:func:`scattering_albedo`).
     """
 
     sigma_t: np.ndarray
@@ -85,6 +91,8 @@ class HomogeneousMedium:
     phase: object = field(default_factory=IsotropicPhase)
     sample_emitters: bool = True
     name: str = "homogeneous"
+    albedo_volume: object = None
+    is_homogeneous = True
 
     @property
     def sigma_s(self) -> np.ndarray:
@@ -104,9 +112,10 @@ def camera_medium(scene: Scene, n: int) -> np.ndarray:
 
 
 def _coefficients(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
-    """(M, 3) tables of sigma_t and sigma_s."""
-    return (np.array([m.sigma_t for m in scene.media]).reshape(-1, 3),
-            np.array([m.sigma_s for m in scene.media]).reshape(-1, 3))
+    """(M, 3) tables of sigma_t and sigma_s (zeros for heterogeneous media)."""
+    homogeneous = [m if m.is_homogeneous else None for m in scene.media]
+    return (np.array([np.zeros(3) if m is None else m.sigma_t for m in homogeneous]).reshape(-1, 3),
+            np.array([np.zeros(3) if m is None else m.sigma_s for m in homogeneous]).reshape(-1, 3))
 
 
 def choose_channel(u: np.ndarray) -> np.ndarray:
@@ -123,22 +132,29 @@ class FreeFlight:
     scattered : (n,) bool, the path scatters in the medium before the surface.
     t : (n,) distance to the scattering point (the surface distance otherwise).
     weight : (n, 3) throughput factor (see the module docstring).
+    null : (n,) bool or None, a null collision in a heterogeneous medium (the path goes on
+        straight from ``t``; :mod:`pathtracer.media.heterogeneous`); None: there is none.
     """
 
     scattered: np.ndarray
     t: np.ndarray
     weight: np.ndarray
+    null: np.ndarray | None = None
 
 
 def sample_free_flight(scene: Scene, medium: np.ndarray, channel: np.ndarray,
                        t_surface: np.ndarray, u: np.ndarray) -> FreeFlight:
     """Sample where rays in ``medium`` (n,) next interact, before ``t_surface`` (n,) or there.
 
-    Rows in vacuum (medium -1) reach the surface with weight 1.
+    Rows in vacuum (medium -1) reach the surface with weight 1, and so do, here, rows in a
+    heterogeneous medium: :func:`~pathtracer.media.heterogeneous.track_heterogeneous`
+    samples those.
     """
     n = len(medium)
     out = FreeFlight(np.zeros(n, dtype=bool), t_surface.copy(), np.ones((n, 3)))
     rows = np.flatnonzero(medium >= 0)
+    if len(rows) and has_heterogeneous(scene):
+        rows = rows[~heterogeneous_table(scene)[medium[rows]]]
     if not len(rows):
         return out
     sigma_t_table, sigma_s_table = _coefficients(scene)
@@ -174,6 +190,19 @@ def phase_sample(scene: Scene, medium: np.ndarray, wi: np.ndarray,
         rows = np.flatnonzero(medium == k)
         wo[rows], pdf[rows] = scene.media[k].phase.sample(wi[rows], u[rows])
     return wo, pdf
+
+
+def scattering_albedo(scene: Scene, medium: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The factor (n, 3) of a spatially varying albedo at scattering points ``x`` (n, 3) in
+    ``medium`` (n,), all >= 0: the albedo volume's value in homogeneous media that have one,
+    1 elsewhere (the free flight's weight holds the constant albedos)."""
+    factor = np.ones((len(medium), 3))
+    for k in np.unique(medium):
+        volume = getattr(scene.media[k], "albedo_volume", None)
+        if volume is not None:
+            rows = np.flatnonzero(medium == k)
+            factor[rows] = volume.eval(x[rows])
+    return factor
 
 
 def samples_emitters(scene: Scene, medium: np.ndarray) -> np.ndarray:
@@ -237,11 +266,14 @@ def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndar
     wo, dist : (n, 3) unit directions and (n,) distances (inf: the environment
         or a directional light).
     medium : (n,) medium the shadow ray starts in; channel : (n,) the path's channel.
-    rng : RandomStream of these rows; the k-th crossing draws at counter ``counter + k``
+    rng : RandomStream of these rows; the k-th step draws at counter ``counter + k``
         (so that the numbers a path sees do not depend on the rest of its batch).
 
-    Delta tracking in each medium segment (0 on a collision, ``T / T_c``
-    otherwise), times the null transmission of every surface crossed.
+    Each step goes to the next surface or, in a heterogeneous medium, to the next
+    tentative collision. Delta tracking in each homogeneous medium segment (0 on a
+    collision, ``T / T_c`` otherwise), ratio tracking in heterogeneous media (each
+    tentative collision multiplies by ``sigma_n / majorant``), times the null
+    transmission of every surface crossed.
     """
     count = len(p)
     result = np.ones((count, 3))
@@ -253,39 +285,71 @@ def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndar
     o[~finite] = intersect.offset_p(p[~finite], n[~finite], wo[~finite])
     rows = np.arange(count)
     medium = medium.copy()
-    for k in range(MAX_CROSSINGS):
-        hit = intersect.intersect(scene, o, d, remaining)
+    tracking = has_heterogeneous(scene)
+    hit = None
+    for k in range(MAX_STEPS):
+        if hit is None:
+            hit = intersect.intersect(scene, o, d, remaining)
         t_surface = np.where(hit.valid, hit.t, remaining)
         rng.counter = counter + k
-        flight = sample_free_flight(scene, medium, channel, t_surface, rng.next_1d())
+        u = rng.next_1d()
+        flight = sample_free_flight(scene, medium, channel, t_surface, u)
+        if tracking:
+            track_heterogeneous(scene, flight, medium, o, d, t_surface, u, None)
+        collided = flight.null if flight.null is not None else np.zeros(len(rows), dtype=bool)
         result[rows] *= np.where(flight.scattered[:, None], 0.0, flight.weight)
-        through = hit.valid & ~flight.scattered
+        through = hit.valid & ~flight.scattered & ~collided
         if through.any():
             live = np.flatnonzero(through)
             result[rows[live]] *= null_transmission(scene, _take(hit, live), d[live])
-        keep = np.flatnonzero(through & np.any(result[rows] > 0, axis=1))
+        keep = np.flatnonzero((through | collided) & np.any(result[rows] > 0, axis=1))
         if not len(keep):
             return result
         hit_k = _take(hit, keep)
-        rows, d, channel = rows[keep], d[keep], channel[keep]
-        medium = next_medium(scene, hit_k, medium[keep], d)
-        o = intersect.offset_p(hit_k.p, hit_k.n, d)
-        remaining = remaining[keep] - hit_k.t
+        rows, d, channel, medium = rows[keep], d[keep], channel[keep], medium[keep]
+        crossed, moved = through[keep], collided[keep]
+        t_collision, o = flight.t[keep], o[keep]
         rng = rng.subset(keep)
-    result[rows] = 0.0   # more crossings than any sensible scene has: give up (counted)
+        if not moved.any():      # every ray crossed a surface: trace again from each
+            medium = next_medium(scene, hit_k, medium, d)
+            o = intersect.offset_p(hit_k.p, hit_k.n, d)
+            remaining = remaining[keep] - hit_k.t
+            hit = None
+            continue
+        # Collisions in a heterogeneous medium move the origin along the ray; their next
+        # surface stays the one found (closer by t), as Mitsuba keeps its intersection.
+        remaining = remaining[keep] - np.where(crossed, hit_k.t, t_collision)
+        c = np.flatnonzero(crossed)
+        hc = _take(hit_k, c)
+        medium[c] = next_medium(scene, hc, medium[c], d[c])
+        o[c] = intersect.offset_p(hc.p, hc.n, d[c])
+        m = np.flatnonzero(moved)
+        o[m] = o[m] + t_collision[m, None] * d[m]
+        hit_k.t[m] -= t_collision[m]
+        if len(c):
+            _put(hit_k, c, intersect.intersect(scene, o[c], d[c], remaining[c]))
+        hit = hit_k
+    result[rows] = 0.0   # more steps than any sensible scene has: give up (counted)
     return result
 
 
-#: Surfaces a shadow ray may cross (null boundaries) before it is declared blocked.
-MAX_CROSSINGS = 256
+#: Steps (surfaces crossed and tentative collisions in heterogeneous media) a shadow ray may
+#: take before it is declared blocked: the counters a segment has left after SLOT_SHADOW.
+MAX_STEPS = 496
 
 
 def _take(hit, rows):
     return type(hit)(**{k: np.take(v, rows, axis=0) for k, v in vars(hit).items()})
 
 
+def _put(hit, rows, new) -> None:
+    """Rows ``rows`` of ``hit`` replaced by the hits ``new``."""
+    for k, v in vars(hit).items():
+        v[rows] = getattr(new, k)
+
+
 @register("medium", "homogeneous")
-def create(plugin: Plugin) -> HomogeneousMedium:
+def create(plugin: Plugin, folders: list[str] | None = None) -> HomogeneousMedium:
     """The :class:`HomogeneousMedium` of a ``<medium type="homogeneous">`` element.
 
     Mitsuba 3's ``homogeneous`` medium takes ``sigma_t`` (extinction) and
@@ -296,7 +360,15 @@ def create(plugin: Plugin) -> HomogeneousMedium:
     which Mitsuba 3 refuses; the error says the equivalent ``sigma_t`` and ``albedo``.
     """
     props = Props(plugin)
-    kids = children(plugin, {"phase": 1})
+    albedo_volume = None
+    for name, child in plugin.named_children():
+        if child.kind != "volume":
+            continue
+        if name != "albedo" or albedo_volume is not None or props.has("albedo"):
+            raise child.error("a homogeneous medium reads one <volume>, its albedo: for a "
+                              "varying sigma_t write <medium type=\"heterogeneous\">")
+        albedo_volume = child
+    kids = children(plugin, {"phase": 1, "volume": 1})
     if props.has("sigma_a") or props.has("sigma_s"):
         raise _mitsuba06_coefficients(plugin, props)
     sigma_t = props.color("sigma_t", 1.0)
@@ -307,7 +379,7 @@ def create(plugin: Plugin) -> HomogeneousMedium:
                            "magnitude in <float name=\"scale\">", props.line("sigma_t"))
     if not np.all(sigma_t >= 0):
         raise plugin.error("sigma_t must be >= 0", props.line("sigma_t"))
-    albedo = props.reflectance("albedo", 0.75)
+    albedo = props.reflectance("albedo", 0.75) if albedo_volume is None else np.ones(3)
     scale = props.float("scale", 1.0)
     if not (np.isfinite(scale) and scale >= 0):
         raise plugin.error(f"scale must be a finite number >= 0, got {scale}", props.line("scale"))
@@ -318,8 +390,11 @@ def create(plugin: Plugin) -> HomogeneousMedium:
                            "weights); leave it true", props.line("has_spectral_extinction"))
     props.finish()
     phase = build_phase(kids["phase"][0]) if kids["phase"] else IsotropicPhase()
+    if albedo_volume is not None:
+        albedo_volume = build_volume(albedo_volume, folders or ["."])
     return HomogeneousMedium(sigma_t * scale, albedo, phase, sample_emitters,
-                             name=f"homogeneous ({plugin.file}:{plugin.line})")
+                             name=f"homogeneous ({plugin.file}:{plugin.line})",
+                             albedo_volume=albedo_volume)
 
 
 def _mitsuba06_coefficients(plugin: Plugin, props: Props):

@@ -23,15 +23,16 @@ from .. import media as _medium_plugins  # noqa: F401
 from .. import sensors as _sensor_plugins  # noqa: F401
 from .. import shapes as _shape_plugins  # noqa: F401
 from .. import textures as _texture_plugins  # noqa: F401
+from .. import volumes as _volume_plugins  # noqa: F401
 from ..bsdfs.diffuse import Diffuse
 from ..bsdfs.parameters import build_bsdf
 from ..emitters.base import Emitter
-from ..media.homogeneous import HomogeneousMedium
 from ..sensors.perspective_sensor import Camera
 from ..sensors.sampler import build_sampler
 from ..shapes import instances
 from ..shapes.accumulator import GeometryAccumulator, ShapeParams, shape_label
 from ..textures.mesh_attribute import bind_mesh_attributes
+from ..volumes import build_volume
 from .properties import (
     Props,
     build_texture,
@@ -207,8 +208,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     """
     kids = children(root, {"shape": 10**9, "bsdf": 10**9, "emitter": 10**9,
                             "sensor": 1, "integrator": 1, "texture": 10**9, "medium": 10**9,
-                            "sampler": 10**9})
-    media = MediaTable()
+                            "sampler": 10**9, "volume": 10**9})
     shape_media = []
     for plugin in kids["sampler"]:   # top-level samplers: referenced by a sensor, or unused
         build_sampler(plugin)
@@ -217,6 +217,7 @@ def build_scene(root: Plugin, source: str, base_dir: str,
     emitters, environment = [], None
     shape_bsdf, shape_emitter = [], []
     folders = search_folders(root, base_dir)
+    media = MediaTable(folders)
     attached: dict[int, Plugin] = {}  # area emitter plugin -> the shape it lights
     volume_elements: dict[str, tuple] = {}   # first null BSDF (the media table has its own)
 
@@ -240,6 +241,8 @@ def build_scene(root: Plugin, source: str, base_dir: str,
         bsdf_id(plugin)
     for plugin in kids["medium"]:
         media.index(plugin)
+    for plugin in kids["volume"]:   # top-level volumes: referenced by a medium, or unused
+        build_volume(plugin, folders)
     for plugin, parent in instances.flatten(kids["shape"]):
         shape_id = len(shape_bsdf)
         bsdf_plugin, emitter_plugin = build_shape(plugin, geo, shape_id, folders, parent)
@@ -300,11 +303,13 @@ class MediaTable:
 
     A shape takes the media on its two sides as ``<medium name="interior">`` /
     ``name="exterior"`` (nested or ``<ref id=".." name=".."/>``); the sensor takes one
-    medium, the one the camera sits in. A medium's factory is called as ``create(plugin)``.
+    medium, the one the camera sits in. A medium's factory is called as
+    ``create(plugin, folders)`` (``folders``: where the files of its volumes are looked up).
     """
 
-    def __init__(self):
-        self.media: list[HomogeneousMedium] = []
+    def __init__(self, folders: list[str]):
+        self.folders = folders
+        self.media: list = []
         self._index: dict[int, int] = {}
         #: ``{"medium": (file, line, element)}`` of the first medium built.
         self.elements: dict[str, tuple] = {}
@@ -313,7 +318,7 @@ class MediaTable:
         """Index of the medium of ``plugin`` in :attr:`media` (building it the first time)."""
         key = id(plugin)
         if key not in self._index:
-            self.media.append(build_medium(plugin))
+            self.media.append(build_medium(plugin, self.folders))
             self._index[key] = len(self.media) - 1
             self.elements.setdefault("medium", _where(plugin))
         return self._index[key]
@@ -338,9 +343,10 @@ class MediaTable:
         return self.index(media[0]) if media else -1
 
 
-def build_medium(plugin: Plugin) -> HomogeneousMedium:
-    """The participating medium of a ``<medium>`` element."""
-    return registered(plugin, "medium")(plugin)
+def build_medium(plugin: Plugin, folders: list[str]):
+    """The participating medium of a ``<medium>`` element (its volumes' files looked up in
+    ``folders``)."""
+    return registered(plugin, "medium")(plugin, folders)
 
 
 def _media_fields(media, shape_media: list, camera_medium: int) -> dict:

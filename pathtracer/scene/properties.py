@@ -18,7 +18,6 @@ from .xml import Plugin
 
 # Media and phase functions of Mitsuba 3 refused, with the reason.
 NOT_IMPLEMENTED_MEDIA = {
-    "heterogeneous": "heterogeneous (grid volume) media are not implemented: only homogeneous",
     "rayleigh": "the Rayleigh phase function exists only in Mitsuba's spectral variants",
     "sggx": "the SGGX microflake phase function is not implemented (isotropic and hg are)",
     "blendphase": "blended phase functions are not implemented (isotropic and hg are)",

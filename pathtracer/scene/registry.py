@@ -20,7 +20,7 @@ from typing import Callable
 
 #: The plugin kinds of a Mitsuba 3 scene file that this tracer builds.
 KINDS = ("bsdf", "texture", "shape", "emitter", "sensor", "film", "rfilter", "sampler",
-         "medium", "phase", "integrator")
+         "medium", "phase", "volume", "integrator")
 
 _FACTORIES: dict[str, dict[str, Callable]] = {kind: {} for kind in KINDS}
 

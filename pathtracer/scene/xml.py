@@ -26,11 +26,9 @@ from .xml_files import Element, FileState, find_in, read_elements, resolve_folde
 
 # Elements that instantiate a plugin (they carry a ``type`` attribute).
 PLUGIN_TAGS = {"shape", "bsdf", "emitter", "sensor", "film", "sampler",
-               "rfilter", "integrator", "texture", "medium", "phase"}
+               "rfilter", "integrator", "texture", "medium", "phase", "volume"}
 # Valid Mitsuba elements this tracer refuses, with the reason shown to the user.
 REFUSED_TAGS = {
-    "volume": "<volume> (grid or spatially varying medium data) is not supported: only "
-              "homogeneous media with constant sigma_t and albedo are",
     "alias": "<alias> is not supported",
 }
 # Allowed attributes of each property element (besides ``name``).
