@@ -158,6 +158,8 @@ def measure(entries: list, cache: Path) -> dict:
     """Verdicts of the recorded checks under today's rules, and their counts per folder."""
     rows = []
     for entry in entries:
+        if not (cache / f"{entry['mutant']}--{entry['check']}.pkl").exists():
+            continue                                    # not graded (yet)
         stored, found = explained(cache, entry["mutant"], entry["check"])
         if stored["score"] >= stored["max_score"] and not stored["failure"]:
             verdict, causes = "not detected", []
@@ -196,6 +198,9 @@ def main(argv=None) -> int:
     parser.add_argument("--only", nargs="*", default=(), help="mutant names")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--table", action="store_true", help="print the Markdown table")
+    parser.add_argument("--compact", type=Path,
+                        help="also write the recorded evidence of --only in compact form here "
+                             "(autograder.hint_evidence; what the tests re-explain)")
     args = parser.parse_args(argv)
     todo = cases(args.only)
     entries = [dict(mutant=n, folder=f, check=c, cause=k) for n, f, _, c, k in todo]
@@ -213,6 +218,13 @@ def main(argv=None) -> int:
         print(table(report))
     if args.out:
         args.out.write_text(json.dumps(report, indent=1) + "\n")
+    if args.compact:
+        from . import hint_evidence
+        for entry in entries:
+            with open(args.cache / f"{entry['mutant']}--{entry['check']}.pkl", "rb") as f:
+                evidence = pickle.load(f)["evidence"]
+            hint_evidence.write(evidence, args.compact, f"{entry['mutant']}--{entry['check']}",
+                                mutant=entry["mutant"], cause=entry["cause"])
     return 0
 
 
