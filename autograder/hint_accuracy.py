@@ -189,6 +189,23 @@ def table(report: dict) -> str:
     return "\n".join(lines)
 
 
+def write_compact(rows, cache: Path, folder: Path) -> None:
+    """The evidence of ``rows`` in compact form (:mod:`autograder.hint_evidence`), with the
+    verdict it got; each is read back and must name the same causes as the full evidence (its
+    numbers may differ in the last digit: the images are float16)."""
+    from . import hint_evidence
+    for row in rows:
+        name = f"{row['mutant']}--{row['check']}"
+        with open(cache / f"{name}.pkl", "rb") as f:
+            evidence = pickle.load(f)["evidence"]
+        hint_evidence.write(evidence, folder, name, mutant=row["mutant"], cause=row["cause"],
+                            verdict=row["verdict"])
+        again, _ = hint_evidence.read(folder, name)
+        explain = getattr(hints.explain, "original", hints.explain)
+        if classify(explain(again), row["cause"]) != (row["verdict"], row["named"]):
+            raise SystemExit(f"{name}: the compact evidence names other causes than the full one")
+
+
 def main(argv=None) -> int:
     """Grade (or re-explain) the mutants and write the report."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -219,12 +236,7 @@ def main(argv=None) -> int:
     if args.out:
         args.out.write_text(json.dumps(report, indent=1) + "\n")
     if args.compact:
-        from . import hint_evidence
-        for entry in entries:
-            with open(args.cache / f"{entry['mutant']}--{entry['check']}.pkl", "rb") as f:
-                evidence = pickle.load(f)["evidence"]
-            hint_evidence.write(evidence, args.compact, f"{entry['mutant']}--{entry['check']}",
-                                mutant=entry["mutant"], cause=entry["cause"])
+        write_compact(report["rows"], args.cache, args.compact)
     return 0
 
 

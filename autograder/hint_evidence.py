@@ -27,10 +27,12 @@ MEAN = ("agree", "rel_bias", "rel_bias_ci", "worst_region", "worst_z", "verdict"
 VARIANCE = ("agree", "ratio", "policy_agree", "policy_verdict", "max_ratio")
 CONVERGENCE = ("passed", "correlated", "floor_detected", "floor_spp", "bias_rel", "slope",
                "slope_ci")
-SWEEP = ("agree", "rel_bias", "rel_bias_ci")
+SWEEP = ("agree", "rel_bias", "rel_bias_ci", "z_tiles")
 
 
 def _plain(value):
+    if isinstance(value, np.ndarray):
+        return np.round(value.astype(float), 4).tolist()
     if isinstance(value, (np.floating, np.integer, np.bool_)):
         return value.item()
     if isinstance(value, tuple):
@@ -51,7 +53,8 @@ def _number(value):
 def _namespace(fields) -> SimpleNamespace | None:
     if fields is None:
         return None
-    return SimpleNamespace(**{k: tuple(_number(x) for x in v) if isinstance(v, list)
+    return SimpleNamespace(**{k: np.array(v) if k == "z_tiles" else
+                              tuple(_number(x) for x in v) if isinstance(v, list)
                               else _number(v) for k, v in fields.items()})
 
 
