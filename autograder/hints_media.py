@@ -15,8 +15,10 @@ Mitsuba's ``volpath`` at the same depths) and across the two regions:
   light right;
 * the free-flight pdf wrong (the density instead of the probability of reaching the
   surface): what is seen *through* the fog scaled by ``1 / sigma_t``;
-* the medium ignored at index-matched boundaries: camera paths never enter the fog, so the
-  fog pixels lose their single scattering (max_depth = 2) almost entirely.
+* the medium ignored at index-matched boundaries: paths never enter the fog, so the fog pixels
+  see the wall behind it unattenuated and the floor in its shadow is lit (both too bright at
+  max_depth = 2); a fog too bright while its shadow is right still attenuates: its scattering
+  events weigh too much (the free-flight pdf or the phase function's weight).
 
 Each rule quotes the numbers it rests on; hints are explanations, never points.
 """
@@ -37,6 +39,10 @@ from pathtracer.shapes.intersect import intersect
 REGION_TOLERANCE = 0.05
 #: Fog light at most this fraction of Mitsuba's: the fog has (almost) vanished.
 VANISHED = 0.35
+#: The causes of a scattering event's wrong weight.
+SCATTER_CAUSES = ("free_flight_pdf", "phase_pdf")
+SHADOW_TEXT = ("the transmittance of the shadow rays from the fog to the light, T = "
+               "exp(-sigma_t d) over the distance d inside the fog")
 #: The causes the surface rule lists (the surface steps of a path tracer).
 SURFACE_CAUSES = ("mis_weights", "light_pdf_cosine", "light_pdf_distance", "bsdf_sampling_weight")
 
@@ -125,8 +131,27 @@ def explain_media(ev) -> list:
                    "the free-flight sampling: shadow_transmittance), not just the visibility of "
                    f"the null boundaries it crosses {numbers}")
         out[-1] = Hint(out[-1], ("shadow_transmittance",))
+    elif fog2 > 1 + REGION_TOLERANCE and clear2 <= 1 + REGION_TOLERANCE:
+        # The fog's own light too bright while what lies in its shadow is not: the fog still
+        # attenuates, so it is entered; its scattering events weigh too much.
+        shared = ("the free-flight pdf (a distance t < s is sampled with density sigma_t "
+                  "exp(-sigma_t t): weight T sigma_s / pdf = albedo) or the phase function's "
+                  "weight (p / pdf = 1)")
+        if check.integrator != "volpath":
+            what, causes = f"a scattering event weighs too much: {shared}", SCATTER_CAUSES
+        elif phase is not None and phase.passed:
+            what = f"volpath_phase, which shares the scattering step, passed: {SHADOW_TEXT}"
+            causes = ("shadow_transmittance",)
+        else:
+            what = f"{SHADOW_TEXT}, or a scattering event weighs too much: {shared}"
+            causes = ("shadow_transmittance",) + SCATTER_CAUSES
+        out.append(Hint(f"light from the fog too bright (x{fog2:.2f} at max_depth = 2 in its "
+                        f"pixels, x{fog3:.2f} at 3) while the floor in its shadow is not (x"
+                        f"{clear2:.2f}), {image}: the fog is entered and attenuates; {what} "
+                        f"{numbers}", causes))
     elif fog2 > 1 + REGION_TOLERANCE:
-        out.append(f"the fog's pixels too bright at max_depth = 2 (x{fog2:.2f}), {image}: your "
+        out.append(f"the fog's pixels too bright at max_depth = 2 (x{fog2:.2f}), and the floor in "
+                   f"its shadow too (x{clear2:.2f}), {image}: your "
                    "camera paths do not enter the fog, and see the wall behind it unattenuated: "
                    "the medium must be tracked at null boundaries (index-matched, eta = 1) too: "
                    "crossing a null BSDF is not a scattering event, but the ray is then in the "
@@ -145,9 +170,12 @@ def explain_media(ev) -> list:
                   "every scattering event" if compounding else
                   f"what max_depth = 3 adds there is x{fog3:.2f}: about the same factor, once "
                   "per passage through the fog")
+        volpath = check.integrator == "volpath"
+        shadow = f"; or {SHADOW_TEXT} (too small)" if volpath else ""
+        extra = ("shadow_transmittance",) if volpath else ()
         out.append(Hint(f"light from the fog too dark (x{fog2:.2f} at max_depth = 2 in its "
                         f"pixels, the rest x{clear2:.2f}), {image}; {depth3}; most likely first: "
-                        f"{first}; or {second} {numbers}", ("phase_pdf", "free_flight_pdf")))
+                        f"{first}; or {second}{shadow} {numbers}", SCATTER_CAUSES + extra))
     elif abs(clear2 - 1) > REGION_TOLERANCE:
         out.append(f"direct light on the surfaces outside the fog x{clear2:.2f} (the fog's pixels "
                    f"x{fog2:.2f}), {image}: the surface steps, as in path tracing: emission "

@@ -107,8 +107,9 @@ def _longer_paths(ev, ratios) -> list:
     grows = (check.integrator != "direct"
              and abs(r - 1) > abs(agreement.rel_bias)
              and not (ci[0] <= r - 1 <= ci[1]))
+    image = f"x{r:.3f}" if r < 1e3 else f"x{r:.2g}"
     evidence = (f"bounces 1-{last} agree with Mitsuba within the sweep's resolution ({ratios}) "
-                f"but the full image is x{r:.3f}")
+                f"but the full image is {image}")
     if not grows:
         why = ("direct has no longer paths: the error is smaller than the sweep resolves; see "
                "where it sits in the z-map" if check.integrator == "direct" else
@@ -303,6 +304,14 @@ def sweep_hints(ev, n_lights, depth_tolerance, off_by_one_tolerance) -> list:
                f"Mitsuba's, x{low:.2f} to x{high:.2f} over most 8x8 tiles; top third "
                f"{_times(bands[0])}, bottom third {_times(bands[1])}; {ratios})")
     if depth == 1:
+        if added < 0.5 and check.integrator in MIS_INTEGRATORS:
+            # With MIS the camera ray's Le goes through the BSDF strategy's weight too.
+            return [Hint("light sources seen directly are missing: the emitted radiance Le where "
+                         "the camera ray's first hit is on a light is not added (emission missed "
+                         "on the first hit), or added with MIS weight 0: a camera ray's hit has "
+                         "weight 1 (no light sample competes with it), and the BSDF strategy's "
+                         "weight is w(pdf_bsdf, pdf_light), in that order "
+                         f"{numbers}", ("visible_emission", "mis_weights"))]
         if added < 0.5:
             return [Hint("light sources seen directly are missing: add the emitted radiance Le "
                          "when the camera ray's first hit is on a light (emission missed on the "
