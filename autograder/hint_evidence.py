@@ -4,7 +4,7 @@
 render the mutants again, so a few cases are also written in this compact form: the numbers
 the rules of :mod:`autograder.hints` read (the comparison's verdicts and ratios, the sweep's
 per-depth agreement, the probe, R, the camera's geometry) as JSON, and the student's sweep
-renders as luminance images (float16, ``.npz``). Every rule reads images only through their
+renders as luminance images (float16) with the sweep's per-tile z (``.npz``). Every rule reads images only through their
 luminance, so an image rebuilt as luminance in each channel (LUMINANCE sums to one) gives the
 rules the same numbers; Mitsuba's per-bounce references are the committed ones.
 """
@@ -27,12 +27,10 @@ MEAN = ("agree", "rel_bias", "rel_bias_ci", "worst_region", "worst_z", "verdict"
 VARIANCE = ("agree", "ratio", "policy_agree", "policy_verdict", "max_ratio")
 CONVERGENCE = ("passed", "correlated", "floor_detected", "floor_spp", "bias_rel", "slope",
                "slope_ci")
-SWEEP = ("agree", "rel_bias", "rel_bias_ci", "z_tiles")
+SWEEP = ("agree", "rel_bias", "rel_bias_ci")
 
 
 def _plain(value):
-    if isinstance(value, np.ndarray):
-        return np.round(value.astype(float), 4).tolist()
     if isinstance(value, (np.floating, np.integer, np.bool_)):
         return value.item()
     if isinstance(value, tuple):
@@ -53,8 +51,7 @@ def _number(value):
 def _namespace(fields) -> SimpleNamespace | None:
     if fields is None:
         return None
-    return SimpleNamespace(**{k: np.array(v) if k == "z_tiles" else
-                              tuple(_number(x) for x in v) if isinstance(v, list)
+    return SimpleNamespace(**{k: tuple(_number(x) for x in v) if isinstance(v, list)
                               else _number(v) for k, v in fields.items()})
 
 
@@ -75,9 +72,11 @@ def write(ev, folder: Path, name: str, **extra) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     (folder / f"{name}.json").write_text(json.dumps(record, indent=1) + "\n")
     if ev.sweep:
-        np.savez_compressed(folder / f"{name}.npz", **{
-            f"depth{d}": (np.asarray(s[1]) @ LUMINANCE).astype(np.float16)
-            for d, s in ev.sweep.items()})
+        arrays = {}
+        for d, (agreement, test, _) in ev.sweep.items():
+            arrays[f"depth{d}"] = (np.asarray(test) @ LUMINANCE).astype(np.float16)
+            arrays[f"z{d}"] = np.asarray(agreement.z_tiles, dtype=np.float32)
+        np.savez_compressed(folder / f"{name}.npz", **arrays)
 
 
 def read(folder: Path, name: str) -> tuple:
@@ -99,7 +98,9 @@ def read(folder: Path, name: str) -> tuple:
             ref = get_reference(check.scene, {**params, "max_depth": int(d)}, estimator,
                                 render=False).mean
             test = images[f"depth{d}"].astype(np.float64)[..., None] * np.ones(3)
-            sweep[int(d)] = (_namespace(fields), test, ref)
+            agreement = _namespace(fields)
+            agreement.z_tiles = images[f"z{d}"].astype(np.float64)
+            sweep[int(d)] = (agreement, test, ref)
     evidence = Evidence(check=check, comparison=comparison, sweep=sweep,
                         independence=_number(record["independence"]), camera=record["camera"],
                         probe=tuple(record["probe"]) if record["probe"] is not None else None,

@@ -4,12 +4,11 @@ The rules of :mod:`mitsuba_refs.explain` (image brightness factors, the first di
 bounce, variance and convergence patterns) run first; the rules here add what only the
 autograder sees, each quoting the numbers it rests on:
 
-* the *added term* at the first wrong depth: ``(test_d - ref_{d-1}) / (ref_d - ref_{d-1})``,
-  the brightness ratio of just what bounce d contributes (direct light at d = 2), compared
-  with the classic factors (2: emission counted twice, 1/pi, ...);
-* where the error sits (top / bottom third of the image at that depth): the cosine at the
-  light matters most next to it (ceiling), the distance squared far from it (floor);
-* depths 1-3 right but the full image wrong: long paths (roulette, depth cut);
+* the per-bounce sweep (:mod:`autograder.hints_sweep`): the first wrong depth, the *added
+  term* ``(test_d - ref_{d-1}) / (ref_d - ref_{d-1})`` over the image and its 8x8 tiles, and
+  what that term's error follows (one factor everywhere, a factor of each pixel's geometry,
+  one constant per light: :mod:`autograder.hints_geometry`); a cause is named only where that
+  evidence is specific to it, otherwise the hint states the numbers;
 * sample independence: a second render with another seed differs from the first by
   ``R`` times what the per-pixel variances predict (R ~ 1 for independent samples, biased or
   not; R >> 1 when samples reuse random numbers);
@@ -20,7 +19,9 @@ autograder sees, each quoting the numbers it rests on:
   importance (only the light that leaves glass is off, by eta^2), the camera importance
   (a ratio that follows a power of cos theta, the angle to the optical axis, or a constant).
 
-A rule never runs a test of its own; hints are explanations, never points.
+A rule never runs a test of its own; hints are explanations, never points. Each hint is a
+:class:`mitsuba_refs.explain.Hint` carrying the causes it names (``python -m
+autograder.hint_accuracy`` measures them against the bug zoo's true causes).
 """
 from __future__ import annotations
 
