@@ -4,12 +4,11 @@ The rules of :mod:`mitsuba_refs.explain` (image brightness factors, the first di
 bounce, variance and convergence patterns) run first; the rules here add what only the
 autograder sees, each quoting the numbers it rests on:
 
-* the *added term* at the first wrong depth: ``(test_d - ref_{d-1}) / (ref_d - ref_{d-1})``,
-  the brightness ratio of just what bounce d contributes (direct light at d = 2), compared
-  with the classic factors (2: emission counted twice, 1/pi, ...);
-* where the error sits (top / bottom third of the image at that depth): the cosine at the
-  light matters most next to it (ceiling), the distance squared far from it (floor);
-* depths 1-3 right but the full image wrong: long paths (roulette, depth cut);
+* the per-bounce sweep (:mod:`autograder.hints_sweep`): the first wrong depth, the *added
+  term* ``(test_d - ref_{d-1}) / (ref_d - ref_{d-1})`` over the image and its 8x8 tiles, and
+  what that term's error follows (one factor everywhere, a factor of each pixel's geometry,
+  one constant per light: :mod:`autograder.hints_geometry`); a cause is named only where that
+  evidence is specific to it, otherwise the hint states the numbers;
 * sample independence: a second render with another seed differs from the first by
   ``R`` times what the per-pixel variances predict (R ~ 1 for independent samples, biased or
   not; R >> 1 when samples reuse random numbers);
@@ -20,7 +19,9 @@ autograder sees, each quoting the numbers it rests on:
   importance (only the light that leaves glass is off, by eta^2), the camera importance
   (a ratio that follows a power of cos theta, the angle to the optical axis, or a constant).
 
-A rule never runs a test of its own; hints are explanations, never points.
+A rule never runs a test of its own; hints are explanations, never points. Each hint is a
+:class:`mitsuba_refs.explain.Hint` carrying the causes it names (``python -m
+autograder.hint_accuracy`` measures them against the bug zoo's true causes).
 """
 from __future__ import annotations
 
@@ -31,20 +32,20 @@ import numpy as np
 
 from mitsuba_refs import explain as base
 from mitsuba_refs.compare import default_params
-from mitsuba_refs.explain import BOUNCE_CAUSES
+from mitsuba_refs.explain import Hint
 from pathtracer import load_scene
 from pathtracer.core.color import LUMINANCE
 from pathtracer.sensors.perspective import camera_rays
 
 from .hints_media import explain_media
+from .hints_sweep import sweep_hints
 
-#: Integrators that combine light and BSDF sampling with MIS weights.
-MIS_INTEGRATORS = ("path", "direct")
-#: Integrators with shadow rays.
-SHADOW_RAY_INTEGRATORS = ("path", "direct", "path_nee")
 #: R above this or below its inverse: samples are not independent (R ~ 1 +- 0.1 for
 #: independent samples at 64x64).
 CORRELATED_R = 3.0
+#: The causes the glass rule lists (the specular bounces' steps).
+GLASS_CAUSES = ("glass_fresnel", "glass_eta", "backface_normals", "glass_radiance_scaling",
+                "specular_emission")
 
 
 @dataclass
@@ -71,105 +72,19 @@ def independence(first, n_first, second, n_second) -> float:
     return observed / predicted if predicted > 0 else (math.inf if observed > 0 else 1.0)
 
 
-def _lum(image) -> float:
-    return float(np.asarray(image).reshape(-1, 3).sum(axis=0) @ LUMINANCE)
-
-
-def _band_ratios(test, ref) -> tuple:
-    """Brightness ratio test/ref of the top and bottom thirds of an image."""
-    h = test.shape[0]
-    top, bottom = slice(0, h // 3), slice(h - h // 3, h)
-    ratio = []
-    for band in (top, bottom):
-        r = _lum(ref[band])
-        ratio.append(_lum(test[band]) / r if r > 0 else math.nan)
-    return tuple(ratio)
-
-
-def _times(ratio: float) -> str:
-    """``x1.23``, or what a missing ratio means: the reference has no light there."""
-    return f"x{ratio:.2f}" if math.isfinite(ratio) else "dark in Mitsuba's"
-
-
 #: A depth counts as wrong (for explanations) when it disagrees by at least this much: the
 #: per-bounce references show a systematic ~1 % offset at max_depth = 2 (see the report).
 DEPTH_TOLERANCE = 0.02
-
-
-def _first_wrong(sweep) -> int | None:
-    bad = [d for d in sorted(sweep) if not sweep[d][0].agree
-           and abs(sweep[d][0].rel_bias) >= DEPTH_TOLERANCE]
-    return bad[0] if bad else None
-
-
-def _added_ratio(sweep, depth) -> float:
-    """Brightness ratio of what depth ``depth`` adds to depth - 1 (both against Mitsuba)."""
-    _, test, ref = sweep[depth]
-    if depth == 1 or depth - 1 not in sweep:
-        base = 0.0
-    else:
-        base = _lum(sweep[depth - 1][2])
-    added_ref = _lum(ref) - base
-    return (_lum(test) - base) / added_ref if added_ref > 0 else math.nan
-
-
 #: Brightness tolerance of the off-by-one rule: the student's render at max_depth = d is
 #: "Mitsuba's at d +- 1" when within 3 % of it (consecutive depths differ by >= 10 % in the
 #: graded scenes; 64-spp whole-image noise is < 1 %).
 OFF_BY_ONE_TOLERANCE = 0.03
-#: Tiles whose share of what a bounce adds is this far from the image's are "uneven": a
-#: constant factor (a pdf's 1/N, a BSDF's 1/pi) scales every tile alike, a geometric error
-#: (self-intersection) or a per-light error (light choice) does not.
-UNEVEN = 0.15
 
 
 def _scene_facts(check) -> dict:
     """What the rules need to know about the check's scene: its number of emitters."""
     scene = load_scene(check.scene, **default_params(check.scene))
     return dict(emitters=scene.num_emitters)
-
-
-def _off_by_one(sweep) -> int:
-    """+1 when the render at every max_depth = d matches Mitsuba's at d + 1 (-1: at d - 1),
-    0 otherwise (whole-image brightness, within OFF_BY_ONE_TOLERANCE)."""
-    test = {d: _lum(sweep[d][1]) for d in sweep}
-    ref = {d: _lum(sweep[d][2]) for d in sweep}
-    ref[0] = 0.0
-    scale = max(ref.values())
-
-    def close(a, b):
-        return abs(a - b) <= OFF_BY_ONE_TOLERANCE * max(b, 0.05 * scale)
-    if all(close(test[d], ref[d]) for d in sweep):
-        return 0
-    for shift in (1, -1):
-        pairs = [(d, d + shift) for d in sorted(sweep) if d + shift in ref]
-        if len(pairs) >= 2 and all(close(test[d], ref[e]) for d, e in pairs):
-            return shift
-    return 0
-
-
-def _tile_ratios(sweep, depth, tile=8) -> tuple:
-    """10th and 90th percentile over 8x8 tiles of (test_d - ref_{d-1}) / (ref_d - ref_{d-1})
-    in luminance, over tiles that get a fair share (>= 1/4 of the median) of the added light."""
-    _, test, ref = sweep[depth]
-    base = sweep[depth - 1][2] if depth - 1 in sweep else np.zeros_like(ref)
-    h, w = (ref.shape[0] // tile) * tile, (ref.shape[1] // tile) * tile
-
-    def tiles(img):
-        lum = (np.asarray(img)[:h, :w] @ LUMINANCE)
-        return lum.reshape(h // tile, tile, w // tile, tile).sum(axis=(1, 3)).ravel()
-    added_ref = tiles(ref) - tiles(base)
-    added_test = tiles(test) - tiles(base)
-    positive = added_ref[added_ref > 0]
-    if not len(positive):
-        return math.nan, math.nan
-    keep = added_ref >= 0.25 * np.median(positive)
-    r = added_test[keep] / added_ref[keep]
-    return float(np.percentile(r, 10)), float(np.percentile(r, 90))
-
-
-def _near(value, factor, tolerance=0.2) -> bool:
-    return math.isfinite(value) and abs(value / factor - 1) < tolerance
 
 
 def camera_evidence(check, student) -> dict:
@@ -234,15 +149,17 @@ def camera_findings(cam, image_passed: bool = True) -> list:
 def _camera_hints(cam) -> list:
     out = []
     if cam["mirrored"]:
-        out.append("your image is mirrored left-right: in Mitsuba's camera +x points to the "
-                   "image's left (right = -left)")
+        out.append(Hint("your image is mirrored left-right: in Mitsuba's camera +x points to "
+                        "the image's left (right = -left)", ("camera_orientation",)))
     if cam["flipped"]:
-        out.append("your image is upside down: row 0 is the top of the image")
+        out.append(Hint("your image is upside down: row 0 is the top of the image",
+                        ("camera_orientation",)))
     if cam.get("film_ignored"):
-        out.append("the film sample is ignored: u_film (the sample's position inside its "
-                   "pixel) does not move your rays, so every sample of a pixel goes through "
-                   "its centre and edges are aliased instead of averaged over the pixel; use "
-                   "s = (column + u_film[:, 0]) / width, (row + u_film[:, 1]) / height")
+        out.append(Hint("the film sample is ignored: u_film (the sample's position inside its "
+                        "pixel) does not move your rays, so every sample of a pixel goes through "
+                        "its centre and edges are aliased instead of averaged over the pixel; use "
+                        "s = (column + u_film[:, 0]) / width, (row + u_film[:, 1]) / height",
+                        ("camera_film_sample",)))
     dx, dy = cam["x_fov"] - cam["x_ref"], cam["y_fov"] - cam["y_ref"]
     if abs(dx) > 0.5 or abs(dy) > 0.5:
         swapped = abs(cam["y_fov"] - cam["x_ref"]) < 0.5 or abs(cam["x_fov"] - cam["y_ref"]) < 0.5
@@ -254,121 +171,16 @@ def _camera_hints(cam) -> list:
                     "the vertical extent is tan(x_fov/2) * height/width)"
         else:
             text += ": check tan(fov/2) (degrees vs radians, half angle) and the aspect ratio"
-        out.append(text)
+        out.append(Hint(text, ("camera_fov",)))
     return out
 
 
 def _sweep_hints(ev: Evidence) -> list:
-    """Rules on the per-bounce sweep."""
-    sweep, name = ev.sweep, ev.check.integrator
-    out = []
-    if not sweep:
-        return out
-    depth = _first_wrong(sweep)
-    ratios = ", ".join(f"max_depth={d}: x{1 + sweep[d][0].rel_bias:.3f}" for d in sorted(sweep))
-    # A check at a finite max_depth that the sweep reaches has no longer paths to blame.
-    covered = ev.check.max_depth is not None and max(sweep) >= ev.check.max_depth
-    if depth is None:
-        if not ev.comparison.mean.agree and not covered:
-            r = 1 + ev.comparison.mean.rel_bias
-            out.append(f"bounces 1-{max(sweep)} agree with Mitsuba ({ratios}) but the full image is "
-                       f"x{r:.3f}: the error grows with path length: Russian roulette without "
-                       "dividing the survivors by their probability, a depth cut (a fixed maximum "
-                       "number of bounces although max_depth = -1), or a per-bounce weight "
-                       "slightly off (f cos / pdf with the pdf the direction was drawn from)")
-        return out
-    shift = _off_by_one(sweep)
-    if shift:
-        pairs = ", ".join(f"yours at {d} is x{_lum(sweep[d][1]) / _lum(sweep[d + shift][2]):.3f} "
-                          f"Mitsuba's at {d + shift}" for d in sorted(sweep)
-                          if d + shift in sweep)
-        more = "more" if shift > 0 else "fewer"
-        out.append(f"max_depth off by one: your render at each max_depth = d looks like Mitsuba's "
-                   f"at d {'+' if shift > 0 else '-'} 1 ({pairs}; {ratios}): your paths have one "
-                   f"segment {more} than max_depth allows. max_depth counts segments: 1 = only "
-                   "emitters seen by the camera, 2 = direct light, 3 = one indirect bounce; a "
-                   "path that has max_depth segments adds the Le of its last vertex and stops "
-                   "(no shadow ray and no further bounce from there)")
-        return out
-    added = _added_ratio(sweep, depth)
-    top, bottom = _band_ratios(sweep[depth][1], sweep[depth][2])
-    low, high = _tile_ratios(sweep, depth)
-    facts = _scene_facts(ev.check)
-    n_lights = facts["emitters"]
-    numbers = (f"(first wrong at max_depth={depth}; what that bounce adds is x{added:.2f} "
-               f"Mitsuba's, x{low:.2f} to x{high:.2f} over most 8x8 tiles; top third {_times(top)}, "
-               f"bottom third {_times(bottom)}; {ratios})")
-    even = math.isfinite(low) and high - low <= UNEVEN * max(added, 1e-9) * 2
-    if depth == 1:
-        if added < 0.5:
-            out.append("light sources seen directly are missing: add the emitted radiance Le "
-                       f"when the camera ray's first hit is on a light (emission missed on the first hit) {numbers}")
-        else:
-            out.append(f"directly visible emitters are wrong: emitted radiance, one-sided emitters "
-                       f"or the camera {numbers}")
-        return out
-    if depth == 2 and n_lights > 1 and name in SHADOW_RAY_INTEGRATORS:
-        if low < 1 - UNEVEN / 2 and high > 1 + UNEVEN / 2:
-            out.append(f"direct light too bright in some places and too dark in others, in a "
-                       f"scene with {n_lights} lights: the probability of choosing each light "
-                       "must be the one its contribution is divided by (uniform choice: 1/N for "
-                       "every light, in the shadow ray's pdf and in the MIS weights alike; "
-                       f"choosing by power needs pdf = P_k / sum P) {numbers}")
-            return out
-        if even and _near(added, 1 / n_lights, 0.15):
-            out.append(f"direct light x{added:.2f} everywhere in a scene with {n_lights} lights: "
-                       f"the 1/N of choosing one of the N = {n_lights} lights is missing from the "
-                       "light sample's pdf (p = 1/N x the pdf of the point on that light; the "
-                       f"contribution is divided by it) {numbers}")
-            return out
-    if depth == 2:
-        if _near(added, 2.0, 0.2) and name == "path_nee":
-            out.append("direct light about twice too bright with shadow rays: emission counted twice "
-                       "(once by the shadow ray, once when the BSDF-sampled ray lands on the light); "
-                       f"add Le after a bounce only if that bounce was specular {numbers}")
-        elif _near(added, 1 / math.pi):
-            out.append("direct light darker by a factor near pi: an extra 1/pi (the diffuse BRDF is "
-                       f"rho/pi, once), or a pdf that already includes 1/pi used twice {numbers}")
-        elif _near(added, math.pi):
-            out.append(f"direct light brighter by a factor near pi: the 1/pi of the diffuse BRDF is "
-                       f"missing {numbers}")
-        elif added > 1.05 and name == "path_bsdf":
-            out.append("direct light too bright without light sampling: emitters must be one-sided "
-                       "(emit only on the side their normal faces), and Le counted once per hit "
-                       f"{numbers}")
-        elif added > 1.05 and name in MIS_INTEGRATORS:
-            causes = [
-                (top / bottom, "the light-sampling pdf misses the cosine at the light, "
-                 "p = d^2 / (A |cos theta_light|) (that error grows next to the light: top)"),
-                (bottom / top, "the light-sampling pdf misses the distance squared (that error "
-                 "grows far from the light: bottom)"),
-                (1.0 + 1e-9, "the MIS weights do not sum to one (e.g. BSDF-sampled emission "
-                 "added with weight 1 although the shadow ray also counts it; use the power "
-                 "heuristic on both strategies; that error is spread evenly)")]
-            causes.sort(key=lambda c: -c[0])
-            out.append("direct light too bright with light sampling + MIS; most likely first: "
-                       + "; or ".join(c[1] for c in causes) + f" {numbers}")
-        elif added < 0.95 and name in SHADOW_RAY_INTEGRATORS and even:
-            out.append(f"direct light x{added:.2f}, evenly over the image: a constant factor in "
-                       "the shadow ray's contribution Le f cos / p (the light-sampling pdf, e.g. "
-                       "its 1/N light choice or the area, or the BSDF value); not a geometric "
-                       "problem such as self-intersection, which darkens some places more than "
-                       f"others {numbers}")
-        elif added < 0.95 and name in SHADOW_RAY_INTEGRATORS:
-            out.append("direct light too dark with shadow rays, unevenly: shadow rays are blocked "
-                       "too often, a self-intersection (offset the origin along the normal, stop "
-                       "the ray just short of the light), or the light-sampling pdf / BSDF value "
-                       f"{numbers}")
-        elif added < 0.95 and name == "path_bsdf":
-            out.append("direct light too dark with BSDF sampling: the throughput must be multiplied "
-                       f"by f cos / pdf (the pdf of the sampled direction) {numbers}")
-        else:
-            out.append(f"{BOUNCE_CAUSES[2]} {numbers}")
-        return out
-    out.append(f"only bounce >= 3 is wrong, the indirect term: {BOUNCE_CAUSES[3].split(': ', 1)[-1]}; "
-               f"the weight of a sampled direction is f cos / pdf with the pdf it was drawn "
-               f"from (cosine and pdf both needed) {numbers}")
-    return out
+    """Rules on the per-bounce sweep (:mod:`autograder.hints_sweep`)."""
+    if not ev.sweep:
+        return []
+    return sweep_hints(ev, _scene_facts(ev.check)["emitters"], DEPTH_TOLERANCE,
+                       OFF_BY_ONE_TOLERANCE)
 
 
 def _glass_hints(ev: Evidence) -> list:
@@ -377,16 +189,16 @@ def _glass_hints(ev: Evidence) -> list:
         return []
     diffuse = ev.history.get(f"{check.integrator}-cornell-box")
     if diffuse is not None and not diffuse.passed:
-        return [f"fix {check.integrator} on the Cornell box first: it fails there too"]
+        return [Hint(f"fix {check.integrator} on the Cornell box first: it fails there too")]
     m = ev.comparison.mean
     where = f"largest |z| = {abs(m.worst_z):.1f} in the {m.worst_region}"
     prefix = ("the Cornell box check of this integrator passed, so the diffuse part is right; "
               if diffuse is not None else "")
-    return [f"{prefix}wrong with glass in the scene ({where}; image x{1 + m.rel_bias:.3f}): "
-            "look at the specular (delta) bounces: exact dielectric Fresnel (not Schlick), eta = "
-            "int_ior / ext_ior and its inverse when leaving the glass, normals flipped for back "
-            "faces (ray offsets on the side the ray leaves), the 1/eta^2 radiance scaling, and "
-            "emission after a specular bounce"]
+    return [Hint(f"{prefix}wrong with glass in the scene ({where}; image x{1 + m.rel_bias:.3f}): "
+                 "look at the specular (delta) bounces: exact dielectric Fresnel (not Schlick), "
+                 "eta = int_ior / ext_ior and its inverse when leaving the glass, normals flipped "
+                 "for back faces (ray offsets on the side the ray leaves), the 1/eta^2 radiance "
+                 "scaling, and emission after a specular bounce", GLASS_CAUSES)]
 
 
 def _variance_policy(hint: str, comparison) -> str:
@@ -399,11 +211,12 @@ def _variance_policy(hint: str, comparison) -> str:
               f"estimator written differently (another MIS heuristic, roulette rule or light "
               f"choice) to be up to {v.max_ratio:g}x noisier, failing only beyond that bound")
     if v.ratio > 1:
-        return (f"{policy}: {v.ratio:.2f}x is more than a different but sound choice costs; "
-                "usually the sampling pdf does not follow the integrand (e.g. uniform "
-                "directions where cosine-weighted ones are expected), or a sample is wasted")
-    return (f"{policy}: yours is lower ({v.ratio:.2f}x): a different estimator than the one "
-            "named, or samples that are not independent")
+        return Hint(f"{policy}: {v.ratio:.2f}x is more than a different but sound choice costs; "
+                    "usually the sampling pdf does not follow the integrand (e.g. uniform "
+                    "directions where cosine-weighted ones are expected), or a sample is wasted",
+                    ("importance_sampling",))
+    return Hint(f"{policy}: yours is lower ({v.ratio:.2f}x): a different estimator than the one "
+                "named, or samples that are not independent", ("random_reuse",))
 
 
 def explain(ev: Evidence) -> list:
@@ -419,16 +232,18 @@ def explain(ev: Evidence) -> list:
     correlated = r is not None and (r > CORRELATED_R or r < 1 / CORRELATED_R)
     if ev.probe is not None and ev.probe[1] >= 5 and ev.probe[0] <= max(1, ev.probe[1] // 50):
         correlated = True
-        out.append(f"random numbers reused: 4096 copies of one camera ray, each given its own "
-                   f"random stream, returned only {ev.probe[0]} distinct value(s) (the reference "
-                   f"integrator: {ev.probe[1]}): the same random numbers are reused across "
-                   "samples (draw from the rng you are given, per ray; never share or reseed it)")
+        out.append(Hint(f"random numbers reused: 4096 copies of one camera ray, each given its "
+                        f"own random stream, returned only {ev.probe[0]} distinct value(s) (the "
+                        f"reference integrator: {ev.probe[1]}): the same random numbers are reused "
+                        "across samples (draw from the rng you are given, per ray; never share or "
+                        "reseed it)", ("random_reuse",)))
     elif correlated:
         how = ("more" if r > 1 else "less")
-        out.append(f"samples are not independent: two renders with different seeds differ "
-                   f"{r:.2f}x as much as the per-pixel variances predict (1 expected; {how}): "
-                   "the same random numbers are reused across samples (use the rng you are given, "
-                   "one stream per ray; never reseed or share one stream)")
+        out.append(Hint(f"samples are not independent: two renders with different seeds differ "
+                        f"{r:.2f}x as much as the per-pixel variances predict (1 expected; {how}): "
+                        "the same random numbers are reused across samples (use the rng you are "
+                        "given, one stream per ray; never reseed or share one stream)",
+                        ("random_reuse",)))
     if getattr(ev.check, "assignment", "") == "media":
         if not correlated:
             out += explain_media(ev)
@@ -454,7 +269,7 @@ def explain(ev: Evidence) -> list:
         if hint not in out:
             out.append(hint)
     if ev.incomplete:
-        out.append(f"(explanation incomplete: {ev.incomplete})")
+        out.append(Hint(f"(explanation incomplete: {ev.incomplete})"))
     return out
 
 
@@ -527,12 +342,12 @@ def light_hints(check, images: dict) -> list:
     mapping = pixel_mapping(images)
     best = min(mapping, key=mapping.get)
     if best != "as it is" and mapping[best] <= REARRANGED * mapping["as it is"]:
-        return [f"splats land in the wrong pixel: your image matches Mitsuba's {best} (chi^2 per "
+        return [Hint(f"splats land in the wrong pixel: your image matches Mitsuba's {best} (chi^2 per "
                 f"pixel {mapping[best]:.2f}, 1 expected; as it is: {mapping['as it is']:.1f}): the "
                 "pixel a point projects to is row * width + column with row 0 at the top of the "
                 "image and column 0 on its left (camera space: +x to the left, +y up), "
                 "row = floor(s_y H), column = floor(s_x W) with the film position s of "
-                "camera_rays inverted"]
+                "camera_rays inverted", ("splat_pixel",))]
     out = []
     mean, ref = images["mean"], images["ref_mean"]
     channel_ratio = mean.sum(axis=(0, 1)) / np.maximum(ref.sum(axis=(0, 1)), 1e-300)
@@ -550,6 +365,7 @@ def light_hints(check, images: dict) -> list:
                        "not scale: no 1/eta^2 on a light path's refractions (the adjoint BSDF: "
                        "sample_bsdf(..., adjoint=True) and eval_bsdf(..., adjoint=True)); the "
                        "1/eta^2 belongs to radiance, i.e. to camera paths")
+            out[-1] = Hint(out[-1], ("adjoint_bsdf",))
             return out
     cosines = _pixel_cosines(check, mean.shape)
     lum_test, lum_ref = mean @ LUMINANCE, ref @ LUMINANCE
@@ -571,6 +387,7 @@ def light_hints(check, images: dict) -> list:
                        "area on the plane at distance 1; the cos^3 converts the film's area "
                        "density to solid angle), and a splat is value * We / d^2 (the pinhole "
                        "has no pdf of its own)")
+            out[-1] = Hint(out[-1], ("camera_importance",))
         elif np.all(np.abs(ratio / np.median(ratio) - 1) <= 2 * LIGHT_TOLERANCE) \
                 and abs(np.median(ratio) - 1) > LIGHT_TOLERANCE:
             out.append(f"the whole image is x{np.median(ratio):.2f} (every tile within "
@@ -578,4 +395,5 @@ def light_hints(check, images: dict) -> list:
                        "importance (We = 1 / (A cos^3 theta) with A = 4 tan(fov_x/2) "
                        "tan(fov_y/2)) or in the light paths' starting weight Le cos / (p_light "
                        "p_position p_direction)")
+            out[-1] = Hint(out[-1], ("camera_importance", "light_start_weight"))
     return out

@@ -15,8 +15,10 @@ Mitsuba's ``volpath`` at the same depths) and across the two regions:
   light right;
 * the free-flight pdf wrong (the density instead of the probability of reaching the
   surface): what is seen *through* the fog scaled by ``1 / sigma_t``;
-* the medium ignored at index-matched boundaries: camera paths never enter the fog, so the
-  fog pixels lose their single scattering (max_depth = 2) almost entirely.
+* the medium ignored at index-matched boundaries: paths never enter the fog, so the fog pixels
+  see the wall behind it unattenuated and the floor in its shadow is lit (both too bright at
+  max_depth = 2); a fog too bright while its shadow is right still attenuates: its scattering
+  events weigh too much (the free-flight pdf or the phase function's weight).
 
 Each rule quotes the numbers it rests on; hints are explanations, never points.
 """
@@ -27,6 +29,7 @@ import math
 import numpy as np
 
 from mitsuba_refs.compare import default_params
+from mitsuba_refs.explain import Hint
 from pathtracer import load_scene
 from pathtracer.core.color import LUMINANCE
 from pathtracer.sensors.perspective import camera_rays
@@ -36,6 +39,12 @@ from pathtracer.shapes.intersect import intersect
 REGION_TOLERANCE = 0.05
 #: Fog light at most this fraction of Mitsuba's: the fog has (almost) vanished.
 VANISHED = 0.35
+#: The causes of a scattering event's wrong weight.
+SCATTER_CAUSES = ("free_flight_pdf", "phase_pdf")
+SHADOW_TEXT = ("the transmittance of the shadow rays from the fog to the light, T = "
+               "exp(-sigma_t d) over the distance d inside the fog")
+#: The causes the surface rule lists (the surface steps of a path tracer).
+SURFACE_CAUSES = ("mis_weights", "light_pdf_cosine", "light_pdf_distance", "bsdf_sampling_weight")
 
 
 def fog_pixels(scene_name: str, params: dict) -> tuple:
@@ -111,8 +120,8 @@ def explain_media(ev) -> list:
     out = []
     phase = ev.history.get("volpath_phase-media")
     if check.integrator == "volpath" and phase is not None and not phase.passed:
-        out.append("fix volpath_phase first: it fails too, and volpath shares its segment loop "
-                   "and surface step")
+        out.append(Hint("fix volpath_phase first: it fails too, and volpath shares its segment "
+                        "loop and surface step"))
     if check.integrator == "volpath" and clear2 > 1 + REGION_TOLERANCE:
         phase_ok = (" volpath_phase, which has no shadow rays, passed;"
                     if phase is not None and phase.passed else "")
@@ -121,13 +130,33 @@ def explain_media(ev) -> list:
                    "a shadow ray through a medium carries T = exp(-sigma_t d) (estimated with "
                    "the free-flight sampling: shadow_transmittance), not just the visibility of "
                    f"the null boundaries it crosses {numbers}")
+        out[-1] = Hint(out[-1], ("shadow_transmittance",))
+    elif fog2 > 1 + REGION_TOLERANCE and clear2 <= 1 + REGION_TOLERANCE:
+        # The fog's own light too bright while what lies in its shadow is not: the fog still
+        # attenuates, so it is entered; its scattering events weigh too much.
+        shared = ("the free-flight pdf (a distance t < s is sampled with density sigma_t "
+                  "exp(-sigma_t t): weight T sigma_s / pdf = albedo) or the phase function's "
+                  "weight (p / pdf = 1)")
+        if check.integrator != "volpath":
+            what, causes = f"a scattering event weighs too much: {shared}", SCATTER_CAUSES
+        elif phase is not None and phase.passed:
+            what = f"volpath_phase, which shares the scattering step, passed: {SHADOW_TEXT}"
+            causes = ("shadow_transmittance",)
+        else:
+            what = f"{SHADOW_TEXT}, or a scattering event weighs too much: {shared}"
+            causes = ("shadow_transmittance",) + SCATTER_CAUSES
+        out.append(Hint(f"light from the fog too bright (x{fog2:.2f} at max_depth = 2 in its "
+                        f"pixels, x{fog3:.2f} at 3) while the floor in its shadow is not (x"
+                        f"{clear2:.2f}), {image}: the fog is entered and attenuates; {what} "
+                        f"{numbers}", causes))
     elif fog2 > 1 + REGION_TOLERANCE:
-        out.append(f"the fog's pixels too bright at max_depth = 2 (x{fog2:.2f}), {image}: your "
+        out.append(f"the fog's pixels too bright at max_depth = 2 (x{fog2:.2f}), and the floor in "
+                   f"its shadow too (x{clear2:.2f}), {image}: your "
                    "camera paths do not enter the fog, and see the wall behind it unattenuated: "
                    "the medium must be tracked at null boundaries (index-matched, eta = 1) too: "
                    "crossing a null BSDF is not a scattering event, but the ray is then in the "
                    "shape's interior (or exterior) medium (next_medium on every crossing)")
-        out[-1] += f" {numbers}"
+        out[-1] = Hint(f"{out[-1]} {numbers}", ("null_boundary",))
     elif fog2 < 1 - REGION_TOLERANCE:
         compounding = math.isfinite(fog3) and fog3 < VANISHED
         phase_text = ("the phase function's pdf not cancelled: a direction sampled from the "
@@ -141,21 +170,28 @@ def explain_media(ev) -> list:
                   "every scattering event" if compounding else
                   f"what max_depth = 3 adds there is x{fog3:.2f}: about the same factor, once "
                   "per passage through the fog")
-        out.append(f"light from the fog too dark (x{fog2:.2f} at max_depth = 2 in its pixels, "
-                   f"the rest x{clear2:.2f}), {image}; {depth3}; most likely first: {first}; or "
-                   f"{second} {numbers}")
+        volpath = check.integrator == "volpath"
+        shadow = f"; or {SHADOW_TEXT} (too small)" if volpath else ""
+        extra = ("shadow_transmittance",) if volpath else ()
+        out.append(Hint(f"light from the fog too dark (x{fog2:.2f} at max_depth = 2 in its "
+                        f"pixels, the rest x{clear2:.2f}), {image}; {depth3}; most likely first: "
+                        f"{first}; or {second}{shadow} {numbers}", SCATTER_CAUSES + extra))
     elif abs(clear2 - 1) > REGION_TOLERANCE:
         out.append(f"direct light on the surfaces outside the fog x{clear2:.2f} (the fog's pixels "
                    f"x{fog2:.2f}), {image}: the surface steps, as in path tracing: emission "
                    "found (MIS weight against the last scattering event's light sample), the "
                    "shadow ray's light pdf and MIS weight, the BSDF sample's weight f cos / pdf "
                    f"{numbers}")
+        out[-1] = Hint(out[-1], SURFACE_CAUSES + (("shadow_transmittance",)
+                                                  if check.integrator == "volpath" else ()))
     elif not out and 1 in sweep and abs(sweep[1][0].rel_bias) > REGION_TOLERANCE:
         out.append(f"light sources seen directly are wrong (max_depth = 1: "
                    f"x{1 + sweep[1][0].rel_bias:.3f}): add Le where a camera ray hits an emitter, "
                    f"with the throughput of its way there {numbers}")
+        out[-1] = Hint(out[-1], ("visible_emission",))
     elif not out:
         out.append(f"{image} with the fog and its surroundings right at max_depth 1-2: longer "
                    "paths: roulette after rr_depth scattering events (divide by q), or the "
                    f"throughput of multiple scattering {numbers}")
+        out[-1] = Hint(out[-1], ("roulette", "free_flight_pdf", "phase_pdf"))
     return out
