@@ -237,13 +237,20 @@ def explain(ev: Evidence) -> list:
                         f"reference integrator: {ev.probe[1]}): the same random numbers are reused "
                         "across samples (draw from the rng you are given, per ray; never share or "
                         "reseed it)", ("random_reuse",)))
-    elif correlated:
-        how = ("more" if r > 1 else "less")
+    elif correlated and r > 1:
         out.append(Hint(f"samples are not independent: two renders with different seeds differ "
-                        f"{r:.2f}x as much as the per-pixel variances predict (1 expected; {how}): "
+                        f"{r:.2f}x as much as the per-pixel variances predict (1 expected; more): "
                         "the same random numbers are reused across samples (use the rng you are "
                         "given, one stream per ray; never reseed or share one stream)",
                         ("random_reuse",)))
+    elif correlated:
+        # Renders that differ *less* than their variances predict: reused random numbers do
+        # the opposite, so this is evidence only (a variance the process misreports, or
+        # samples of a pixel that cancel each other).
+        out.append(Hint(f"two renders with different seeds differ {r:.2f}x as much as the "
+                        "per-pixel variances your process reported predict (1 expected; less): "
+                        "the reported variance is larger than the renders' own spread (the "
+                        "grader scores with the spread)"))
     if getattr(ev.check, "assignment", "") == "media":
         if not correlated:
             out += explain_media(ev)
