@@ -20,7 +20,8 @@ are the image and per-sample variance every scored test uses
 way to change the variance is to change the images, which is changing the estimator, and the
 variance part grades that. The work is the same ``spp`` samples per pixel as one render.
 
-Replicas that share their noise would make the spread too small: identical images, or two whose
+Replicas that share their noise would make the spread too small: identical images (not constant
+ones: a black image has no noise to share), or two whose
 deviations correlate above :data:`MAX_SHARED_NOISE` (independent ones: near 0), fail the
 check with a message (:class:`~autograder.isolation.StudentFailure`). A smaller shared part is
 not hidden either: it is noise the spread does not see, so it inflates the mean part's
@@ -131,8 +132,8 @@ def scored_render(render, scene, integrator, params, spp: int, seed: int, *,
 def _check_independent(stack: np.ndarray, reference_noisy: bool) -> None:
     count = stack.shape[0]
     if np.all(stack == stack[0]):
-        if not reference_noisy:
-            return                               # a scene without noise: right to be identical
+        if not reference_noisy or np.all(stack[0] == stack[0].flat[0]):
+            return      # a scene without noise, or a constant image: no noise to share
         raise StudentFailure(
             f"your integrator returned the same image for {count} different seeds: each render "
             "must draw its random numbers from the stream of its seed (the `rng` argument), "

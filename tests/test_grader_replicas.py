@@ -73,6 +73,10 @@ def test_a_misstated_variance_is_named_and_not_used(factor):
 def test_renders_that_ignore_the_seed_fail_the_check():
     with pytest.raises(StudentFailure, match="same image for 8 different seeds"):
         scored_render(FakeStudent(ignore_seed=True), "s", "path", {}, 64, TEST_SEED)
+    # A constant image (black, say) is graded as it is: it has no noise to share.
+    black = scored_render(lambda *args: (np.zeros(SHAPE), np.zeros(SHAPE)), "s", "path", {}, 64,
+                          TEST_SEED)
+    assert not np.any(black.mean) and not np.any(black.variance)
     # A scene without noise in the reference: identical images are right there.
     scored = scored_render(FakeStudent(ignore_seed=True), "s", "path", {}, 64, TEST_SEED,
                            reference_noisy=False)
