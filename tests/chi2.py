@@ -19,7 +19,7 @@ Domains
 
 False-failure budget
 --------------------
-Every test runs at the suite's per-test level :data:`ALPHA` (2e-6, from
+Every test runs at the suite's per-test level :data:`ALPHA` (1e-3 / MAX_STATISTICAL_TESTS, from
 tests/budget.py): a *correct* sampler fails a given test with probability at
 most ALPHA, and tests/test_budget.py checks that all the suite's statistical
 assertions together stay below 0.1 % (Bonferroni). All tests use fixed seeds,
@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from tests.budget import ALPHA  # the suite's per-test level (2e-6)
+from tests.budget import ALPHA  # the suite's per-test level
 
 MIN_EXPECTED = 5.0
 
