@@ -24,19 +24,10 @@ import numpy as np
 
 from ..core.sampling import square_to_uniform_disk_concentric
 from ..core.vec import normalize
-from ..scene.properties import Props, children
 from ..scene.registry import register
 from ..scene.xml import Plugin
 from .perspective import Rays
-from .perspective_sensor import (
-    SENSOR_CHILDREN,
-    Camera,
-    film_and_sampler,
-    no_principal_point_offset,
-    read_clip,
-    read_x_fov,
-    unscaled_to_world,
-)
+from .perspective_sensor import Camera, read_perspective
 
 #: Mitsuba replaces a zero aperture by float32's epsilon (with a warning).
 MIN_APERTURE = float(np.finfo(np.float32).eps)
@@ -87,13 +78,8 @@ def create(plugin: Plugin, resolution: tuple[int, int] | None = None,
            spp: int | None = None) -> tuple[Camera, int, int]:
     """The perspective sensor's parameters, ``aperture_radius`` (required) and
     ``focus_distance`` (default ``far_clip``)."""
-    props = Props(plugin)
-    kids = children(plugin, SENSOR_CHILDREN)
-    width, height, rfilter, spp, seed = film_and_sampler(plugin, kids, resolution, spp)
-    x_fov = read_x_fov(plugin, props, width / height)
-    to_world = unscaled_to_world(plugin, props)
-    near, far = read_clip(plugin, props)
-    no_principal_point_offset(plugin, props)
+    props, frame, spp, seed = read_perspective(plugin, resolution, spp)
+    far = frame["far_clip"]
     if not props.has("aperture_radius"):
         raise plugin.error("a thinlens sensor needs aperture_radius (as in Mitsuba)")
     radius = props.float("aperture_radius", None)
@@ -104,7 +90,6 @@ def create(plugin: Plugin, resolution: tuple[int, int] | None = None,
         raise plugin.error(f"focus_distance must be > 0, got {focus:g}", props.line("focus_distance"))
     props.ignore("shutter_open", "shutter_close")
     props.finish()
-    camera = ThinLensCamera(to_world=to_world, x_fov=x_fov, near_clip=near, far_clip=far,
-                            width=width, height=height, rfilter=rfilter,
-                            aperture_radius=max(radius, MIN_APERTURE), focus_distance=focus)
+    camera = ThinLensCamera(**frame, aperture_radius=max(radius, MIN_APERTURE),
+                            focus_distance=focus)
     return camera, spp, seed
