@@ -199,11 +199,10 @@ class Principled(BSDF):
         on = active & (brdf > 0.0) & reflect & front
         roughness = self._param("roughness", n)
         Rr = 2.0 * roughness * dot_o * dot_o
-        diffuse = (1.0 - 0.5 * F_i) * (1.0 - 0.5 * F_o) + Rr * (F_o + F_i + F_o * F_i * (Rr - 1.0))
+        diffuse = lobes.diffuse_retro(F_o, F_i, Rr)
         if self.on["flatness"]:
             flatness = self._param("flatness", n)
-            ss90 = 0.5 * Rr
-            F_ss = (1.0 - F_o + ss90 * F_o) * (1.0 - F_i + ss90 * F_i)
+            F_ss = lobes.subsurface_fresnel(F_o, F_i, Rr)
             with np.errstate(divide="ignore", invalid="ignore"):
                 f_ss = 1.25 * (F_ss * (1.0 / (abs_o + np.abs(cos_i)) - 0.5) + 0.5)
             diffuse = diffuse * (1.0 - flatness) + f_ss * flatness

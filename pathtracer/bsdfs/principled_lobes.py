@@ -64,6 +64,20 @@ def set_scalars(bsdf, kind: str, given: dict, defaults: dict, attribute: dict, a
                 value if isinstance(value, Texture) else float(value))
 
 
+def diffuse_retro(F_o, F_i, Rr):
+    """Burley's diffuse with retro-reflection, without the ``base_color / pi``:
+    ``(1 - F_i / 2)(1 - F_o / 2) + Rr (F_o + F_i + F_o F_i (Rr - 1))``, ``F`` the Schlick
+    weights of the two directions and ``Rr = 2 roughness cos_d^2``."""
+    return (1.0 - 0.5 * F_i) * (1.0 - 0.5 * F_o) + Rr * (F_o + F_i + F_o * F_i * (Rr - 1.0))
+
+
+def subsurface_fresnel(F_o, F_i, Rr):
+    """The fake subsurface lobe's ``F_ss = (1 - F_o + ss90 F_o)(1 - F_i + ss90 F_i)``,
+    ``ss90 = Rr / 2``."""
+    ss90 = 0.5 * Rr
+    return (1.0 - F_o + ss90 * F_o) * (1.0 - F_i + ss90 * F_i)
+
+
 def luminance(colour: np.ndarray) -> np.ndarray:
     """Luminance of (3,) or (n, 3) linear RGB -> () or (n,)."""
     return np.asarray(colour) @ LUMINANCE
