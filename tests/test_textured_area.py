@@ -205,7 +205,7 @@ ATTRIBUTE_LIGHT = """<shape type="ply"><string name="filename" value="{ply}"/>
 @pytest.mark.mitsuba
 @pytest.mark.statistical(assertions=2)
 @pytest.mark.parametrize("case", ["bitmap-orthographic", "attribute-bsdf"])
-def test_agrees_with_live_mitsuba(tmp_path, case):
+def test_agrees_with_live_mitsuba(tmp_path, monkeypatch, case):
     """A clamped, to_uv-scaled bitmap radiance seen by an orthographic camera (``path``: mean
     and variance); a vertex-coloured emitting mesh, with BSDF sampling alone
     (``path_bsdf``): Mitsuba 3.9.1 crashes (segmentation fault, scalar_rgb) when next-event
@@ -222,6 +222,7 @@ def test_agrees_with_live_mitsuba(tmp_path, case):
         integrator = "path_bsdf"
     path = tmp_path / f"{case}.xml"
     path.write_text(text)
+    monkeypatch.setenv("MITSUBA_REFS_CACHE", str(tmp_path / "cache"))  # not the committed folder
     comparison = compare(str(path), integrator, spp=16, alpha=ALPHA, convergence=False,
                          bounces=False, processes=2)
     assert comparison.mean.agree, comparison.report()
