@@ -30,7 +30,7 @@ import threading
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from . import grading, hints
+from . import grading, hint_evidence, hints
 from .isolation import Limits
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -193,7 +193,6 @@ def write_compact(rows, cache: Path, folder: Path) -> None:
     """The evidence of ``rows`` in compact form (:mod:`autograder.hint_evidence`), with the
     verdict it got; each is read back and must name the same causes as the full evidence (its
     numbers may differ in the last digit: the images are float16)."""
-    from . import hint_evidence
     for row in rows:
         name = f"{row['mutant']}--{row['check']}"
         with open(cache / f"{name}.pkl", "rb") as f:

@@ -39,7 +39,9 @@ from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 
+from pathtracer.render.driver import integrator_for
 from pathtracer.scene.errors import SceneError
+from pathtracer.scene.load import load_scene
 from pathtracer.scene.xml_files import XMLSyntaxError, read_elements, scene_files, scene_tree, walk
 
 #: Plugin types that only Mitsuba's polarized variants render.
@@ -145,8 +147,6 @@ def time_limit(seconds: float):
 
 def tracer_verdict(path: str, timeout: float) -> tuple[bool, str, str]:
     """``(loads, feature, message)``: load the scene and choose its integrator, nothing more."""
-    from pathtracer.render.driver import integrator_for
-    from pathtracer.scene.load import load_scene
     try:
         with warnings.catch_warnings(), time_limit(timeout):
             warnings.simplefilter("ignore")

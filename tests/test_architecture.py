@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import ast
+import functools
 import re
 from pathlib import Path
 
@@ -63,14 +64,15 @@ def _targets(module: str, node) -> list[str]:
     return sorted(t for t in out if t in MODULES)
 
 
-def _imports(module: str):
-    """``(node, inside_function)`` for every import statement of ``module``."""
+@functools.cache
+def _imports(module: str) -> tuple:
+    """``(node, inside_function)`` for every import statement of ``module`` (parsed once)."""
     tree = ast.parse(MODULES[module].read_text(), str(MODULES[module]))
     functions = [node for node in ast.walk(tree)
                  if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))]
     inside = {id(sub) for function in functions for sub in ast.walk(function)}
-    return [(node, id(node) in inside) for node in ast.walk(tree)
-            if isinstance(node, (ast.Import, ast.ImportFrom))]
+    return tuple((node, id(node) in inside) for node in ast.walk(tree)
+                 if isinstance(node, (ast.Import, ast.ImportFrom)))
 
 
 def import_graph() -> dict[str, set[str]]:
@@ -148,24 +150,44 @@ def _documented(section: str) -> set[str]:
     return set(re.findall(r"^\| `([\w/]+\.py)` \|", body, flags=re.M))
 
 
-def _heavy(name: str, seen: frozenset = frozenset()) -> bool:
-    """Whether importing ``name`` loads a heavy optional dependency: it is one, or a module of
-    ours whose top-level imports (followed through our modules) reach one."""
-    if name.split(".")[0] in DEFERRABLE:
-        return True
+def _ours(name: str) -> str:
+    """The module of ours that importing ``name`` runs ("" if none): ``a.b.f`` is ``a.b``."""
     while name and name not in MODULES:
         name = name.rpartition(".")[0]
-    if not name or name in seen:
-        return False
-    for node, inside in _imports(name):
+    return name
+
+
+def _top_level_names(module: str) -> set[str]:
+    """Every name the module-level imports of ``module`` import (``from a import f``: a, a.f)."""
+    names = set()
+    for node, inside in _imports(module):
         if inside:
             continue
-        named = [a.name for a in node.names] if isinstance(node, ast.Import) else [_absolute(name, node)]
+        named = [a.name for a in node.names] if isinstance(node, ast.Import) else [_absolute(module, node)]
         if isinstance(node, ast.ImportFrom):
             named += [f"{named[0]}.{a.name}" for a in node.names]
-        if any(_heavy(target, seen | {name}) for target in named):
-            return True
-    return False
+        names.update(named)
+    return names
+
+
+@functools.cache
+def _heavy_modules() -> frozenset[str]:
+    """Our modules whose top-level imports reach a heavy dependency, as a fixed point over the
+    whole graph: each module visited once a round (following every import path afresh is
+    exponential in the graph's depth, and once took 20 minutes of CI)."""
+    names = {module: _top_level_names(module) for module in MODULES}
+    heavy = {m for m, named in names.items() if any(n.split(".")[0] in DEFERRABLE for n in named)}
+    while True:
+        grown = heavy | {m for m, named in names.items() if any(_ours(n) in heavy for n in named)}
+        if grown == heavy:
+            return frozenset(heavy)
+        heavy = grown
+
+
+def _heavy(name: str) -> bool:
+    """Whether importing ``name`` loads a heavy optional dependency: it is one, or a module of
+    ours whose top-level imports (followed through our modules) reach one."""
+    return name.split(".")[0] in DEFERRABLE or _ours(name) in _heavy_modules()
 
 
 def test_heavy_follows_our_modules():
