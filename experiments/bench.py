@@ -36,6 +36,7 @@ import time
 from pathlib import Path
 
 from pathtracer import load_scene, render
+from pathtracer.render.classes import render_classes
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "pathtracer" / "data" / "scenes"
@@ -50,6 +51,25 @@ CASES = [
 #: The speed targets (issue 15): the least ratio of our paths per CPU-second to Mitsuba
 #: ``scalar_rgb``'s, per scene.
 TARGETS = {"cornell-box": 0.6, "smallpt": 0.6, "mesh": 0.35}
+
+#: The integrators that still run batch by batch, timed as users time them: (label, scene,
+#: ours, Mitsuba's counterpart or None, height / width). ``pathclass`` is
+#: :func:`pathtracer.render.classes.render_classes` with :data:`PATH_CLASSES`.
+BATCH_CASES = [
+    ("direct", "cornell-box", "direct", "direct", 1.0),
+    ("recursive", "cornell-box", "recursive", None, 1.0),
+    ("pathclass", "cornell-box", "pathclass", None, 1.0),
+    ("light", "cornell-box", "light", "ptracer", 1.0),
+    ("bdpt", "cornell-box", "bdpt", None, 1.0),
+    ("volpath", "media-box", "volpath", "volpath", 1.0),
+    ("volpath_phase", "media-box", "volpath_phase", None, 1.0),
+]
+#: Path classes of the ``pathclass`` row: everything, and three classes of it.
+PATH_CLASSES = ["L.*E", "LDE", "LS+DE", "L.*SE"]
+#: The volume integrators' target: at least this fraction of ``path``'s paths per CPU-second on
+#: the Cornell box at the same resolution and spp (a scene of the same size).
+VOLUME_TARGET = 0.5
+VOLUME_INTEGRATORS = ("volpath", "volpath_phase")
 
 
 # ---------------------------------------------------------------------------------------
@@ -128,11 +148,20 @@ class PeakPss:
         self.sample()
 
 
+def _render_case(scene, integrator: str, spp: int, seed: int, processes: int) -> None:
+    """One timed render: ``pathtracer.render``, or the path-class render for ``pathclass``."""
+    if integrator == "pathclass":
+        render_classes(scene, PATH_CLASSES, spp=spp, seed=seed, processes=processes)
+    else:
+        render(scene, integrator=integrator, spp=spp, seed=seed, processes=processes,
+               progress=False)
+
+
 def warmed_scene(stem: str, integrator: str, width: int, height: int):
     """The benchmark scene ``stem`` after one warm-up render (builds the accelerator, touches
     every code path once), so that timings and profiles see the steady state."""
     scene = load_scene(str(SCENES / f"{stem}.xml"), width=width, height=height)
-    render(scene, integrator=integrator, spp=1, seed=99, processes=1, progress=False)
+    _render_case(scene, integrator, 1, 99, 1)
     return scene
 
 
@@ -146,8 +175,7 @@ def measure_ours(spec: dict) -> dict:
     with (PeakPss() if spec.get("memory") else contextlib.nullcontext()) as pss:
         for r in range(spec["repeats"]):
             start, start_cpu = time.perf_counter(), time.process_time()
-            render(scene, integrator=spec["integrator"], spp=spec["spp"], seed=r,
-                   processes=processes, progress=False)
+            _render_case(scene, spec["integrator"], spec["spp"], r, processes)
             times.append(time.perf_counter() - start)
             cpu.append(time.process_time() - start_cpu)
     paths = spec["width"] * spec["height"] * spec["spp"]
@@ -233,7 +261,7 @@ def run(args) -> dict:
     res = args.resolution
     report = dict(
         date=datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
-        machine=f"{platform.machine()}, {os.cpu_count()} cores, {platform.processor() or cpu_name()},"
+        machine=f"{platform.machine()}, {os.cpu_count()} cores, {cpu_name()},"
                 f" Python {platform.python_version()}",
         resolution=res, spp=args.spp, repeats=args.repeats, scenes={})
     mitsuba_variants = [] if args.no_mitsuba else ["scalar_rgb", "llvm_ad_rgb"]
@@ -251,6 +279,23 @@ def run(args) -> dict:
             row[variant] = _child("mitsuba", dict(spec, variant=variant, mi_integrator=theirs),
                                   args.timeout)
         report["scenes"][label] = row
+    report["batch"] = {}
+    for label, stem, ours, theirs, aspect in BATCH_CASES if args.batch else ():
+        if args.scenes is not None and label not in args.scenes:
+            continue
+        spec = dict(scene=stem, width=res, height=max(1, int(round(res * aspect))), spp=args.spp,
+                    repeats=args.repeats, core=args.core)
+        row = dict(scene=stem, integrator=ours, mitsuba_integrator=theirs,
+                   width=spec["width"], height=spec["height"])
+        _log(f"batch {label}: pathtracer {ours} on {stem}")
+        row["ours"] = _child("ours", dict(spec, integrator=ours), args.timeout)
+        if theirs and not args.no_mitsuba:
+            # scalar_rgb only: the batch integrators are compared with the compiled renderer
+            # at its one-path-at-a-time speed, as the main table's targets are.
+            _log(f"batch {label}: mitsuba scalar_rgb {theirs}")
+            row["scalar_rgb"] = _child("mitsuba", dict(spec, variant="scalar_rgb",
+                                                       mi_integrator=theirs), args.timeout)
+        report["batch"][label] = row
     if not args.no_scaling:
         # 4x the spp of the table: forking the workers and merging in the parent are fixed
         # costs that a short render would charge to the scaling.
@@ -301,6 +346,19 @@ def summarise(report: dict) -> None:
         rs = row["ratio"]["scalar_rgb"]
         row["target"] = f"ours >= {TARGETS[label]} x scalar"
         row["target_met"] = None if rs is None else rs >= TARGETS[label]
+    path_rate = report["scenes"].get("cornell-box", {}).get("cpu_rate", {}).get("ours")
+    for label, row in report.get("batch", {}).items():
+        ours, scalar = _cpu_rate(row["ours"]), _cpu_rate(row.get("scalar_rgb"))
+        row["cpu_rate"] = dict(ours=ours, scalar_rgb=scalar)
+        row["ratio"] = dict(scalar_rgb=ours / scalar if ours and scalar else None)
+        # Our own path tracer on the Cornell box at the same size: how much a user pays for
+        # choosing this integrator.
+        row["vs_path"] = ours / path_rate if ours and path_rate else None
+        if row["integrator"] in VOLUME_INTEGRATORS:
+            row["target"] = f"ours >= {VOLUME_TARGET} x our path (cornell-box, same size)"
+            row["target_met"] = None if row["vs_path"] is None else row["vs_path"] >= VOLUME_TARGET
+        else:
+            row["target"], row["target_met"] = None, None
     if "scaling" in report:
         one, two = _rate(report["scaling"]["one"]), _rate(report["scaling"]["two"])
         report["scaling"]["rate_one"], report["scaling"]["rate_two"] = one, two
@@ -350,6 +408,25 @@ def table(report: dict) -> str:
             f"{_fmt(rate['llvm_ad_rgb'])} [{_fmt(row['cpu_rate']['llvm_ad_rgb'])}]{jit} | "
             f"{_num(ratio['scalar_rgb'])} | {_num(ratio['llvm_ad_rgb'])} | "
             f"{row['target']} | {met} |")
+    if report.get("batch"):
+        lines += ["", "Integrators that run batch by batch (paths per CPU-second, best repeat; "
+                  "light and BDPT: light paths or camera samples per pixel x pixels):", "",
+                  "| integrator (scene) | ours | Mitsuba scalar_rgb (its counterpart) "
+                  "| ours / scalar | ours / our path (cornell-box) | target | met |",
+                  "|---|---|---|---|---|---|---|"]
+        for label, row in report["batch"].items():
+            theirs = row.get("mitsuba_integrator")
+            scalar = row.get("scalar_rgb") or {}
+            counterpart = "none" if not theirs else \
+                (f"{scalar['error'][:60]}" if "error" in scalar else
+                 f"{_fmt(row['cpu_rate']['scalar_rgb'])} ({theirs})")
+            ours_err = f" ({row['ours']['error'][:80]})" if "error" in row["ours"] else ""
+            met = {True: "yes", False: "**no**", None: "n/a"}[row["target_met"]]
+            lines.append(
+                f"| {label} ({row['scene']}, {row['width']}x{row['height']}) | "
+                f"{_fmt(row['cpu_rate']['ours'])}{ours_err} | {counterpart} | "
+                f"{_num(row['ratio']['scalar_rgb'])} | {_num(row['vs_path'])} | "
+                f"{row['target'] or '-'} | {met} |")
     if "scaling" in report:
         s = report["scaling"]
         sp = s.get("speedup")
@@ -392,6 +469,8 @@ def main(argv=None) -> int:
                         default=None, help="comma-separated subset of the scenes ('' for none)")
     parser.add_argument("--no-mitsuba", action="store_true", help="skip Mitsuba")
     parser.add_argument("--no-scaling", action="store_true", help="skip the 1 -> 2 process run")
+    parser.add_argument("--no-batch", dest="batch", action="store_false",
+                        help="skip the integrators that run batch by batch (BATCH_CASES)")
     parser.add_argument("--no-memory", action="store_true", help="skip the peak-memory run")
     parser.add_argument("--timeout", type=float, default=900, help="seconds per measurement")
     parser.add_argument("--_child", nargs=2, help=argparse.SUPPRESS)

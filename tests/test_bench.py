@@ -25,6 +25,7 @@ def test_quick_bench_produces_sane_numbers(tmp_path, capsys):
     assert 10 < memory["peak_mb"] <= memory["rss_sum_mb"] and memory["pss_processes"] >= 1
     table = capsys.readouterr().out
     assert "| cornell-box" in table and "Peak memory" in table
+    assert "| volpath (media-box, 16x16)" in table and "| pathclass (cornell-box" in table
 
 
 def test_profile_splits_a_render_into_stages(capsys):
