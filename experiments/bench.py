@@ -478,7 +478,7 @@ def main(argv=None) -> int:
     if args._child:
         kind, spec = args._child
         result = (measure_ours if kind == "ours" else measure_mitsuba)(json.loads(spec))
-        print(json.dumps(result))
+        print("\n" + json.dumps(result))  # on a line of its own: a progress bar may precede it
         return 0
     defaults = dict(resolution=(128, 32), spp=(16, 4), repeats=(3, 1), memory=((1024, 64), (128, 2)))
     for name, (full, quick) in defaults.items():

@@ -42,3 +42,14 @@ def test_profile_splits_a_render_into_stages(capsys):
     assert smallpt["shadow rays (geometry.occluded)"] == 0
     assert profile.main(["--scenes", "cornell-box", "--resolution", "8", "--spp", "1"]) == 0
     assert "| closest hits" in capsys.readouterr().out
+
+
+def test_machine_probe_reports_every_figure_with_its_cpu(tmp_path, capsys):
+    """experiments.machine_probe: one positive, finite figure per kind of work, the CPU named."""
+    from experiments import machine_probe
+    out = tmp_path / "probe.json"
+    assert machine_probe.main(["--repeats", "1", "--json", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert report["cpu"] and report["numpy"] and len(report["ns"]) == 6
+    assert all(math.isfinite(ns) and ns > 0 for ns in report["ns"].values()), report["ns"]
+    assert report["cpu"] in capsys.readouterr().out
