@@ -489,11 +489,16 @@ def main(argv=None) -> int:
         args.core = None
     report = run(args)
     print(table(report))
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(report, indent=1))
-        print(f"wrote {args.json}")
+    write_report(report, args.json)
     return 0
+
+
+def write_report(report: dict, path: Path | None) -> None:
+    """Write ``report`` as JSON to ``path`` (folders made), and say so; nothing without a path."""
+    if path:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(report, indent=1))
+        print(f"wrote {path}")
 
 
 if __name__ == "__main__":

@@ -25,7 +25,6 @@ dispatched for the float64 loops are printed with it.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import time
@@ -34,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from numpy.lib.introspect import opt_func_info
 
-from experiments.bench import cpu_name
+from experiments.bench import cpu_name, write_report
 
 #: Rows of a pool of paths (``pathtracer.render.scheduling.DEFAULT_BATCH``).
 ROWS = 1 << 15
@@ -136,10 +135,7 @@ def main(argv=None) -> int:
           f"{report['python']}, NumPy {report['numpy']}")
     for name, ns in report["ns"].items():
         print(f"  {name}: {ns:.2f}")
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(report, indent=1))
-        print(f"wrote {args.json}")
+    write_report(report, args.json)
     return 0
 
 
