@@ -256,6 +256,13 @@ def _spread(result: dict) -> str:
     return f"{rates[0] / 1e3:.0f}-{rates[-1] / 1e3:.0f}k"
 
 
+def _case_spec(args, stem: str, aspect: float) -> dict:
+    """A measurement of scene ``stem`` at the run's width, spp and repeats (height: width x
+    ``aspect``), pinned to ``--core``."""
+    return dict(scene=stem, width=args.resolution, height=max(1, int(round(args.resolution * aspect))),
+                spp=args.spp, repeats=args.repeats, core=args.core)
+
+
 def run(args) -> dict:
     """Time every scene in the tracer and in Mitsuba; the report as a dict."""
     res = args.resolution
@@ -268,8 +275,7 @@ def run(args) -> dict:
     for label, stem, ours, theirs, aspect in CASES:
         if args.scenes is not None and label not in args.scenes:
             continue
-        spec = dict(scene=stem, width=res, height=max(1, int(round(res * aspect))), spp=args.spp,
-                    repeats=args.repeats, core=args.core)
+        spec = _case_spec(args, stem, aspect)
         row = dict(integrator=ours, mitsuba_integrator=theirs, width=spec["width"],
                    height=spec["height"])
         _log(f"{label}: pathtracer {ours}")
@@ -283,8 +289,7 @@ def run(args) -> dict:
     for label, stem, ours, theirs, aspect in BATCH_CASES if args.batch else ():
         if args.scenes is not None and label not in args.scenes:
             continue
-        spec = dict(scene=stem, width=res, height=max(1, int(round(res * aspect))), spp=args.spp,
-                    repeats=args.repeats, core=args.core)
+        spec = _case_spec(args, stem, aspect)
         row = dict(scene=stem, integrator=ours, mitsuba_integrator=theirs,
                    width=spec["width"], height=spec["height"])
         _log(f"batch {label}: pathtracer {ours} on {stem}")

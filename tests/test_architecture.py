@@ -56,8 +56,7 @@ def _targets(module: str, node) -> list[str]:
                  for alias in node.names]
     out = set()
     for name in named:
-        while name and name not in MODULES:
-            name = name.rpartition(".")[0]
+        name = _ours(name)
         while name:             # importing a.b.c runs a/__init__ and a/b/__init__ first
             out.add(name)
             name = name.rpartition(".")[0]
