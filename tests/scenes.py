@@ -14,8 +14,14 @@ that a test of its own documents:
 * ``point-light`` with ``smallpt``: BSDF sampling alone can never reach a Dirac
   light, so the image is black by construction (test_analytic.py asserts it).
 """
+import os
+
 from mitsuba_refs.config import BUILTIN_SCENES, FEATURE_SCENES, LIGHT_SCENES, MEDIA_SCENES
 from pathtracer import INTEGRATORS
+
+#: A committed 8-bit texture (a coloured grid): what tests project, map and sample.
+GRID_PNG = os.path.join(os.path.dirname(__file__), "..", "pathtracer", "data", "scenes",
+                        "textured-grid.png")
 
 #: The light tracer is compared with Mitsuba's ``ptracer`` where a reference is committed
 #: (mitsuba_refs.config.LIGHT_SCENES, and the ``caustics`` feature scene): 64 replicas of a

@@ -7,8 +7,6 @@ marked ``mitsuba``).
 """
 from __future__ import annotations
 
-import os
-
 import numpy as np
 import pytest
 
@@ -26,10 +24,10 @@ from pathtracer.bsdfs import (
 from pathtracer.io.bitmap import read_bitmap
 from pathtracer.textures import BitmapTexture, Checkerboard
 from tests.chi2 import chi2_sphere
+from tests.scenes import GRID_PNG
 from tests.test_bsdfs import _assert_close, _f32, direction, random_directions, tile
 
 statistical = pytest.mark.statistical(assertions=1)
-GRID_PNG = os.path.join(os.path.dirname(__file__), "..", "pathtracer", "data", "scenes", "textured-grid.png")
 SCALE_UV = np.diag([4.0, 3.0, 1.0, 1.0])   # the loader's to_uv of <scale x="4" y="3"/>
 
 

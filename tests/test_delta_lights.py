@@ -15,6 +15,7 @@ from pathtracer import load_scene
 from pathtracer.emitters.scene_emitters import pdf_emitter_direction, sample_emitter
 from pathtracer.scene.errors import SceneError
 from pathtracer.shapes.intersect import Hit, intersect
+from tests.scenes import GRID_PNG
 
 SCENE = """<scene version="3.0.0">
   <sensor type="perspective"><float name="fov" value="40"/>
@@ -29,11 +30,19 @@ SPOT = """<emitter type="spot"><rgb name="intensity" value="3, 2, 1"/>
       <lookat origin="0.2, 2, -0.3" target="0.5, 0, 0.1" up="0, 0, 1"/></transform></emitter>"""
 SPOT_DEFAULTS = """<emitter type="spot"><transform name="to_world">
     <lookat origin="0, 1, 0" target="0, 0, 0" up="0, 0, 1"/></transform></emitter>"""
+#: A projected bitmap through a non-uniformly scaled frame (texture coordinates come from the
+#: unnormalised local direction).
+SPOT_TEXTURE = f"""<emitter type="spot"><rgb name="intensity" value="3, 2, 1"/>
+    <texture type="bitmap" name="texture"><string name="filename" value="{GRID_PNG}"/></texture>
+    <float name="cutoff_angle" value="35"/><float name="beam_width" value="15"/>
+    <transform name="to_world"><scale x="1.5" y="0.7"/>
+      <lookat origin="0.2, 2, -0.3" target="0.5, 0, 0.1" up="0, 0, 1"/></transform></emitter>"""
 DIRECTIONAL = """<emitter type="directional"><rgb name="irradiance" value="2, 3, 4"/>
     <vector name="direction" value="0.3, -1, 0.2"/></emitter>"""
 DIRECTIONAL_TO_WORLD = """<emitter type="directional"><rgb name="irradiance" value="2, 3, 4"/>
     <transform name="to_world"><lookat origin="0, 0, 0" target="-1, -1.2, -0.3"/></transform></emitter>"""
-LIGHTS = {"spot": SPOT, "spot-defaults": SPOT_DEFAULTS, "directional": DIRECTIONAL,
+LIGHTS = {"spot": SPOT, "spot-defaults": SPOT_DEFAULTS, "spot-texture": SPOT_TEXTURE,
+          "directional": DIRECTIONAL,
           "directional-to-world": DIRECTIONAL_TO_WORLD}
 
 
@@ -82,6 +91,27 @@ def test_spot_falloff_is_full_then_linear_in_angle_then_zero(tmp_path):
     np.testing.assert_allclose(ls.dist, np.sqrt(dist2))
 
 
+def test_spot_texture_is_looked_up_where_the_direction_crosses_the_cone_square(tmp_path):
+    """A spot at the origin shining along +z (its local x = world x): the direction to a
+    point (a, b, 1) meets the texture at uv = 1/2 + (a, b) / (2 tan cutoff), so the cone's
+    edge touches the square's sides; the textured weight is the plain one times the texel."""
+    frame = '<transform name="to_world"><lookat origin="0, 0, 0" target="0, 0, 1" up="0, 1, 0"/></transform>'
+    plain = f'<emitter type="spot"><float name="cutoff_angle" value="30"/>{frame}</emitter>'
+    textured = plain.replace("<float", f'<texture type="bitmap" name="texture"><string name="filename" '
+                                       f'value="{GRID_PNG}"/></texture><float')
+    rng = np.random.default_rng(4)
+    uv = rng.uniform(0.1, 0.9, (300, 2))
+    points = np.column_stack(((uv - 0.5) * 2 * np.tan(np.radians(30)), np.ones(300)))
+    _, scene = load(tmp_path, textured)
+    _, reference = load(tmp_path, plain, "plain.xml")
+    weight, plain_weight = next_event(scene, points).weight, next_event(reference, points).weight
+    lit = plain_weight[:, 0] > 0
+    ratio = weight[lit] / plain_weight[lit]
+    assert lit.sum() > 150 and np.ptp(ratio) > 0.1     # inside the cone, and it varies
+    np.testing.assert_allclose(ratio, scene.emitters[0].texture.eval(uv[lit]), rtol=1e-12)
+    assert np.all(weight[~lit] == 0)
+
+
 def test_directional_light_is_parallel_with_constant_irradiance(tmp_path):
     _, scene = load(tmp_path, DIRECTIONAL)
     ls = next_event(scene, floor_points(50, 1))
@@ -101,7 +131,9 @@ def test_delta_lights_are_never_hit(tmp_path):
 
 
 @pytest.mark.parametrize("light, message", [
-    ('<emitter type="spot"><texture type="bitmap" name="texture"/></emitter>', "texture"),
+    ('<emitter type="spot"><rgb name="texture" value="0.5"/></emitter>', "must be a nested <texture>"),
+    ('<emitter type="spot"><texture type="rawconstant" name="texture"><float name="value" '
+     'value="0.5"/></texture></emitter>', "must vary over the image"),
     ('<emitter type="spot"><float name="cutoff_angle" value="10"/>'
      '<float name="beam_width" value="20"/></emitter>', "beam_width"),
     ('<emitter type="directional"><vector name="direction" value="0, 0, -1"/>'
