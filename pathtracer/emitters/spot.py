@@ -67,18 +67,20 @@ class SpotEmitter(Emitter):
         scale = 0.5 / (local[:, 2] * np.tan(self.cutoff_angle))
         return 0.5 + local[:, :2] * scale[:, None]
 
-    def textured(self, d_world: np.ndarray, value: np.ndarray) -> np.ndarray:
-        """``value`` (n, 3) along world directions ``d_world`` times the projected texture
-        where the falloff is positive (unchanged without a texture)."""
+    def textured(self, d_world: np.ndarray, falloff: np.ndarray, value: np.ndarray) -> np.ndarray:
+        """``value`` (n, 3) along world directions ``d_world`` (whose :meth:`falloff` is
+        given) times the projected texture where the falloff is positive (unchanged without
+        a texture)."""
         if self.texture is None:
             return value
-        lit = np.flatnonzero(self.falloff(d_world) > 0)
+        lit = np.flatnonzero(falloff > 0)
         value[lit] *= self.texture.eval(self.texture_uv(d_world[lit]))
         return value
 
     def sample_direction(self, scene, ref_p, u):
         wo, dist, weight = towards_point(self.position, self.intensity, ref_p)
-        weight = self.textured(-wo, weight * self.falloff(-wo)[:, None])
+        falloff = self.falloff(-wo)
+        weight = self.textured(-wo, falloff, weight * falloff[:, None])
         return EmitterSample(wo, dist, np.ones(len(u)), weight, np.ones(len(u), dtype=bool))
 
     def sample_position(self, scene, u):
@@ -90,14 +92,16 @@ class SpotEmitter(Emitter):
         local = square_to_uniform_cone(u, cos_cutoff)
         d = normalize(local @ np.linalg.inv(self.to_local).T)
         pdf_dir = square_to_uniform_cone_pdf(local, cos_cutoff)
-        return d, pdf_dir, self.textured(d, self.intensity * (self.falloff(d) / pdf_dir)[:, None])
+        falloff = self.falloff(d)
+        return d, pdf_dir, self.textured(d, falloff, self.intensity * (falloff / pdf_dir)[:, None])
 
     def pdf_ray_direction(self, n, d):
         local = normalize(d @ self.to_local.T)
         return square_to_uniform_cone_pdf(local, np.cos(self.cutoff_angle))
 
     def eval_towards(self, n, d):
-        return self.textured(d, self.intensity * self.falloff(d)[:, None])
+        falloff = self.falloff(d)
+        return self.textured(d, falloff, self.intensity * falloff[:, None])
 
 
 @register("emitter", "spot")
