@@ -16,15 +16,16 @@ reads no prose. Usage::
     python -m autograder.hint_accuracy --out docs/data/hint_accuracy.json
     python -m autograder.hint_accuracy --reuse --out ...   # explain the recorded evidence again
 
-The evidence of each graded check (sweep, probes, ratios) is kept in ``--cache`` (pickles,
-not committed), so that ``--reuse`` measures changed rules without rendering again.
+The evidence of each graded check (sweep, probes, ratios) is kept in ``--cache`` (JSON and
+``.npz`` at full precision, :func:`autograder.hint_evidence.dump`; data only, so a cache a
+mutant could have written never runs code; not committed), so that ``--reuse`` measures
+changed rules without rendering again.
 """
 from __future__ import annotations
 
 import argparse
 import ast
 import json
-import pickle
 import sys
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -125,17 +126,13 @@ def record(case, cache: Path, scale: float = 6.0) -> dict:
     entry = dict(mutant=name, folder=folder, check=check_id, cause=cause,
                  score=result.score, max_score=result.max_score,
                  failure=result.failure or "", seconds=round(result.seconds, 1))
-    cache.mkdir(parents=True, exist_ok=True)
-    with open(cache / f"{name}--{check_id}.pkl", "wb") as f:
-        pickle.dump(dict(entry, evidence=_seen.evidence), f)
+    hint_evidence.dump(_seen.evidence, cache, f"{name}--{check_id}", entry)
     return entry
 
 
 def explained(cache: Path, name: str, check_id: str) -> tuple:
     """The recorded entry and the hints today's rules give on its evidence."""
-    with open(cache / f"{name}--{check_id}.pkl", "rb") as f:
-        stored = pickle.load(f)
-    evidence = stored.pop("evidence")
+    evidence, stored = hint_evidence.load(cache, f"{name}--{check_id}")
     explain = getattr(hints.explain, "original", hints.explain)
     return stored, (explain(evidence) if evidence is not None else [])
 
@@ -158,7 +155,7 @@ def measure(entries: list, cache: Path) -> dict:
     """Verdicts of the recorded checks under today's rules, and their counts per folder."""
     rows = []
     for entry in entries:
-        if not (cache / f"{entry['mutant']}--{entry['check']}.pkl").exists():
+        if not (cache / f"{entry['mutant']}--{entry['check']}.json").exists():
             continue                                    # not graded (yet)
         stored, found = explained(cache, entry["mutant"], entry["check"])
         if stored["score"] >= stored["max_score"] and not stored["failure"]:
@@ -195,8 +192,7 @@ def write_compact(rows, cache: Path, folder: Path) -> None:
     numbers may differ in the last digit: the images are float16)."""
     for row in rows:
         name = f"{row['mutant']}--{row['check']}"
-        with open(cache / f"{name}.pkl", "rb") as f:
-            evidence = pickle.load(f)["evidence"]
+        evidence, _ = hint_evidence.load(cache, name)
         hint_evidence.write(evidence, folder, name, mutant=row["mutant"], cause=row["cause"],
                             verdict=row["verdict"])
         again, _ = hint_evidence.read(folder, name)

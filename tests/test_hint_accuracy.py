@@ -11,10 +11,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from autograder import hint_accuracy, hint_evidence, hints
+from autograder import grading, hint_accuracy, hint_evidence, hints
+from mitsuba_refs.compare import Comparison
 from mitsuba_refs.explain import Hint
+from mitsuba_refs.stats.mean import compare_means
+from mitsuba_refs.stats.variance import compare_variances
 
 ROOT = Path(__file__).resolve().parent.parent
 EVIDENCE = ROOT / "tests" / "data" / "hint_evidence"
@@ -57,3 +61,95 @@ def test_committed_measurement_has_no_wrong_cause():
     graded = {(r["mutant"], r["check"]) for r in report["rows"]}
     assert graded == {(n, c) for n, _, _, c, _ in hint_accuracy.cases()}
     assert report["summary"]["hint_mutants"]["checks"] >= 12
+
+
+# ----------------------------------------------------------------------------------------
+# The measurement's cache: full evidence as data only (hint_evidence.dump / load)
+
+def _same(a, b) -> bool:
+    """Whether two evidence trees are equal: same types (a NumPy scalar comes back as the Python
+    number it holds), arrays bit for bit, NaN equal NaN."""
+    a, b = (x.item() if isinstance(x, np.generic) else x for x in (a, b))
+    if type(a) is not type(b):
+        return False
+    if isinstance(a, np.ndarray):
+        return a.dtype == b.dtype and a.shape == b.shape and \
+            np.array_equal(a, b, equal_nan=a.dtype.kind in "fc")
+    if isinstance(a, float):
+        return a == b or (np.isnan(a) and np.isnan(b))
+    if isinstance(a, (list, tuple)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, dict):
+        return list(a) == list(b) and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, Hint):
+        return str(a) == str(b) and a.causes == b.causes
+    if hasattr(a, "__dict__") and not isinstance(a, grading.Check):
+        return _same(vars(a), vars(b))
+    return a == b
+
+
+def _real_evidence() -> hints.Evidence:
+    """Evidence built of the real result classes a graded check produces."""
+    rng = np.random.default_rng(7)
+    ref = rng.uniform(0.2, 1.0, (32, 32, 3))
+    test = ref * 1.1 + rng.normal(0, 0.01, ref.shape)
+    var = np.full(ref.shape, 0.04)
+    mean = compare_means(test, var, 64, ref, var, 256, alpha=1e-3)
+    variance = compare_variances(var * 1.3, 64, var, 256, alpha=1e-3)
+    comparison = Comparison(scene="cornell-box", integrator="path", params={"max_depth": 5},
+                            spp=64, mean=mean, variance=variance, bounce=(2, None),
+                            hints=[Hint("image x1.10", ("diffuse_pi",))],
+                            arrays={"test_mean": test})
+    check = grading.CHECKS[0]
+    earlier = grading.CheckResult(check=check, comparison=comparison, parts=[
+        grading.Part("mean", 0.0, 5.0, False, f"p = {float('nan')}")])
+    return hints.Evidence(check=check, comparison=comparison, history={check.id: earlier},
+                          sweep={2: (mean, test.astype(np.float32), ref)},
+                          independence=float("inf"), probe=(3, 4096),
+                          images={"mean": test, "n": np.int64(64), "flags": np.array([True])},
+                          incomplete="")
+
+
+def test_full_evidence_round_trips_exactly(tmp_path):
+    evidence = _real_evidence()
+    hint_evidence.dump(evidence, tmp_path, "case", {"mutant": "m", "score": 0.0})
+    again, entry = hint_evidence.load(tmp_path, "case")
+    assert entry == {"mutant": "m", "score": 0.0}
+    assert _same(again, evidence)
+    assert again.check is evidence.check                       # restored by its id
+    assert again.history[evidence.check.id].passed is False    # properties of the real class
+    assert again.comparison.agree == evidence.comparison.agree
+    assert again.images["n"] == 64 and type(again.images["n"]) is int
+    hint_evidence.dump(None, tmp_path, "none", {})
+    assert hint_evidence.load(tmp_path, "none") == (None, {})
+
+
+@pytest.mark.parametrize("name", CASES[:4])
+def test_full_evidence_explains_alike(tmp_path, name):
+    """The committed cases, through dump and load, give the same hints, causes and all."""
+    evidence, _ = hint_evidence.read(EVIDENCE, name)
+    hint_evidence.dump(evidence, tmp_path, name)
+    again, _ = hint_evidence.load(tmp_path, name)
+    assert [(str(h), h.causes) for h in hints.explain(again)] == \
+        [(str(h), h.causes) for h in hints.explain(evidence)]
+
+
+def test_full_evidence_runs_no_code(tmp_path):
+    """What the cache holds is data: other objects are refused when writing, and a file that
+    names another class or holds a pickled array is refused when reading."""
+    class Stranger:
+        pass
+    with pytest.raises(TypeError, match="Stranger"):
+        hint_evidence.dump({"x": Stranger()}, tmp_path, "bad")
+    with pytest.raises(TypeError, match="objects"):
+        hint_evidence.dump(np.array([Stranger()], dtype=object), tmp_path, "bad")
+    hint_evidence.dump(_real_evidence(), tmp_path, "case")
+    (tmp_path / "forged.json").write_text(json.dumps(
+        {"evidence": {"object": "Popen", "fields": {"args": ["true"]}}}))
+    np.savez(tmp_path / "forged.npz")
+    with pytest.raises(KeyError, match="Popen"):
+        hint_evidence.load(tmp_path, "forged")
+    (tmp_path / "forged.json").write_text(json.dumps({"evidence": {"array": "a0"}}))
+    np.savez(tmp_path / "forged.npz", a0=np.array([print], dtype=object))
+    with pytest.raises(ValueError, match="allow_pickle"):
+        hint_evidence.load(tmp_path, "forged")
