@@ -18,8 +18,10 @@ Every ``*.xml`` file under ``DIR`` falls in the first of these classes that appl
 The share printed is ``loads / (loads + blocked)``: of the files Mitsuba's RGB variants
 load (not fragments, not polarized, assets present), the part the tracer loads. Without
 Mitsuba the files it would refuse count as blocked. ``--compare`` then runs
-``mitsuba-refs compare FILE --resolution 64x48`` on each file that loads and records the
-verdict (exit code 0 agree, 1 disagree, 2 refused).
+``mitsuba-refs compare FILE --integrator NAME --resolution 64x48`` on each file that loads
+(``NAME``: the tracer's integrator for the file's own ``<integrator>``) and records the
+verdict (exit code 0 agree, 1 disagree, 2 refused); ``--resume JSON`` keeps the verdicts of
+an earlier run's ``--json`` (rewritten after every compare).
 """
 from __future__ import annotations
 
@@ -68,6 +70,8 @@ class Entry:
     mitsuba: str = ""
     seconds: float = 0.0
     missing: list = field(default_factory=list)
+    #: The tracer integrator that renders the file's <integrator> (``compare --integrator``).
+    integrator: str = ""
     compare: dict = field(default_factory=dict)
 
 
@@ -145,17 +149,18 @@ def time_limit(seconds: float):
         signal.signal(signal.SIGALRM, old)
 
 
-def tracer_verdict(path: str, timeout: float) -> tuple[bool, str, str]:
-    """``(loads, feature, message)``: load the scene and choose its integrator, nothing more."""
+def tracer_verdict(path: str, timeout: float) -> tuple[bool, str, str, str]:
+    """``(loads, feature, message, integrator)``: load the scene and choose its integrator
+    (the name of the tracer's that renders the file's), nothing more."""
     try:
         with warnings.catch_warnings(), time_limit(timeout):
             warnings.simplefilter("ignore")
-            integrator_for(load_scene(path))
+            integrator = integrator_for(load_scene(path)).name
     except TimeoutError as e:
-        return False, "tracer timed out", str(e)
+        return False, "tracer timed out", str(e), ""
     except Exception as e:   # any refusal or crash is recorded, not raised
-        return False, feature_of(e), str(e).splitlines()[0] if str(e) else type(e).__name__
-    return True, "", ""
+        return False, feature_of(e), str(e).splitlines()[0] if str(e) else type(e).__name__, ""
+    return True, "", "", integrator
 
 
 def mitsuba_python() -> str | None:
@@ -222,7 +227,8 @@ def classify(folder: str, timeout: float, use_mitsuba: bool, jobs: int,
     for i, name in enumerate(candidates):
         entry = entries[name]
         start = time.perf_counter()
-        loads, feature, message = tracer_verdict(os.path.join(folder, name), timeout)
+        loads, feature, message, entry.integrator = tracer_verdict(os.path.join(folder, name),
+                                                                   timeout)
         entry.seconds = round(time.perf_counter() - start, 3)
         if progress:
             print(f"[{i + 1}/{len(candidates)}] {name}: {'loads' if loads else feature} "
@@ -235,17 +241,24 @@ def classify(folder: str, timeout: float, use_mitsuba: bool, jobs: int,
     return list(entries.values()), python is not None
 
 
-def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution: str) -> None:
-    """``mitsuba-refs compare FILE --resolution WxH`` on every file that loads: its verdict."""
+def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution: str,
+                   done: dict | None = None, progress: bool = False, saved=None) -> None:
+    """``mitsuba-refs compare FILE --integrator NAME --resolution WxH`` on every file that loads,
+    with the tracer's integrator for the file's own: its verdict. ``done`` (file -> compare
+    record of an earlier run, ``--resume``) is kept instead of comparing again; ``saved`` is
+    called after each compare (the JSON is rewritten, so a long run loses nothing)."""
     exe = shutil.which("mitsuba-refs")
     command = [exe] if exe else [sys.executable, "-m", "mitsuba_refs.cli"]
     verdicts = {0: "agrees", 1: "disagrees", 2: "refused"}
-    for entry in entries:
-        if entry.cls != "loads":
+    todo = [e for e in entries if e.cls == "loads"]
+    for i, entry in enumerate(todo):
+        if done and entry.file in done:
+            entry.compare = done[entry.file]
             continue
         start = time.perf_counter()
         try:
             out = subprocess.run(command + ["compare", os.path.join(folder, entry.file),
+                                            "--integrator", entry.integrator,
                                             "--resolution", resolution],
                                  capture_output=True, text=True, timeout=timeout)
             verdict = verdicts.get(out.returncode, f"exit code {out.returncode}")
@@ -255,7 +268,14 @@ def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution
         except subprocess.TimeoutExpired:
             verdict, summary = "timed out", f"no verdict within {timeout:g} s"
         entry.compare = {"verdict": verdict, "summary": summary.strip(),
+                         "integrator": entry.integrator,
                          "seconds": round(time.perf_counter() - start, 1)}
+        if progress:
+            print(f"[compare {i + 1}/{len(todo)}] {entry.file} ({entry.integrator}): {verdict} "
+                  f"({entry.compare['seconds']} s) {entry.compare['summary']}", file=sys.stderr,
+                  flush=True)
+        if saved:
+            saved()
 
 
 def summary(entries: list[Entry]) -> dict:
@@ -307,6 +327,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resolution", default="64x48", help="film size of --compare (default 64x48)")
     p.add_argument("--compare-timeout", type=float, default=3600.0,
                    help="seconds for one compare (default 3600)")
+    p.add_argument("--resume", metavar="JSON",
+                   help="keep the compare verdicts of this earlier --json (compare the rest)")
     return p
 
 
@@ -318,14 +340,21 @@ def main(argv=None) -> int:
         return 2
     entries, mitsuba_checked = classify(args.folder, args.timeout, not args.no_mitsuba, args.jobs,
                                         progress=not args.quiet)
+    def save():
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump({"folder": args.folder, "date": time.strftime("%Y-%m-%d"),
+                           "mitsuba_checked": mitsuba_checked, **summary(entries),
+                           "files": [asdict(e) for e in entries]}, f, indent=1)
     if args.compare:
-        compare_loaded(args.folder, entries, args.compare_timeout, args.resolution)
+        done = {}
+        if args.resume:
+            with open(args.resume) as f:
+                done = {e["file"]: e["compare"] for e in json.load(f)["files"] if e.get("compare")}
+        compare_loaded(args.folder, entries, args.compare_timeout, args.resolution, done,
+                       progress=not args.quiet, saved=save)
     print(table(entries, args.folder, mitsuba_checked))
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump({"folder": args.folder, "date": time.strftime("%Y-%m-%d"),
-                       "mitsuba_checked": mitsuba_checked, **summary(entries),
-                       "files": [asdict(e) for e in entries]}, f, indent=1)
+    save()
     return 0
 
 

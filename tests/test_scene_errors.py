@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 import pytest
@@ -38,7 +39,8 @@ CASES = {
     "unknown emitter": (
         f'<emitter type="sunsky"/>{MARK}', '<emitter type="sunsky">', "unsupported emitter"),
     "unknown integrator": (
-        f'<integrator type="aov"/>{MARK}', '<integrator type="aov">', "unsupported integrator"),
+        f'<integrator type="photonmapper"/>{MARK}', '<integrator type="photonmapper">',
+        "unsupported integrator"),
     "integrator parameter": (
         f'<integrator type="path">\n<float name="max_depth" value="3"/>{MARK}</integrator>',
         '<integrator type="path">', 'must be an <integer>'),
@@ -64,7 +66,7 @@ CASES = {
         f'<integrator type="prb_projective"/>{MARK}', '<integrator type="prb_projective">',
         "differentiable"),
     "shape not implemented": (
-        f'<shape type="sdfgrid">{MARK}</shape>', '<shape type="sdfgrid">',
+        f'<shape type="ellipsoids">{MARK}</shape>', '<shape type="ellipsoids">',
         "not implemented in this tracer"),
     "curve without its file": (
         f'<shape type="bsplinecurve">{MARK}</shape>', '<shape type="bsplinecurve">',
@@ -474,6 +476,33 @@ def test_moment_integrator_renders_its_nested_integrator(tmp_path):
     path.write_text(f'<scene version="3.0.0">\n<integrator type="moment"/>{SENSOR}</scene>')
     with pytest.raises(SceneError, match="m.xml:2: .*exactly one nested <integrator>"):
         load_scene(str(path))
+
+
+def test_aov_integrator_renders_its_first_nested_integrator(tmp_path):
+    """Mitsuba's ``aov`` film carries its first nested integrator's image in R, G, B (AOVs in
+    extra channels): that integrator renders; the ``aovs`` string is checked as Mitsuba does."""
+    path = tmp_path / "a.xml"
+    nested = ('<integrator type="path" name="image"><integer name="max_depth" value="4"/>'
+              '</integrator><integrator type="direct" name="second"/>')
+    aovs = '<string name="aovs" value="nn:sh_normal, position:position,depth.y:depth"/>'
+    path.write_text(f'<scene version="3.0.0"><integrator type="aov">{aovs}{nested}</integrator>'
+                    f'{SENSOR}</scene>')
+    spec = load_scene(str(path)).integrator
+    assert spec.name == "path" and spec.params == {"max_depth": 4}
+    refused = {
+        "renders no radiance": f'<integrator type="aov">{aovs}</integrator>',
+        "needs its \"aovs\"": '<integrator type="aov"><integrator type="path"/></integrator>',
+        '"dd:colour" is not <name>:<type>': '<integrator type="aov"><string name="aovs" '
+                                             'value="dd:colour"/><integrator type="path"/>'
+                                             '</integrator>',
+        'unsupported property "max_depth"': f'<integrator type="aov">{aovs}<integer '
+                                            'name="max_depth" value="3"/><integrator '
+                                            'type="path"/></integrator>',
+    }
+    for reason, integrator in refused.items():
+        path.write_text(f'<scene version="3.0.0">\n{integrator}{SENSOR}</scene>')
+        with pytest.raises(SceneError, match=f"a.xml:2: .*{re.escape(reason)}"):
+            load_scene(str(path))
 
 
 def test_a_root_other_than_scene_names_its_element(tmp_path):

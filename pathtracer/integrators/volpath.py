@@ -53,12 +53,16 @@ from .volpath_phase import VolPathPhaseIntegrator
 from .volume import SLOT_DIRECTION, SLOT_LIGHT, SLOT_SHADOW, move
 
 
-@register("integrator", "volpath")
+# volpathmis: Mitsuba's spectral-MIS variant (free-flight pdfs averaged over the channels, the
+# balance heuristic over them) estimates the same radiance; a file naming it renders here,
+# unbiased and with its own, different noise (its variance is not Mitsuba's volpathmis').
+@register("integrator", "volpath", "volpathmis")
 class VolPathIntegrator(VolPathPhaseIntegrator):
     """Volumetric path tracing with NEE through media and MIS, Mitsuba's ``volpath``.
 
     ``volpath_phase``'s segment loop (``radiance``) and surface step (``bounce``), with
-    shadow rays added where a path scatters.
+    shadow rays added where a path scatters. Also renders files that name Mitsuba's
+    ``volpathmis`` (same expectation, another estimator).
     """
 
     name = "volpath"

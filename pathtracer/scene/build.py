@@ -47,6 +47,7 @@ from .xml import Plugin
 INTEGRATOR_PARAMS = {
     "path": {"max_depth", "rr_depth", "hide_emitters"},
     "volpath": {"max_depth", "rr_depth", "hide_emitters"},
+    "volpathmis": {"max_depth", "rr_depth", "hide_emitters"},
     "direct": {"emitter_samples", "bsdf_samples", "shading_samples", "hide_emitters"},
     "ptracer": {"max_depth", "rr_depth", "hide_emitters"},
 }
@@ -121,6 +122,8 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
             raise plugin.error("a moment integrator takes exactly one nested <integrator> "
                                "and no properties")
         return build_integrator(kids["integrator"][0])
+    if plugin.type == "aov":
+        return build_integrator(_aov_image(plugin))
     integrator = registered(plugin, "integrator")
     if plugin.type == "direct":
         _check_direct_samples(plugin)
@@ -143,6 +146,39 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
         params[name] = prop.value
     # A Mitsuba name (ptracer) is rendered by the integrator registered under it (light).
     return IntegratorSpec(integrator.name, params)
+
+
+#: The AOV types of Mitsuba's ``aov`` integrator (``name:type`` in its ``aovs`` string).
+AOV_TYPES = ("albedo", "depth", "position", "uv", "geo_normal", "sh_normal", "dp_du", "dp_dv",
+             "duv_dx", "duv_dy", "prim_index", "shape_index")
+
+
+def _aov_image(plugin: Plugin) -> Plugin:
+    """The integrator whose radiance an ``aov`` integrator's film carries in its RGB channels.
+
+    Mitsuba's ``aov`` renders each nested integrator and the AOVs its ``aovs`` string names
+    into extra channels; the image proper (R, G, B) is its first nested integrator's. The
+    tracer renders that one; the AOV channels are not written (they are not radiance, and
+    nothing is compared on them). The ``aovs`` string is checked as Mitsuba reads it.
+    """
+    kids = children(plugin, {"integrator": 8})
+    unknown = set(plugin.props) - {"aovs"}
+    if unknown:
+        raise plugin.error(f"unsupported property \"{sorted(unknown)[0]}\" (an aov integrator "
+                           "takes only \"aovs\" and nested integrators)",
+                           plugin.props[sorted(unknown)[0]].line)
+    aovs = plugin.props.get("aovs")
+    if aovs is None:
+        raise plugin.error("an aov integrator needs its \"aovs\" string (Mitsuba requires it)")
+    for pair in str(aovs.value).replace(" ", ",").split(","):
+        name, _, kind = pair.partition(":")
+        if pair and (not name or kind not in AOV_TYPES):
+            raise plugin.error(f"aovs: \"{pair}\" is not <name>:<type> with a type of "
+                               f"{', '.join(AOV_TYPES)}", aovs.line)
+    if not kids["integrator"]:
+        raise plugin.error("an aov integrator without a nested <integrator> renders no radiance "
+                           "(only AOVs): nothing to render or compare")
+    return kids["integrator"][0]
 
 
 def _check_direct_samples(plugin: Plugin) -> None:

@@ -22,7 +22,6 @@ NOT_IMPLEMENTED_MEDIA = {
     "sggx": "the SGGX microflake phase function is not implemented (isotropic and hg are)",
     "blendphase": "blended phase functions are not implemented (isotropic and hg are)",
     "tabphase": "tabulated phase functions are not implemented (isotropic and hg are)",
-    "volpathmis": "the spectral-MIS volumetric path tracer is not implemented; use volpath",
 }
 # BSDF parameters that take a <texture> (and the checkerboard's colours).
 TEXTURED_PARAMS = ("reflectance", "specular_reflectance", "specular_transmittance",
