@@ -91,3 +91,21 @@ def spp_for(integrator: str) -> int:
 def integrator_options(integrator: str) -> dict:
     """Recursive ray tracing splits twice into 2 rays: 4x the rays, enough to test it."""
     return {"branches": 2, "branch_depth": 2} if integrator == "recursive" else {}
+
+
+def medium_ball_on_floor(medium_id: str, radius: float, floor: float, light: str,
+                         intensity: float, ambient: float) -> str:
+    """Scene body of a null-bounded sphere of the medium ``medium_id`` resting on a diffuse
+    floor (``floor`` wide), lit by a point light at ``light`` and a constant environment: the
+    media tests' small live-Mitsuba scene."""
+    return f"""
+    <shape type="sphere"><float name="radius" value="{radius}"/><bsdf type="null"/>
+        <ref id="{medium_id}" name="interior"/></shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="{floor}"/><rotate x="1" angle="-90"/>
+            <translate value="0, {-radius}, 0"/></transform>
+        <bsdf type="diffuse"/>
+    </shape>
+    <emitter type="point"><point name="position" value="{light}"/>
+        <rgb name="intensity" value="{intensity}, {intensity}, {intensity}"/></emitter>
+    <emitter type="constant"><rgb name="radiance" value="{ambient}, {ambient}, {ambient}"/></emitter>"""

@@ -26,6 +26,7 @@ from pathtracer.media.homogeneous import shadow_transmittance
 from pathtracer.scene.errors import SceneError
 from pathtracer.volumes import grid_lookup
 from tests.budget import ALPHA
+from tests.scenes import medium_ball_on_floor
 from tests.test_analytic import assert_matches, footprint_average
 from tests.test_media import LIGHT_WALL, write_scene
 
@@ -320,17 +321,7 @@ def test_grid_bbox_and_mirror_agree_with_live_mitsuba_volpath(tmp_path):
         </volume>
         <volume type="constvolume" name="albedo"><rgb name="value" value="0.9, 0.6, 0.3"/></volume>
         <float name="scale" value="5"/>
-    </medium>
-    <shape type="sphere"><float name="radius" value="0.8"/><bsdf type="null"/>
-        <ref id="puff" name="interior"/></shape>
-    <shape type="rectangle">
-        <transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/>
-            <translate value="0, -0.8, 0"/></transform>
-        <bsdf type="diffuse"/>
-    </shape>
-    <emitter type="point"><point name="position" value="1, 2, 1"/>
-        <rgb name="intensity" value="8, 8, 8"/></emitter>
-    <emitter type="constant"><rgb name="radiance" value="0.2, 0.2, 0.2"/></emitter>"""
+    </medium>""" + medium_ball_on_floor("puff", 0.8, 4, "1, 2, 1", 8, 0.2)
     write_scene(tmp_path, body, fov=45, origin="0, 0.5, 3.5", target="0, 0, 0", size=16)
     path = str(tmp_path / "scene.xml")
     reference = render_reference(path, {}, "volpath", 1024, 1)

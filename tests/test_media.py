@@ -23,6 +23,7 @@ from pathtracer.media.homogeneous import shadow_transmittance
 from pathtracer.media.phase import HenyeyGreensteinPhase, IsotropicPhase
 from tests.budget import ALPHA
 from tests.chi2 import chi2_sphere
+from tests.scenes import medium_ball_on_floor
 from tests.test_analytic import assert_matches, footprint_average
 
 VOLUMETRIC = ("volpath", "volpath_phase")
@@ -282,17 +283,7 @@ VOLPATHMIS_BODY = """
         <rgb name="sigma_t" value="1, 0.2, 0.6"/><float name="scale" value="2"/>
         <rgb name="albedo" value="0.5, 0.8, 0.95"/>
         <phase type="hg"><float name="g" value="0.4"/></phase>
-    </medium>
-    <shape type="sphere"><float name="radius" value="0.9"/><bsdf type="null"/>
-        <ref id="tinted" name="interior"/></shape>
-    <shape type="rectangle">
-        <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/>
-            <translate value="0, -0.9, 0"/></transform>
-        <bsdf type="diffuse"/>
-    </shape>
-    <emitter type="point"><point name="position" value="1, 2, 1.5"/>
-        <rgb name="intensity" value="10, 10, 10"/></emitter>
-    <emitter type="constant"><rgb name="radiance" value="0.3, 0.3, 0.3"/></emitter>"""
+    </medium>""" + medium_ball_on_floor("tinted", 0.9, 3, "1, 2, 1.5", 10, 0.3)
 
 
 def test_volpathmis_is_rendered_by_volpath(tmp_path):
