@@ -458,7 +458,11 @@ def test_mitsuba_refuses_and_accepts_the_same_values(tmp_path, mi):
     edges = ('<scene version="2.1.0"><integrator type="path"><integer name="max_depth" value="-1"/>'
              '</integrator>' + SENSOR.replace("</sensor>", '<sampler type="independent"><integer '
              'name="seed" value="4294967295"/></sampler></sensor>')
-             + '<bsdf type="diffuse"><rgb name="reflectance" value="0, 1, 0.5"/></bsdf></scene>')
+             + '<bsdf type="diffuse"><rgb name="reflectance" value="0, 1, 0.5"/></bsdf>'
+             # a texture's <float> value is not range-checked (principledthin's diff_trans
+             # reaches 2: mitsuba-data's test_texturedprincipledthin_path has 1.4)
+             '<bsdf type="diffuse"><texture type="checkerboard" name="reflectance">'
+             '<float name="color1" value="1.4"/></texture></bsdf></scene>')
     mi.load_string(edges)
     path = tmp_path / "edges.xml"
     path.write_text(edges)

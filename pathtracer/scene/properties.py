@@ -153,6 +153,18 @@ class Props:
             return self.reflectance(name, default)
         return build_texture(child, folders, cache)
 
+    def texture_value(self, name: str, default: float, folders: list[str], cache: dict):
+        """A colour a texture yields (a checkerboard's), or a nested ``<texture>``.
+
+        A texture's values are checked by what reads them, not here: Mitsuba refuses an
+        ``<rgb>`` outside [0, 1] (it builds a reflectance spectrum of it) but takes a
+        ``<float>`` as it is (principledthin's ``diff_trans`` reaches 2), and so does this.
+        """
+        if name in self.textures or self.plugin.props.get(name) is None or \
+                self.plugin.props[name].tag == "rgb":
+            return self.reflectance_or_texture(name, default, folders, cache)
+        return self.color(name, default)
+
     def emission_or_texture(self, name: str, default: float, folders: list[str]):
         """An emitted colour (:meth:`color`, not range-checked) that may also be a nested
         ``<texture>`` (Mitsuba's ``get_emissive_texture``): a (3,) array or the built

@@ -79,7 +79,7 @@ def create(plugin: Plugin, folders: list[str], cache: dict) -> Checkerboard:
     props = Props(plugin)
     children(plugin, {"texture": 2})
     to_uv = props.transform("to_uv")
-    texture = Checkerboard(props.reflectance_or_texture("color0", 0.4, folders, cache),
-                           props.reflectance_or_texture("color1", 0.2, folders, cache), to_uv)
+    texture = Checkerboard(props.texture_value("color0", 0.4, folders, cache),
+                           props.texture_value("color1", 0.2, folders, cache), to_uv)
     props.finish()
     return texture
