@@ -8,8 +8,9 @@ Every ``*.xml`` file under ``DIR`` falls in the first of these classes that appl
 * ``malformed``: not well-formed XML;
 * ``polarized``: uses a plugin of Mitsuba's ``*_polarized`` variants only;
 * ``assets missing``: a file it reads (mesh, texture, include) is not there;
-* ``refused by Mitsuba``: Mitsuba's ``scalar_rgb`` variant does not load it (checked when
-  Mitsuba is importable, in a subprocess with a timeout; its message is recorded);
+* ``refused by Mitsuba``: Mitsuba's ``scalar_rgb`` variant does not load it, or loads a scene
+  without a sensor, which its renderer refuses (checked when Mitsuba is importable, in a
+  subprocess with a timeout; its message is recorded);
   ``Mitsuba timed out`` when loading took longer than ``--timeout``;
 * ``loads``: the tracer loads it and its integrator accepts it (no rendering);
 * ``blocked``: the tracer refuses it; the *feature* is the element and reason of the
@@ -54,9 +55,13 @@ CLASSES = ("fragment", "malformed", "polarized", "assets missing", "refused by M
 MITSUBA_LOAD = ("import sys, mitsuba as mi\n"
                 "mi.set_variant('scalar_rgb')\n"
                 "try:\n"
-                "    mi.load_file(sys.argv[1])\n"
+                "    scene = mi.load_file(sys.argv[1])\n"
                 "except Exception as e:\n"
-                "    print('MITSUBA-REFUSES', str(e).strip().splitlines()[0]); sys.exit(3)\n")
+                "    print('MITSUBA-REFUSES', str(e).strip().splitlines()[0]); sys.exit(3)\n"
+                # Loads, but the mitsuba renderer stops at it: nothing to render.
+                "if not scene.sensors():\n"
+                "    print('MITSUBA-REFUSES', 'no sensor: the mitsuba renderer refuses to render "
+                "it'); sys.exit(3)\n")
 
 
 @dataclass
