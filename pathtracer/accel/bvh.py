@@ -296,6 +296,18 @@ class BVH:
         self._leaf_prim = np.ascontiguousarray(rows.T)
         self._leaf_k = rows.shape[1]
 
+    def _init_over_boxes(self, lo, hi, chunk: int) -> None:
+        """The tree's attributes over primitives known only by their boxes ``lo``, ``hi``
+        (P, 3): a subclass that tests its own primitives in ``_leaf_test`` (curve pieces,
+        SDF voxels); ``chunk`` rays per leaf test bounds its temporaries."""
+        n = len(lo)
+        self.num_triangles = n            # the traversal's name for "primitives"
+        self.brute_force = n <= 8
+        self._chunk = chunk
+        rows = np.arange(n)[None, :] if self.brute_force else self._build_tree(lo, hi)
+        self._leaf_prim = np.ascontiguousarray(rows.T)       # (slots, leaves), -1 padding
+        self._leaf_k = rows.shape[1]
+
     def _build_tree(self, lo, hi) -> np.ndarray:
         """Build the wide tree over primitive bounds ``lo``, ``hi`` (P, 3); returns the
         (leaves, LEAF_SIZE) primitive ids of the leaves (-1 padding)."""

@@ -52,7 +52,6 @@ VARIANT_ONLY = {
 # Shapes that are valid in RGB variants but not implemented here (like Nori's
 # stubs, the message says so rather than pretending the type is unknown).
 NOT_IMPLEMENTED_SHAPES = {
-    "sdfgrid": "signed-distance-field grids",
     "ellipsoids": "ellipsoid point clouds",
     "ellipsoidsmesh": "ellipsoid point clouds",
     "merge": "shape merging",

@@ -66,8 +66,10 @@ class Scene:
     disk_shape : (D,) int32
     curves : list of pathtracer.shapes.curves.CurveShape
         The ``bsplinecurve`` / ``linearcurve`` shapes.
+    sdfgrids : list of pathtracer.shapes.sdfgrid.SDFGridShape
+        The ``sdfgrid`` shapes.
     shape_kind : list of str
-        ``'mesh'``, ``'sphere'``, ``'disk'``, ``'curve'`` or ``'cylinder'`` per shape.
+        ``'mesh'``, ``'sphere'``, ``'disk'``, ``'curve'``, ``'cylinder'`` or ``'sdfgrid'`` per shape.
     shape_prim : (N, 2) int64
         For a mesh, the half-open triangle range ``[begin, end)`` in ``tri_*``;
         for a sphere, disk or curve, ``[index, index + 1)`` in its own arrays.
@@ -145,6 +147,7 @@ class Scene:
     tri_uv: np.ndarray | None = None
     sphere_to_local: np.ndarray | None = None
     curves: list = field(default_factory=list)
+    sdfgrids: list = field(default_factory=list)
     bbox: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))
     media: list = field(default_factory=list)
     shape_interior: np.ndarray | None = None

@@ -6,4 +6,4 @@ every kind (:mod:`.intersect`), surface derivatives (:mod:`.tangents`) and insta
 
 Importing the package registers every shape kind (:mod:`pathtracer.scene.registry`).
 """
-from . import cube, curves, cylinder, disk, instances, mesh, rectangle, sphere  # noqa: F401
+from . import cube, curves, cylinder, disk, instances, mesh, rectangle, sdfgrid, sphere  # noqa: F401

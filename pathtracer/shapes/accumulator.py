@@ -57,7 +57,8 @@ class GeometryAccumulator:
     Triangles of every mesh shape go into ``tri_*`` (:meth:`add_mesh`); each analytic
     shape is one row of its kind's table (:meth:`add_analytic`): ``spheres`` (centre,
     radius, flip, shape id, rotation to the object frame), ``disks`` and ``cylinders``
-    (object-to-world map, flip, shape id), ``curves`` (:class:`~.curves.CurveShape`).
+    (object-to-world map, flip, shape id), ``curves`` (:class:`~.curves.CurveShape`),
+    ``sdfgrids`` (:class:`~.sdfgrid.SDFGridShape`).
     Per shape: ``kind``, its primitive range ``prim``, ``area``, the triangle ``cdf``
     of a mesh (None otherwise) and ``name``.
     """
@@ -66,6 +67,7 @@ class GeometryAccumulator:
         self.tri_p, self.tri_n, self.tri_uv, self.tri_shape = [], [], [], []
         self.ntri = 0
         self.spheres, self.disks, self.curves, self.cylinders = [], [], [], []
+        self.sdfgrids = []
         self.kind, self.prim, self.area, self.cdf, self.name = [], [], [], [], []
         self.attributes: dict[int, dict] = {}
 
@@ -117,7 +119,7 @@ class GeometryAccumulator:
             disk_to_local=np.array([np.linalg.inv(d[0]) for d in dsk]).reshape(-1, 4, 4),
             disk_flip=np.array([d[1] for d in dsk], dtype=bool),
             disk_shape=np.array([d[2] for d in dsk], dtype=np.int32),
-            curves=self.curves,
+            curves=self.curves, sdfgrids=self.sdfgrids,
             cylinder_to_world=np.array([c[0] for c in cyl]).reshape(-1, 4, 4),
             cylinder_to_local=np.array([np.linalg.inv(c[0]) for c in cyl]).reshape(-1, 4, 4),
             cylinder_flip=np.array([c[1] for c in cyl], dtype=bool),
@@ -142,7 +144,7 @@ class GeometryAccumulator:
             extent = np.sqrt(m[:3, 0] ** 2 + m[:3, 1] ** 2)
             lo.append(m[:3, 3] - extent)
             hi.append(m[:3, 3] + extent)
-        for curve in self.curves:
+        for curve in self.curves + self.sdfgrids:
             curve_lo, curve_hi = curve.bounds()
             lo.append(curve_lo)
             hi.append(curve_hi)

@@ -247,7 +247,8 @@ class CurveShape(BVH):
         self._piece = pieces
         lo = np.minimum(pieces["a"] - pieces["ra"][:, None], pieces["b"] - pieces["rb"][:, None])
         hi = np.maximum(pieces["a"] + pieces["ra"][:, None], pieces["b"] + pieces["rb"][:, None])
-        self._init_tree(lo, hi)
+        # A piece test makes ~30 temporaries per (ray, piece) pair.
+        self._init_over_boxes(lo, hi, chunk=8192)
 
     # -- pieces ----------------------------------------------------------------
     def _linear_pieces(self) -> dict:
@@ -292,16 +293,6 @@ class CurveShape(BVH):
                     cap_a=np.zeros(n, bool), cap_b=np.zeros(n, bool))
 
     # -- BVH over the pieces (the triangle BVH's traversal, a piece leaf test) ----
-    def _init_tree(self, lo, hi):
-        """The BVH's attributes, over piece bounds instead of triangles."""
-        n = len(lo)
-        self.num_triangles = n            # the traversal's name for "primitives"
-        self.brute_force = n <= 8
-        self._chunk = 8192                # a piece test makes ~30 temporaries per pair
-        rows = np.arange(n)[None, :] if self.brute_force else self._build_tree(lo, hi)
-        self._leaf_prim = np.ascontiguousarray(rows.T)       # (slots, leaves), -1 padding
-        self._leaf_k = rows.shape[1]
-
     def _leaf_test(self, o, d, r, leaf, tbest):
         """Nearest piece hit of each (ray r, leaf) pair: (t, piece, s, 0)."""
         k = self._leaf_k

@@ -3,10 +3,10 @@
 Triangles go through the accelerators of :mod:`pathtracer.accel` (built once per
 scene, cached in ``scene._accel``); spheres, disks and cylinders are few, so they are
 intersected analytically one shape at a time, each over all rays; each curve
-shape has its own tree of pieces. Each analytic kind's intersection and the surface
-data of its hits live in the kind's module (:mod:`.sphere`, :mod:`.disk`,
-:mod:`.cylinder`, :mod:`.curves`); this module dispatches over the kinds, keeps the
-triangles' tables and spawns rays.
+shape has its own tree of pieces, each SDF grid its tree of voxels. Each analytic
+kind's intersection and the surface data of its hits live in the kind's module
+(:mod:`.sphere`, :mod:`.disk`, :mod:`.cylinder`, :mod:`.curves`, :mod:`.sdfgrid`);
+this module dispatches over the kinds, keeps the triangles' tables and spawns rays.
 
 Ray spawning follows Mitsuba 3 (``Interaction::offset_p``, ``spawn_ray``,
 ``spawn_ray_to`` in include/mitsuba/render/interaction.h): there is no
@@ -26,6 +26,7 @@ from ..core.vec import dot, max_abs, normalize, put_rows, scale, unscale
 from .curves import fill_curve
 from .cylinder import cylinder_t, fill_cylinders
 from .disk import disk_t, fill_disks
+from .sdfgrid import fill_sdfgrid
 from .sphere import fill_spheres, sphere_t
 
 RAY_EPSILON = 1500 * 2.0 ** -24  # Mitsuba's math::RayEpsilon for float32 (8.94e-5)
@@ -52,13 +53,13 @@ class Hit:
         with ``flip_normals``; disks: the world image of local +z (inverse
         transpose), negated with ``flip_normals``.
     sh_n : (n, 3) float64
-        Unit shading normal: interpolated vertex normals for triangles, the
-        geometric normal otherwise.
+        Unit shading normal: interpolated vertex normals for triangles, an SDF
+        grid's ``smooth`` normal, the geometric normal otherwise.
     shape : (n,) int32
         Shape id, -1 on a miss.
     prim : (n,) int64
         Triangle index into ``tri_*``, or sphere / disk / curve index into
-        ``sphere_*`` / ``disk_*`` / ``curves``; -1 on a miss.
+        ``sphere_*`` / ``disk_*`` / ``curves`` / ``sdfgrids``; -1 on a miss.
     uv : (n, 2) float64
         Primitive coordinates. Triangles: barycentrics (b1, b2) of p1 and p2.
         Spheres: ``(phi / 2pi, theta / pi)`` around the world z axis. Disks:
@@ -116,7 +117,7 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
     # scatters; the rows that analytic shapes take are written over below.
     room = bool(n) and prim.min() >= 0
     records = _triangle_records(scene, prim, b1, b2) if room else None
-    kind = np.where(prim >= 0, 0, -1)  # 0 triangle, 1 sphere, 2 disk, 3 curve, 4 cylinder
+    kind = np.where(prim >= 0, 0, -1)  # 0 triangle, 1 sphere, 2 disk, 3 curve, 4 cylinder, 5 sdfgrid
     t = np.where(kind >= 0, t, tmax)  # the far end for the analytic shapes
     for i in range(len(scene.sphere_radius)):
         ts = sphere_t(scene.sphere_center[i], scene.sphere_radius[i], o, d, t)
@@ -138,6 +139,10 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
         tc = cylinder_t(scene.cylinder_to_local[i], o, d, tmax)
         closer = tc < t
         t[closer], kind[closer], prim[closer] = tc[closer], 4, i
+    for i, grid in enumerate(scene.sdfgrids):
+        tg = grid.intersect(o, d, t)[0]
+        closer = tg < t
+        t[closer], kind[closer], prim[closer] = tg[closer], 5, i
 
     t[kind < 0] = np.inf
     if records is not None:
@@ -163,6 +168,10 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
     sel = np.flatnonzero(kind == 4)
     if len(sel):
         fill_cylinders(scene, hit, sel, o[sel], d[sel])
+    for i, grid in enumerate(scene.sdfgrids):
+        sel = np.flatnonzero((kind == 5) & (prim == i))
+        if len(sel):
+            fill_sdfgrid(grid, hit, sel, o[sel], d[sel])
     return hit
 
 
@@ -180,6 +189,8 @@ def occluded(scene, o: np.ndarray, d: np.ndarray, tmax) -> np.ndarray:
         occ |= curve.occluded(o, d, tmax)
     for i in range(len(scene.cylinder_shape)):
         occ |= cylinder_t(scene.cylinder_to_local[i], o, d, tmax) < tmax
+    for grid in scene.sdfgrids:
+        occ |= grid.occluded(o, d, tmax)
     return occ
 
 
@@ -329,6 +340,7 @@ def texture_uv(scene, hit, rows: np.ndarray) -> np.ndarray:
     * Curves: Mitsuba's ``(angle around the centre line / 2pi, v along the file's
       segments)``, computed at the hit (:mod:`pathtracer.shapes.curves`).
     * Cylinders: ``(phi / 2pi, z)`` in the unit tube's frame (:mod:`pathtracer.shapes.cylinder`).
+    * SDF grids: (0, 0), as Mitsuba (:mod:`pathtracer.shapes.sdfgrid`).
 
     Computed only where a texture needs it, so untextured scenes never pay. Returned as
     a :class:`~pathtracer.core.surface_uv.SurfaceUV` that also carries the hits' shapes,
@@ -362,6 +374,7 @@ def texture_uv(scene, hit, rows: np.ndarray) -> np.ndarray:
     cyl = np.flatnonzero(kind == "cylinder")
     if len(cyl):
         out[cyl] = hit.uv[rows[cyl]]   # (phi / 2pi, z), as filled in at the hit
+    out[kind == "sdfgrid"] = 0.0
     dsk = np.flatnonzero(kind == "disk")
     if len(dsk):
         local = hit.uv[rows[dsk]]
