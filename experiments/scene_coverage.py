@@ -21,13 +21,16 @@ load (not fragments, not polarized, assets present), the part the tracer loads. 
 Mitsuba the files it would refuse count as blocked. ``--compare`` then runs
 ``mitsuba-refs compare FILE --integrator NAME --resolution 64x48`` on each file that loads
 (``NAME``: the tracer's integrator for the file's own ``<integrator>``) and records the
-verdict (exit code 0 agree, 1 disagree, 2 refused); ``--resume JSON`` keeps the verdicts of
-an earlier run's ``--json`` (rewritten after every compare).
+verdict (exit code 0 agree, 1 disagree, 2 refused); ``--compare-only PATTERN...`` limits the
+compares to the files matching a pattern. ``--resume JSON`` keeps an earlier run's classes
+(its ``blocked`` files are loaded again) and compare verdicts, so that a campaign of hours
+goes on where it stopped (the JSON is rewritten after every compare).
 """
 from __future__ import annotations
 
 import argparse
 import contextlib
+import fnmatch
 import json
 import os
 import re
@@ -190,14 +193,20 @@ def mitsuba_verdict(python: str, path: str, timeout: float) -> tuple[str, str]:
 
 
 def classify(folder: str, timeout: float, use_mitsuba: bool, jobs: int,
-             progress: bool = False) -> tuple[list[Entry], bool]:
+             progress: bool = False, previous: dict | None = None) -> tuple[list[Entry], bool]:
     """The class of every XML file under ``folder``, and whether Mitsuba was asked
-    (``progress``: a line on stderr per file loaded)."""
+    (``progress``: a line on stderr per file loaded). ``previous`` (file -> Entry of an
+    earlier run, ``--resume``) is kept as it was for every file it classed, except those it
+    found ``blocked``, which are loaded again (the tracer may have learnt their feature)."""
     names = xml_files(folder)
     roots, included, reads = read_files(folder, names)
     entries = {name: Entry(name) for name in names}
+    kept = {n: e for n, e in (previous or {}).items() if n in entries and e.cls != "blocked"}
+    entries.update(kept)
     candidates = []
     for name, entry in entries.items():
+        if name in kept:
+            continue
         path = os.path.join(folder, name)
         root = roots[name]
         if isinstance(root, XMLSyntaxError):
@@ -247,19 +256,23 @@ def classify(folder: str, timeout: float, use_mitsuba: bool, jobs: int,
 
 
 def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution: str,
-                   done: dict | None = None, progress: bool = False, saved=None) -> None:
+                   done: dict | None = None, progress: bool = False, saved=None,
+                   only: tuple = ()) -> None:
     """``mitsuba-refs compare FILE --integrator NAME --resolution WxH`` on every file that loads,
     with the tracer's integrator for the file's own: its verdict. ``done`` (file -> compare
     record of an earlier run, ``--resume``) is kept instead of comparing again; ``saved`` is
-    called after each compare (the JSON is rewritten, so a long run loses nothing)."""
+    called after each compare (the JSON is rewritten, so a long run loses nothing); ``only``
+    (shell patterns of paths relative to ``folder``) limits the compares to the files matching
+    one of them."""
     exe = shutil.which("mitsuba-refs")
     command = [exe] if exe else [sys.executable, "-m", "mitsuba_refs.cli"]
     verdicts = {0: "agrees", 1: "disagrees", 2: "refused"}
-    todo = [e for e in entries if e.cls == "loads"]
-    for i, entry in enumerate(todo):
+    for entry in entries:
         if done and entry.file in done:
             entry.compare = done[entry.file]
-            continue
+    todo = [e for e in entries if e.cls == "loads" and not e.compare
+            and (not only or any(fnmatch.fnmatch(e.file, pattern) for pattern in only))]
+    for i, entry in enumerate(todo):
         start = time.perf_counter()
         try:
             out = subprocess.run(command + ["compare", os.path.join(folder, entry.file),
@@ -332,8 +345,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resolution", default="64x48", help="film size of --compare (default 64x48)")
     p.add_argument("--compare-timeout", type=float, default=3600.0,
                    help="seconds for one compare (default 3600)")
+    p.add_argument("--compare-only", nargs="+", default=(), metavar="PATTERN",
+                   help="compare only the files matching one of these shell patterns (paths "
+                        "relative to DIR, e.g. 'tests/scenes/*')")
     p.add_argument("--resume", metavar="JSON",
-                   help="keep the compare verdicts of this earlier --json (compare the rest)")
+                   help="an earlier run's --json: keep its classes (files it found blocked are "
+                        "loaded again) and its compare verdicts (compare the rest)")
     return p
 
 
@@ -343,8 +360,14 @@ def main(argv=None) -> int:
     if not os.path.isdir(args.folder):
         print(f"error: {args.folder} is not a folder", file=sys.stderr)
         return 2
+    earlier = {}
+    if args.resume:
+        with open(args.resume) as f:
+            earlier = json.load(f)
+    previous = {e["file"]: Entry(**{k: v for k, v in e.items() if k != "compare"})
+                for e in earlier.get("files", [])}
     entries, mitsuba_checked = classify(args.folder, args.timeout, not args.no_mitsuba, args.jobs,
-                                        progress=not args.quiet)
+                                        progress=not args.quiet, previous=previous)
     def save():
         if args.json:
             with open(args.json, "w") as f:
@@ -352,12 +375,9 @@ def main(argv=None) -> int:
                            "mitsuba_checked": mitsuba_checked, **summary(entries),
                            "files": [asdict(e) for e in entries]}, f, indent=1)
     if args.compare:
-        done = {}
-        if args.resume:
-            with open(args.resume) as f:
-                done = {e["file"]: e["compare"] for e in json.load(f)["files"] if e.get("compare")}
+        done = {e["file"]: e["compare"] for e in earlier.get("files", []) if e.get("compare")}
         compare_loaded(args.folder, entries, args.compare_timeout, args.resolution, done,
-                       progress=not args.quiet, saved=save)
+                       progress=not args.quiet, saved=save, only=tuple(args.compare_only))
     print(table(entries, args.folder, mitsuba_checked))
     save()
     return 0

@@ -76,6 +76,42 @@ def test_mitsuba_refusals_are_their_own_class(folder, tmp_path, mi):
     assert files["ok.xml"]["cls"] == "loads" and files["old.xml"]["cls"] == "loads"
 
 
+def test_resume_keeps_classes_and_verdicts_and_loads_blocked_files_again(folder, tmp_path,
+                                                                        monkeypatch):
+    """A campaign goes on where it stopped: classes and compare verdicts of the earlier JSON
+    are kept (a file it classed is not loaded again), its blocked files are re-tried, and
+    --compare-only picks the files compared; each compare uses the file's integrator."""
+    out = tmp_path / "coverage.json"
+    assert scene_coverage.main([str(folder), "--no-mitsuba", "--json", str(out)]) == 0
+    earlier = json.loads(out.read_text())
+    for entry in earlier["files"]:
+        if entry["file"] == "ok.xml":
+            entry["compare"] = {"verdict": "agrees", "summary": "kept", "seconds": 1.0}
+        if entry["file"] == "old.xml":
+            entry["feature"] = "marked by the earlier run"    # kept: not loaded again
+    out.write_text(json.dumps(earlier))
+    (folder / "hair2.xml").write_text(scene('<shape type="cube"/>'))   # its blocker removed
+    compared = []
+
+    def fake_run(command, **kwargs):
+        compared.append(command)
+        return type("Done", (), {"returncode": 0, "stdout": "path on x: AGREES with Mitsuba",
+                                 "stderr": ""})()
+    monkeypatch.setattr(scene_coverage.subprocess, "run", fake_run)
+    again = tmp_path / "again.json"
+    assert scene_coverage.main([str(folder), "--no-mitsuba", "--json", str(again), "--compare",
+                                "--resume", str(out), "--compare-only", "hair*", "main.xml"]) == 0
+    files = {f["file"]: f for f in json.loads(again.read_text())["files"]}
+    assert files["hair2.xml"]["cls"] == "loads" and files["hair.xml"]["cls"] == "blocked"
+    assert files["old.xml"]["feature"] == "marked by the earlier run"
+    assert files["ok.xml"]["compare"]["summary"] == "kept"
+    assert [c[c.index("compare") + 1] for c in compared] == [str(folder / "hair2.xml"),
+                                                            str(folder / "main.xml")]
+    assert all(c[c.index("--integrator") + 1] == "path" for c in compared)
+    assert files["main.xml"]["compare"]["verdict"] == "agrees"
+    assert not files["old.xml"]["compare"]
+
+
 def test_not_a_folder(tmp_path, capsys):
     assert scene_coverage.main([str(tmp_path / "nothere")]) == 2
     assert "is not a folder" in capsys.readouterr().err
