@@ -144,10 +144,10 @@ class GeometryAccumulator:
             extent = np.sqrt(m[:3, 0] ** 2 + m[:3, 1] ** 2)
             lo.append(m[:3, 3] - extent)
             hi.append(m[:3, 3] + extent)
-        for curve in self.curves + self.sdfgrids:
-            curve_lo, curve_hi = curve.bounds()
-            lo.append(curve_lo)
-            hi.append(curve_hi)
+        for tree in self.curves + self.sdfgrids:     # the shapes with a tree of their own
+            tree_lo, tree_hi = tree.bounds()
+            lo.append(tree_lo)
+            hi.append(tree_hi)
         for m, _, _ in self.cylinders:
             corners = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (0, 1)])
             world = corners @ m.T
