@@ -158,7 +158,7 @@ def _identity(scene, params, integrator, spp, seed, options=None, resolution=Non
         "scene_hash": content,
         "params": dict(sorted(params.items())),
         "integrator": canonical_integrator(integrator),
-        "mitsuba_integrator": integrator_dict(integrator, transport),
+        "mitsuba_integrator": integrator_dict(integrator, transport, settings.integrator),
         "spp": int(spp),
         "seed": int(seed),
     }

@@ -19,7 +19,8 @@ Integrator mapping (ours -> Mitsuba):
 ``path``        ``path`` (MIS of BSDF and emitter sampling)
 ``path_bsdf``   ``lecture_path_bsdf`` (:mod:`.integrators.path_bsdf`)
 ``path_nee``    ``lecture_path_nee`` (:mod:`.integrators.path_nee`)
-``direct``      ``direct`` with ``emitter_samples = bsdf_samples = 1``
+``direct``      ``direct`` with the file's ``emitter_samples`` and ``bsdf_samples``
+                where its ``<integrator>`` is ``direct``, else 1 each
 ``light``       ``ptracer`` (particle tracer), rendered as independent
                 replicas (:func:`_render_replicas`)
 ``recursive``,  ``path``: same expectation, a different estimator, so
@@ -221,8 +222,21 @@ def split_params(path, params, options=None):
     return scene_kw, transport
 
 
-def integrator_dict(integrator, integ_kw):
-    """Mitsuba integrator dictionary for our integrator name."""
+def direct_samples(file_integrator) -> dict:
+    """``emitter_samples`` and ``bsdf_samples`` of a ``direct`` reference: the file's own
+    when its ``<integrator>`` is ``direct`` (the tracer's ``direct`` then renders with all
+    the file's parameters, :func:`pathtracer.render.driver.integrator_for`), else 1 each,
+    the tracer's defaults (and Mitsuba's)."""
+    params = file_integrator.params if file_integrator is not None and \
+        file_integrator.name == "direct" else {}
+    both = int(params.get("shading_samples", 1))
+    return {"emitter_samples": int(params.get("emitter_samples", both)),
+            "bsdf_samples": int(params.get("bsdf_samples", both))}
+
+
+def integrator_dict(integrator, integ_kw, file_integrator=None):
+    """Mitsuba integrator dictionary for our integrator name (``file_integrator``: the
+    file's ``<integrator>``, an IntegratorSpec, whose sample counts a ``direct`` keeps)."""
     try:
         mitsuba_type = INTEGRATOR_MAP[integrator]
     except KeyError:
@@ -230,7 +244,7 @@ def integrator_dict(integrator, integ_kw):
                          f"known: {sorted(INTEGRATOR_MAP)}") from None
     d = {"type": mitsuba_type}
     if mitsuba_type == "direct":
-        d.update(emitter_samples=1, bsdf_samples=1)
+        d.update(direct_samples(file_integrator))
         if "hide_emitters" in integ_kw:
             d["hide_emitters"] = _as_bool(integ_kw["hide_emitters"])
         return d
@@ -421,7 +435,7 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         raise ValueError(f"{path}: {exc}") from None
     check_framing(path, scene, settings)
     width, height = settings.resolution
-    nested = integrator_dict(integrator, transport)
+    nested = integrator_dict(integrator, transport, settings.integrator)
     stream = stream_id(integrator, params, options, resolution)
     try:
         method = choose_method(chosen, rfilter, nested["type"], sensor_has_medium(path), method)

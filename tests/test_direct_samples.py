@@ -93,3 +93,20 @@ def test_matches_mitsuba(tmp_path, n, m, mi):
     # Both are the same estimator with the same sample count: their standard errors agree.
     z = np.abs(ours - theirs[:3]) / (np.sqrt(2) * se)
     assert np.all(z < 4), (ours, theirs, z)
+
+
+def test_references_render_the_files_sample_counts(tmp_path):
+    """mitsuba-refs renders a direct reference with the counts the tracer's direct uses: the
+    file's when its integrator is direct, else 1 each (mitsuba-data's scenes/hello.xml, with
+    4 emitter and 0 BSDF samples and point lights, was 4.01x too bright against a 1/1
+    reference)."""
+    from mitsuba_refs.render import integrator_dict
+    from pathtracer.scene.types import IntegratorSpec
+    file_direct = IntegratorSpec("direct", {"emitter_samples": 4, "bsdf_samples": 0})
+    assert integrator_dict("direct", {}, file_direct) == {
+        "type": "direct", "emitter_samples": 4, "bsdf_samples": 0}
+    assert integrator_dict("direct", {}, IntegratorSpec("direct", {"shading_samples": 3})) == {
+        "type": "direct", "emitter_samples": 3, "bsdf_samples": 3}
+    for other in (None, IntegratorSpec("path", {"max_depth": 3})):
+        assert integrator_dict("direct", {}, other) == {
+            "type": "direct", "emitter_samples": 1, "bsdf_samples": 1}
