@@ -122,6 +122,31 @@ def is_polarized(path: str) -> bool:
     return any(el.attrs.get("type") in POLARIZED_TYPES for el in walk(tree))
 
 
+#: Plugin kinds whose types :func:`plugins_of` names (the parts of a scene a verdict is about).
+PLUGIN_KINDS = ("bsdf", "emitter", "shape", "texture", "medium", "phase", "volume", "sensor",
+                "film", "rfilter", "sampler", "integrator")
+
+
+def plugins_of(path: str) -> list[str]:
+    """The plugins a scene file uses, its includes spliced in, as ``kind:type`` (sorted)."""
+    try:
+        tree = scene_tree(path)
+    except SceneError:
+        return []
+    return sorted({f"{el.tag}:{el.attrs['type']}" for el in walk(tree)
+                   if el.tag in PLUGIN_KINDS and not el.attrs.get("type", "$").startswith("$")})
+
+
+def verdicts_by_plugin(folder: str, entries: list[Entry]) -> dict:
+    """plugin -> {verdict: files} over the compared files that use it (:func:`plugins_of`)."""
+    table: dict[str, Counter] = {}
+    for entry in entries:
+        if entry.compare:
+            for plugin in plugins_of(os.path.join(folder, entry.file)):
+                table.setdefault(plugin, Counter())[entry.compare["verdict"]] += 1
+    return {plugin: dict(counts) for plugin, counts in sorted(table.items())}
+
+
 def feature_of(error: Exception) -> str:
     """The feature a refusal names: its element and the reason's first words."""
     if not isinstance(error, SceneError):
@@ -326,6 +351,12 @@ def table(entries: list[Entry], folder: str, mitsuba_checked: bool) -> str:
         verdicts = Counter(e.compare["verdict"] for e in compared)
         lines += ["", "compare --resolution 64x48: " + ", ".join(f"{v} {n}" for v, n in verdicts.items())]
         lines += [f"- {e.file}: {e.compare['verdict']} ({e.compare['summary']})" for e in compared]
+        names = sorted(verdicts)
+        lines += ["", "| plugin | files compared | " + " | ".join(names) + " |",
+                  "|---|---|" + "---|" * len(names)]
+        for plugin, counts in verdicts_by_plugin(folder, entries).items():
+            lines.append(f"| `{plugin}` | {sum(counts.values())} | "
+                         + " | ".join(str(counts.get(v, 0)) for v in names) + " |")
     return "\n".join(lines)
 
 
@@ -373,6 +404,7 @@ def main(argv=None) -> int:
             with open(args.json, "w") as f:
                 json.dump({"folder": args.folder, "date": time.strftime("%Y-%m-%d"),
                            "mitsuba_checked": mitsuba_checked, **summary(entries),
+                           "verdicts_by_plugin": verdicts_by_plugin(args.folder, entries),
                            "files": [asdict(e) for e in entries]}, f, indent=1)
     if args.compare:
         done = {e["file"]: e["compare"] for e in earlier.get("files", []) if e.get("compare")}

@@ -110,6 +110,9 @@ def test_resume_keeps_classes_and_verdicts_and_loads_blocked_files_again(folder,
     assert all(c[c.index("--integrator") + 1] == "path" for c in compared)
     assert files["main.xml"]["compare"]["verdict"] == "agrees"
     assert not files["old.xml"]["compare"]
+    by_plugin = json.loads(again.read_text())["verdicts_by_plugin"]   # includes spliced in
+    assert by_plugin["shape:cube"] == {"agrees": 1} and by_plugin["shape:sphere"] == {"agrees": 2}
+    assert by_plugin["rfilter:box"] == {"agrees": 3}
 
 
 def test_not_a_folder(tmp_path, capsys):
