@@ -22,9 +22,10 @@ Mitsuba the files it would refuse count as blocked. ``--compare`` then runs
 ``mitsuba-refs compare FILE --integrator NAME --resolution 64x48`` on each file that loads
 (``NAME``: the tracer's integrator for the file's own ``<integrator>``) and records the
 verdict (exit code 0 agree, 1 disagree, 2 refused); ``--compare-only PATTERN...`` limits the
-compares to the files matching a pattern. ``--resume JSON`` keeps an earlier run's classes
-(its ``blocked`` files are loaded again) and compare verdicts, so that a campaign of hours
-goes on where it stopped (the JSON is rewritten after every compare).
+compares to the files matching a pattern, ``--no-convergence`` skips compare's convergence
+test. ``--resume JSON`` keeps an earlier run's classes (its ``blocked`` files are loaded
+again) and compare verdicts, so that a campaign of hours goes on where it stopped (the JSON
+is rewritten after every compare).
 """
 from __future__ import annotations
 
@@ -282,13 +283,14 @@ def classify(folder: str, timeout: float, use_mitsuba: bool, jobs: int,
 
 def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution: str,
                    done: dict | None = None, progress: bool = False, saved=None,
-                   only: tuple = ()) -> None:
+                   only: tuple = (), convergence: bool = True) -> None:
     """``mitsuba-refs compare FILE --integrator NAME --resolution WxH`` on every file that loads,
     with the tracer's integrator for the file's own: its verdict. ``done`` (file -> compare
     record of an earlier run, ``--resume``) is kept instead of comparing again; ``saved`` is
     called after each compare (the JSON is rewritten, so a long run loses nothing); ``only``
     (shell patterns of paths relative to ``folder``) limits the compares to the files matching
-    one of them."""
+    one of them; ``convergence`` False skips compare's convergence test (``--no-convergence``:
+    mean and variance verdicts only, about a third of the time)."""
     exe = shutil.which("mitsuba-refs")
     command = [exe] if exe else [sys.executable, "-m", "mitsuba_refs.cli"]
     verdicts = {0: "agrees", 1: "disagrees", 2: "refused"}
@@ -302,7 +304,8 @@ def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution
         try:
             out = subprocess.run(command + ["compare", os.path.join(folder, entry.file),
                                             "--integrator", entry.integrator,
-                                            "--resolution", resolution],
+                                            "--resolution", resolution]
+                                 + ([] if convergence else ["--no-convergence"]),
                                  capture_output=True, text=True, timeout=timeout)
             verdict = verdicts.get(out.returncode, f"exit code {out.returncode}")
             lines = (out.stdout + out.stderr).strip().splitlines()
@@ -311,7 +314,7 @@ def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution
         except subprocess.TimeoutExpired:
             verdict, summary = "timed out", f"no verdict within {timeout:g} s"
         entry.compare = {"verdict": verdict, "summary": summary.strip(),
-                         "integrator": entry.integrator,
+                         "integrator": entry.integrator, "convergence": convergence,
                          "seconds": round(time.perf_counter() - start, 1)}
         if progress:
             print(f"[compare {i + 1}/{len(todo)}] {entry.file} ({entry.integrator}): {verdict} "
@@ -379,6 +382,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--compare-only", nargs="+", default=(), metavar="PATTERN",
                    help="compare only the files matching one of these shell patterns (paths "
                         "relative to DIR, e.g. 'tests/scenes/*')")
+    p.add_argument("--no-convergence", action="store_true",
+                   help="compare without the convergence test (mean and variance verdicts)")
     p.add_argument("--resume", metavar="JSON",
                    help="an earlier run's --json: keep its classes (files it found blocked are "
                         "loaded again) and its compare verdicts (compare the rest)")
@@ -409,7 +414,8 @@ def main(argv=None) -> int:
     if args.compare:
         done = {e["file"]: e["compare"] for e in earlier.get("files", []) if e.get("compare")}
         compare_loaded(args.folder, entries, args.compare_timeout, args.resolution, done,
-                       progress=not args.quiet, saved=save, only=tuple(args.compare_only))
+                       progress=not args.quiet, saved=save, only=tuple(args.compare_only),
+                       convergence=not args.no_convergence)
     print(table(entries, args.folder, mitsuba_checked))
     save()
     return 0

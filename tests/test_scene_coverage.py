@@ -100,15 +100,18 @@ def test_resume_keeps_classes_and_verdicts_and_loads_blocked_files_again(folder,
     monkeypatch.setattr(scene_coverage.subprocess, "run", fake_run)
     again = tmp_path / "again.json"
     assert scene_coverage.main([str(folder), "--no-mitsuba", "--json", str(again), "--compare",
-                                "--resume", str(out), "--compare-only", "hair*", "main.xml"]) == 0
+                                "--resume", str(out), "--compare-only", "hair*", "main.xml",
+                                "--no-convergence"]) == 0
     files = {f["file"]: f for f in json.loads(again.read_text())["files"]}
     assert files["hair2.xml"]["cls"] == "loads" and files["hair.xml"]["cls"] == "blocked"
     assert files["old.xml"]["feature"] == "marked by the earlier run"
     assert files["ok.xml"]["compare"]["summary"] == "kept"
     assert [c[c.index("compare") + 1] for c in compared] == [str(folder / "hair2.xml"),
                                                             str(folder / "main.xml")]
-    assert all(c[c.index("--integrator") + 1] == "path" for c in compared)
+    assert all(c[c.index("--integrator") + 1] == "path" and c[-1] == "--no-convergence"
+               for c in compared)
     assert files["main.xml"]["compare"]["verdict"] == "agrees"
+    assert files["main.xml"]["compare"]["convergence"] is False
     assert not files["old.xml"]["compare"]
     by_plugin = json.loads(again.read_text())["verdicts_by_plugin"]   # includes spliced in
     assert by_plugin["shape:cube"] == {"agrees": 1} and by_plugin["shape:sphere"] == {"agrees": 2}
