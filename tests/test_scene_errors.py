@@ -5,6 +5,7 @@ import os
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from pathtracer.scene.errors import SceneError
@@ -507,6 +508,33 @@ def test_aov_integrator_renders_its_first_nested_integrator(tmp_path):
         path.write_text(f'<scene version="3.0.0">\n{integrator}{SENSOR}</scene>')
         with pytest.raises(SceneError, match=f"a.xml:2: .*{re.escape(reason)}"):
             load_scene(str(path))
+
+
+@pytest.mark.mitsuba
+def test_mitsuba_aov_image_is_its_first_nested_integrators(tmp_path, mi):
+    """What the tracer renders for an aov file is what Mitsuba's aov film carries in R, G, B:
+    its first nested integrator's image (the same render, seed for seed), the AOVs after."""
+    body = ('<shape type="sphere"><bsdf type="diffuse"/></shape><emitter type="constant"/>'
+            + SENSOR.replace("</sensor>", '<transform name="to_world"><lookat origin="0, 0, 4" '
+                             'target="0, 0, 0" up="0, 1, 0"/></transform></sensor>'))
+    aov = ('<integrator type="aov"><string name="aovs" value="dd:depth, nn:sh_normal"/>'
+           '<integrator type="path" name="image"><integer name="max_depth" value="3"/>'
+           '</integrator></integrator>')
+    path = '<integrator type="path"><integer name="max_depth" value="3"/></integrator>'
+    images, channels = {}, {}
+    for name, integrator in (("aov", aov), ("path", path)):
+        file = tmp_path / f"{name}.xml"
+        file.write_text(f'<scene version="3.0.0">{integrator}{body}</scene>')
+        scene = mi.load_file(str(file))
+        mi.render(scene, spp=4, seed=3)
+        film = scene.sensors()[0].film().bitmap()
+        images[name] = np.asarray(film)
+        channels[name] = [f.name for f in film.struct_()]
+    assert channels["aov"] == ["R", "G", "B", "image.R", "image.G", "image.B", "image.A",
+                               "dd.T", "nn.X", "nn.Y", "nn.Z"]
+    np.testing.assert_array_equal(images["aov"][..., :3], images["path"][..., :3])
+    assert load_scene(str(tmp_path / "aov.xml")).integrator == \
+        load_scene(str(tmp_path / "path.xml")).integrator
 
 
 def test_a_root_other_than_scene_names_its_element(tmp_path):
