@@ -46,6 +46,7 @@ from .stats import (
     reference_mse_floor,
 )
 from .stats.mean import VARIANCE_BOUND
+from .stats.variance import TooFewTiles
 
 #: spp ladder of the convergence test and its replicas at the top level (defined in config,
 #: so that the command line's parser does not import the statistics).
@@ -134,6 +135,9 @@ class Comparison:
     #: what --detect chose (detect.SppChoice); None when not computed / not asked.
     detectable: object = None
     detect: object = None
+    #: Why the variance test was not run although both sides run one estimator ("" if it ran
+    #: or does not apply).
+    variance_skipped: str = ""
 
     @property
     def agree(self) -> bool:
@@ -153,7 +157,8 @@ class Comparison:
 
     def variance_not_applicable(self) -> str:
         """Why there is no variance verdict, with the ratio where both images have one."""
-        text = "not applicable (Mitsuba has no run of this estimator; mean only)"
+        text = self.variance_skipped or "not applicable (Mitsuba has no run of this estimator; " \
+                                         "mean only)"
         test, ref = self.arrays.get("test_variance"), self.arrays.get("reference_variance")
         if test is not None and ref is not None and np.sum(ref) > 0:
             ratio = float(np.sum(test) / np.sum(ref))
@@ -168,6 +173,8 @@ class Comparison:
             lines.insert(1, f"  rendered:    {self.rendered}")
         if self.variance is not None:
             lines.append(f"  variance:    {self.variance.verdict}")
+        elif self.variance_skipped:
+            lines.append(f"  variance:    {self.variance_skipped}")
         elif self.compares_variance:
             lines.append("  variance:    not compared (both images are noiseless)")
         else:
@@ -320,8 +327,14 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
                      "reference_mean": reference.mean, "reference_variance": reference.var}
     both_noiseless = not np.any(variance) and not np.any(reference.var)
     if same and not both_noiseless:
-        result.variance = compare_variances(variance, spp, reference.var, reference.n, alpha=alpha,
-                                            pixel_correlation=correlation)
+        try:
+            result.variance = compare_variances(variance, spp, reference.var, reference.n,
+                                                alpha=alpha, pixel_correlation=correlation)
+        except TooFewTiles as few:
+            # Nearly noiseless (e.g. max_depth = 1: only emitters seen directly, noisy at a
+            # few edges): the mean test decides alone.
+            result.variance_skipped = f"not tested: {str(few).split(';')[0]} (a nearly " \
+                                      "noiseless image; the mean test decides)"
     if convergence:
         result.convergence, result.convergence_mse = convergence_test(
             scene, integrator, params, reference, alpha, processes,

@@ -424,3 +424,18 @@ def test_detectable_bias_closed_form_on_a_uniform_image():
     assert detectable_bias(mean, var, nb, n - 64, alpha=alpha) > 0.015
     assert spp_for_bias(floor / 2, mean, var, nb, alpha=alpha) is None
     assert math.isinf(detectable_bias(np.zeros_like(mean), var, nb, 256, alpha=alpha))
+
+
+def test_a_nearly_noiseless_image_skips_the_variance_test_with_its_reason():
+    """Fewer than 8 tiles with variance (mitsuba-data's integrator_depth_1: max_depth 1 under
+    a gaussian film, noisy only at 2 tiles' edges): compare_variances raises TooFewTiles,
+    and a comparison says the variance was not tested, and why, instead of failing."""
+    from mitsuba_refs.compare import Comparison
+    from mitsuba_refs.stats.variance import TooFewTiles, compare_variances
+    var = np.zeros((32, 32, 3))
+    var[:8, :8] = var[-8:, -8:] = 0.1
+    with pytest.raises(TooFewTiles, match="got 2"):
+        compare_variances(var, 64, var, 4096, alpha=1e-3)
+    result = Comparison("scene", "path", {}, 64, mean=None,
+                        variance_skipped="not tested: need >= 8 tiles with non-zero variance")
+    assert result.variance_not_applicable().startswith("not tested: need >= 8 tiles")

@@ -89,7 +89,7 @@ def variance_entry(result) -> dict:
         arrays = result.arrays or {}
         noiseless = all(arrays.get(name) is not None and not np.any(arrays[name])
                         for name in ("test_variance", "reference_variance"))
-        if not applicable:
+        if not applicable or result.variance_skipped:
             reason = result.variance_not_applicable()
         elif noiseless:
             reason = "both images are noiseless"

@@ -91,7 +91,7 @@ from ._tiles import as_count, as_image, region_name, sidak, sidak_per_test, tile
 from .correlation import INDEPENDENT, PixelCorrelation
 from .mean import overflow_scale
 
-__all__ = ["VarianceAgreement", "compare_variances", "MAX_VARIANCE_RATIO"]
+__all__ = ["VarianceAgreement", "TooFewTiles", "compare_variances", "MAX_VARIANCE_RATIO"]
 
 #: The variance policy of the grader: a submission's per-sample variance may be at most this
 #: many times the reference's (one-sided test, see the module notes).  Between the correct
@@ -169,6 +169,10 @@ def _fmt_p(p: float) -> str:
     return f"{p:.2f}" if p >= 0.01 else (f"{p:.1e}" if p > 0 else "<1e-300")
 
 
+class TooFewTiles(ValueError):
+    """Fewer than 8 tiles carry variance: a nearly noiseless image has no variance to test."""
+
+
 def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
                       ci_level: float = 0.95,
                       max_ratio: float = MAX_VARIANCE_RATIO,
@@ -199,6 +203,11 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
     Returns
     -------
     VarianceAgreement
+
+    Raises
+    ------
+    TooFewTiles
+        Fewer than 8 tiles have variance on either side (a nearly noiseless image).
     """
     if not (0.0 < alpha < 1.0):
         raise ValueError("alpha must be in (0, 1)")
@@ -227,7 +236,7 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
     ok = Vp > 0
     m = int(ok.sum())
     if m < 8:
-        raise ValueError(f"need >= 8 tiles with non-zero variance, got {m}; use a smaller tile")
+        raise TooFewTiles(f"need >= 8 tiles with non-zero variance, got {m}; use a smaller tile")
 
     # ---- global: one-sample t test of e_T ------------------------------------------
     # With a wide filter, side-by-side tiles are slightly correlated: the spread of the e_T
