@@ -135,8 +135,7 @@ class Comparison:
     #: what --detect chose (detect.SppChoice); None when not computed / not asked.
     detectable: object = None
     detect: object = None
-    #: Why the variance test was not run although both sides run one estimator ("" if it ran
-    #: or does not apply).
+    #: Why the variance test did not run although it applies ("" otherwise).
     variance_skipped: str = ""
 
     @property
@@ -157,8 +156,7 @@ class Comparison:
 
     def variance_not_applicable(self) -> str:
         """Why there is no variance verdict, with the ratio where both images have one."""
-        text = self.variance_skipped or "not applicable (Mitsuba has no run of this estimator; " \
-                                         "mean only)"
+        text = self.variance_skipped or "not applicable (Mitsuba has no run of this estimator; mean only)"
         test, ref = self.arrays.get("test_variance"), self.arrays.get("reference_variance")
         if test is not None and ref is not None and np.sum(ref) > 0:
             ratio = float(np.sum(test) / np.sum(ref))
@@ -330,9 +328,7 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
         try:
             result.variance = compare_variances(variance, spp, reference.var, reference.n,
                                                 alpha=alpha, pixel_correlation=correlation)
-        except TooFewTiles as few:
-            # Nearly noiseless (e.g. max_depth = 1: only emitters seen directly, noisy at a
-            # few edges): the mean test decides alone.
+        except TooFewTiles as few:    # e.g. max_depth 1: noisy at a few edges only
             result.variance_skipped = f"not tested: {str(few).split(';')[0]} (a nearly " \
                                       "noiseless image; the mean test decides)"
     if convergence:
