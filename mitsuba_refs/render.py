@@ -44,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pathtracer.integrators import make_integrator
 from pathtracer.render.driver import transport_options
 from pathtracer.render.moments import combine_power_means
 from pathtracer.render.splats import replica_count
@@ -226,12 +227,12 @@ def direct_samples(file_integrator) -> dict:
     """``emitter_samples`` and ``bsdf_samples`` of a ``direct`` reference: the file's own
     when its ``<integrator>`` is ``direct`` (the tracer's ``direct`` then renders with all
     the file's parameters, :func:`pathtracer.render.driver.integrator_for`), else 1 each,
-    the tracer's defaults (and Mitsuba's)."""
+    the tracer's defaults (and Mitsuba's). The counts come from the tracer's ``direct``
+    itself, so that its rules (``shading_samples`` sets both) live in one place."""
     params = file_integrator.params if file_integrator is not None and \
         file_integrator.name == "direct" else {}
-    both = int(params.get("shading_samples", 1))
-    return {"emitter_samples": int(params.get("emitter_samples", both)),
-            "bsdf_samples": int(params.get("bsdf_samples", both))}
+    options = make_integrator("direct", **params).options()
+    return {key: options[key] for key in ("emitter_samples", "bsdf_samples")}
 
 
 def integrator_dict(integrator, integ_kw, file_integrator=None):
