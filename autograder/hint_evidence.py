@@ -46,7 +46,7 @@ CLASSES = {cls.__name__: cls for cls in (
 
 def _encode(value, arrays: dict):
     """``value`` as JSON-able data; its arrays go into ``arrays`` (name -> array)."""
-    if value is None or isinstance(value, (bool, int, float)) and not isinstance(value, Hint):
+    if value is None or isinstance(value, (bool, int, float)):
         return value
     if isinstance(value, Hint):
         return {"hint": str(value), "causes": list(value.causes)}
