@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import fnmatch
+import functools
 import json
 import os
 import re
@@ -128,14 +129,16 @@ PLUGIN_KINDS = ("bsdf", "emitter", "shape", "texture", "medium", "phase", "volum
                 "film", "rfilter", "sampler", "integrator")
 
 
-def plugins_of(path: str) -> list[str]:
-    """The plugins a scene file uses, its includes spliced in, as ``kind:type`` (sorted)."""
+@functools.lru_cache(maxsize=None)
+def plugins_of(path: str) -> tuple[str, ...]:
+    """The plugins a scene file uses, its includes spliced in, as ``kind:type`` (sorted).
+    Cached: the JSON, rewritten after every compare, asks for every compared file again."""
     try:
         tree = scene_tree(path)
     except SceneError:
-        return []
-    return sorted({f"{el.tag}:{el.attrs['type']}" for el in walk(tree)
-                   if el.tag in PLUGIN_KINDS and not el.attrs.get("type", "$").startswith("$")})
+        return ()
+    return tuple(sorted({f"{el.tag}:{el.attrs['type']}" for el in walk(tree)
+                         if el.tag in PLUGIN_KINDS and not el.attrs.get("type", "$").startswith("$")}))
 
 
 def verdicts_by_plugin(folder: str, entries: list[Entry]) -> dict:
