@@ -323,11 +323,11 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     result.same_estimator = same
     result.arrays = {"test_mean": mean, "test_variance": variance,
                      "reference_mean": reference.mean, "reference_variance": reference.var}
-    both_noiseless = not np.any(variance) and not np.any(reference.var)
-    if same and not both_noiseless:
+    if same and (np.any(variance) or np.any(reference.var)):    # else both noiseless
         try:
             result.variance = compare_variances(variance, spp, reference.var, reference.n,
-                                                alpha=alpha, pixel_correlation=correlation)
+                                                alpha=alpha, pixel_correlation=correlation,
+                                                mean_a=mean, mean_b=reference.mean)
         except TooFewTiles as few:    # e.g. max_depth 1: noisy at a few edges only
             result.variance_skipped = f"not tested: {str(few).split(';')[0]} (a nearly " \
                                       "noiseless image; the mean test decides)"

@@ -34,6 +34,7 @@ from mitsuba_refs.report.html import page
 from mitsuba_refs.report.junit import junit_tree
 from mitsuba_refs.report.results import comparison_record
 from mitsuba_refs.stats import VARIANCE_BOUND, compare_means, detectable_bias
+from mitsuba_refs.stats._tiles import noiseless_pixels
 from mitsuba_refs.stats.correlation import PixelCorrelation
 from mitsuba_refs.stats.detectable import MeanTestPower, detectable_global_bias
 from tests.budget import ALPHA
@@ -109,7 +110,8 @@ def test_a_black_reference_sees_no_global_bias():
 # ---- injection: the printed bound is right --------------------------------------------------
 
 def injected(b, ref, test_var, n, *, same, splats, seeds, seed):
-    """Rejections of ``seeds`` simulated renders ``(1+b)`` times the reference image, drawn at
+    """Rejections of ``seeds`` simulated renders whose noisy pixels are ``(1+b)`` times the
+    reference image's (the module notes of stats.detectable), drawn at
     ``test_var`` (test, ``n`` spp) and the reference's variance (``ref.n``), by the mean test
     as compare() runs it. One normal per pixel for all channels (one path carries all three)."""
     rng = np.random.default_rng(seed)
@@ -117,10 +119,13 @@ def injected(b, ref, test_var, n, *, same, splats, seeds, seed):
     v = np.maximum(np.asarray(ref.var, dtype=np.float64), 0.0)
     sd_ref, sd_test = np.sqrt(v / ref.n), np.sqrt(test_var / n)
     shape = truth.shape[:2] + (1,)
+    # the bias moves the sampled light: the noiseless pixels (the light itself) stay
+    noiseless = noiseless_pixels(v.sum(axis=2), test_var.sum(axis=2), truth, truth)
+    scaled = np.where(noiseless[..., None], 1.0, 1.0 + b)
     rejected = 0
     for _ in range(seeds):
         simulated_ref = truth + sd_ref * rng.standard_normal(shape)
-        test = (1.0 + b) * (truth + sd_test * rng.standard_normal(shape))
+        test = scaled * (truth + sd_test * rng.standard_normal(shape))
         result = compare_means(test, test_var * (1.0 + b) ** 2, n, simulated_ref, v, ref.n,
                                alpha=LEVEL, max_var_ratio=VARIANCE_BOUND if same else None,
                                image_components=not splats)

@@ -439,3 +439,30 @@ def test_a_nearly_noiseless_image_skips_the_variance_test_with_its_reason():
     result = Comparison("scene", "path", {}, 64, mean=None,
                         variance_skipped="not tested: need >= 8 tiles with non-zero variance")
     assert result.variance_not_applicable().startswith("not tested: need >= 8 tiles")
+
+
+def test_float32_rounding_variance_of_noiseless_pixels_does_not_decide_the_verdict():
+    """bsdf_twosided_cbox under a gaussian film: the environment is exactly noiseless in the
+    tracer, while the LLVM reference's float32 moments give it 1.5e-8..4.5e-8 of the squared
+    mean. Without the means such tiles (ratio 0) pull an agreeing image to a disagreement;
+    with them (the noise floor) the verdict is that of the noisy tiles. A tracer that is
+    noiseless where the reference has a real variance (1e-4 of the mean squared) still fails."""
+    ma, va, mb, vb = _pair(64, 64, seed=6)
+    ma, mb = ma.copy(), mb.copy()
+    va, vb = va.copy(), vb.copy()
+    env = np.zeros((64, 64), bool)
+    env[:, :24] = True                                     # 24 of 64 tile columns: environment
+    ma[env] = mb[env] = 2.0
+    va[env] = 0.0
+    quanta = np.random.default_rng(3).integers(1, 4, size=(int(env.sum()), 1))
+    vb[env] = quanta * 2.0 ** -26 * 4.0 / 3.0              # channel sum: 1..3 quanta of mean^2 sum
+    blind = compare_variances(va, 64, vb, 4096, alpha=1e-3)
+    assert not blind.agree and blind.ratio < 0.75
+    floored = compare_variances(va, 64, vb, 4096, alpha=1e-3, mean_a=ma, mean_b=mb)
+    clean = compare_variances(va[:, 24:], 64, vb[:, 24:], 4096, alpha=1e-3)
+    assert floored.agree and floored.n_tiles == clean.n_tiles
+    assert floored.ratio == pytest.approx(clean.ratio, rel=1e-12)
+    vb[env] = 1e-4 * 12.0                                  # a real variance the tracer lacks
+    assert not compare_variances(va, 64, vb, 4096, alpha=1e-3, mean_a=ma, mean_b=mb).agree
+    with pytest.raises(ValueError, match="means of shape"):
+        compare_variances(va, 64, vb, 4096, alpha=1e-3, mean_a=ma[:8], mean_b=mb)

@@ -13,7 +13,13 @@ __all__ = [
     "region_name",
     "as_image",
     "as_count",
+    "noiseless_pixels",
+    "REL_NOISE_FLOOR",
 ]
+
+#: Per-sample variance, relative to the squared mean, below which a pixel counts as noiseless
+#: (float32 moment rounding: :mod:`mitsuba_refs.stats.variance`, "Noiseless pixels").
+REL_NOISE_FLOOR = 1e-6
 
 
 def as_image(x, name: str) -> np.ndarray:
@@ -90,3 +96,26 @@ def region_name(row_center: float, col_center: float, h: float, w: float) -> str
     if vert and horz:
         return f"{vert}-{horz}"
     return vert or horz
+
+
+def _magnitude(mean) -> np.ndarray:
+    """Per-pixel Euclidean norm over channels of ``mean`` (H, W, C), without overflow."""
+    m = np.abs(as_image(mean, "mean"))
+    largest = m.max(axis=2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        relative = np.where(largest[..., None] > 0, m / largest[..., None], 0.0)
+    return largest * np.sqrt((relative * relative).sum(axis=2))
+
+
+def noiseless_pixels(var_a, var_b, mean_a, mean_b, *, rel_floor: float = REL_NOISE_FLOOR,
+                     scale: float = 1.0) -> np.ndarray:
+    """Pixels (H, W) that carry no noise on either side: the channel-summed per-sample
+    variances ``var_a``, ``var_b`` (H, W; divided by ``scale``) are both below ``rel_floor``
+    times the larger channel-summed squared mean of ``mean_a``, ``mean_b`` (H, W, C)."""
+    size_a, size_b = _magnitude(mean_a), _magnitude(mean_b)
+    if not size_a.shape == size_b.shape == np.shape(var_a):
+        raise ValueError(f"means of shape {size_a.shape} / {size_b.shape} for variances of "
+                         f"{np.shape(var_a)}")
+    size = np.maximum(size_a, size_b)
+    deviation = np.sqrt(np.maximum(var_a, var_b)) * math.sqrt(scale)
+    return deviation < math.sqrt(rel_floor) * size
