@@ -34,7 +34,7 @@ from .cache import get_reference, scene_hash
 from .detect import choose_spp, comparison_bound, mean_line, status_text
 from .explain import hints
 from .hooks import RecordingRuns, WithOptions, mean_of
-from .render import resolve_scene, xml_defaults
+from .render import bounce_reference, file_estimator, resolve_scene, xml_defaults
 from .rfilter import pixel_value_counts, reference_correlation
 from .stats import (
     compare_means,
@@ -285,8 +285,9 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     start = time.perf_counter()
     name = integrator if isinstance(integrator, str) else integrator.name
     params = {**default_params(scene), **(params or {})}
-    ref_name = reference_name or reference_integrator(name)
-    same = name in SAME_ESTIMATOR if same_estimator is None else bool(same_estimator)
+    own = None if reference_name else file_estimator(scene, params, name)   # volpathmis
+    ref_name = reference_name or own or reference_integrator(name)
+    same = name in SAME_ESTIMATOR and not own if same_estimator is None else bool(same_estimator)
     splats = name in SPLATTING if splatting is None else bool(splatting)
     reference = get_reference(scene, params, ref_name, log=log, options=reference_options(options),
                               resolution=resolution)
@@ -534,12 +535,6 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
             break
         batch = top
     return parts.verdict(mse, reference, alpha, rare, top)
-
-
-def bounce_reference(reference_name: str) -> str:
-    """The Mitsuba estimator of the per-bounce references: ``path``, but ``volpath`` where the
-    comparison's reference is ``volpath`` (``path`` ignores media)."""
-    return "volpath" if reference_name == "volpath" else "path"
 
 
 def localise_bounce(scene, integrator, name, params, spp, alpha, processes, render, log=None,

@@ -28,6 +28,8 @@ Integrator mapping (ours -> Mitsuba):
 ``volpath``     ``volpath`` (media: free flight, shadow rays through null
                 boundaries, MIS)
 ``volpath_phase`` ``volpath``: same expectation, mean only
+``volpathmis``  ``volpathmis``: the reference of a file that names it (the tracer
+                renders it with ``volpath``, another estimator: mean only)
 ==============  =====================================================
 
 A particle tracer's samples do not belong to pixels, so its per-pixel variance
@@ -71,10 +73,16 @@ INTEGRATOR_MAP = {
     "light": "ptracer",
     "volpath": "volpath",
     "volpath_phase": "volpath",
+    "volpathmis": "volpathmis",
 }
 
 #: integrators whose reference variance is *not* that of our estimator
-MEAN_ONLY = ("recursive", "smallpt", "volpath_phase")
+MEAN_ONLY = ("recursive", "smallpt", "volpath_phase", "volpathmis")
+
+#: Mitsuba integrators a file may name that the tracer renders with another estimator of the
+#: same radiance: their reference is the file's own (mean only). ``ptracer`` is not one:
+#: the tracer's ``light`` is that estimator.
+OTHER_ESTIMATORS = ("volpathmis",)
 
 #: parameters that belong to the integrator, not to the XML defaults
 INTEGRATOR_PARAMS = ("max_depth", "rr_depth", "hide_emitters")
@@ -215,6 +223,23 @@ def reference_settings(path, params, options=None, resolution=None):
     settings = scene_settings(path, resolution=resolution, **scene_kw)
     transport = transport_options(settings.integrator, **(options or {}))
     return scene_kw, transport, settings
+
+
+def file_estimator(scene, params, integrator) -> str | None:
+    """The reference estimator that a file's own ``<integrator>`` asks for, where the tracer
+    renders it with another estimator (:data:`OTHER_ESTIMATORS`): ``volpathmis`` for a file
+    naming it, compared with the tracer's ``volpath``. None otherwise (the file's integrator
+    is not the one compared, or the tracer runs Mitsuba's estimator)."""
+    spec = scene_settings(resolve_scene(scene), **{str(k): str(v) for k, v in
+                                                   (params or {}).items()}).integrator
+    own = spec.mitsuba_type in OTHER_ESTIMATORS and spec.name == integrator
+    return spec.mitsuba_type if own else None
+
+
+def bounce_reference(reference_name: str) -> str:
+    """The Mitsuba estimator of the per-bounce references: ``path``, but ``volpath`` where the
+    comparison's reference is a volumetric one (``path`` ignores media)."""
+    return "volpath" if reference_name in ("volpath", "volpathmis") else "path"
 
 
 def split_params(path, params, options=None):

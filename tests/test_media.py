@@ -290,6 +290,24 @@ def test_volpathmis_is_rendered_by_volpath(tmp_path):
     """A file naming Mitsuba's volpathmis renders with volpath's estimator, its parameters kept."""
     scene = write_scene(tmp_path, VOLPATHMIS_BODY)
     assert scene.integrator.name == "volpath" and scene.integrator.params == {"max_depth": 8}
+    assert scene.integrator.mitsuba_type == "volpathmis"
+
+
+def test_a_volpathmis_file_is_compared_with_mitsubas_volpathmis_mean_only(tmp_path):
+    """Its own integrator (volpath, the tracer's renderer of volpathmis) is judged against the
+    estimator the file names, mean only; asked for by name on a volpath file, or another
+    integrator on the volpathmis file, the reference is the usual one."""
+    from mitsuba_refs.render import MEAN_ONLY, file_estimator, integrator_dict
+    write_scene(tmp_path, VOLPATHMIS_BODY)
+    path = tmp_path / "scene.xml"
+    assert file_estimator(path, {}, "volpath") == "volpathmis"
+    assert file_estimator(path, {}, "volpath_phase") is None
+    assert "volpathmis" in MEAN_ONLY
+    assert integrator_dict("volpathmis", {"max_depth": 8}) == {"type": "volpathmis", "max_depth": 8}
+    write_scene(tmp_path, VOLPATHMIS_BODY.replace('"volpathmis"', '"volpath"'))
+    assert file_estimator(path, {}, "volpath") is None
+    assert write_scene(tmp_path, VOLPATHMIS_BODY.replace('"volpathmis"', '"volpath"')
+                       ).integrator.mitsuba_type == ""
 
 
 @pytest.mark.mitsuba

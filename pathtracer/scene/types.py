@@ -29,10 +29,13 @@ from ..sensors.perspective_sensor import Camera
 
 @dataclass
 class IntegratorSpec:
-    """The ``<integrator>`` element: its plugin name and parameters as parsed."""
+    """The ``<integrator>`` element: the tracer's integrator that renders it, its parameters
+    as parsed, and the Mitsuba type the file names (``volpathmis`` rendered by ``volpath``;
+    empty when the same as ``name`` or absent)."""
 
     name: str = "path"
     params: dict[str, Any] = field(default_factory=dict)
+    mitsuba_type: str = ""
 
 
 @dataclass
