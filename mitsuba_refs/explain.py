@@ -68,6 +68,27 @@ def factor_hint(ratio: float, ci: tuple) -> Hint | None:
     return None
 
 
+def missing_noise(comparison, ratio: float) -> Hint | None:
+    """Evidence only: an image too dark whose per-sample variance (same estimator) is less than
+    half of what a uniformly darker image would have, ``ratio^2`` times the reference's. The
+    noisy part of the light is missing, by chance (heavy-tailed radiance: rare bright paths
+    the render did not draw; ``test_texturedprincipled1_path``: 0.95x, variance 0.31x at 64
+    spp, agreeing at 512) or always (a class of paths dropped)."""
+    arrays = getattr(comparison, "arrays", None) or {}     # recorded evidence may lack them
+    test, reference = arrays.get("test_variance"), arrays.get("reference_variance")
+    if test is None or reference is None or ratio >= 1 or not comparison.compares_variance:
+        return None
+    total = float(reference.sum())
+    share = float(test.sum()) / total if total > 0 else math.inf
+    if share >= ratio ** 2 / 2:
+        return None
+    return Hint(f"the image is {ratio:.3f}x as bright and its per-sample variance only "
+                f"{share:.2f}x the reference's (same estimator): the noisy part of the light is "
+                "missing, either by chance (rare bright paths this render did not draw: rerun "
+                "with 8x the spp; if it then agrees, the radiance is heavy-tailed) or always "
+                "(a class of paths dropped, such as caustics)")
+
+
 def hints(comparison) -> list[Hint]:
     """Likely causes of a comparison's failures, each with its supporting numbers."""
     out = []
@@ -93,6 +114,9 @@ def hints(comparison) -> list[Hint]:
                 out.append(Hint(f"direct light is {100 * at_depth.rel_bias:.0f}% too bright "
                                 f"[{100 * at_depth.rel_bias_ci[0]:.0f}%, "
                                 f"{100 * at_depth.rel_bias_ci[1]:.0f}%]"))
+        missing = missing_noise(comparison, ratio)
+        if missing:
+            out.append(missing)
         if mean.worst_region and mean.worst_region != "whole image":
             out.append(Hint(f"the largest difference (|z| = {abs(mean.worst_z):.1f}) is in the "
                             f"{mean.worst_region} of the image: look at what is there (see the "
