@@ -72,7 +72,7 @@ def missing_noise(comparison, ratio: float) -> Hint | None:
     """Evidence only: an image too dark whose per-sample variance (same estimator) is less than
     half of what a uniformly darker image would have, ``ratio^2`` times the reference's. The
     noisy part of the light is missing, by chance (heavy-tailed radiance: rare bright paths
-    the render did not draw; ``test_texturedprincipled1_path``: 0.95x, variance 0.31x at 64
+    the render did not draw; ``test_texturedprincipled1_path``: 0.948x, variance 0.26x at 64
     spp, agreeing at 512) or always (a class of paths dropped)."""
     arrays = getattr(comparison, "arrays", None) or {}     # recorded evidence may lack them
     test, reference = arrays.get("test_variance"), arrays.get("reference_variance")

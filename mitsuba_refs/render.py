@@ -230,8 +230,7 @@ def file_estimator(scene, params, integrator) -> str | None:
     renders it with another estimator (:data:`OTHER_ESTIMATORS`): ``volpathmis`` for a file
     naming it, compared with the tracer's ``volpath``. None otherwise (the file's integrator
     is not the one compared, or the tracer runs Mitsuba's estimator)."""
-    spec = scene_settings(resolve_scene(scene), **{str(k): str(v) for k, v in
-                                                   (params or {}).items()}).integrator
+    spec = reference_settings(resolve_scene(scene), params)[2].integrator
     own = spec.mitsuba_type in OTHER_ESTIMATORS and spec.name == integrator
     return spec.mitsuba_type if own else None
 

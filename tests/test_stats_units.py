@@ -451,11 +451,11 @@ def test_float32_rounding_variance_of_noiseless_pixels_does_not_decide_the_verdi
     ma, mb = ma.copy(), mb.copy()
     va, vb = va.copy(), vb.copy()
     env = np.zeros((64, 64), bool)
-    env[:, :24] = True                                     # 24 of 64 tile columns: environment
-    ma[env] = mb[env] = 2.0
+    env[:, :24] = True                                     # 3 of 8 tile columns: environment
+    ma[env] = mb[env] = 2.0                                # channel-summed squared mean 12
     va[env] = 0.0
     quanta = np.random.default_rng(3).integers(1, 4, size=(int(env.sum()), 1))
-    vb[env] = quanta * 2.0 ** -26 * 4.0 / 3.0              # channel sum: 1..3 quanta of mean^2 sum
+    vb[env] = quanta * 2.0 ** -26 * 12.0 / 3.0             # channel sum: 1..3 quanta of 2^-26 x 12
     blind = compare_variances(va, 64, vb, 4096, alpha=1e-3)
     assert not blind.agree and blind.ratio < 0.75
     floored = compare_variances(va, 64, vb, 4096, alpha=1e-3, mean_a=ma, mean_b=mb)
