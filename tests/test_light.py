@@ -29,6 +29,9 @@ LIGHTS = {
                  <lookat origin="0, 2, 0" target="0.5, 0, 0.2" up="0, 0, 1"/></transform>
                  <float name="cutoff_angle" value="30"/><float name="beam_width" value="20"/>
                  <rgb name="intensity" value="5, 4, 3"/></emitter>""",
+    "projector": """<emitter type="projector"><transform name="to_world">
+                 <lookat origin="0, 2, 0" target="0.5, 0, 0.2" up="0, 0, 1"/></transform>
+                 <float name="fov" value="50"/><rgb name="irradiance" value="5, 4, 3"/></emitter>""",
 }
 SCENE = """<scene version="3.0.0">
   <sensor type="perspective"><float name="fov" value="40"/>
@@ -133,14 +136,17 @@ def test_emitter_ray_directions_follow_pdf_emitter_ray(tmp_path, kind):
     def pdf(d):
         n = len(d)
         position = EmitterPosition(np.zeros((n, 3)), np.tile(normal, (n, 1)),
-                                   np.zeros(n, dtype=np.int64), np.ones(n), np.zeros(n, bool))
+                                   np.zeros(n, dtype=np.int64), np.ones(n), np.zeros(n, bool),
+                                   np.ones((n, 3)))
         return pdf_emitter_ray(scene, position, d)
 
-    axis = np.array([0.5, -2.0, 0.2]) if kind == "spot" else np.array([0.0, -1.0, 0.0])
-    axis /= np.linalg.norm(axis)           # the spot's axis; the area light's normal
-    # rings of equal width inside the spot's cone, its edge on a ring edge
-    edges = np.concatenate(([-1.0], np.linspace(np.cos(np.radians(30)), 1.0, 13))) \
-        if kind == "spot" else None
+    axis = np.array([0.5, -2.0, 0.2]) if kind in ("spot", "projector") else np.array([0.0, -1.0, 0.0])
+    axis /= np.linalg.norm(axis)           # the spot's and projector's axis; the area light's normal
+    # rings of equal width inside the cone (the spot's edge on a ring edge), or around the
+    # projector's frustum (half-angle 33.4 degrees at its corners)
+    cone = {"spot": 30, "projector": 36}.get(kind)
+    edges = np.concatenate(([-1.0], np.linspace(np.cos(np.radians(cone)), 1.0, 13))) \
+        if cone else None
     result = chi2_sphere(sample, pdf, axis=axis, res=(12, 16), z_edges=edges, seed=5)
     assert result.passed, result.message
 

@@ -13,8 +13,15 @@ import numpy as np
 import pytest
 
 from mitsuba_refs.compare import compare
+from mitsuba_refs.stats import compare_means
 from pathtracer import load_scene, render
-from pathtracer.emitters.scene_emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
+from pathtracer.emitters.scene_emitters import (
+    emitted_radiance,
+    emitter_position_at,
+    pdf_emitter_direction,
+    sample_emitter,
+    sample_emitter_position,
+)
 from pathtracer.scene.errors import SceneError
 from pathtracer.shapes.intersect import Hit, intersect, texture_uv
 from pathtracer.textures import BitmapTexture, Checkerboard
@@ -152,7 +159,7 @@ def test_sampled_pdf_is_the_pdf_of_the_hit(tmp_path):
     np.testing.assert_allclose(pdf, s.pdf[live], rtol=1e-6)
 
 
-def test_rays_that_hit_the_light_see_the_texture_and_light_paths_refuse_it(tmp_path):
+def test_rays_that_hit_the_light_see_the_texture(tmp_path):
     scene = load(tmp_path, CHECKER)
     texture = scene.emitters[0].radiance
     assert isinstance(texture, Checkerboard)
@@ -166,9 +173,32 @@ def test_rays_that_hit_the_light_see_the_texture_and_light_paths_refuse_it(tmp_p
     assert len(np.unique(seen[:, 0])) == 2                 # both colours of the checkerboard
     back = intersect(scene, o + [0, 2, 0], -d)
     np.testing.assert_array_equal(emitted_radiance(scene, back, d), 0.0)   # one-sided
-    for integrator in ("light", "bdpt"):
-        with pytest.raises(ValueError, match="area emitters with a textured radiance"):
-            render(scene, integrator, spp=1, seed=0, processes=1)
+
+
+@pytest.mark.parametrize("radiance", [bitmap("bilinear"), CHECKER])
+def test_light_paths_start_where_the_texture_puts_them(tmp_path, radiance):
+    """The points where light paths start (light tracing, BDPT): each carries the radiance and
+    the area density that a ray hitting it there finds, and their emission over density
+    estimates the light's power per steradian, the radiance integrated over its area (the
+    midpoint rule over its uv square)."""
+    scene = load(tmp_path, radiance)
+    light = scene.emitters[0]
+    count = 200 ** 2
+    position = sample_emitter_position(scene, np.zeros(count), stratified(200))
+    live = position.pdf > 0
+    assert live.all()
+    hit = intersect(scene, position.p - 1e-4 * position.n, position.n)   # from just behind
+    assert hit.valid.all() and np.all(hit.t < 2e-4)
+    at_hit = emitter_position_at(scene, hit)
+    np.testing.assert_allclose(at_hit.pdf, position.pdf, rtol=1e-9)
+    np.testing.assert_allclose(at_hit.emission, position.emission, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(emitted_radiance(scene, hit, position.n), position.emission,
+                               rtol=1e-9, atol=1e-12)
+    to_world = scene_to_world(scene, light.shape)
+    area = 4 * np.linalg.norm(np.cross(to_world[:3, 0], to_world[:3, 1]))
+    power = light.radiance.eval(stratified(400)).mean(axis=0) * area
+    estimate = (position.emission / position.pdf[:, None]).mean(axis=0)
+    np.testing.assert_allclose(estimate, power, rtol=0.01)
 
 
 def test_a_textured_radiance_on_a_sphere_is_refused(tmp_path):
@@ -224,6 +254,50 @@ def test_agrees_with_live_mitsuba(tmp_path, monkeypatch, case):
     path.write_text(text)
     monkeypatch.setenv("MITSUBA_REFS_CACHE", str(tmp_path / "cache"))  # not the committed folder
     comparison = compare(str(path), integrator, spp=16, alpha=ALPHA, convergence=False,
+                         bounces=False, processes=2)
+    assert comparison.mean.agree, comparison.report()
+    assert comparison.variance is not None and comparison.variance.agree, comparison.report()
+
+
+PROJECTOR = """<emitter type="projector"><texture type="bitmap" name="irradiance">
+      <string name="filename" value="light.exr"/><string name="filter_type" value="nearest"/></texture>
+    <float name="scale" value="6"/><float name="fov" value="45"/>
+    <transform name="to_world"><lookat origin="-1.2, 2, 1.8" target="0.2, 0, -0.3" up="0, 1, 0"/></transform>
+  </emitter>"""
+
+
+def light_path_scene(tmp_path, integrator):
+    """The live scene lit by the bitmap area light and a bitmap projector, pinhole camera."""
+    load(tmp_path, CHECKER)   # writes light.exr
+    path = tmp_path / f"light-paths-{integrator}.xml"
+    path.write_text(LIVE.format(integrator=integrator, sensor="perspective", light=BITMAP_LIGHT + PROJECTOR,
+                                sensor_extra='<float name="fov" value="50"/>'))
+    return path
+
+
+@pytest.mark.statistical(assertions=1)
+@pytest.mark.parametrize("integrator", ["light", "bdpt"])
+def test_light_paths_from_textured_lights_agree_with_path_tracing(tmp_path, integrator):
+    """Light tracing and BDPT start paths on the bitmap area light (points drawn by the
+    texture) and on the bitmap projector (directions through image positions drawn by it):
+    their images against our ``path`` at 4x the samples (``path`` itself is compared with
+    Mitsuba on such lights in tests/test_agreement.py and above)."""
+    scene = load_scene(str(light_path_scene(tmp_path, integrator)))
+    reference = render(scene, "path", spp=256, seed=31, processes=2)
+    ours = render(scene, integrator, spp=64, seed=32, processes=2)
+    verdict = compare_means(ours.mean, ours.variance, ours.spp, reference.mean,
+                            reference.variance, reference.spp, alpha=ALPHA)
+    assert verdict.agree, verdict.verdict
+
+
+@pytest.mark.mitsuba
+@pytest.mark.statistical(assertions=2)
+def test_light_tracing_from_textured_lights_agrees_with_live_mitsuba(tmp_path, monkeypatch):
+    """Our ``light`` against Mitsuba 3.9.1's ``ptracer`` on the same scene: mean and variance
+    (across replicas)."""
+    path = light_path_scene(tmp_path, "ptracer")
+    monkeypatch.setenv("MITSUBA_REFS_CACHE", str(tmp_path / "cache"))  # not the committed folder
+    comparison = compare(str(path), "light", spp=64, alpha=ALPHA, convergence=False,
                          bounces=False, processes=2)
     assert comparison.mean.agree, comparison.report()
     assert comparison.variance is not None and comparison.variance.agree, comparison.report()

@@ -53,9 +53,6 @@ class AreaEmitter(Emitter):
     def __post_init__(self):
         self.textured = isinstance(self.radiance, Texture)
         self.by_texture = self.textured and self.radiance.spatially_varying
-        if self.textured:   # light paths would need the radiance at their start: refused
-            self.starts_light_paths = False
-            self.light_path_name = "area emitters with a textured radiance"
 
     def radiance_at(self, surface) -> np.ndarray:
         """Radiance (n, 3) at surface points (:class:`~pathtracer.core.surface_uv.SurfaceUV`)."""
@@ -107,24 +104,43 @@ class AreaEmitter(Emitter):
         return EmitterSample(wo, dist, pdf, weight, np.zeros(len(u), dtype=bool))
 
     def sample_position(self, scene, u):
-        """A uniform point of the shape: meshes by area, disks concentric-mapped, spheres over
-        the whole sphere; area density ``1 / area``."""
-        p, n = _uniform_area_point(scene, self.shape, u)
-        return p, n, np.full(len(u), 1.0 / scene.shape_area[self.shape])
+        """A point where a light path starts, drawn as :meth:`sample_direction` draws it
+        (Mitsuba's ``AreaLight::sample_position``): uniform in area (meshes by area, disks
+        concentric-mapped, spheres over the whole sphere; density ``1 / area``), or from the
+        texture of a spatially varying radiance (:func:`area_texture.sample_position`).
+        The emission is the radiance at the point."""
+        if self.by_texture:
+            return area_texture.sample_position(self, scene, u)
+        if self.textured:
+            p, n, surface = _sample_mesh(scene, self.shape, u, with_surface=True)
+            emission = self.radiance_at(surface)
+        else:
+            p, n = _uniform_area_point(scene, self.shape, u)
+            emission = np.broadcast_to(self.radiance, (len(u), 3)).copy()
+        return p, n, np.full(len(u), 1.0 / scene.shape_area[self.shape]), emission
 
     def sample_ray_direction(self, n, u):
-        """Cosine-weighted on the emitting side: ``pdf_dir = cos / pi``, weight ``Le pi``."""
+        """Cosine-weighted on the emitting side: ``pdf_dir = cos / pi``, weight ``pi`` (times
+        the point's radiance: ``Le cos / pdf_dir = Le pi``)."""
         d = to_world(square_to_cosine_hemisphere(u), n)
         pdf_dir = square_to_cosine_hemisphere_pdf(to_local(d, n))
-        return d, pdf_dir, np.broadcast_to(self.radiance * np.pi, (len(u), 3))
+        return d, pdf_dir, np.full((len(u), 3), np.pi)
 
     def pdf_ray_direction(self, n, d):
         return np.maximum(dot(d, n), 0.0) / np.pi
 
     def eval_towards(self, n, d):
-        """The radiance on the emitting side, 0 behind."""
+        """1 on the emitting side, 0 behind (the point's radiance multiplies it)."""
         front = dot(d, n) > 0
-        return np.where(front[:, None], self.radiance, 0.0)
+        return np.repeat(front[:, None].astype(np.float64), 3, axis=1)
+
+    def position_pdf(self, scene, surface, lights: int = 1) -> np.ndarray:
+        """Area density (n,) with which :meth:`sample_position` picks the surface points of
+        coordinates ``surface`` (a :class:`~pathtracer.core.surface_uv.SurfaceUV` of hits on
+        this light), times the probability ``1 / lights`` of choosing this light."""
+        if self.by_texture:
+            return area_texture.position_pdf(self, scene, surface) / lights
+        return np.full(len(surface), 1.0 / (scene.shape_area[self.shape] * lights))
 
 
 @register("emitter", "area")

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..core.surface_uv import SurfaceUV
 from ..core.vec import dot, norm, unscale
+from ..shapes import intersect
 from .base import EmitterSample
 
 
@@ -120,39 +121,81 @@ def surface_at(scene, shape: int, tri: np.ndarray, b1: np.ndarray, b2: np.ndarra
     return SurfaceUV(uv, np.full(len(tri), shape), tri, b)
 
 
+def _draw_point(emitter, scene, u: np.ndarray):
+    """Surface points drawn by the texture: ``(found, local triangle, b1, b2, point, area
+    density)``, the density ``p_uv / |dp_du x dp_dv|`` (0 where no triangle holds the
+    coordinates)."""
+    mesh = parameterization(emitter, scene)
+    uv, pdf_uv = emitter.radiance.sample_position(u)
+    found, local, b1, b2 = mesh.locate(uv)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pdf_area = np.where(found, pdf_uv / mesh.jacobian[local], 0.0)
+    found &= np.isfinite(pdf_area) & (pdf_area > 0)
+    return found, local, b1, b2, mesh.point(local, b1, b2), np.where(found, pdf_area, 0.0)
+
+
 def sample_by_texture(emitter, scene, ref_p: np.ndarray, u: np.ndarray) -> EmitterSample:
     """Next-event sample of a spatially varying radiance (see the module docstring)."""
-    texture, count = emitter.radiance, len(u)
+    count = len(u)
     mesh = parameterization(emitter, scene)
-    uv, pdf_uv = texture.sample_position(u)
-    found, local, b1, b2 = mesh.locate(uv)
-    point = mesh.point(local, b1, b2)
+    found, local, b1, b2, point, pdf_area = _draw_point(emitter, scene, u)
     normal = mesh.normal[local]
     to_light = point - ref_p
     dist = norm(to_light)
     wo = unscale(to_light, np.where(dist > 0, dist, 1.0))
     cos_light = dot(wo, normal)
-    ok = found & (pdf_uv > 0) & (cos_light < 0) & (dist > 0)
+    ok = found & (cos_light < 0) & (dist > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        pdf = np.where(ok, pdf_uv / mesh.jacobian[local] * dist ** 2 / np.abs(cos_light), 0.0)
+        pdf = np.where(ok, pdf_area * dist ** 2 / np.abs(cos_light), 0.0)
     ok &= np.isfinite(pdf) & (pdf > 0)
     pdf = np.where(ok, pdf, 0.0)
     weight = np.zeros((count, 3))
     rows = np.flatnonzero(ok)
     if len(rows):
         surface = surface_at(scene, emitter.shape, mesh.begin + local[rows], b1[rows], b2[rows])
-        weight[rows] = texture.eval(surface) / pdf[rows, None]
+        weight[rows] = emitter.radiance.eval(surface) / pdf[rows, None]
     return EmitterSample(wo, dist, pdf, weight, np.zeros(count, dtype=bool))
+
+
+def sample_position(emitter, scene, u: np.ndarray):
+    """Where light paths start on a spatially varying radiance (Mitsuba's
+    ``AreaLight::sample_position``): the points next-event estimation draws, with their area
+    density and radiance, as ``(p, n, pdf, emission)``. The normal is the shading normal
+    there, the one hits on the light test their side against. Coordinates no triangle holds give pdf and
+    emission 0."""
+    count = len(u)
+    mesh = parameterization(emitter, scene)
+    found, local, b1, b2, point, pdf_area = _draw_point(emitter, scene, u)
+    tri = mesh.begin + local
+    tables = intersect.triangle_tables(scene)
+    normal = np.take(tables.flat_n, tri, axis=0)      # the shading normal, as at a hit there
+    smooth = tables.smooth[tri] & found
+    if smooth.any():
+        normal[smooth] = intersect.smooth_normals(scene, tri[smooth], b1[smooth], b2[smooth])
+    emission = np.zeros((count, 3))
+    rows = np.flatnonzero(found)
+    if len(rows):
+        emission[rows] = emitter.radiance.eval(surface_at(scene, emitter.shape, tri[rows],
+                                                          b1[rows], b2[rows]))
+    return point, normal, pdf_area, emission
+
+
+def position_pdf(emitter, scene, surface: SurfaceUV) -> np.ndarray:
+    """Area density (n,) with which :func:`sample_position` picks the points of surface
+    coordinates ``surface`` (their uv and triangles): ``p_uv(uv) / |dp_du x dp_dv|``."""
+    mesh = parameterization(emitter, scene)
+    pdf_uv = emitter.radiance.pdf_position(np.asarray(surface))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pdf = pdf_uv / mesh.jacobian[surface.prim - mesh.begin]
+    return np.where(np.isfinite(pdf), pdf, 0.0)
 
 
 def pdf_by_texture(emitter, scene, ref_p, p, d, surface: SurfaceUV) -> np.ndarray:
     """Solid-angle density with which :func:`sample_by_texture` picks the hit points ``p``
     (reached along ``d``; ``surface`` their coordinates and triangles)."""
     mesh = parameterization(emitter, scene)
-    local = surface.prim - mesh.begin
-    cos_light = np.abs(dot(d, mesh.normal[local]))
+    cos_light = np.abs(dot(d, mesh.normal[surface.prim - mesh.begin]))
     dist2 = np.sum((p - ref_p) ** 2, axis=1)
-    pdf_uv = emitter.radiance.pdf_position(np.asarray(surface))
     with np.errstate(divide="ignore", invalid="ignore"):
-        pdf = pdf_uv / mesh.jacobian[local] * dist2 / cos_light
+        pdf = position_pdf(emitter, scene, surface) * dist2 / cos_light
     return np.where(np.isfinite(pdf), pdf, 0.0)

@@ -101,17 +101,20 @@ class Emitter:
 
     # -- light paths -----------------------------------------------------------------
 
-    def sample_position(self, scene, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Points where light paths start, from uniform ``u`` (n, 2): ``(p, n, pdf)``, the points,
-        the unit normals of their emitting side (0 for a point light) and the area density
-        (1 for a Dirac position)."""
+    def sample_position(self, scene, u: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Points where light paths start, from uniform ``u`` (n, 2): ``(p, n, pdf, emission)``,
+        the points, the unit normals of their emitting side (0 for a point light), the area
+        density (1 for a Dirac position; 0 where no point was found) and ``emission`` (n, 3),
+        the spatial factor of what leaves each point: the radiance there for a surface, 1 for
+        a point light (whose intensity depends on the direction only)."""
         raise NotImplementedError(f"{self.kind} emitters do not start light paths")
 
     def sample_ray_direction(self, n: np.ndarray,
                              u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Directions leaving points of :meth:`sample_position` (normals ``n``), from uniform
-        ``u`` (n, 2): ``(d, pdf_dir, weight)``, ``weight`` being the value leaving along ``d``
-        (times the cosine for a surface) over ``pdf_dir``."""
+        ``u`` (n, 2): ``(d, pdf_dir, weight)``, ``weight`` being the directional factor of
+        what leaves along ``d`` (:meth:`eval_towards`, times the cosine for a surface) over
+        ``pdf_dir``; the point's ``emission`` multiplies it."""
         raise NotImplementedError(f"{self.kind} emitters do not start light paths")
 
     def pdf_ray_direction(self, n: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -119,8 +122,9 @@ class Emitter:
         raise NotImplementedError(f"{self.kind} emitters do not start light paths")
 
     def eval_towards(self, n: np.ndarray, d: np.ndarray) -> np.ndarray:
-        """Radiance (a surface) or intensity (a point) (n, 3) leaving points of normals ``n``
-        along ``d``."""
+        """The directional factor (n, 3) of what leaves points of normals ``n`` along ``d``:
+        1 on a surface's emitting side and 0 behind it, a point light's intensity. Times the
+        point's ``emission`` it is the radiance (a surface) or intensity (a point)."""
         raise NotImplementedError(f"{self.kind} emitters do not start light paths")
 
 

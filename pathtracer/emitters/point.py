@@ -57,8 +57,10 @@ def towards_point(position: np.ndarray, intensity: np.ndarray, ref_p: np.ndarray
 
 
 def at_point(position: np.ndarray, count: int):
-    """``count`` light-path starts at a point light: ``(p, n, pdf)`` with a zero normal and pdf 1."""
-    return np.broadcast_to(position, (count, 3)), np.zeros((count, 3)), np.ones(count)
+    """``count`` light-path starts at a point light: ``(p, n, pdf, emission)`` with a zero
+    normal, pdf 1 and emission 1 (the intensity comes with the direction)."""
+    return (np.broadcast_to(position, (count, 3)), np.zeros((count, 3)), np.ones(count),
+            np.ones((count, 3)))
 
 
 @register("emitter", "point")

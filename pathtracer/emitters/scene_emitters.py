@@ -207,8 +207,12 @@ class EmitterPosition:
     p : (n, 3) the points (the light's position for point and spot lights).
     n : (n, 3) unit normal of the emitting side (0 for point and spot lights).
     emitter : (n,) int index into ``scene.emitters``.
-    pdf : (n,) area density, including the 1 / N_emitters choice (1 / N for Dirac lights).
-    delta : (n,) True for point and spot lights (Dirac in position).
+    pdf : (n,) area density, including the 1 / N_emitters choice (1 / N for Dirac lights);
+        0 where a light found no point (a textured light's coordinates off its mesh).
+    delta : (n,) True for point, spot and projector lights (Dirac in position).
+    emission : (n, 3) the spatial factor of what leaves the points: an area light's radiance
+        there (its texture at the point), 1 for the Dirac lights (their intensity depends on
+        the direction only).
     """
 
     p: np.ndarray
@@ -216,6 +220,16 @@ class EmitterPosition:
     emitter: np.ndarray
     pdf: np.ndarray
     delta: np.ndarray
+    emission: np.ndarray
+
+    def inverse_pdf(self) -> np.ndarray:
+        """(n,) ``1 / pdf``, 0 where no point was found."""
+        return np.divide(1.0, self.pdf, out=np.zeros(len(self.pdf)), where=self.pdf > 0)
+
+    def take(self, rows) -> "EmitterPosition":
+        """The rows ``rows`` (indices or mask)."""
+        return EmitterPosition(self.p[rows], self.n[rows], self.emitter[rows], self.pdf[rows],
+                               self.delta[rows], self.emission[rows])
 
 
 @dataclass
@@ -228,7 +242,8 @@ class EmitterRay:
     d : (n, 3) unit directions.
     pdf_dir : (n,) solid-angle density of ``d`` given the position.
     weight : (n, 3) ``Le cos / (pdf * pdf_dir)`` for area lights, ``I falloff /
-        (pdf * pdf_dir)`` for point and spot lights: the power the path carries.
+        (pdf * pdf_dir)`` for point and spot lights: the power the path carries (0 where
+        no point was found).
     """
 
     position: EmitterPosition
@@ -248,18 +263,20 @@ def sample_emitter_position(scene: Scene, u_choice: np.ndarray,
     """A uniformly chosen light and a point on it, uniform in area.
 
     Meshes pick a triangle proportionally to area, disks a concentric-mapped point,
-    spheres a uniform point on the whole sphere (``pdf = 1 / (N area)``); point and
-    spot lights return their position (``pdf = 1 / N``, Dirac).
+    spheres a uniform point on the whole sphere (``pdf = 1 / (N area)``); a spatially
+    varying radiance draws the point from its texture; point, spot and projector lights
+    return their position (``pdf = 1 / N``, Dirac).
     """
     check_light_paths(scene)
     count = len(u_choice)
     which = choose_emitter(scene, u_choice)
     out = EmitterPosition(np.zeros((count, 3)), np.zeros((count, 3)), which,
-                          np.zeros(count), np.zeros(count, dtype=bool))
+                          np.zeros(count), np.zeros(count, dtype=bool), np.zeros((count, 3)))
     for e in np.unique(which):
         rows = np.flatnonzero(which == e)
         light = scene.emitters[e]
-        out.p[rows], out.n[rows], out.pdf[rows] = light.sample_position(scene, u[rows])
+        out.p[rows], out.n[rows], out.pdf[rows], out.emission[rows] = \
+            light.sample_position(scene, u[rows])
         out.delta[rows] = light.delta_position
     out.pdf /= scene.num_emitters
     return out
@@ -282,7 +299,8 @@ def sample_emitter_ray(scene: Scene, u_choice: np.ndarray, u_pos: np.ndarray,
         light = scene.emitters[e]
         d[rows], pdf_dir[rows], weight[rows] = light.sample_ray_direction(position.n[rows], u_dir[rows])
     # Area lights: Le cos / (pdf_pos pdf_dir) = Le pi / pdf_pos; Dirac ones: / (1 / N).
-    weight /= position.pdf[:, None]
+    weight = np.divide(weight * position.emission, position.pdf[:, None],
+                       out=np.zeros((count, 3)), where=position.pdf[:, None] > 0)
     return EmitterRay(position, d, pdf_dir, weight)
 
 
@@ -304,21 +322,23 @@ def emitted_towards(scene: Scene, position: EmitterPosition, d: np.ndarray) -> n
     for e in np.unique(position.emitter):
         rows = np.flatnonzero(position.emitter == e)
         out[rows] = scene.emitters[e].eval_towards(position.n[rows], d[rows])
-    return out
+    return out * position.emission
 
 
 def emitter_position_at(scene: Scene, hit) -> EmitterPosition:
     """The hits on area lights as :class:`EmitterPosition` s, with the area density with which
-    :func:`sample_emitter_position` would have picked them (``1 / (N area)``).
+    :func:`sample_emitter_position` would have picked them (``1 / (N area)``, or the texture's
+    density for a spatially varying radiance) and the radiance there.
 
-    Hits that are not on an emitter get ``emitter`` -1 and pdf 0. The normal is the shading
-    normal, the one :func:`emitted_radiance` tests the emitting side against.
+    Hits that are not on an emitter get ``emitter`` -1, pdf 0 and emission 0. The normal is
+    the shading normal, the one :func:`emitted_radiance` tests the emitting side against.
     """
     which = hit_emitter(scene, hit)
-    pdf = np.zeros(len(which))
-    on_light = which >= 0
-    if on_light.any():
-        area = np.array([scene.shape_area[e.shape] if e.on_surface else np.inf
-                         for e in scene.emitters])
-        pdf[on_light] = 1.0 / (area[which[on_light]] * scene.num_emitters)
-    return EmitterPosition(hit.p, hit.sh_n, which, pdf, np.zeros(len(which), dtype=bool))
+    pdf, emission = np.zeros(len(which)), np.zeros((len(which), 3))
+    for e in np.unique(which[which >= 0]):
+        rows = np.flatnonzero(which == e)
+        light = scene.emitters[e]
+        surface = intersect.texture_uv(scene, hit, rows) if light.textured else np.zeros((len(rows), 2))
+        pdf[rows] = light.position_pdf(scene, surface, scene.num_emitters)
+        emission[rows] = light.radiance_at(surface)
+    return EmitterPosition(hit.p, hit.sh_n, which, pdf, np.zeros(len(which), dtype=bool), emission)

@@ -329,7 +329,7 @@ class BDPTIntegrator(ClassSelection, SplattingIntegrator):
         position = ray.position
         # Le (or I) comes with each connection to y_0: its throughput is 1 / p_A(y_0).
         origin = Vertices.endpoint(count, position.p, position.n, ~position.delta,
-                                   (1.0 / position.pdf)[:, None], position.pdf)
+                                   position.inverse_pdf()[:, None], position.pdf)
         first = leaving(position.p, position.n, ray.d)
         paths = Paths(first, rng, trace(scene, first))
         paths.beta = ray.weight                               # Le cos / (p_A(y_0) p_dir)
@@ -386,7 +386,7 @@ class BDPTIntegrator(ClassSelection, SplattingIntegrator):
         on_light = emitter.pdf > 0
         pdf_dir = np.zeros(len(z))
         if on_light.any():
-            pdf_dir[on_light] = pdf_emitter_ray(scene, _take(emitter, on_light), camera.wi[z][on_light])
+            pdf_dir[on_light] = pdf_emitter_ray(scene, emitter.take(on_light), camera.wi[z][on_light])
         rev = {"camera_end": emitter.pdf,
                "camera_before": to_area(pdf_dir, _distance2(camera.p[z], camera.p[before]),
                                         camera.n[before], camera.wi[z], camera.on_surface[before])}
@@ -433,7 +433,7 @@ class BDPTIntegrator(ClassSelection, SplattingIntegrator):
         value, pdf, pdf_back = np.zeros((len(y), 3)), np.zeros(len(y)), np.zeros(len(y))
         first = ends.s == 1
         if first.any():
-            origin = _take(position, ends.row[first])
+            origin = position.take(ends.row[first])
             cos = np.where(origin.delta, 1.0, np.maximum(dot(origin.n, w_out[first]), 0.0))
             value[first] = light.beta[y[first]] * emitted_towards(scene, origin, w_out[first]) \
                 * cos[:, None]
@@ -547,9 +547,3 @@ def subpath_states(subpaths: Subpaths, first: np.ndarray, step) -> np.ndarray:
         shapes = subpaths.hit.shape[subpaths.slot[depth, rows] - subpaths.first_hit]
         states[depth, rows] = step(states[depth - 1, rows], shapes)
     return states
-
-
-def _take(position: EmitterPosition, rows) -> EmitterPosition:
-    """The rows ``rows`` (indices or mask) of emitter positions."""
-    return EmitterPosition(position.p[rows], position.n[rows], position.emitter[rows],
-                           position.pdf[rows], position.delta[rows])

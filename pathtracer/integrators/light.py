@@ -145,7 +145,8 @@ class LightIntegrator(ClassSelection, SplattingIntegrator):
         position = sample_emitter_position(scene, rng.next_1d(), rng.next_2d())
         camera = connect_to_camera(scene.camera, position.p)
         cos_light = np.maximum(dot(position.n, camera.wi), 0.0)
-        weight = np.where(position.delta, 0.0, cos_light * camera.importance / position.pdf)
+        weight = np.divide(cos_light * camera.importance, position.pdf, out=np.zeros(len(cos_light)),
+                           where=~position.delta & (position.pdf > 0))   # no Dirac lights' own image
         value = emitted_towards(scene, position, camera.wi) * weight[:, None]
         return self.visible(scene, position.p, position.n, camera, value)
 
