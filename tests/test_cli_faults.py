@@ -306,6 +306,51 @@ def test_killing_the_render_leaves_no_worker_and_no_output(tmp_path, how):
     assert files_in(tmp_path) == {"out.exr"} and previous.read_text() == "an older render"
 
 
+class _SlowJob:
+    """A job of worker processes: each group takes a while, so most are still pending."""
+
+    def run(self, group):
+        time.sleep(0.05)
+        return [None] * len(group)
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_an_interrupted_render_cancels_no_future_from_its_own_thread(monkeypatch):
+    """The cause of a SIGTERM traceback seen once in CI: pool.map cancels its pending futures
+    from the interrupted thread, and the pool's manager thread, seeing its workers killed,
+    then fails those cancelled futures (InvalidStateError). Interrupt at the first block,
+    deterministically: no future is cancelled from this thread, and every future ends
+    settled by the pool (done, cancelled or failed as broken) with no worker left."""
+    import concurrent.futures
+    import threading
+
+    from pathtracer.render.scheduling import run_units
+    cancelling_threads, futures, workers = [], [], set()
+    cancel, submit = concurrent.futures.Future.cancel, concurrent.futures.ProcessPoolExecutor.submit
+
+    def recording_cancel(future):
+        cancelling_threads.append(threading.current_thread())
+        return cancel(future)
+
+    def recording_submit(pool, *args, **kwargs):
+        futures.append(submit(pool, *args, **kwargs))
+        workers.update(pool._processes or {})     # the forked workers' process ids
+        return futures[-1]
+
+    def interrupt(stats, unit, block):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(concurrent.futures.Future, "cancel", recording_cancel)
+    monkeypatch.setattr(concurrent.futures.ProcessPoolExecutor, "submit", recording_submit)
+    groups = [((i, i + 1, 0, 1),) for i in range(40)]
+    with pytest.raises(KeyboardInterrupt):
+        run_units(_SlowJob(), groups, None, processes=2, progress=False, merge=interrupt)
+    assert len(futures) == 40 and all(future.done() for future in futures)
+    assert threading.main_thread() not in cancelling_threads
+    assert len(workers) == 2
+    assert not [pid for pid in workers if Path(f"/proc/{pid}").exists() and "Z" not in _state(pid)]
+
+
 WATCHDOG_CHILD = """
 import os, sys, time
 from pathtracer.render.workers import start_parent_watchdog

@@ -9,6 +9,7 @@ render (:mod:`.workers`).
 
 from __future__ import annotations
 
+import collections
 import multiprocessing
 import os
 import sys
@@ -60,9 +61,14 @@ def _run_units(job, groups, stats, processes: int, bar, merge) -> None:
         with ProcessPoolExecutor(processes, mp_context=ctx, initializer=_install_job,
                                  initargs=(job, os.getpid())) as pool:
             try:
+                # Futures of our own, not pool.map: its iterator cancels the pending futures
+                # from this thread when interrupted, racing the pool's manager thread, which
+                # then fails them as broken once stop_pool kills the workers (Python 3.11's
+                # InvalidStateError traceback). Only the manager thread settles them here.
                 with workers.signals_blocked():   # the workers are forked by the first submit
-                    results = pool.map(_run_current, groups, chunksize=1)
-                for group, blocks in zip(groups, results):
+                    pending = collections.deque(pool.submit(_run_current, group) for group in groups)
+                for group in groups:
+                    blocks = pending.popleft().result()   # popped: a merged block is freed
                     for unit, block in zip(group, blocks):
                         merge(stats, unit, block)
                     bar.update(len(group))
