@@ -34,7 +34,7 @@ from .cache import get_reference, scene_hash
 from .detect import choose_spp, comparison_bound, mean_line, status_text
 from .explain import hints
 from .hooks import RecordingRuns, WithOptions, mean_of
-from .render import bounce_reference, file_estimator, resolve_scene, xml_defaults
+from .render import bounce_reference, resolve_scene, xml_defaults
 from .rfilter import pixel_value_counts, reference_correlation
 from .stats import (
     compare_means,
@@ -64,7 +64,9 @@ SPLATTING = tuple(name for name, cls in INTEGRATORS.items() if cls.splats)
 #: The tile test pools both sides' variances; against a much smoother estimator, a
 #: tile where rare light hits happened not to occur (estimated variance 0) would look
 #: significant. smallpt samples BSDFs only, recursive uses shadow rays without MIS.
-CLOSEST_ESTIMATOR = {"smallpt": "path_bsdf", "recursive": "path_nee", "volpath_phase": "volpath"}
+#: ``volpathmis`` has Mitsuba's estimator of that name, weighted per path, not per flight.
+CLOSEST_ESTIMATOR = {"smallpt": "path_bsdf", "recursive": "path_nee", "volpath_phase": "volpath",
+                     "volpathmis": "volpathmis"}
 #: Each replica image is split into INTERLEAVE x INTERLEAVE interleaved sub-lattices
 #: (pixel (i, j) -> lattice (i mod s, j mod s)). Pixels are independent, so the
 #: sub-lattices are independent pseudo-replicas that all see the whole image: the
@@ -80,7 +82,7 @@ TEST_SEED = 1000
 CONVERGENCE_SEED = 2000
 #: Mitsuba estimator of the per-bounce references: ``path``, but ``volpath`` for the
 #: volumetric integrators (``path`` ignores media).
-BOUNCE_REFERENCE = {"volpath": "volpath", "volpath_phase": "volpath"}
+BOUNCE_REFERENCE = {"volpath": "volpath", "volpath_phase": "volpath", "volpathmis": "volpath"}
 #: Depths for per-bounce localisation; ``direct`` stops at 2 by construction.
 BOUNCE_DEPTHS = config.PER_BOUNCE_DEPTHS
 
@@ -285,9 +287,8 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     start = time.perf_counter()
     name = integrator if isinstance(integrator, str) else integrator.name
     params = {**default_params(scene), **(params or {})}
-    own = None if reference_name else file_estimator(scene, params, name)   # volpathmis
-    ref_name = reference_name or own or reference_integrator(name)
-    same = name in SAME_ESTIMATOR and not own if same_estimator is None else bool(same_estimator)
+    ref_name = reference_name or reference_integrator(name)
+    same = name in SAME_ESTIMATOR if same_estimator is None else bool(same_estimator)
     splats = name in SPLATTING if splatting is None else bool(splatting)
     reference = get_reference(scene, params, ref_name, log=log, options=reference_options(options),
                               resolution=resolution)

@@ -28,8 +28,8 @@ Integrator mapping (ours -> Mitsuba):
 ``volpath``     ``volpath`` (media: free flight, shadow rays through null
                 boundaries, MIS)
 ``volpath_phase`` ``volpath``: same expectation, mean only
-``volpathmis``  ``volpathmis``: the reference of a file that names it (the tracer
-                renders it with ``volpath``, another estimator: mean only)
+``volpathmis``  ``volpathmis``: spectral MIS weighted per path there, per flight
+                here (:mod:`pathtracer.integrators.volpathmis`): mean only
 ==============  =====================================================
 
 A particle tracer's samples do not belong to pixels, so its per-pixel variance
@@ -78,11 +78,6 @@ INTEGRATOR_MAP = {
 
 #: integrators whose reference variance is *not* that of our estimator
 MEAN_ONLY = ("recursive", "smallpt", "volpath_phase", "volpathmis")
-
-#: Mitsuba integrators a file may name that the tracer renders with another estimator of the
-#: same radiance: their reference is the file's own (mean only). ``ptracer`` is not one:
-#: the tracer's ``light`` is that estimator.
-OTHER_ESTIMATORS = ("volpathmis",)
 
 #: parameters that belong to the integrator, not to the XML defaults
 INTEGRATOR_PARAMS = ("max_depth", "rr_depth", "hide_emitters")
@@ -223,16 +218,6 @@ def reference_settings(path, params, options=None, resolution=None):
     settings = scene_settings(path, resolution=resolution, **scene_kw)
     transport = transport_options(settings.integrator, **(options or {}))
     return scene_kw, transport, settings
-
-
-def file_estimator(scene, params, integrator) -> str | None:
-    """The reference estimator that a file's own ``<integrator>`` asks for, where the tracer
-    renders it with another estimator (:data:`OTHER_ESTIMATORS`): ``volpathmis`` for a file
-    naming it, compared with the tracer's ``volpath``. None otherwise (the file's integrator
-    is not the one compared, or the tracer runs Mitsuba's estimator)."""
-    spec = reference_settings(resolve_scene(scene), params)[2].integrator
-    own = spec.mitsuba_type in OTHER_ESTIMATORS and spec.name == integrator
-    return spec.mitsuba_type if own else None
 
 
 def bounce_reference(reference_name: str) -> str:

@@ -26,7 +26,7 @@ from tests.chi2 import chi2_sphere
 from tests.scenes import medium_ball_on_floor
 from tests.test_analytic import assert_matches, footprint_average
 
-VOLUMETRIC = ("volpath", "volpath_phase")
+VOLUMETRIC = ("volpath", "volpath_phase", "volpathmis")
 
 SENSOR = """
     <sensor type="perspective">
@@ -286,36 +286,54 @@ VOLPATHMIS_BODY = """
     </medium>""" + medium_ball_on_floor("tinted", 0.9, 3, "1, 2, 1.5", 10, 0.3)
 
 
-def test_volpathmis_is_rendered_by_volpath(tmp_path):
-    """A file naming Mitsuba's volpathmis renders with volpath's estimator, its parameters kept."""
+def test_a_volpathmis_file_renders_with_volpathmis_compared_by_its_mean(tmp_path):
+    """A file naming Mitsuba's volpathmis renders with the tracer's volpathmis, its parameters
+    kept, and is compared with Mitsuba's volpathmis, mean only (weighted per path there, per
+    flight here)."""
+    from mitsuba_refs.compare import SAME_ESTIMATOR, reference_integrator
+    from mitsuba_refs.render import MEAN_ONLY, integrator_dict
     scene = write_scene(tmp_path, VOLPATHMIS_BODY)
-    assert scene.integrator.name == "volpath" and scene.integrator.params == {"max_depth": 8}
-    assert scene.integrator.mitsuba_type == "volpathmis"
-
-
-def test_a_volpathmis_file_is_compared_with_mitsubas_volpathmis_mean_only(tmp_path):
-    """Its own integrator (volpath, the tracer's renderer of volpathmis) is judged against the
-    estimator the file names, mean only; asked for by name on a volpath file, or another
-    integrator on the volpathmis file, the reference is the usual one."""
-    from mitsuba_refs.render import MEAN_ONLY, file_estimator, integrator_dict
-    write_scene(tmp_path, VOLPATHMIS_BODY)
-    path = tmp_path / "scene.xml"
-    assert file_estimator(path, {}, "volpath") == "volpathmis"
-    assert file_estimator(path, {}, "volpath_phase") is None
-    assert "volpathmis" in MEAN_ONLY
+    assert scene.integrator.name == "volpathmis" and scene.integrator.params == {"max_depth": 8}
+    assert reference_integrator("volpathmis") == "volpathmis"
+    assert "volpathmis" in MEAN_ONLY and "volpathmis" not in SAME_ESTIMATOR
     assert integrator_dict("volpathmis", {"max_depth": 8}) == {"type": "volpathmis", "max_depth": 8}
-    write_scene(tmp_path, VOLPATHMIS_BODY.replace('"volpathmis"', '"volpath"'))
-    assert file_estimator(path, {}, "volpath") is None
-    assert write_scene(tmp_path, VOLPATHMIS_BODY.replace('"volpathmis"', '"volpath"')
-                       ).integrator.mitsuba_type == ""
+
+
+def test_spectral_mis_weights_are_bounded_and_unbiased():
+    """Free flights from the channels' mixture (sigma_t = 10, 2, 10): every weight is at most 3
+    in every channel, where volpath's green weight grows as 0.1 exp(8 t); both estimate the
+    same expectations, from stratified numbers: the transmittance to the surface, and the
+    in-scattered integral of sigma_s T over [0, s]."""
+    from types import SimpleNamespace
+
+    from pathtracer.media.homogeneous import sample_free_flight
+    medium = SimpleNamespace(is_homogeneous=True, sigma_t=np.array([10.0, 2.0, 10.0]),
+                             sigma_s=np.array([8.0, 1.8, 5.0]))
+    scene = SimpleNamespace(media=[medium])
+    count, s = 300_000, 0.8
+    u = (np.arange(count) + 0.5) / count
+    expected_tr = np.exp(-medium.sigma_t * s)
+    expected_scatter = medium.sigma_s / medium.sigma_t * (1 - expected_tr)
+    channel = np.minimum((np.random.default_rng(2).random(count) * 3).astype(int), 2)
+    for mis in (False, True):
+        flight = sample_free_flight(scene, np.zeros(count, np.int64), channel, np.full(count, s), u, mis)
+        scatter = np.where(flight.scattered[:, None], flight.weight, 0.0).mean(axis=0)
+        through = np.where(flight.scattered[:, None], 0.0, flight.weight).mean(axis=0)
+        np.testing.assert_allclose(through, expected_tr, rtol=0.02)
+        np.testing.assert_allclose(scatter, expected_scatter, rtol=0.02)
+        largest = flight.weight.max(axis=0)
+        if mis:
+            assert np.all(largest <= 3.0 + 1e-12)
+        else:
+            assert largest[1] > 50    # green, drawn with red or blue: 0.1 exp(8 t) and 1 / T_c
 
 
 @pytest.mark.mitsuba
 @pytest.mark.statistical(assertions=1)
-def test_volpath_has_the_mean_of_live_mitsuba_volpathmis(tmp_path):
-    """Mitsuba's volpathmis (spectral MIS over the channels' free-flight pdfs) and volpath are
-    two estimators of one radiance: the tracer's volpath, which renders volpathmis files, has
-    the mean of Mitsuba's volpathmis in a medium whose sigma_t differs by channel (5x).
+def test_volpathmis_has_the_mean_of_live_mitsuba_volpathmis(tmp_path):
+    """Mitsuba's volpathmis (spectral MIS over the channels' free-flight pdfs, per path) and
+    ours (per flight) are two estimators of one radiance: ours has the mean of Mitsuba's in a
+    medium whose sigma_t differs by channel (5x).
     Mitsuba's side: 16 renders of 64 spp with their own seeds (the renders' spread gives the
     variance; the box filter keeps pixels independent)."""
     import mitsuba as mi

@@ -23,6 +23,7 @@ from .recursive import RecursiveIntegrator
 from .smallpt import SmallptIntegrator
 from .volpath import VolPathIntegrator
 from .volpath_phase import VolPathPhaseIntegrator
+from .volpathmis import VolPathMISIntegrator
 
 
 def registered_integrators() -> dict:
@@ -67,4 +68,4 @@ __all__ = ["Integrator", "CameraIntegrator", "SplattingIntegrator", "INTEGRATORS
            "registered_integrators",
            "BDPTIntegrator", "DirectIntegrator", "LightIntegrator", "PathIntegrator", "PathBSDFIntegrator",
            "PathNEEIntegrator", "RecursiveIntegrator", "SmallptIntegrator", "VolPathIntegrator",
-           "VolPathPhaseIntegrator"]
+           "VolPathPhaseIntegrator", "VolPathMISIntegrator"]

@@ -53,16 +53,12 @@ from .volpath_phase import VolPathPhaseIntegrator
 from .volume import SLOT_DIRECTION, SLOT_LIGHT, SLOT_SHADOW, move
 
 
-# volpathmis: Mitsuba's spectral-MIS variant (free-flight pdfs averaged over the channels, the
-# balance heuristic over them) estimates the same radiance; a file naming it renders here,
-# unbiased and with its own, different noise (its variance is not Mitsuba's volpathmis').
-@register("integrator", "volpath", "volpathmis")
+@register("integrator", "volpath")
 class VolPathIntegrator(VolPathPhaseIntegrator):
     """Volumetric path tracing with NEE through media and MIS, Mitsuba's ``volpath``.
 
     ``volpath_phase``'s segment loop (``radiance``) and surface step (``bounce``), with
-    shadow rays added where a path scatters. Also renders files that name Mitsuba's
-    ``volpathmis`` (same expectation, another estimator).
+    shadow rays added where a path scatters.
     """
 
     name = "volpath"
@@ -131,7 +127,7 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
         stream = paths.rng.subset(rows[live])
         Tr = shadow_transmittance(scene, x[live], n[live], light.wo[live], light.dist[live],
                                   start[live], paths.channel[rows[live]], stream,
-                                  self.counter(paths, segment, SLOT_SHADOW))
+                                  self.counter(paths, segment, SLOT_SHADOW), self.spectral_mis)
         w = np.where(light.delta[live], 1.0, power_heuristic(light.pdf[live], pdf_f[live]))
         add_radiance(contribution[live] * Tr * w[:, None], rows[live])
 

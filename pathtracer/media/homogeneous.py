@@ -31,6 +31,26 @@ reduces to :math:`\sigma_s` for a homogeneous medium, whose majorant
 are the albedo and 1. The estimator is unbiased in every channel; a strongly
 coloured :math:`\sigma_t` gives large weights in the channels not chosen.
 
+Spectral MIS (``volpathmis``)
+-----------------------------
+With ``spectral_mis`` each free flight picks its channel afresh, uniformly (from the same
+uniform number: :math:`c = \lfloor 3u \rfloor`, then :math:`u' = 3u - c` for the distance),
+so that distances follow the mixture of the three exponentials, and the throughput is divided
+by the mixture's density, the one-sample balance heuristic over the channels:
+
+.. math::
+
+    \text{scatter:}\quad \beta \mathrel{*}= \frac{T(t)\,\sigma_s}
+        {\tfrac13 \sum_k T_k(t)\,\sigma_{t,k}},
+    \qquad
+    \text{surface:}\quad \beta \mathrel{*}= \frac{T(s)}{\tfrac13 \sum_k T_k(s)}.
+
+Every factor is at most 3 in every channel (the term of that channel alone bounds the
+denominator), where ``volpath``'s :math:`T / T_c` grows as :math:`e^{(\sigma_{t,c} -
+\sigma_t) t}` in a channel of smaller extinction. Mitsuba's ``volpathmis`` averages the
+channels' densities of the whole path instead (one channel per path); both are unbiased and
+bounded, with different noise. Shadow rays follow the same rule.
+
 Shadow rays (transmittance along a segment) use the same sampling: a distance
 is drawn in the current medium; if it falls before the end of the segment the
 estimate is 0 (a homogeneous medium has no null collisions), else it is
@@ -143,12 +163,15 @@ class FreeFlight:
 
 
 def sample_free_flight(scene: Scene, medium: np.ndarray, channel: np.ndarray,
-                       t_surface: np.ndarray, u: np.ndarray) -> FreeFlight:
+                       t_surface: np.ndarray, u: np.ndarray,
+                       spectral_mis: bool = False) -> FreeFlight:
     """Sample where rays in ``medium`` (n,) next interact, before ``t_surface`` (n,) or there.
 
     Rows in vacuum (medium -1) reach the surface with weight 1, and so do, here, rows in a
     heterogeneous medium: :func:`~pathtracer.media.heterogeneous.track_heterogeneous`
-    samples those.
+    samples those. With ``spectral_mis`` the flight's channel is drawn from ``u`` itself and
+    its density is the channels' average (see "Spectral MIS" in the module docstring);
+    ``channel`` is then not used.
     """
     n = len(medium)
     out = FreeFlight(np.zeros(n, dtype=bool), t_surface.copy(), np.ones((n, 3)))
@@ -159,14 +182,22 @@ def sample_free_flight(scene: Scene, medium: np.ndarray, channel: np.ndarray,
         return out
     sigma_t_table, sigma_s_table = _coefficients(scene)
     sigma_t, sigma_s = sigma_t_table[medium[rows]], sigma_s_table[medium[rows]]
+    u_flight = u[rows]
+    if spectral_mis:     # one uniform number: the channel, then the distance (3u - c)
+        channel = np.full(len(medium), -1)
+        channel[rows] = choose_channel(u_flight)
+        u_flight = np.minimum(3.0 * u_flight - channel[rows], 1.0 - 2.0 ** -53)
     sigma_c = np.take_along_axis(sigma_t, channel[rows, None], axis=1)[:, 0]
     with np.errstate(divide="ignore", invalid="ignore"):
-        t_sampled = -np.log1p(-u[rows]) / sigma_c
+        t_sampled = -np.log1p(-u_flight) / sigma_c
         scattered = t_sampled < t_surface[rows]
         t = np.where(scattered, t_sampled, t_surface[rows])
         tr = np.exp(-sigma_t * t[:, None])
-        tr_c = np.exp(-sigma_c * t)
-        pdf = np.where(scattered, tr_c * sigma_c, tr_c)
+        if spectral_mis:     # the mixture's density: the channels' densities averaged
+            pdf = np.where(scattered, np.mean(tr * sigma_t, axis=1), np.mean(tr, axis=1))
+        else:
+            tr_c = np.exp(-sigma_c * t)
+            pdf = np.where(scattered, tr_c * sigma_c, tr_c)
         weight = np.where((pdf > 0)[:, None], tr / pdf[:, None], 0.0)
     weight = np.where(scattered[:, None], weight * sigma_s, weight)
     out.scattered[rows], out.t[rows], out.weight[rows] = scattered, t, weight
@@ -256,7 +287,7 @@ def next_medium(scene: Scene, hit, medium: np.ndarray, d: np.ndarray) -> np.ndar
 
 def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
                          dist: np.ndarray, medium: np.ndarray, channel: np.ndarray,
-                         rng, counter: int) -> np.ndarray:
+                         rng, counter: int, spectral_mis: bool = False) -> np.ndarray:
     """Estimate the transmittance (n, 3) from ``p`` to the light ``dist`` away along ``wo``.
 
     Parameters
@@ -268,6 +299,9 @@ def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndar
     medium : (n,) medium the shadow ray starts in; channel : (n,) the path's channel.
     rng : RandomStream of these rows; the k-th step draws at counter ``counter + k``
         (so that the numbers a path sees do not depend on the rest of its batch).
+    spectral_mis : bool
+        Draw each flight from the channels' mixture (:func:`sample_free_flight`): the
+        estimate past a segment is then ``T / mean_c T_c``.
 
     Each step goes to the next surface or, in a heterogeneous medium, to the next
     tentative collision. Delta tracking in each homogeneous medium segment (0 on a
@@ -293,7 +327,7 @@ def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndar
         t_surface = np.where(hit.valid, hit.t, remaining)
         rng.counter = counter + k
         u = rng.next_1d()
-        flight = sample_free_flight(scene, medium, channel, t_surface, u)
+        flight = sample_free_flight(scene, medium, channel, t_surface, u, spectral_mis)
         if tracking:
             track_heterogeneous(scene, flight, medium, o, d, t_surface, u, None)
         collided = flight.null if flight.null is not None else np.zeros(len(rows), dtype=bool)

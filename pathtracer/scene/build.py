@@ -145,8 +145,7 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
                                f"{prop.value}", prop.line)
         params[name] = prop.value
     # A Mitsuba name (ptracer) is rendered by the integrator registered under it (light).
-    return IntegratorSpec(integrator.name, params,
-                          "" if plugin.type == integrator.name else plugin.type)
+    return IntegratorSpec(integrator.name, params)
 
 
 #: The AOV types of Mitsuba's ``aov`` integrator (``name:type`` in its ``aovs`` string).

@@ -29,13 +29,11 @@ from ..sensors.perspective_sensor import Camera
 
 @dataclass
 class IntegratorSpec:
-    """The ``<integrator>`` element: the tracer's integrator that renders it, its parameters
-    as parsed, and the Mitsuba type the file names (``volpathmis`` rendered by ``volpath``;
-    empty when the same as ``name`` or absent)."""
+    """The ``<integrator>`` element: the tracer's integrator that renders it (``light`` for
+    a file naming ``ptracer``) and its parameters as parsed."""
 
     name: str = "path"
     params: dict[str, Any] = field(default_factory=dict)
-    mitsuba_type: str = ""
 
 
 @dataclass
