@@ -306,7 +306,7 @@ def test_spectral_mis_weights_are_bounded_and_unbiased():
     in-scattered integral of sigma_s T over [0, s]."""
     from types import SimpleNamespace
 
-    from pathtracer.media.homogeneous import sample_free_flight
+    from pathtracer.media.homogeneous import MIXTURE, sample_free_flight
     medium = SimpleNamespace(is_homogeneous=True, sigma_t=np.array([10.0, 2.0, 10.0]),
                              sigma_s=np.array([8.0, 1.8, 5.0]))
     scene = SimpleNamespace(media=[medium])
@@ -314,9 +314,10 @@ def test_spectral_mis_weights_are_bounded_and_unbiased():
     u = (np.arange(count) + 0.5) / count
     expected_tr = np.exp(-medium.sigma_t * s)
     expected_scatter = medium.sigma_s / medium.sigma_t * (1 - expected_tr)
-    channel = np.minimum((np.random.default_rng(2).random(count) * 3).astype(int), 2)
+    one_channel = np.minimum((np.random.default_rng(2).random(count) * 3).astype(int), 2)
     for mis in (False, True):
-        flight = sample_free_flight(scene, np.zeros(count, np.int64), channel, np.full(count, s), u, mis)
+        channel = np.full(count, MIXTURE) if mis else one_channel
+        flight = sample_free_flight(scene, np.zeros(count, np.int64), channel, np.full(count, s), u)
         scatter = np.where(flight.scattered[:, None], flight.weight, 0.0).mean(axis=0)
         through = np.where(flight.scattered[:, None], 0.0, flight.weight).mean(axis=0)
         np.testing.assert_allclose(through, expected_tr, rtol=0.02)

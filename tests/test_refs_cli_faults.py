@@ -509,8 +509,11 @@ def test_ctrl_c_gives_one_line_and_exit_130(tmp_path):
 ])
 def test_without_mitsuba_a_missing_reference_is_one_line(args, needle, scenes, tmp_path, capfd,
                                                          monkeypatch):
-    """A reference nobody committed, on a machine without Mitsuba (simulated here)."""
+    """A reference nobody committed, on a machine without Mitsuba (simulated here, also where
+    it is installed: ``build`` asks through the name the CLI imported)."""
+    from mitsuba_refs import cli
     monkeypatch.setattr(cache, "mitsuba_available", lambda: False)
+    monkeypatch.setattr(cli, "mitsuba_available", lambda: False)
     monkeypatch.setenv("MITSUBA_REFS_CACHE", str(tmp_path / "cache"))
     monkeypatch.chdir(scenes)
     out = ["--out", str(tmp_path / "out")] if args[0] == "compare" else []

@@ -127,7 +127,7 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
         stream = paths.rng.subset(rows[live])
         Tr = shadow_transmittance(scene, x[live], n[live], light.wo[live], light.dist[live],
                                   start[live], paths.channel[rows[live]], stream,
-                                  self.counter(paths, segment, SLOT_SHADOW), self.spectral_mis)
+                                  self.counter(paths, segment, SLOT_SHADOW))
         w = np.where(light.delta[live], 1.0, power_heuristic(light.pdf[live], pdf_f[live]))
         add_radiance(contribution[live] * Tr * w[:, None], rows[live])
 

@@ -60,8 +60,6 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
     """Volumetric path tracing with phase and BSDF sampling only."""
 
     name = "volpath_phase"
-    #: Free flights drawn from the channels' mixture (``volpathmis``), not the path's channel.
-    spectral_mis = False
 
     def radiance(self, scene, rays, rng):
         """The segment loop (``volpath`` shares it) -> radiance (n, 3).
@@ -84,8 +82,7 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
             hit = self.trace_segment(scene, paths)
             # ---- Free flight: scatter in the medium before the surface, or reach it ----
             u_flight = self.uniform(paths, segment, SLOT_FLIGHT)
-            flight = sample_free_flight(scene, paths.medium, paths.channel, hit.t, u_flight,
-                                        self.spectral_mis)
+            flight = sample_free_flight(scene, paths.medium, paths.channel, hit.t, u_flight)
             if tracking:     # heterogeneous media: a tentative collision, null or real
                 track_heterogeneous(scene, flight, paths.medium, paths.o, paths.d, hit.t,
                                     u_flight, self.uniform(paths, segment, SLOT_NULL))

@@ -7,8 +7,9 @@ the weight of a channel of smaller extinction grows with the distance flown: wit
 :math:`\sigma_t = (10, 2, 10)` a flight drawn with red carries a green factor
 :math:`0.1\,e^{8t}`, whose square the exponential density does not tame, so renders miss the
 rare long flights and come out dark in green. Here each flight draws its channel afresh and
-divides by the mixture's density (the balance heuristic over the channels,
-:mod:`pathtracer.media.homogeneous`, "Spectral MIS")::
+divides by the mixture's density (the balance heuristic over the channels; a path of channel
+:data:`~pathtracer.media.homogeneous.MIXTURE`, :mod:`pathtracer.media.homogeneous`,
+"Spectral MIS")::
 
     c ~ uniform {R, G, B};  t ~ sigma_t,c exp(-sigma_t,c t)
     t < s:  scatter at x:  beta *= T(t) sigma_s / mean_k(T_k(t) sigma_t,k)
@@ -19,7 +20,7 @@ every factor at most 3 in every channel; shadow rays estimate the transmittance 
 next-event estimation at every scattering event, the power heuristic against phase and BSDF
 sampling, roulette. For a grey medium the mixture is the one exponential and the estimate is
 ``volpath``'s. Heterogeneous media are tracked against their grey majorant, which no channel
-choice affects (:mod:`pathtracer.media.heterogeneous`).
+enters (:mod:`pathtracer.media.heterogeneous`).
 
 Mitsuba's ``volpathmis`` averages the densities of the whole path over one channel per path;
 the expectation is the same and both weights are bounded, but the noise differs, so a
@@ -27,13 +28,21 @@ comparison with it is of the mean only.
 """
 from __future__ import annotations
 
+import numpy as np
+
+from ..media.homogeneous import MIXTURE
 from ..scene.registry import register
 from .volpath import VolPathIntegrator
 
 
 @register("integrator", "volpathmis")
 class VolPathMISIntegrator(VolPathIntegrator):
-    """``volpath`` with each free flight drawn from, and weighted by, the channels' mixture."""
+    """``volpath`` whose paths draw each free flight from, and weight it by, the channels'
+    mixture."""
 
     name = "volpathmis"
-    spectral_mis = True
+
+    def flight_channel(self, u):
+        """:data:`~pathtracer.media.homogeneous.MIXTURE` for every path (``u``, drawn all the
+        same, keeps the random streams in line with ``volpath``'s)."""
+        return np.full(len(u), MIXTURE)

@@ -42,7 +42,8 @@ MAX_SEGMENTS = 4000
 
 
 class VolumeIntegrator(CameraIntegrator):
-    """Base of ``volpath`` and ``volpath_phase``: path setup, random numbers, roulette."""
+    """Base of ``volpath``, ``volpathmis`` and ``volpath_phase``: path setup, random numbers,
+    roulette."""
 
     #: Renders participating media (render() refuses media scenes for the others).
     handles_media = True
@@ -52,7 +53,8 @@ class VolumeIntegrator(CameraIntegrator):
         channel each, with the per-path arrays of a path in media.
 
         ``o``, ``d``, ``tmax``: the ray of the path's next segment; ``medium``: the medium it
-        is in (-1: vacuum); ``channel``: the RGB channel of its free-flight sampling;
+        is in (-1: vacuum); ``channel``: the RGB channel of its free-flight sampling
+        (:meth:`flight_channel`);
         ``last_p`` / ``last_pdf``: position and sampling pdf of the last real scattering event
         (null crossings do not update them), for MIS; ``specular``: the last event was a
         Dirac bounce (or a scatter in a medium without emitter sampling), so emission found
@@ -60,11 +62,16 @@ class VolumeIntegrator(CameraIntegrator):
         """
         n = len(rays)
         first_counter = rng.counter + 1
-        channel = choose_channel(rng.next_1d())
+        channel = self.flight_channel(rng.next_1d())
         paths = Paths.segments(rays, rng, first_counter)
         paths.declare(o=rays.o, d=rays.d, tmax=rays.tmax, medium=camera_medium(scene, n),
                       channel=channel, last_p=rays.o, last_pdf=1.0, specular=True)
         return paths
+
+    def flight_channel(self, u: np.ndarray) -> np.ndarray:
+        """The channel (n,) whose extinction drives each path's free flights, from uniform
+        ``u``: one of R, G, B, uniformly (``volpath``)."""
+        return choose_channel(u)
 
     @staticmethod
     def counter(paths: Paths, segment: int, slot: int) -> int:

@@ -5,6 +5,7 @@ The names below are the student contract (submissions import them from ``pathtra
 """
 from .heterogeneous import HeterogeneousMedium
 from .homogeneous import (
+                          MIXTURE,
                           FreeFlight,
                           HomogeneousMedium,
                           camera_medium,
@@ -21,7 +22,7 @@ from .homogeneous import (
 )
 from .phase import HenyeyGreensteinPhase, IsotropicPhase
 
-__all__ = ["FreeFlight", "HenyeyGreensteinPhase", "HeterogeneousMedium", "HomogeneousMedium",
+__all__ = ["MIXTURE", "FreeFlight", "HenyeyGreensteinPhase", "HeterogeneousMedium", "HomogeneousMedium",
            "IsotropicPhase",
            "camera_medium", "choose_channel", "has_media", "next_medium", "null_event",
            "null_transmission", "phase_eval", "phase_sample", "sample_free_flight",

@@ -33,10 +33,10 @@ coloured :math:`\sigma_t` gives large weights in the channels not chosen.
 
 Spectral MIS (``volpathmis``)
 -----------------------------
-With ``spectral_mis`` each free flight picks its channel afresh, uniformly (from the same
-uniform number: :math:`c = \lfloor 3u \rfloor`, then :math:`u' = 3u - c` for the distance),
-so that distances follow the mixture of the three exponentials, and the throughput is divided
-by the mixture's density, the one-sample balance heuristic over the channels:
+A path whose channel is :data:`MIXTURE` draws each free flight's channel afresh, uniformly,
+from the flight's own uniform number (:math:`c = \lfloor 3u \rfloor`, then :math:`u' = 3u - c`
+for the distance), so that distances follow the mixture of the three exponentials, and
+divides by the mixture's density, the one-sample balance heuristic over the channels:
 
 .. math::
 
@@ -45,11 +45,11 @@ by the mixture's density, the one-sample balance heuristic over the channels:
     \qquad
     \text{surface:}\quad \beta \mathrel{*}= \frac{T(s)}{\tfrac13 \sum_k T_k(s)}.
 
-Every factor is at most 3 in every channel (the term of that channel alone bounds the
-denominator), where ``volpath``'s :math:`T / T_c` grows as :math:`e^{(\sigma_{t,c} -
-\sigma_t) t}` in a channel of smaller extinction. Mitsuba's ``volpathmis`` averages the
-channels' densities of the whole path instead (one channel per path); both are unbiased and
-bounded, with different noise. Shadow rays follow the same rule.
+Every factor is at most 3 in every channel (that channel's own term bounds the denominator),
+where ``volpath``'s :math:`T / T_c` grows as :math:`e^{(\sigma_{t,c} - \sigma_{t,k}) t}` in a
+channel :math:`k` of smaller extinction. Mitsuba's ``volpathmis`` averages the densities of
+the whole path instead (one channel per path); both are unbiased and bounded, with
+different noise. Shadow rays of such paths follow the same rule.
 
 Shadow rays (transmittance along a segment) use the same sampling: a distance
 is drawn in the current medium; if it falls before the end of the segment the
@@ -138,6 +138,11 @@ def _coefficients(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
             np.array([np.zeros(3) if m is None else m.sigma_s for m in homogeneous]).reshape(-1, 3))
 
 
+#: The channel of a path that draws every free flight from the mixture of the three channels'
+#: exponentials (spectral MIS, ``volpathmis``; see the module docstring).
+MIXTURE = -1
+
+
 def choose_channel(u: np.ndarray) -> np.ndarray:
     """The RGB channel (n,) whose extinction drives free-flight sampling, uniformly."""
     return np.minimum((u * 3).astype(np.int64), 2)
@@ -163,15 +168,13 @@ class FreeFlight:
 
 
 def sample_free_flight(scene: Scene, medium: np.ndarray, channel: np.ndarray,
-                       t_surface: np.ndarray, u: np.ndarray,
-                       spectral_mis: bool = False) -> FreeFlight:
+                       t_surface: np.ndarray, u: np.ndarray) -> FreeFlight:
     """Sample where rays in ``medium`` (n,) next interact, before ``t_surface`` (n,) or there.
 
     Rows in vacuum (medium -1) reach the surface with weight 1, and so do, here, rows in a
     heterogeneous medium: :func:`~pathtracer.media.heterogeneous.track_heterogeneous`
-    samples those. With ``spectral_mis`` the flight's channel is drawn from ``u`` itself and
-    its density is the channels' average (see "Spectral MIS" in the module docstring);
-    ``channel`` is then not used.
+    samples those. Rows whose ``channel`` is :data:`MIXTURE` draw their channel from ``u``
+    and are weighted by the channels' average density ("Spectral MIS" above).
     """
     n = len(medium)
     out = FreeFlight(np.zeros(n, dtype=bool), t_surface.copy(), np.ones((n, 3)))
@@ -182,22 +185,23 @@ def sample_free_flight(scene: Scene, medium: np.ndarray, channel: np.ndarray,
         return out
     sigma_t_table, sigma_s_table = _coefficients(scene)
     sigma_t, sigma_s = sigma_t_table[medium[rows]], sigma_s_table[medium[rows]]
-    u_flight = u[rows]
-    if spectral_mis:     # one uniform number: the channel, then the distance (3u - c)
-        channel = np.full(len(medium), -1)
-        channel[rows] = choose_channel(u_flight)
-        u_flight = np.minimum(3.0 * u_flight - channel[rows], 1.0 - 2.0 ** -53)
-    sigma_c = np.take_along_axis(sigma_t, channel[rows, None], axis=1)[:, 0]
+    channel, u_flight = channel[rows], u[rows]
+    mixture = np.flatnonzero(channel == MIXTURE)
+    if len(mixture):     # one uniform number: the channel, then the distance (3u - c)
+        channel[mixture] = choose_channel(u_flight[mixture])
+        u_flight[mixture] = np.minimum(3.0 * u_flight[mixture] - channel[mixture], 1.0 - 2.0 ** -53)
+    sigma_c = np.take_along_axis(sigma_t, channel[:, None], axis=1)[:, 0]
     with np.errstate(divide="ignore", invalid="ignore"):
         t_sampled = -np.log1p(-u_flight) / sigma_c
         scattered = t_sampled < t_surface[rows]
         t = np.where(scattered, t_sampled, t_surface[rows])
         tr = np.exp(-sigma_t * t[:, None])
-        if spectral_mis:     # the mixture's density: the channels' densities averaged
-            pdf = np.where(scattered, np.mean(tr * sigma_t, axis=1), np.mean(tr, axis=1))
-        else:
-            tr_c = np.exp(-sigma_c * t)
-            pdf = np.where(scattered, tr_c * sigma_c, tr_c)
+        tr_c = np.exp(-sigma_c * t)
+        pdf = np.where(scattered, tr_c * sigma_c, tr_c)
+        if len(mixture):     # the mixture's density: the channels' densities averaged
+            tr_m = tr[mixture]
+            pdf[mixture] = np.where(scattered[mixture], np.mean(tr_m * sigma_t[mixture], axis=1),
+                                    np.mean(tr_m, axis=1))
         weight = np.where((pdf > 0)[:, None], tr / pdf[:, None], 0.0)
     weight = np.where(scattered[:, None], weight * sigma_s, weight)
     out.scattered[rows], out.t[rows], out.weight[rows] = scattered, t, weight
@@ -287,7 +291,7 @@ def next_medium(scene: Scene, hit, medium: np.ndarray, d: np.ndarray) -> np.ndar
 
 def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
                          dist: np.ndarray, medium: np.ndarray, channel: np.ndarray,
-                         rng, counter: int, spectral_mis: bool = False) -> np.ndarray:
+                         rng, counter: int) -> np.ndarray:
     """Estimate the transmittance (n, 3) from ``p`` to the light ``dist`` away along ``wo``.
 
     Parameters
@@ -296,12 +300,10 @@ def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndar
         inside a medium, which are not offset).
     wo, dist : (n, 3) unit directions and (n,) distances (inf: the environment
         or a directional light).
-    medium : (n,) medium the shadow ray starts in; channel : (n,) the path's channel.
+    medium : (n,) medium the shadow ray starts in; channel : (n,) the path's channel
+        (:data:`MIXTURE`: flights from the channels' mixture, ``T / mean_k T_k`` past a segment).
     rng : RandomStream of these rows; the k-th step draws at counter ``counter + k``
         (so that the numbers a path sees do not depend on the rest of its batch).
-    spectral_mis : bool
-        Draw each flight from the channels' mixture (:func:`sample_free_flight`): the
-        estimate past a segment is then ``T / mean_c T_c``.
 
     Each step goes to the next surface or, in a heterogeneous medium, to the next
     tentative collision. Delta tracking in each homogeneous medium segment (0 on a
@@ -327,7 +329,7 @@ def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndar
         t_surface = np.where(hit.valid, hit.t, remaining)
         rng.counter = counter + k
         u = rng.next_1d()
-        flight = sample_free_flight(scene, medium, channel, t_surface, u, spectral_mis)
+        flight = sample_free_flight(scene, medium, channel, t_surface, u)
         if tracking:
             track_heterogeneous(scene, flight, medium, o, d, t_surface, u, None)
         collided = flight.null if flight.null is not None else np.zeros(len(rows), dtype=bool)
