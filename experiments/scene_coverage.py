@@ -24,8 +24,8 @@ Mitsuba the files it would refuse count as blocked. ``--compare`` then runs
 verdict (exit code 0 agree, 1 disagree, 2 refused); ``--compare-only PATTERN...`` limits the
 compares to the files matching a pattern, ``--no-convergence`` skips compare's convergence
 test. ``--resume JSON`` keeps an earlier run's classes (its ``blocked`` files are loaded
-again) and compare verdicts, so that a campaign of hours goes on where it stopped (the JSON
-is rewritten after every compare).
+again; a file compared now gets its integrator chosen again) and compare verdicts, so that
+a campaign of hours goes on where it stopped (the JSON is rewritten after every compare).
 """
 from __future__ import annotations
 
@@ -304,6 +304,10 @@ def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution
             and (not only or any(fnmatch.fnmatch(e.file, pattern) for pattern in only))]
     for i, entry in enumerate(todo):
         start = time.perf_counter()
+        # The integrator is chosen again: a resumed entry's may predate the tracer's own
+        # estimator for the file's (volpathmis files were rendered by volpath until 12-03).
+        loads, _, _, integrator = tracer_verdict(os.path.join(folder, entry.file), timeout)
+        entry.integrator = integrator if loads else entry.integrator
         try:
             out = subprocess.run(command + ["compare", os.path.join(folder, entry.file),
                                             "--integrator", entry.integrator,

@@ -80,7 +80,8 @@ def test_resume_keeps_classes_and_verdicts_and_loads_blocked_files_again(folder,
                                                                         monkeypatch):
     """A campaign goes on where it stopped: classes and compare verdicts of the earlier JSON
     are kept (a file it classed is not loaded again), its blocked files are re-tried, and
-    --compare-only picks the files compared; each compare uses the file's integrator."""
+    --compare-only picks the files compared; each compare uses the file's integrator, chosen
+    again (the earlier run's may predate an estimator the tracer has learnt since)."""
     out = tmp_path / "coverage.json"
     assert scene_coverage.main([str(folder), "--no-mitsuba", "--json", str(out)]) == 0
     earlier = json.loads(out.read_text())
@@ -89,6 +90,8 @@ def test_resume_keeps_classes_and_verdicts_and_loads_blocked_files_again(folder,
             entry["compare"] = {"verdict": "agrees", "summary": "kept", "seconds": 1.0}
         if entry["file"] == "old.xml":
             entry["feature"] = "marked by the earlier run"    # kept: not loaded again
+        if entry["file"] == "main.xml":
+            entry["integrator"] = "volpath"     # stale: the integrator is chosen again
     out.write_text(json.dumps(earlier))
     (folder / "hair2.xml").write_text(scene('<shape type="cube"/>'))   # its blocker removed
     compared = []
