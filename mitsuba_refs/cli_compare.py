@@ -84,8 +84,9 @@ def add_compare(subparsers):
     p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
                    help="scene parameter for both renderers (repeatable); built-in scenes default "
                         "to the committed references' film size")
-    p.add_argument("--integrator", default="path", choices=sorted(INTEGRATORS),
-                   help="pathtracer integrator to test (default: path)")
+    p.add_argument("--integrator", default=None, choices=sorted(INTEGRATORS),
+                   help="pathtracer integrator to test (default: the one that renders the file's "
+                        "own <integrator>, e.g. volpath, light for ptracer; path if it names none)")
     p.add_argument("--spp", type=int, default=None,
                    help="samples per pixel of the mean/variance render, whatever the file's sampler "
                         f"says (default {config.TEST_MAX_SPP}; the reference has {config.REF_SPP})")
@@ -120,13 +121,14 @@ def run_compare(args) -> int:
     params = parse_defines(args.defines)
     check_options(args)
     detect = detect_of(args)
-    preload(args.scene, params, args.resolution)
+    loaded = preload(args.scene, params, args.resolution)
+    integrator = args.integrator or loaded.integrator.name     # the file's own by default
     # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught.
     from .compare import compare
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
     options = {k: v for k, v in (("max_depth", args.max_depth), ("rr_depth", args.rr_depth))
                if v is not None} or None
-    result = compare(args.scene, args.integrator, params, spp=args.spp or config.TEST_MAX_SPP,
+    result = compare(args.scene, integrator, params, spp=args.spp or config.TEST_MAX_SPP,
                      alpha=args.alpha, detect=detect,
                      convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
                      processes=args.processes, ladder=args.ladder, replicas=args.replicas,
@@ -154,11 +156,12 @@ def check_options(args) -> None:
     check_output_options(args)
 
 
-def preload(scene, params, resolution=None) -> None:
+def preload(scene, params, resolution=None):
     """Load ``scene`` in our tracer first (its messages name file and line), then check
     what Mitsuba will be given, all before any reference is looked up or rendered.
 
-    The loaded scene is kept by :func:`mitsuba_refs.compare.loaded_scene` for the renders.
+    The loaded scene is kept by :func:`mitsuba_refs.compare.loaded_scene` for the renders,
+    and returned (its ``integrator`` is the file's own, the default of ``--integrator``).
     Warnings of the loader (e.g. a parameter the file does not use) are printed as one
     line each once the input is known to be good.
     """
@@ -173,3 +176,4 @@ def preload(scene, params, resolution=None) -> None:
     check_image_size(loaded.camera.width, loaded.camera.height, scene)
     for warning in caught:
         print(f"mitsuba-refs compare: warning: {warning.message}", file=sys.stderr)
+    return loaded

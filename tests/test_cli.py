@@ -104,3 +104,28 @@ def test_scene_names_resolve_to_the_same_file_on_both_sides(tmp_path, monkeypatc
                                    - set(GRADING_SCENES))
     assert set(GRADING_SCENES) <= set(names) and set(GRADING_SCENES.values()) <= set(BUILTIN_SCENES)
     assert {"cornell-box", "furnace", "smallpt"} <= set(BUILTIN_SCENES) and "materials" not in BUILTIN_SCENES
+
+
+class _Chosen(Exception):
+    """Raised by the stand-in of ``compare``: which integrator the command line chose."""
+
+
+@pytest.mark.parametrize("scene,expected", [("media-box", "volpath"), ("glass-lamp", "light"),
+                                            ("cornell-box", "path")])
+def test_compare_tests_the_files_own_integrator_by_default(scene, expected, tmp_path,
+                                                           monkeypatch):
+    """Without --integrator, ``mitsuba-refs compare`` tests the integrator that renders the
+    file's own <integrator> (volpath, ptracer -> light, path), as a user who wrote it expects;
+    an explicit --integrator still wins. Nothing is rendered: ``compare`` is replaced."""
+    import mitsuba_refs.compare
+    from mitsuba_refs.cli import main as refs_main
+
+    def chosen(scene, integrator, *args, **kwargs):
+        raise _Chosen(integrator)
+
+    monkeypatch.setattr(mitsuba_refs.compare, "compare", chosen)
+    out = ["--out", str(tmp_path / "out")]
+    with pytest.raises(_Chosen, match=f"^{expected}$"):
+        refs_main(["compare", scene, *out])
+    with pytest.raises(_Chosen, match="^path_nee$"):
+        refs_main(["compare", scene, "--integrator", "path_nee", *out])
