@@ -240,7 +240,7 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
             ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS,
             max_growth=CONVERGENCE_MAX_GROWTH, options=None, resolution=None,
             log=None, reference_name=None, same_estimator=None,
-            splatting=None, detect=None) -> Comparison:
+            splatting=None, detect=None, heavy_tail_guard=None) -> Comparison:
     """Compare one integrator with Mitsuba on ``scene``.
 
     Parameters
@@ -283,6 +283,9 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     detect : mitsuba_refs.detect.Detect, optional
         Choose ``spp`` from a pilot render so that the mean test sees ``detect.target``
         (:func:`mitsuba_refs.detect.choose_spp`); replaces ``spp``.
+    heavy_tail_guard : bool, optional
+        The mean test's ``same_estimator`` guard (:mod:`mitsuba_refs.stats.mean`): on for the
+        same estimator unless False (the grader's: its power was measured without it).
     """
     start = time.perf_counter()
     name = integrator if isinstance(integrator, str) else integrator.name
@@ -290,6 +293,7 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     ref_name = reference_name or reference_integrator(name)
     same = name in SAME_ESTIMATOR if same_estimator is None else bool(same_estimator)
     splats = name in SPLATTING if splatting is None else bool(splatting)
+    guard = same if heavy_tail_guard is None else bool(heavy_tail_guard)
     reference = get_reference(scene, params, ref_name, log=log, options=reference_options(options),
                               resolution=resolution)
     if options:
@@ -313,9 +317,9 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
                         compare_means(mean, variance, spp, reference.mean, reference.var,
                                       reference.n, alpha=alpha, max_var_ratio=bound,
                                       pixel_correlation=correlation,
-                                      image_components=not splats))
+                                      image_components=not splats, same_estimator=guard))
     result.detectable = comparison_bound(reference, variance, spp, alpha=alpha, same=same,
-                                         splats=splats)
+                                         splats=splats, guard=guard)
     result.detect = choice
     result.notes += [choice.reason] if choice is not None else []
     result.rendered = rendered_settings(reference.metadata)

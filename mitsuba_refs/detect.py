@@ -94,22 +94,26 @@ class Detect:
 
 
 # ---- the bound of one comparison ----------------------------------------------------------
-def mean_test_power(reference, test_var, *, alpha: float, same: bool, splats: bool):
+def mean_test_power(reference, test_var, *, alpha: float, same: bool, splats: bool,
+                    guard: bool | None = None):
     """The :class:`~mitsuba_refs.stats.detectable.MeanTestPower` of the mean test that
     :func:`mitsuba_refs.compare.compare` runs against ``reference`` (bounded variance for the
     same estimator, tiles only for a splatting render, the film's pixel correlation); None
-    when ``test_var`` is missing or not finite (an overflowed render: nothing to bound)."""
+    when ``test_var`` is missing or not finite (an overflowed render: nothing to bound).
+    ``guard``: the mean test's heavy-tail guard (default: ``same``)."""
     if test_var is None or not np.all(np.isfinite(test_var)):
         return None
     return MeanTestPower(reference.mean, reference.var, test_var, alpha=alpha,
                          max_var_ratio=VARIANCE_BOUND if same else None,
                          image_components=not splats,
-                         pixel_correlation=reference_correlation(reference))
+                         pixel_correlation=reference_correlation(reference),
+                         same_estimator=same if guard is None else guard)
 
 
-def comparison_bound(reference, test_var, spp, *, alpha, same, splats) -> DetectableBias | None:
+def comparison_bound(reference, test_var, spp, *, alpha, same, splats,
+                     guard=None) -> DetectableBias | None:
     """The detectable global bias of a comparison's mean test (None: see :func:`mean_test_power`)."""
-    model = mean_test_power(reference, test_var, alpha=alpha, same=same, splats=splats)
+    model = mean_test_power(reference, test_var, alpha=alpha, same=same, splats=splats, guard=guard)
     return None if model is None else model.bound(float(spp), float(reference.n), power=POWER)
 
 

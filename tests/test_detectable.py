@@ -62,6 +62,53 @@ def test_image_component_is_the_closed_form_of_stats_power():
     assert bound.component == "image" and bound.floor < bound.bias
 
 
+def test_the_heavy_tail_guard_moves_only_the_darker_bound_by_its_closed_form():
+    """With the same estimator the image component divides by the larger of the test's own
+    variance and the pooled one: brighter images keep their own (larger) variance, so that
+    bound is unchanged; darker ones are divided by the pooled variance, and the bound solves
+    Phi_c((z s - |b| mu) / sigma) + Phi_c((z s + |b| mu) / sigma) = 0.95 with sigma^2 =
+    ((1+b)^2 V / n_a + V / n_b) / P and s^2 = (max((1+b)^2, pooled) V / n_a + V / n_b) / P."""
+    from scipy import optimize
+    mean, var, n_a, n_b = np.full((32, 32, 3), 0.5), np.full((32, 32, 3), 4.0), 64, 4096
+    plain = detectable_global_bias(mean, var, n_b, var, n_a, alpha=LEVEL)
+    guarded = detectable_global_bias(mean, var, n_b, var, n_a, alpha=LEVEL, same_estimator=True)
+    assert guarded.brighter == pytest.approx(plain.brighter, rel=1e-9)
+    crit = MeanTestPower(mean, var, var, alpha=LEVEL).image_crit
+    pixels = 32 * 32
+
+    def power(size):
+        scaled = (1.0 - size) ** 2
+        pooled = (n_a * scaled + n_b) / (n_a + n_b)
+        sigma = math.sqrt((scaled * 4.0 / n_a + 4.0 / n_b) / pixels)
+        s = math.sqrt((max(scaled, pooled) * 4.0 / n_a + 4.0 / n_b) / pixels)
+        return (sps.norm.sf((crit * s - size * 0.5) / sigma)
+                + sps.norm.sf((crit * s + size * 0.5) / sigma)) - 0.95
+
+    expected = optimize.brentq(power, 1e-6, 0.5, xtol=1e-12)
+    assert guarded.darker == pytest.approx(expected, rel=1e-4)
+    assert guarded.darker > plain.darker * 1.01
+
+
+def test_the_heavy_tail_guard_keeps_a_short_render_that_missed_its_rare_samples():
+    """The case of mitsuba-data's test_texturedprincipled1_path at 64 spp, in numbers: an
+    image 5 % darker whose own per-sample variance is 0.3x the reference's (the rare bright
+    samples missed) fails the own-variance image component, not the guarded one; a render
+    that is noisier than the reference keeps its own variance, guarded or not."""
+    rng = np.random.default_rng(5)
+    truth = 0.2 + 0.1 * rng.random((48, 64, 3))
+    ref_var = np.full_like(truth, 5.0)      # the image mean's se 2 % of it at 64 spp
+    ref = truth + np.sqrt(ref_var / 4096) * rng.standard_normal(truth.shape)
+    dark = 0.95 * truth
+    plain = compare_means(dark, 0.3 * ref_var, 64, ref, ref_var, 4096, alpha=LEVEL)
+    guarded = compare_means(dark, 0.3 * ref_var, 64, ref, ref_var, 4096, alpha=LEVEL,
+                            same_estimator=True)
+    assert not plain.agree and guarded.agree
+    assert abs(guarded.image_z).max() < abs(plain.image_z).max() / 1.5
+    noisy = [compare_means(dark, 3.0 * ref_var, 64, ref, ref_var, 4096, alpha=LEVEL,
+                           same_estimator=guard).image_z for guard in (False, True)]
+    np.testing.assert_array_equal(noisy[0], noisy[1])
+
+
 def test_tiles_only_bound_is_the_graders_on_the_light_reference():
     """A splatting render's bound is the tiles' (autograder.power.tile_detectable_bias, an
     independent implementation: Bonferroni where this one uses Šidák, so nearly equal)."""
@@ -128,7 +175,7 @@ def injected(b, ref, test_var, n, *, same, splats, seeds, seed):
         test = scaled * (truth + sd_test * rng.standard_normal(shape))
         result = compare_means(test, test_var * (1.0 + b) ** 2, n, simulated_ref, v, ref.n,
                                alpha=LEVEL, max_var_ratio=VARIANCE_BOUND if same else None,
-                               image_components=not splats)
+                               image_components=not splats, same_estimator=same)
         rejected += not result.agree
     return rejected
 
@@ -155,7 +202,7 @@ def test_an_image_scaled_at_the_printed_bound_fails_with_probability_095(case):
     test_var = ratio * np.maximum(np.asarray(ref.var, dtype=np.float64), 0.0)
     bound = detectable_global_bias(ref.mean, ref.var, ref.n, test_var, 64, alpha=LEVEL,
                                    max_var_ratio=VARIANCE_BOUND if same else None,
-                                   image_components=not splats)
+                                   image_components=not splats, same_estimator=same)
     need = int(sps.binom.ppf(ALPHA, 100, 0.95))
     most = int(sps.binom.isf(ALPHA, 50, 0.5))
     for k, (sign, b) in enumerate(((1, bound.brighter), (-1, bound.darker))):

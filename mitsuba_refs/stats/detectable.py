@@ -20,6 +20,10 @@ probability
   \sum_p v^b_{p}/(n_b P^2)`. With a tent or gaussian film ``v / n`` is each pixel's covariance
   row sum, so these sums stay the image mean's variance (docs/statistics.md, section 7): no
   correction is needed.
+  With ``same_estimator`` the denominator's test term is the larger of that and the pooled
+  one, :math:`\max(T, (n_a T + n_b R) / (n_a + n_b))` with :math:`T = (1+b)^2\sum_p v^a_p`,
+  :math:`R = \sum_p v^b_p` (the test's heavy-tail guard, :mod:`mitsuba_refs.stats.mean`);
+  :math:`\sigma` stays the real spread.
 * **Image, bounded variance** (same estimator): the same :math:`\sigma`, and
   :math:`s^2 = K\sum_p v^b_p/(n_a P^2) + \sum_p v^b_p/(n_b P^2)` whatever the test's own.
 * **Tiles** (own variance; in splatting renders, whose pixels are correlated across the
@@ -146,11 +150,14 @@ class MeanTestPower:
         The film's (tiles only; the image sums need none).
     tile : int
         Tile edge of the mean test.
+    same_estimator : bool
+        As given to ``compare_means``: the image components' heavy-tail guard.
     """
 
     def __init__(self, ref_mean, ref_var, test_var, *, alpha: float,
                  max_var_ratio: float | None = None, image_components: bool = True,
-                 pixel_correlation: PixelCorrelation | None = None, tile: int = 8):
+                 pixel_correlation: PixelCorrelation | None = None, tile: int = 8,
+                 same_estimator: bool = False):
         if not 0.0 < alpha < 1.0:
             raise ValueError("alpha must be in (0, 1)")
         mean = as_image(ref_mean, "ref_mean")
@@ -160,7 +167,7 @@ class MeanTestPower:
             raise ValueError(f"shape mismatch: {mean.shape} {v_ref.shape} {v_test.shape}")
         if not (np.all(np.isfinite(v_test)) and np.all(np.isfinite(v_ref))):
             raise ValueError("the variances must be finite")
-        self.alpha, self.ratio = float(alpha), max_var_ratio
+        self.alpha, self.ratio, self.guarded = float(alpha), max_var_ratio, bool(same_estimator)
         self.component = "image" if image_components else "tiles"
         channels = mean.shape[2]
         components = (2 if image_components else 1) + (max_var_ratio is not None)
@@ -210,9 +217,14 @@ class MeanTestPower:
     def _image_power(self, b, n_a, n_b):
         ref = self.image_ref / n_b
         floor = self._floor(b, self.image_mu, self.image_sampled)
-        spread2 = (1.0 + b) ** 2 * self.image_test / n_a + ref + floor
+        test = (1.0 + b) ** 2 * self.image_test
+        spread2 = test / n_a + ref + floor
+        denominator2 = spread2
+        if self.guarded:     # the test side's variance: the larger of its own and the pooled
+            pooled = (n_a * test + n_b * self.image_ref) / (n_a + n_b)
+            denominator2 = np.maximum(test, pooled) / n_a + ref + floor
         diff = b * self.image_sampled
-        best = float(np.max(_rejection(diff, np.sqrt(spread2), np.sqrt(spread2),
+        best = float(np.max(_rejection(diff, np.sqrt(spread2), np.sqrt(denominator2),
                                        self.image_crit)))
         if self.ratio is not None:
             bounded = np.sqrt(self.ratio * self.image_ref / n_a + ref + floor)
@@ -286,7 +298,7 @@ def detectable_global_bias(ref_mean, ref_var, ref_n, test_var, test_n, *, alpha:
                            power: float = 0.95, max_var_ratio: float | None = None,
                            image_components: bool = True,
                            pixel_correlation: PixelCorrelation | None = None,
-                           tile: int = 8) -> DetectableBias:
+                           tile: int = 8, same_estimator: bool = False) -> DetectableBias:
     """The smallest global bias ``compare_means`` (called with these arguments) detects with
     probability ``power``: :meth:`MeanTestPower.bound` (an upper bound, see the module notes).
 
@@ -294,11 +306,13 @@ def detectable_global_bias(ref_mean, ref_var, ref_n, test_var, test_n, *, alpha:
     ----------
     ref_mean, ref_var, ref_n : the reference's mean, per-sample variance and sample count
     test_var, test_n : the test side's per-sample variance and sample count
-    alpha, max_var_ratio, image_components, pixel_correlation, tile : as for ``compare_means``
+    alpha, max_var_ratio, image_components, pixel_correlation, tile, same_estimator : as for
+        ``compare_means``
     power : float
         Detection probability (0.95).
     """
     model = MeanTestPower(ref_mean, ref_var, test_var, alpha=alpha, max_var_ratio=max_var_ratio,
                           image_components=image_components,
-                          pixel_correlation=pixel_correlation, tile=tile)
+                          pixel_correlation=pixel_correlation, tile=tile,
+                          same_estimator=same_estimator)
     return model.bound(float(test_n), float(ref_n), power=power)
