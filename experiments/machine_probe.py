@@ -33,25 +33,11 @@ from pathlib import Path
 import numpy as np
 from numpy.lib.introspect import opt_func_info
 
-from experiments.bench import cpu_name, write_report
+from experiments.bench import write_report
+from pathtracer.core.machine import this_machine
 
 #: Rows of a pool of paths (``pathtracer.render.scheduling.DEFAULT_BATCH``).
 ROWS = 1 << 15
-
-
-def caches() -> dict:
-    """Cache sizes of CPU 0 as the kernel reports them (``{"L1d": "48K", ...}``)."""
-    found = {}
-    for index in sorted(Path("/sys/devices/system/cpu/cpu0/cache").glob("index*")):
-        try:
-            level = (index / "level").read_text().strip()
-            kind = (index / "type").read_text().strip()
-            size = (index / "size").read_text().strip()
-        except OSError:
-            continue
-        name = f"L{level}" + {"Data": "d", "Instruction": "i"}.get(kind, "")
-        found[name] = size
-    return found
 
 
 def best_ns(work, count: int, repeats: int) -> float:
@@ -127,12 +113,12 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if hasattr(os, "sched_setaffinity") and args.core in os.sched_getaffinity(0):
         os.sched_setaffinity(0, {args.core})
-    report = dict(cpu=cpu_name(), machine=platform.machine(), cores=os.cpu_count(),
-                  caches=caches(), numpy=np.__version__, kernels=kernels(),
-                  python=platform.python_version(), ns=probe(args.repeats))
-    print(f"{report['cpu']} ({report['machine']}, {report['cores']} cores, caches "
-          f"{', '.join(f'{k} {v}' for k, v in report['caches'].items())}), Python "
-          f"{report['python']}, NumPy {report['numpy']}")
+    here = this_machine()
+    report = dict(cpu=here.cpu, machine=platform.machine(), cores=here.cores,
+                  caches=dict(L1d=here.L1d, L2=here.L2, L3=here.L3), numpy=np.__version__,
+                  kernels=kernels(), python=platform.python_version(), ns=probe(args.repeats))
+    print(f"{here.describe()} ({report['machine']}), Python {report['python']}, "
+          f"NumPy {report['numpy']}")
     for name, ns in report["ns"].items():
         print(f"  {name}: {ns:.2f}")
     write_report(report, args.json)

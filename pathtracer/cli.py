@@ -18,12 +18,13 @@ from .integrators.base import HEMISPHERE_RULES, ROULETTE_RULES
 from .integrators.class_selection import ClassSelection
 from .integrators.pathclass import PathClassIntegrator
 from .io.output import output_paths, write_exr, write_png
-from .render import resources
+from .render import resources, sizes
 from .render.driver import DEFAULT_BATCH, integrator_for, render
 from .render.resources import SPP_MAX
 from .scene.defines import parse_defines
 from .scene.errors import SceneError
 from .scene.load import builtin_scene_names, load_scene, parse_resolution
+from .shapes import intersect
 
 EPILOG = """\
 examples:
@@ -153,6 +154,8 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--processes", type=_positive, help="worker processes (default: all cores)")
     render.add_argument("--exposure", type=_finite, default=0.0, help="PNG preview exposure in stops")
     render.add_argument("--no-progress", action="store_true", help="never show a progress bar")
+    render.add_argument("-v", "--verbose", action="store_true",
+                        help="say the machine and the sizes chosen for it (batch, all-pairs chunk)")
 
     commands.add_parser("scenes", help="list the built-in scenes")
     return parser
@@ -227,9 +230,14 @@ def _render_checked(args) -> int:
                            **parse_defines(args.defines))
         resources.check_spp(scene.spp)
         processes = args.processes or os.cpu_count() or 1
-        resources.check_memory(scene.camera.width, scene.camera.height, processes, DEFAULT_BATCH)
         integrator = _integrator_choice(args, options)
-        integrator_for(scene, integrator, **options)   # refuse bad options before any output
+        chosen = integrator_for(scene, integrator, **options)   # bad options: before any output
+        batch = DEFAULT_BATCH if chosen.splats else sizes.machine_batch(processes).paths
+        resources.check_memory(scene.camera.width, scene.camera.height, processes, batch)
+        if args.verbose:
+            accel = intersect.prepare(scene)   # built once: render() finds it ready
+            for line in sizes.describe(processes, chosen.splats, accel):
+                print(f"pathtracer: {line}", file=sys.stderr)
         exr, png = output_paths(args.output)    # creates missing folders: after the checks
         result = render(scene, integrator=integrator, spp=args.spp, seed=args.seed,
                         processes=args.processes, progress=False if args.no_progress else None,

@@ -6,6 +6,7 @@ import threading
 
 import numpy as np
 
+from ..core.machine import format_size, this_machine
 from ..core.vec import dot_einsum
 from .blas import single_threaded_blas
 from .bvh import BVH, _plane_coordinates, _rays
@@ -14,7 +15,11 @@ from .bvh import BVH, _plane_coordinates, _rays
 # Small meshes: every ray against every triangle, float32 filter + float64 refit
 
 SMALL_MAX = 64  # triangles up to which :class:`SmallMesh` beats the BVH
-SMALL_CHUNK = 4096  # rays per chunk (1024-8192 were within noise of each other, 2026-12-01)
+#: Rays per chunk: the chunk's float32 scratch fills at most the core's L2, within these bounds
+#: (1024-16384 rays ran equally fast on the AMD EPYC and Intel Xeon of docs/performance.md).
+SMALL_CHUNK_RANGE = (2048, 8192)
+#: Rays per chunk where the machine does not report its L2.
+SMALL_CHUNK_DEFAULT = 4096
 SMALL_BARY_EPS = 1e-5  # barycentric slack of the float32 filter (covers its rounding)
 
 
@@ -84,6 +89,7 @@ class SmallMesh:
         self._mo = np.concatenate(mo).astype(np.float32)
         self._md = np.concatenate(md).astype(np.float32)
         self._index = np.arange(P, dtype=np.uint32)[:, None]
+        self.chunk, self.chunk_reason = chunk_rays(self.scratch_bytes_per_ray(), this_machine().L2)
         self._prim = np.concatenate((p0, e1, e2), axis=1).T.copy()  # (9, P) float64 for the refit
         # Scratch buffers per thread: renders running in threads share one scene.
         self._scratch = threading.local()
@@ -99,6 +105,11 @@ class SmallMesh:
         self._scratch = threading.local()
         single_threaded_blas()
 
+    def scratch_bytes_per_ray(self) -> int:
+        """Bytes of :meth:`_buffers` per ray: origin and direction, both matrix products, the
+        per-primitive test values and their flags."""
+        return 4 * (4 + 3) + 4 * 2 * len(self._mo) + 5 * self.num_primitives
+
     def _buffers(self, m):
         work = getattr(self._scratch, "work", None)
         if work is None or work[0].shape[1] != m:
@@ -107,7 +118,7 @@ class SmallMesh:
             work = (np.empty((4, m), np.float32), np.empty((3, m), np.float32),
                     np.empty((rows, m), np.float32), np.empty((rows, m), np.float32),
                     np.empty((P, m), np.float32), np.empty((P, m), bool))
-            if m == SMALL_CHUNK:  # the full chunks' buffers are kept for the next call
+            if m == self.chunk:  # the full chunks' buffers are kept for the next call
                 self._scratch.work = work
         return work
 
@@ -167,8 +178,8 @@ class SmallMesh:
         if not self.num_triangles or not n:
             return t, prim, b1, b2
         key = np.empty(n, np.uint32)
-        for s in range(0, n, SMALL_CHUNK):
-            sl = slice(s, s + SMALL_CHUNK)
+        for s in range(0, n, self.chunk):
+            sl = slice(s, s + self.chunk)
             key[sl] = self._closest_keys(o[:, sl], d[:, sl])
         rows = np.flatnonzero(key < np.uint32(0x7F800000))  # a finite, positive t
         if len(rows) == n:   # every ray has a candidate (a closed room): no gathers
@@ -190,6 +201,27 @@ class SmallMesh:
     def occluded(self, o, d, tmax=None):
         """(n,) bool: some triangle lies on the ray with ``0 < t < tmax``."""
         return self.intersect(o, d, tmax)[1] >= 0
+
+
+def chunk_rays(bytes_per_ray: int, l2: int | None) -> tuple[int, str]:
+    """Rays per all-pairs chunk for ``bytes_per_ray`` of scratch and an L2 of ``l2`` bytes
+    (None: unknown), and why: the largest power of two whose scratch fits in the L2, within
+    :data:`SMALL_CHUNK_RANGE`.
+
+    Examples
+    --------
+    >>> chunk_rays(550, 2 << 20)[0], chunk_rays(202, 2 << 20)[0], chunk_rays(550, None)[0]
+    (2048, 8192, 4096)
+    """
+    low, high = SMALL_CHUNK_RANGE
+    if not l2:
+        return SMALL_CHUNK_DEFAULT, f"{SMALL_CHUNK_DEFAULT} rays (L2 unknown)"
+    rays = high
+    while rays > low and rays * bytes_per_ray > l2:
+        rays //= 2
+    scratch = f"{rays} rays x {bytes_per_ray} B of scratch = {format_size(rays * bytes_per_ray)}"
+    fits = "within" if rays * bytes_per_ray <= l2 else "the floor, beyond"
+    return rays, f"{scratch} ({fits} the {format_size(l2)} L2)"
 
 
 def _parallelograms(tri_p: np.ndarray, rtol: float = 1e-9):

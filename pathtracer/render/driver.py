@@ -39,6 +39,7 @@ from .moments import film_sums, filtered_mean_and_variance, mean_and_variance, m
 from .resources import POOL_UNITS
 from .result import RenderResult
 from .scheduling import DEFAULT_BATCH, group_units, plan_units, run_units
+from .sizes import machine_batch
 from .splats import render_splats
 
 #: POOL_UNITS (defined with the memory estimate that counts it, in resources): units
@@ -126,7 +127,7 @@ def _with_options(integrator: Integrator, options: dict) -> Integrator:
 
 
 def render(scene, integrator=None, spp: int | None = None, seed: int | None = None,
-           processes: int | None = None, batch_size: int = DEFAULT_BATCH,
+           processes: int | None = None, batch_size: int | None = None,
            progress: bool | None = None, camera=None, **options) -> RenderResult:
     """Render a scene and return per-pixel mean and variance.
 
@@ -142,8 +143,10 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
         Default to the file's sampler ``sample_count`` and ``seed``.
     processes : int, optional
         Worker processes (default: every core). The image does not depend on it.
-    batch_size : int
-        Camera paths per batch. The image does not depend on it.
+    batch_size : int, optional
+        Camera paths per batch (default: chosen from the machine's memory,
+        :func:`.sizes.machine_batch`; a light tracer's is fixed). The image does not depend
+        on it.
     progress : bool, optional
         Show a progress bar (default: when stderr is a terminal and the render is long).
     camera : callable, optional
@@ -160,8 +163,11 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
     if spp < 1:
         raise ValueError(f"spp must be >= 1, got {spp}")
     n_pixels = scene.camera.width * scene.camera.height
-    units = plan_units(sample_grid_size(scene.camera), spp, batch_size)
     processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
+    if integrator.splats:
+        batch_size = batch_size or DEFAULT_BATCH   # splat sums depend on it: fixed everywhere
+    batch_size = batch_size or machine_batch(processes).paths
+    units = plan_units(sample_grid_size(scene.camera), spp, batch_size)
     if progress is None:
         progress = sys.stderr.isatty() and n_pixels * spp >= 1 << 20
     intersect.prepare(scene)   # build the BVH once, before workers fork
