@@ -44,6 +44,21 @@ def sample_keys(seed: int, sample_ids: np.ndarray) -> np.ndarray:
     return mix64(sample_ids.astype(np.uint64) * _GOLDEN ^ seed_key)
 
 
+def _offset(k: int) -> np.uint64:
+    """``k G`` wrapped to 64 bits, as uint64 arithmetic wraps (the hash input of counter k)."""
+    return np.uint64((k * _GOLDEN_INT) & _MASK)
+
+
+def _uniform(x: np.ndarray) -> np.ndarray:
+    """Uniform numbers in [0, 1) from hash inputs ``x`` (uint64): the top 53 bits of
+    ``mix64(x)``, exact in float64 (and so is the product)."""
+    bits = mix64(x)
+    bits >>= np.uint64(11)
+    out = bits.astype(np.float64)
+    out *= _INV_2_53
+    return out
+
+
 class RandomStream:
     """Uniform random numbers in [0, 1) for a batch of paths.
 
@@ -71,17 +86,34 @@ class RandomStream:
 
     def next_1d(self) -> np.ndarray:
         """The next number of every path -> (n,) float64 in [0, 1)."""
-        offset = np.uint64(((self.counter + 1) * _GOLDEN_INT) & _MASK)   # wraps like uint64
-        bits = mix64(self._base + offset)
+        out = _uniform(self._base + _offset(self.counter + 1))
         self.counter += 1
-        bits >>= np.uint64(11)
-        out = bits.astype(np.float64)   # exact below 2^53; the product is exact too
-        out *= _INV_2_53
         return out
 
     def next_2d(self) -> np.ndarray:
         """The next two numbers of every path -> (n, 2)."""
-        return np.stack((self.next_1d(), self.next_1d()), axis=1)
+        out = self.numbers(self.counter, 2)
+        self.counter += 2
+        return out
+
+    def numbers(self, counter: int, dims: int = 1, index: np.ndarray | None = None) -> np.ndarray:
+        """Numbers ``counter`` to ``counter + dims - 1`` of the paths ``index`` (indices or a
+        mask; default: all) -> (m,) for ``dims`` = 1, else (m, dims); the stream's own
+        counter does not move.
+
+        The same numbers as :meth:`subset` followed by :meth:`next_1d` at ``counter``
+        (:meth:`next_2d` for two), without copying the streams: a path's k-th number is
+        ``hash(key, k)`` alone.
+        """
+        if index is None:
+            base = self._base
+        else:
+            index = np.asarray(index)
+            base = np.take(self._base, np.flatnonzero(index) if index.dtype == bool else index)
+        if dims == 1:
+            return _uniform(base + _offset(counter + 1))
+        offsets = np.array([_offset(counter + 1 + k) for k in range(dims)], dtype=np.uint64)
+        return _uniform(base[:, None] + offsets)
 
     def subset(self, index: np.ndarray) -> "RandomStream":
         """The streams of paths ``index``, continuing at the same counter."""

@@ -158,6 +158,14 @@ def max_component(a: np.ndarray) -> np.ndarray:
     return np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])
 
 
+def any_row(mask: np.ndarray) -> np.ndarray:
+    """Rows of an (n, 3) boolean array with some True -> (n,) (``np.any(mask, axis=1)``).
+
+    Two elementwise ors: the reduction along the axis of length 3 is ~10x slower.
+    """
+    return np.logical_or(np.logical_or(mask[:, 0], mask[:, 1]), mask[:, 2])
+
+
 def max_abs(p: np.ndarray) -> np.ndarray:
     """Largest absolute coordinate of each row -> (n,).
 

@@ -38,6 +38,7 @@ import numpy as np
 
 from ..bsdfs.shading import eval_bsdf, has_smooth
 from ..core.sampling import power_heuristic
+from ..core.vec import any_row
 from ..emitters.scene_emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
 from ..media.homogeneous import (
     next_medium,
@@ -70,11 +71,12 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
         paths.beta[rows] *= scattering_albedo(scene, medium, x)
         paths.depth[rows] += 1
         alive = paths.depth[rows] < self.depth_limit
-        nee = alive & samples_emitters(scene, medium) & np.any(paths.beta[rows] > 0, axis=1)
-        self.shadow_ray(scene, paths, rows[nee], x[nee], np.zeros_like(x[nee]),
-                        lambda wo: medium[nee], phase_f_pdf(scene, medium[nee], wi[nee]), segment,
+        nee = np.flatnonzero(alive & samples_emitters(scene, medium) & any_row(paths.beta[rows] > 0))
+        x_nee, medium_nee = np.take(x, nee, axis=0), medium[nee]
+        self.shadow_ray(scene, paths, rows[nee], x_nee, np.zeros_like(x_nee), lambda wo: medium_nee,
+                        phase_f_pdf(scene, medium_nee, np.take(wi, nee, axis=0)), segment,
                         add_radiance)
-        wo, pdf = phase_sample(scene, medium, wi, self.uniform(paths, segment, SLOT_DIRECTION, 2)[rows])
+        wo, pdf = phase_sample(scene, medium, wi, self.uniform(paths, segment, SLOT_DIRECTION, 2, rows))
         paths.last_p[rows], paths.last_pdf[rows] = x, pdf
         paths.specular[rows] = ~samples_emitters(scene, medium)
         move(paths, rows, x, np.zeros_like(x), wo)
@@ -85,16 +87,16 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
         shadow ray (BSDF MIS) on smooth BSDFs, then continue by BSDF sampling."""
         d = paths.d[rows]
         Le = self.visible_emission(paths.depth[rows], emitted_radiance(scene, hit, -d))
-        lit = np.flatnonzero(np.any(Le > 0, axis=1))
+        lit = np.flatnonzero(any_row(Le > 0))
         if len(lit):
             r = rows[lit]
             pdf_light = pdf_emitter_direction(scene, paths.last_p[r], subset_hit(hit, lit), d[lit])
             full = (paths.depth[r] == 0) | paths.specular[r]
             w = np.where(full, 1.0, power_heuristic(paths.last_pdf[r], pdf_light))
             add_radiance(paths.beta[r] * Le[lit] * w[:, None], r)
+        # Misses index the last shape's BSDF here; hit.valid drops them.
         smooth = np.flatnonzero(hit.valid & (paths.depth[rows] + 1 < self.depth_limit)
-                                & np.any(paths.beta[rows] > 0, axis=1))
-        smooth = smooth[has_smooth(scene, subset_hit(hit, smooth))]
+                                & any_row(paths.beta[rows] > 0) & has_smooth(scene, hit))
         if len(smooth):
             h, r = subset_hit(hit, smooth), rows[smooth]
             wi = -paths.d[r]
@@ -115,21 +117,23 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
         """
         if not len(rows):
             return
-        u = self.uniform(paths, segment, SLOT_LIGHT)[rows]
-        u2 = self.uniform(paths, segment, SLOT_LIGHT + 1, 2)[rows]
+        u = self.uniform(paths, segment, SLOT_LIGHT, rows=rows)
+        u2 = self.uniform(paths, segment, SLOT_LIGHT + 1, 2, rows)
         light = sample_emitter(scene, SimpleNamespace(p=x), u, u2, test_visibility=False)
         f, pdf_f = f_pdf(light.wo)
         contribution = paths.beta[rows] * f * light.weight
-        live = np.flatnonzero((light.pdf > 0) & np.any(contribution > 0, axis=1))
+        live = np.flatnonzero((light.pdf > 0) & any_row(contribution > 0))
         if not len(live):
             return
         start = start_medium(light.wo)
-        stream = paths.rng.subset(rows[live])
-        Tr = shadow_transmittance(scene, x[live], n[live], light.wo[live], light.dist[live],
-                                  start[live], paths.channel[rows[live]], stream,
-                                  self.counter(paths, segment, SLOT_SHADOW))
-        w = np.where(light.delta[live], 1.0, power_heuristic(light.pdf[live], pdf_f[live]))
-        add_radiance(contribution[live] * Tr * w[:, None], rows[live])
+        if len(live) < len(rows):
+            rows, x, n, contribution, pdf_f, start = (np.take(a, live, axis=0) for a in (
+                rows, x, n, contribution, pdf_f, start))
+            light = subset_hit(light, live)
+        Tr = shadow_transmittance(scene, x, n, light.wo, light.dist, start, paths.channel[rows],
+                                  paths.rng.subset(rows), self.counter(paths, segment, SLOT_SHADOW))
+        w = np.where(light.delta, 1.0, power_heuristic(light.pdf, pdf_f))
+        add_radiance(contribution * Tr * w[:, None], rows)
 
 
 def phase_f_pdf(scene, medium, wi):

@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs.shading import sample_bsdf
+from ..core.vec import put_rows
 from ..emitters.scene_emitters import emitted_radiance
 from ..media.heterogeneous import has_heterogeneous, track_heterogeneous
 from ..media.homogeneous import (
@@ -75,8 +76,10 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
         paths = self.start(scene, rays, rng)
         add_radiance = paths.add_radiance
         tracking = has_heterogeneous(scene)
+        goes_on = np.ones(len(paths), dtype=bool)
         for segment in range(MAX_SEGMENTS):
-            paths.keep(self.survivors(paths, segment))
+            # The paths that went on from the last segment and survive roulette: one compaction
+            paths.keep(goes_on & self.survivors(paths, segment))
             if not paths:
                 break
             hit = self.trace_segment(scene, paths)
@@ -98,10 +101,9 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
             surface_rows = np.flatnonzero(~flight.scattered if flight.null is None
                                           else ~flight.scattered & ~flight.null)
             if len(surface_rows):
-                goes_on[surface_rows] = self.on_surface(scene, paths, surface_rows,
-                                                        subset_hit(hit, surface_rows), segment,
-                                                        add_radiance)
-            paths.keep(goes_on)
+                surface_hit = hit if len(surface_rows) == len(paths) else subset_hit(hit, surface_rows)
+                goes_on[surface_rows] = self.on_surface(scene, paths, surface_rows, surface_hit,
+                                                        segment, add_radiance)
         return paths.L
 
     @staticmethod
@@ -119,7 +121,7 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
         paths.beta[rows] *= scattering_albedo(scene, paths.medium[rows], x)
         paths.depth[rows] += 1
         wo, pdf = phase_sample(scene, paths.medium[rows], -paths.d[rows],
-                               self.uniform(paths, segment, SLOT_DIRECTION, 2)[rows])
+                               self.uniform(paths, segment, SLOT_DIRECTION, 2, rows))
         move(paths, rows, x, np.zeros_like(x), wo)
         return (paths.depth[rows] < self.depth_limit) & (pdf > 0)
 
@@ -139,16 +141,19 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
         """
         valid = hit.valid.copy()
         on = np.flatnonzero(valid)
-        rows, hit = rows[on], subset_hit(hit, on)
-        bs = sample_bsdf(scene, hit, -paths.d[rows], self.uniform(paths, segment, SLOT_LOBE)[rows],
-                         self.uniform(paths, segment, SLOT_DIRECTION, 2)[rows], self.hemisphere)
-        real = ~null_event(scene, hit, -paths.d[rows], bs.wo)
+        if len(on) < len(rows):
+            rows, hit = rows[on], subset_hit(hit, on)
+        wi = -paths.d[rows]
+        bs = sample_bsdf(scene, hit, wi, self.uniform(paths, segment, SLOT_LOBE, rows=rows),
+                         self.uniform(paths, segment, SLOT_DIRECTION, 2, rows), self.hemisphere)
+        real = ~null_event(scene, hit, wi, bs.wo)
         paths.beta[rows] *= bs.weight
         paths.eta[rows] *= bs.eta
         paths.depth[rows] += real
-        paths.last_p[rows] = np.where(real[:, None], hit.p, paths.last_p[rows])
-        paths.last_pdf[rows] = np.where(real, bs.pdf, paths.last_pdf[rows])
-        paths.specular[rows] = np.where(real, bs.delta, paths.specular[rows])
+        scattering = np.flatnonzero(real)
+        put_rows(paths.last_p, rows[scattering], np.take(hit.p, scattering, axis=0))
+        paths.last_pdf[rows[scattering]] = bs.pdf[scattering]
+        paths.specular[rows[scattering]] = bs.delta[scattering]
         # ---- Medium tracking: the medium on the side wo leaves to, null boundaries too ----
         paths.medium[rows] = next_medium(scene, hit, paths.medium[rows], bs.wo)
         move(paths, rows, hit.p, hit.n, bs.wo)

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.vec import any_row, put_rows
 from ..media.homogeneous import camera_medium, choose_channel
 from ..sensors.perspective import Rays
 from ..shapes.intersect import offset_p
@@ -78,9 +79,11 @@ class VolumeIntegrator(CameraIntegrator):
         """Random-stream counter of ``slot`` in ``segment`` of ``paths``."""
         return paths.first_counter + segment * SLOTS + slot
 
-    def uniform(self, paths: Paths, segment: int, slot: int, dims: int = 1) -> np.ndarray:
-        """Uniform numbers of ``slot`` (and the next ``dims`` - 1) for every path."""
-        return paths.numbers_at(self.counter(paths, segment, slot), dims)
+    def uniform(self, paths: Paths, segment: int, slot: int, dims: int = 1,
+                rows: np.ndarray | None = None) -> np.ndarray:
+        """Uniform numbers of ``slot`` (and the next ``dims`` - 1) for every path, or for the
+        paths ``rows`` (indices) alone: ``uniform(paths, segment, slot, dims)[rows]``."""
+        return paths.numbers_at(self.counter(paths, segment, slot), dims, rows)
 
     def survivors(self, paths: Paths, segment: int) -> np.ndarray:
         """Russian roulette and the depth limit at the start of a segment -> which paths go on
@@ -91,7 +94,7 @@ class VolumeIntegrator(CameraIntegrator):
         divide by q (every segment, null crossings included).
         """
         u = self.uniform(paths, segment, SLOT_ROULETTE)
-        alive = np.any(paths.beta != 0, axis=1) & (paths.depth < self.depth_limit)
+        alive = any_row(paths.beta != 0) & (paths.depth < self.depth_limit)
         # The surface integrators' rule, played once depth > rr_depth (not >=): depth - 1.
         survive, paths.beta = self.roulette_survivors(paths.beta, paths.eta, paths.depth - 1, u)
         return alive & survive
@@ -119,6 +122,6 @@ def move(paths: Paths, rows: np.ndarray, origin: np.ndarray, normal: np.ndarray,
          wo: np.ndarray) -> None:
     """Start the next segment of paths ``rows`` at ``origin`` along ``wo`` (offset off a
     surface along ``normal``; zero normals for points inside a medium)."""
-    paths.o[rows] = offset_p(origin, normal, wo)
-    paths.d[rows] = wo
+    put_rows(paths.o, rows, offset_p(origin, normal, wo))
+    put_rows(paths.d, rows, wo)
     paths.tmax[rows] = np.inf

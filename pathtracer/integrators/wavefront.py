@@ -128,11 +128,12 @@ class Paths:
         self.depth = np.zeros(len(self.row), np.int64)
         self._fields.append("depth")
 
-    def numbers_at(self, counter: int, dims: int = 1) -> np.ndarray:
+    def numbers_at(self, counter: int, dims: int = 1, rows: np.ndarray | None = None) -> np.ndarray:
         """Every live path's uniform number ``counter`` of its stream (``dims`` = 2: that one
-        and the next, as (m, 2))."""
-        self.rng.counter = counter
-        return self.rng.next_1d() if dims == 1 else self.rng.next_2d()
+        and the next, as (m, 2)); only those of the paths ``rows`` (indices) if given: the
+        same numbers as ``numbers_at(counter, dims)[rows]``, drawn for those paths alone."""
+        self.rng.counter = counter + dims
+        return self.rng.numbers(counter, dims, rows)
 
     def __len__(self) -> int:
         return len(self.row)

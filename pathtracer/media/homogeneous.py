@@ -71,10 +71,11 @@ Index -1 means vacuum.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
-from ..core.vec import dot
+from ..core.vec import any_row, dot, put_rows, scale, select, unscale
 from ..scene.properties import Props, children
 from ..scene.registry import register
 from ..scene.types import Scene
@@ -177,34 +178,38 @@ def sample_free_flight(scene: Scene, medium: np.ndarray, channel: np.ndarray,
     and are weighted by the channels' average density ("Spectral MIS" above).
     """
     n = len(medium)
-    out = FreeFlight(np.zeros(n, dtype=bool), t_surface.copy(), np.ones((n, 3)))
     rows = np.flatnonzero(medium >= 0)
     if len(rows) and has_heterogeneous(scene):
         rows = rows[~heterogeneous_table(scene)[medium[rows]]]
     if not len(rows):
-        return out
+        return FreeFlight(np.zeros(n, dtype=bool), t_surface.copy(), np.ones((n, 3)))
     sigma_t_table, sigma_s_table = _coefficients(scene)
-    sigma_t, sigma_s = sigma_t_table[medium[rows]], sigma_s_table[medium[rows]]
+    medium, t_reach = np.take(medium, rows), np.take(t_surface, rows)
+    sigma_t, sigma_s = np.take(sigma_t_table, medium, axis=0), np.take(sigma_s_table, medium, axis=0)
     channel, u_flight = channel[rows], u[rows]
     mixture = np.flatnonzero(channel == MIXTURE)
     if len(mixture):     # one uniform number: the channel, then the distance (3u - c)
         channel[mixture] = choose_channel(u_flight[mixture])
         u_flight[mixture] = np.minimum(3.0 * u_flight[mixture] - channel[mixture], 1.0 - 2.0 ** -53)
-    sigma_c = np.take_along_axis(sigma_t, channel[:, None], axis=1)[:, 0]
+    sigma_c = sigma_t_table[medium, channel]
     with np.errstate(divide="ignore", invalid="ignore"):
         t_sampled = -np.log1p(-u_flight) / sigma_c
-        scattered = t_sampled < t_surface[rows]
-        t = np.where(scattered, t_sampled, t_surface[rows])
-        tr = np.exp(-sigma_t * t[:, None])
+        scattered = t_sampled < t_reach
+        t = np.where(scattered, t_sampled, t_reach)
+        tr = np.exp(scale(sigma_t, -t))
         tr_c = np.exp(-sigma_c * t)
         pdf = np.where(scattered, tr_c * sigma_c, tr_c)
         if len(mixture):     # the mixture's density: the channels' densities averaged
             tr_m = tr[mixture]
             pdf[mixture] = np.where(scattered[mixture], np.mean(tr_m * sigma_t[mixture], axis=1),
                                     np.mean(tr_m, axis=1))
-        weight = np.where((pdf > 0)[:, None], tr / pdf[:, None], 0.0)
-    weight = np.where(scattered[:, None], weight * sigma_s, weight)
-    out.scattered[rows], out.t[rows], out.weight[rows] = scattered, t, weight
+        weight = select(pdf > 0, unscale(tr, pdf))
+    weight *= select(scattered, sigma_s, 1.0)
+    if len(rows) == n:   # every row in a homogeneous medium: nothing to put back in place
+        return FreeFlight(scattered, t, weight)
+    out = FreeFlight(np.zeros(n, dtype=bool), t_surface.copy(), np.ones((n, 3)))
+    out.scattered[rows], out.t[rows] = scattered, t
+    put_rows(out.weight, rows, weight)
     return out
 
 
@@ -252,16 +257,22 @@ def null_transmission(scene: Scene, hit, d: np.ndarray) -> np.ndarray:
     1 through ``null`` BSDFs, ``(1 - r)`` times the transmittance through a
     ``thindielectric`` (Mitsuba's ``eval_null_transmission``), 0 through any other.
     """
-    out = np.zeros((len(d), 3))
-    ids = scene.shape_bsdf[hit.shape]
+    return _null_transmission(scene, hit, np.arange(len(d)), d)
+
+
+def _null_transmission(scene: Scene, hit, rows: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """:func:`null_transmission` at the hits ``rows`` of ``hit`` (``d``: one per row), read
+    from the batch in place."""
+    out = np.zeros((len(rows), 3))
+    ids = scene.shape_bsdf[hit.shape[rows]]
     for b in np.unique(ids):
         bsdf = scene.bsdfs[b]
         if not getattr(bsdf, "null_lobe", False):
             continue
-        rows = np.flatnonzero(ids == b)
+        sel = np.flatnonzero(ids == b)
         if bsdf.textured:
-            bsdf = bsdf.at(intersect.texture_uv(scene, hit, rows))
-        out[rows] = bsdf.eval_null_transmission(dot(hit.sh_n[rows], d[rows]))
+            bsdf = bsdf.at(intersect.texture_uv(scene, hit, rows[sel]))
+        out[sel] = bsdf.eval_null_transmission(dot(hit.sh_n[rows[sel]], d[sel]))
     return out
 
 
@@ -311,49 +322,60 @@ def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndar
     tentative collision multiplies by ``sigma_n / majorant``), times the null
     transmission of every surface crossed.
     """
-    count = len(p)
-    result = np.ones((count, 3))
-    finite = np.isfinite(dist)
-    o, d, remaining = np.empty_like(p), wo.copy(), np.full(count, np.inf)
-    if finite.any():
-        target = p[finite] + wo[finite] * dist[finite, None]
-        o[finite], d[finite], remaining[finite] = intersect.spawn_ray_to(p[finite], n[finite], target)
-    o[~finite] = intersect.offset_p(p[~finite], n[~finite], wo[~finite])
-    rows = np.arange(count)
-    medium = medium.copy()
+    o, d, remaining = _shadow_rays(p, n, wo, dist)
+    result = np.zeros((len(p), 3))
+    # The live rays' own arrays, compacted as rays end; a ray's estimate goes to its row of
+    # ``result`` once, when it ends. ``rows``: the live rays' rows of the arguments (and rng).
+    rows, value = np.arange(len(p)), np.ones((len(p), 3))
     tracking = has_heterogeneous(scene)
     hit = None
     for k in range(MAX_STEPS):
         if hit is None:
             hit = intersect.intersect(scene, o, d, remaining)
         t_surface = np.where(hit.valid, hit.t, remaining)
-        rng.counter = counter + k
-        u = rng.next_1d()
-        flight = sample_free_flight(scene, medium, channel, t_surface, u)
-        if tracking:
-            track_heterogeneous(scene, flight, medium, o, d, t_surface, u, None)
-        collided = flight.null if flight.null is not None else np.zeros(len(rows), dtype=bool)
-        result[rows] *= np.where(flight.scattered[:, None], 0.0, flight.weight)
-        through = hit.valid & ~flight.scattered & ~collided
-        if through.any():
-            live = np.flatnonzero(through)
-            result[rows[live]] *= null_transmission(scene, _take(hit, live), d[live])
-        keep = np.flatnonzero((through | collided) & np.any(result[rows] > 0, axis=1))
+        scattered = collided = None
+        inside = np.flatnonzero(medium >= 0)
+        if len(inside):      # rays in vacuum reach the surface with weight 1: no flight
+            whole = len(inside) == len(rows)
+            inside = slice(None) if whole else inside
+            u = rng.numbers(counter + k, index=rows[inside])
+            flight = sample_free_flight(scene, medium[inside], channel[inside], t_surface[inside], u)
+            if tracking:
+                track_heterogeneous(scene, flight, medium[inside], o[inside], d[inside],
+                                    t_surface[inside], u, None)
+            value[inside] *= np.where(flight.scattered[:, None], 0.0, flight.weight)
+            scattered = _rows_of(flight.scattered, inside, len(rows), False)
+            if flight.null is not None:
+                collided = _rows_of(flight.null, inside, len(rows), False)
+                t_surface = _rows_of(flight.t, inside, t_surface)
+        through = hit.valid if scattered is None else hit.valid & ~scattered
+        if collided is not None:
+            through = through & ~collided
+        live = np.flatnonzero(through)
+        if len(live):
+            value[live] *= _null_transmission(scene, hit, live, np.take(d, live, axis=0))
+        goes_on = through if collided is None else through | collided
+        goes_on = goes_on & any_row(value > 0)
+        keep = np.flatnonzero(goes_on)
+        if len(keep) < len(rows):
+            ends = np.flatnonzero(~goes_on)
+            result[rows[ends]] = value[ends]
         if not len(keep):
             return result
-        hit_k = _take(hit, keep)
-        rows, d, channel, medium = rows[keep], d[keep], channel[keep], medium[keep]
-        crossed, moved = through[keep], collided[keep]
-        t_collision, o = flight.t[keep], o[keep]
-        rng = rng.subset(keep)
-        if not moved.any():      # every ray crossed a surface: trace again from each
-            medium = next_medium(scene, hit_k, medium, d)
-            o = intersect.offset_p(hit_k.p, hit_k.n, d)
-            remaining = remaining[keep] - hit_k.t
+        rows, value, d, channel, medium = (np.take(a, keep, axis=0)
+                                           for a in (rows, value, d, channel, medium))
+        moved = None if collided is None else collided[keep]
+        if moved is None or not moved.any():     # every ray crossed a surface: trace again from each
+            p_k, n_k, t_k = (np.take(a, keep, axis=0) for a in (hit.p, hit.n, hit.t))
+            medium = next_medium(scene, SimpleNamespace(shape=hit.shape[keep], n=n_k), medium, d)
+            o = intersect.offset_p(p_k, n_k, d)
+            remaining = remaining[keep] - t_k
             hit = None
             continue
         # Collisions in a heterogeneous medium move the origin along the ray; their next
         # surface stays the one found (closer by t), as Mitsuba keeps its intersection.
+        hit_k = _take(hit, keep)
+        crossed, t_collision, o = through[keep], t_surface[keep], o[keep]
         remaining = remaining[keep] - np.where(crossed, hit_k.t, t_collision)
         c = np.flatnonzero(crossed)
         hc = _take(hit_k, c)
@@ -365,8 +387,31 @@ def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndar
         if len(c):
             _put(hit_k, c, intersect.intersect(scene, o[c], d[c], remaining[c]))
         hit = hit_k
-    result[rows] = 0.0   # more steps than any sensible scene has: give up (counted)
-    return result
+    return result        # more steps than any sensible scene has: give up, 0 (counted)
+
+
+def _shadow_rays(p: np.ndarray, n: np.ndarray, wo: np.ndarray, dist: np.ndarray):
+    """Origins, directions and lengths of shadow rays from ``p`` (normals ``n``) along ``wo``
+    to points ``dist`` away (inf: unbounded), as :func:`~.intersect.spawn_ray_to` spawns them."""
+    finite = np.isfinite(dist)
+    if finite.all():     # area and point lights: no masks
+        return intersect.spawn_ray_to(p, n, p + wo * dist[:, None])
+    o, d, remaining = np.empty_like(p), wo.copy(), np.full(len(p), np.inf)
+    if finite.any():
+        target = p[finite] + wo[finite] * dist[finite, None]
+        o[finite], d[finite], remaining[finite] = intersect.spawn_ray_to(p[finite], n[finite], target)
+    o[~finite] = intersect.offset_p(p[~finite], n[~finite], wo[~finite])
+    return o, d, remaining
+
+
+def _rows_of(values: np.ndarray, rows, fill, default=None) -> np.ndarray:
+    """An array of ``fill`` (a length, then filled with ``default``, or an array, copied)
+    whose ``rows`` (indices or ``slice(None)``) are ``values``."""
+    if isinstance(rows, slice):
+        return values
+    out = np.full(fill, default) if np.ndim(fill) == 0 else fill.copy()
+    out[rows] = values
+    return out
 
 
 #: Steps (surfaces crossed and tentative collisions in heterogeneous media) a shadow ray may
