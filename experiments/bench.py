@@ -185,7 +185,8 @@ def measure_ours(spec: dict) -> dict:
     paths = spec["width"] * spec["height"] * spec["spp"]
     own, child = _peak_rss_mb()
     found = dict(times=times, cpu=cpu, paths=paths, rss_mb=own, child_rss_mb=child,
-                 sizes=sizes.describe(processes, INTEGRATORS[spec["integrator"]].splats,
+                 sizes=sizes.describe(processes, getattr(INTEGRATORS.get(spec["integrator"]),
+                                                         "splats", False),
                                       intersect.prepare(scene))[1:])
     if pss is not None:
         found.update(pss_mb=pss.peak_mb, pss_processes=pss.peak_processes)

@@ -18,12 +18,16 @@ def test_quick_bench_produces_sane_numbers(tmp_path, capsys):
         assert rate is not None and math.isfinite(rate) and 1e2 < rate < 1e9, (label, rate)
         assert row["ours"]["paths"] == row["width"] * row["height"] * report["spp"]
         assert row["rate"]["scalar_rgb"] is None and row["target_met"] is None  # no Mitsuba run
+    for label, row in report["batch"].items():
+        assert "error" not in row["ours"], (label, row["ours"])
+        assert row["ours"]["sizes"][0].startswith("batch: "), (label, row["ours"]["sizes"])
+    assert "Sizes chosen from the machine" in capsys.readouterr().out
     memory = report["memory"]
     assert "error" not in memory, memory
     assert 10 < memory["rss_mb"] < 4000
     # Summed PSS never exceeds the summed peak RSS (it counts shared pages once).
     assert 10 < memory["peak_mb"] <= memory["rss_sum_mb"] and memory["pss_processes"] >= 1
-    table = capsys.readouterr().out
+    table = bench.table(report)
     assert "| cornell-box" in table and "Peak memory" in table
     assert "| volpath (media-box, 16x16)" in table and "| pathclass (cornell-box" in table
 

@@ -1,10 +1,10 @@
 """Camera paths per batch, chosen at run time from what the machine reports.
 
 A batch (a pool, for the integrators that refill theirs) costs a fixed time per call
-of its NumPy kernels and a time per path: measured on three CPUs (docs/performance.md,
-"Sizes from the machine"), batches below 16k paths pay 10-35 % more per path, and
-16k-64k are equally fast within each machine's run-to-run spread, whatever its caches
-(L2 512 KB to 2 MB per core, L3 8 MB to 260 MB). What the machine does decide is the
+of its NumPy kernels and a time per path: measured on three hosts (docs/performance.md,
+"Sizes from the machine"), batches of 8k paths pay 15-30 % more per path than 32k, 16k up
+to 15 %, and 32k-128k are equally fast within each machine's run-to-run spread, whatever
+its caches (L2 512 KB to 2 MB per core, L3 8 MB to 260 MB). What the machine does decide is the
 memory: a batch holds :data:`~.resources.BYTES_PER_PATH` plus its units' camera samples
 per path, in every process. So the batch is the largest power of two up to
 :data:`BATCH_CAP` whose batches, in all processes, take at most :data:`MEMORY_SHARE` of
@@ -25,7 +25,7 @@ from .scheduling import DEFAULT_BATCH
 #: Largest batch: 64k paths were no faster on any machine measured and double the memory
 #: (1024 x 1024 at 64 spp over two processes would pass 300 MB).
 BATCH_CAP = DEFAULT_BATCH
-#: Smallest batch: at 4k paths the per-call costs are already ~40 % of a Cornell box render.
+#: Smallest batch: at 4k paths the per-call costs are about half of a Cornell box render.
 BATCH_FLOOR = 1 << 12
 #: Fraction of the available memory that the batches of all processes may hold: the rest
 #: is the images, the scene and whatever else runs on the machine.
