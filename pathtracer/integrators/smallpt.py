@@ -78,18 +78,20 @@ class SmallptIntegrator(CameraIntegrator):
             # ---- obj.e ----
             paths.add_radiance(paths.beta * self.emission(scene, paths.hit, paths.wi, paths.depth))
 
-            # ---- Paths that escaped, or whose next segment max_depth forbids, end ----
-            paths.keep(paths.hit.valid & (paths.depth + 1 < self.depth_limit))
-            depth = np.broadcast_to(paths.depth + 1, len(paths))   # smallpt's ++depth, per path
-            material = bsdf_index(scene, paths.hit)
-
+            # ---- Paths that escaped, or whose next segment max_depth forbids, end; ----
             # ---- R.R. once depth > 5: continue with p = max(f), f /= p (others: p = 1) ----
+            # (one compaction for both: a path's numbers do not depend on who else is drawn)
+            depth = np.broadcast_to(paths.depth + 1, len(paths))   # smallpt's ++depth, per path
+            material = bsdf_index(scene, paths.hit)   # a miss reads some BSDF: it ends anyway
             u_rr = paths.rng.next_1d()
+            goes_on = paths.hit.valid & (depth < self.depth_limit)
             if self.roulette != "off":
                 p = np.where(depth > self.rr_depth, max_component(colour[material]), 1.0)
-                survivors = paths.keep(u_rr < p)
+                survivors = paths.keep(goes_on & (u_rr < p))
                 paths.beta = paths.beta / p[survivors, None]
-                material, depth = material[survivors], depth[survivors]
+            else:
+                survivors = paths.keep(goes_on)
+            material, depth = material[survivors], depth[survivors]
             if not paths:
                 break
 
