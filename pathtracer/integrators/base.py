@@ -44,8 +44,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs.shading import eval_bsdf, has_smooth
-from ..core.vec import max_component, scale, select, unscale
-from ..emitters.scene_emitters import emitted_radiance, hit_emitter, sample_emitter
+from ..core.vec import any_row, max_component, scale, select, unscale
+from ..emitters.scene_emitters import emitted_radiance, hit_emitter, sample_emitter, shadowed
 from ..scene.types import Scene
 from ..sensors.perspective import Rays
 
@@ -225,14 +225,23 @@ class Integrator:
         (m, 3) array of contributions, to add to the paths' radiance.
         """
         beta = paths.beta if beta is None else beta
-        light = sample_emitter(scene, paths.hit, paths.rng.next_1d(), paths.rng.next_2d(),
-                               emitter=emitter)
-        f, pdf_bsdf = eval_bsdf(scene, paths.hit, paths.wi, light.wo, self.hemisphere)
-        contribution = beta * f * light.weight
+        hit = paths.hit
+        light = sample_emitter(scene, hit, paths.rng.next_1d(), paths.rng.next_2d(),
+                               test_visibility=False, emitter=emitter)
+        f, pdf_bsdf = eval_bsdf(scene, hit, paths.wi, light.wo, self.hemisphere)
+        beta_f = beta * f
+        contribution = beta_f * light.weight
+        usable = has_smooth(scene, hit) & (light.pdf > 0)
+        # ---- Visibility: a shadow ray only where the sample adds something (not where the
+        # BSDF is zero towards it, nor at Dirac BSDFs); a blocked sample has weight 0 ----
+        tested = np.flatnonzero(usable & (max_component(light.weight) > 0)
+                                & any_row(contribution != 0))
+        blocked = tested[shadowed(scene, *(np.take(a, tested, axis=0) for a in (
+            hit.p, hit.n, light.wo, light.dist)))]
+        contribution[blocked] = beta_f[blocked] * 0.0
         if mis_weight is not None:
             w_light = np.where(light.delta, 1.0, mis_weight(light.pdf, pdf_bsdf))
             contribution = scale(contribution, w_light)
-        usable = has_smooth(scene, paths.hit) & (light.pdf > 0)
         return select(usable, contribution)
 
 
