@@ -6,7 +6,8 @@ warm-up render) under ``cProfile``; the table gives each stage's share of the re
 
 * closest hits (``geometry.intersect``: accelerator, analytic shapes, hit records);
 * shadow rays (``geometry.occluded``);
-* light sampling, its shadow rays excluded (``emitters.sample_emitter``);
+* light sampling (``emitters.sample_emitter``; next-event estimation traces its shadow rays
+  apart, in ``geometry.occluded``);
 * BSDF sampling and evaluation (``shading.sample_bsdf``, ``shading.eval_bsdf``);
 * emission and the light pdf of BSDF-sampled hits (``emitters.emitted_radiance``,
   ``emitters.pdf_emitter_direction``);
@@ -33,7 +34,7 @@ from .bench import CASES, warmed_scene
 STAGES = [
     ("closest hits (geometry.intersect)", [("pathtracer/shapes/intersect.py", "intersect")], "cum"),
     ("shadow rays (geometry.occluded)", [("pathtracer/shapes/intersect.py", "occluded")], "cum"),
-    ("light sampling, shadow rays excluded", [("pathtracer/emitters/scene_emitters.py", "sample_emitter")],
+    ("light sampling", [("pathtracer/emitters/scene_emitters.py", "sample_emitter")],
      "cum"),
     ("BSDF sampling and evaluation", [("pathtracer/bsdfs/shading.py", "sample_bsdf"),
                                       ("pathtracer/bsdfs/shading.py", "eval_bsdf")], "cum"),
@@ -60,8 +61,6 @@ def stage_seconds(stats: pstats.Stats) -> dict:
 
     found = {stage: sum(seconds(suffix, name, kind) for suffix, name in functions)
              for stage, functions, kind in STAGES}
-    # sample_emitter's cumulative time includes the shadow rays it traces.
-    found["light sampling, shadow rays excluded"] -= found["shadow rays (geometry.occluded)"]
     total = max(entry[3] for (path, _, func), entry in table.items() if func == "render")
     found["everything else"] = total - sum(found.values())
     found["total"] = total
