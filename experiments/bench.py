@@ -39,7 +39,7 @@ from pathtracer import load_scene, render
 from pathtracer.core.machine import this_machine
 from pathtracer.integrators import INTEGRATORS
 from pathtracer.render import sizes
-from pathtracer.render.classes import render_classes
+from pathtracer.render.classes import class_batch, render_classes
 from pathtracer.shapes import intersect
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -184,10 +184,12 @@ def measure_ours(spec: dict) -> dict:
             cpu.append(time.process_time() - start_cpu)
     paths = spec["width"] * spec["height"] * spec["spp"]
     own, child = _peak_rss_mb()
+    if spec["integrator"] == "pathclass":
+        batch = class_batch(len(PATH_CLASSES), processes)
+    else:
+        batch = sizes.render_batch(processes, INTEGRATORS[spec["integrator"]].splats)
     found = dict(times=times, cpu=cpu, paths=paths, rss_mb=own, child_rss_mb=child,
-                 sizes=sizes.describe(processes, getattr(INTEGRATORS.get(spec["integrator"]),
-                                                         "splats", False),
-                                      intersect.prepare(scene))[1:])
+                 sizes=sizes.describe(batch, intersect.prepare(scene))[1:])
     if pss is not None:
         found.update(pss_mb=pss.peak_mb, pss_processes=pss.peak_processes)
     return found

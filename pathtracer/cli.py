@@ -19,7 +19,7 @@ from .integrators.class_selection import ClassSelection
 from .integrators.pathclass import PathClassIntegrator
 from .io.output import output_paths, write_exr, write_png
 from .render import resources, sizes
-from .render.driver import DEFAULT_BATCH, integrator_for, render
+from .render.driver import integrator_for, render
 from .render.resources import SPP_MAX
 from .scene.defines import parse_defines
 from .scene.errors import SceneError
@@ -232,15 +232,16 @@ def _render_checked(args) -> int:
         processes = args.processes or os.cpu_count() or 1
         integrator = _integrator_choice(args, options)
         chosen = integrator_for(scene, integrator, **options)   # bad options: before any output
-        batch = DEFAULT_BATCH if chosen.splats else sizes.machine_batch(processes).paths
-        resources.check_memory(scene.camera.width, scene.camera.height, processes, batch)
+        batch = sizes.render_batch(processes, chosen.splats)
+        resources.check_memory(scene.camera.width, scene.camera.height, processes, batch.paths)
         if args.verbose:
             accel = intersect.prepare(scene)   # built once: render() finds it ready
-            for line in sizes.describe(processes, chosen.splats, accel):
+            for line in sizes.describe(batch, accel):
                 print(f"pathtracer: {line}", file=sys.stderr)
         exr, png = output_paths(args.output)    # creates missing folders: after the checks
         result = render(scene, integrator=integrator, spp=args.spp, seed=args.seed,
-                        processes=args.processes, progress=False if args.no_progress else None,
+                        processes=args.processes, batch_size=batch.paths,
+                        progress=False if args.no_progress else None,
                         **{k: v for k, v in options.items() if v is not None})
     except (SceneError, ValueError, FileNotFoundError) as error:
         print(f"pathtracer: error: {error}", file=sys.stderr)

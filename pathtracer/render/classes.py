@@ -11,7 +11,16 @@ from ..scene.types import Scene
 from ..shapes import intersect
 from .jobs import CameraJob
 from .moments import mean_and_variance, pixel_statistics
-from .scheduling import DEFAULT_BATCH, plan_units, run_units
+from .scheduling import plan_units, run_units
+from .sizes import BatchSize, render_batch
+
+
+def class_batch(classes: int, processes: int) -> BatchSize:
+    """The batch of a render of ``classes`` path classes: the machine's (:func:`.sizes.render_batch`)
+    over ``classes / 2``, since each path carries 3 values per class (at least 1024 paths)."""
+    batch = render_batch(processes)
+    share = max(1, classes // 2)
+    return BatchSize(max(1024, batch.paths // share), f"{batch.reason}; / {share} for {classes} classes")
 
 
 class _ClassJob(CameraJob):
@@ -55,8 +64,8 @@ def render_classes(scene, classes, spp: int = 16, seed: int = 0, processes: int 
     integrator = PathClassIntegrator(classes, glossy=glossy, **options)
     K = len(integrator.classes)
     n_pixels = scene.camera.width * scene.camera.height
-    units = plan_units(n_pixels, int(spp), batch_size or max(1024, DEFAULT_BATCH // max(1, K // 2)))
     processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
+    units = plan_units(n_pixels, int(spp), batch_size or class_batch(K, processes).paths)
     intersect.prepare(scene)
     start = time.perf_counter()
     stats = run_units(_ClassJob(scene, integrator, int(spp), int(seed)), [(u,) for u in units],

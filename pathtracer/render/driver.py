@@ -38,8 +38,8 @@ from .jobs import CameraJob, FilteredJob, sample_grid_size
 from .moments import film_sums, filtered_mean_and_variance, mean_and_variance, merge_sums, pixel_statistics
 from .resources import POOL_UNITS
 from .result import RenderResult
-from .scheduling import DEFAULT_BATCH, group_units, plan_units, run_units
-from .sizes import machine_batch
+from .scheduling import group_units, plan_units, run_units
+from .sizes import render_batch
 from .splats import render_splats
 
 #: POOL_UNITS (defined with the memory estimate that counts it, in resources): units
@@ -145,7 +145,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
         Worker processes (default: every core). The image does not depend on it.
     batch_size : int, optional
         Camera paths per batch (default: chosen from the machine's memory,
-        :func:`.sizes.machine_batch`; a light tracer's is fixed). The image does not depend
+        :func:`.sizes.render_batch`; a light tracer's is fixed). The image does not depend
         on it.
     progress : bool, optional
         Show a progress bar (default: when stderr is a terminal and the render is long).
@@ -164,9 +164,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
         raise ValueError(f"spp must be >= 1, got {spp}")
     n_pixels = scene.camera.width * scene.camera.height
     processes = (os.cpu_count() or 1) if processes is None else max(1, int(processes))
-    if integrator.splats:
-        batch_size = batch_size or DEFAULT_BATCH   # splat sums depend on it: fixed everywhere
-    batch_size = batch_size or machine_batch(processes).paths
+    batch_size = batch_size or render_batch(processes, integrator.splats).paths
     units = plan_units(sample_grid_size(scene.camera), spp, batch_size)
     if progress is None:
         progress = sys.stderr.isatty() and n_pixels * spp >= 1 << 20

@@ -73,18 +73,21 @@ def machine_batch(processes: int) -> BatchSize:
     return choose_batch(processes, resources.available_memory())
 
 
-def describe(processes: int, splats: bool = False, accel=None,
-             machine: Machine | None = None) -> list[str]:
+def render_batch(processes: int, splats: bool = False) -> BatchSize:
+    """The batch a render uses: the machine's (:func:`machine_batch`), or for a light tracer
+    (``splats``) the fixed :data:`~.scheduling.DEFAULT_BATCH`."""
+    if splats:
+        return BatchSize(DEFAULT_BATCH, "fixed for light tracers: their splat sums depend on it")
+    return machine_batch(processes)
+
+
+def describe(batch: BatchSize, accel=None, machine: Machine | None = None) -> list[str]:
     """Lines saying the machine and the sizes a render on it uses (``--verbose``, the bench).
 
-    ``splats``: the integrator is a light tracer (fixed batch); ``accel``: the scene's
-    triangle accelerator, for its all-pairs chunk where it has one.
+    ``batch``: the render's (:func:`render_batch`); ``accel``: the scene's triangle
+    accelerator, for its all-pairs chunk where it has one.
     """
     machine = machine or this_machine()
-    if splats:
-        batch = BatchSize(DEFAULT_BATCH, "fixed for light tracers: their splat sums depend on it")
-    else:
-        batch = machine_batch(processes)
     lines = [f"machine: {machine.describe()}",
              f"batch: {batch.paths} paths per process ({batch.reason})"]
     small = getattr(accel, "small", accel)
