@@ -344,9 +344,9 @@ def shadow_transmittance(scene: Scene, p: np.ndarray, n: np.ndarray, wo: np.ndar
                 track_heterogeneous(scene, flight, medium[inside], o[inside], d[inside],
                                     t_surface[inside], u, None)
             value[inside] *= np.where(flight.scattered[:, None], 0.0, flight.weight)
-            scattered = _rows_of(flight.scattered, inside, len(rows), False)
+            scattered = _rows_of(flight.scattered, inside, np.zeros(len(rows), bool))
             if flight.null is not None:
-                collided = _rows_of(flight.null, inside, len(rows), False)
+                collided = _rows_of(flight.null, inside, np.zeros(len(rows), bool))
                 t_surface = _rows_of(flight.t, inside, t_surface)
         through = hit.valid if scattered is None else hit.valid & ~scattered
         if collided is not None:
@@ -404,12 +404,12 @@ def _shadow_rays(p: np.ndarray, n: np.ndarray, wo: np.ndarray, dist: np.ndarray)
     return o, d, remaining
 
 
-def _rows_of(values: np.ndarray, rows, fill, default=None) -> np.ndarray:
-    """An array of ``fill`` (a length, then filled with ``default``, or an array, copied)
-    whose ``rows`` (indices or ``slice(None)``) are ``values``."""
+def _rows_of(values: np.ndarray, rows, base: np.ndarray) -> np.ndarray:
+    """``base`` with its ``rows`` (indices, or ``slice(None)``: all) replaced by ``values``;
+    ``base`` itself is left as it was."""
     if isinstance(rows, slice):
         return values
-    out = np.full(fill, default) if np.ndim(fill) == 0 else fill.copy()
+    out = base.copy()
     out[rows] = values
     return out
 
