@@ -160,8 +160,7 @@ class SmallMesh:
 
     def _refit(self, o, d, prim):
         """Float64 hits of rays (3, m) on their primitives ``prim``: (t, triangle, b1, b2)."""
-        tri = np.take(self._prim, prim, axis=1, mode="wrap")   # "wrap": see BVH._step
-        t, b1, b2 = _plane_coordinates(o, d, tri)
+        t, b1, b2 = _plane_coordinates(o, d, self._primitive_rows(prim))
         half = 2 * prim + (b1 + b2 > 1.0)  # the triangle: row of the (2P,) tables
         m = np.take(self._to_bary, half, axis=1, mode="wrap")
         u = m[0] + m[1] * b1 + m[2] * b2
@@ -172,35 +171,73 @@ class SmallMesh:
         """Closest hit of each ray (same contract as :meth:`BVH.intersect`)."""
         o, d, tmax = _rays(o, d, tmax)
         n = o.shape[1]
-        t = np.full(n, np.inf)
-        prim = np.full(n, -1, np.int64)
-        b1, b2 = np.zeros(n), np.zeros(n)
         if not self.num_triangles or not n:
-            return t, prim, b1, b2
-        key = np.empty(n, np.uint32)
-        for s in range(0, n, self.chunk):
-            sl = slice(s, s + self.chunk)
-            key[sl] = self._closest_keys(o[:, sl], d[:, sl])
-        rows = np.flatnonzero(key < np.uint32(0x7F800000))  # a finite, positive t
-        if len(rows) == n:   # every ray has a candidate (a closed room): no gathers
-            cand = (key & np.uint32((1 << self._bits) - 1)).astype(np.int64)
-            tt, tri, u, v = self._refit(o, d, cand)
+            return _no_hits(n)
+        key, found, rows = self._candidates(o, d)
+        if 2 * len(rows) >= n:
+            # Most rays have a candidate (a room, open on a side or not): refit every ray,
+            # the candidate-less ones on some primitive, and mask them out after. Each
+            # ray's arithmetic is its own, so the hits are those a gathered refit gives,
+            # without gathering the rays and scattering the hits back.
+            tt, tri, u, v = self._refit(o, d, self._primitive(key))
             ok = (tt > 0.0) & (tt < tmax)
+            if len(rows) < n:
+                ok &= found
             if ok.all():
                 return tt, tri, u, v
-            rows = np.flatnonzero(ok)
-            t[rows], prim[rows], b1[rows], b2[rows] = tt[rows], tri[rows], u[rows], v[rows]
-        elif len(rows):
-            cand = (key[rows] & np.uint32((1 << self._bits) - 1)).astype(np.int64)
-            tt, tri, u, v = self._refit(np.take(o, rows, axis=1), np.take(d, rows, axis=1), cand)
+            return (np.where(ok, tt, np.inf), np.where(ok, tri, -1), np.where(ok, u, 0.0),
+                    np.where(ok, v, 0.0))
+        t, prim, b1, b2 = _no_hits(n)
+        if len(rows):
+            tt, tri, u, v = self._refit(np.take(o, rows, axis=1), np.take(d, rows, axis=1),
+                                        self._primitive(np.take(key, rows)))
             ok = (tt > 0.0) & (tt < tmax[rows])
             rows = rows[ok]
             t[rows], prim[rows], b1[rows], b2[rows] = tt[ok], tri[ok], u[ok], v[ok]
         return t, prim, b1, b2
 
     def occluded(self, o, d, tmax=None):
-        """(n,) bool: some triangle lies on the ray with ``0 < t < tmax``."""
-        return self.intersect(o, d, tmax)[1] >= 0
+        """(n,) bool: some triangle lies on the ray with ``0 < t < tmax`` (the rays whose
+        :meth:`intersect` finds a hit; only ``t`` is refitted)."""
+        o, d, tmax = _rays(o, d, tmax)
+        n = o.shape[1]
+        if not self.num_triangles or not n:
+            return np.zeros(n, bool)
+        key, found, rows = self._candidates(o, d)
+        if 2 * len(rows) >= n:
+            t = _plane_coordinates(o, d, self._primitive_rows(self._primitive(key)))[0]
+            return (t > 0.0) & (t < tmax) & found
+        occluded = np.zeros(n, bool)
+        if len(rows):
+            tri = self._primitive_rows(self._primitive(np.take(key, rows)))
+            t = _plane_coordinates(np.take(o, rows, axis=1), np.take(d, rows, axis=1), tri)[0]
+            occluded[rows] = (t > 0.0) & (t < np.take(tmax, rows))
+        return occluded
+
+    def _candidates(self, o, d):
+        """Per ray (o, d: (3, n)) the packed key of its nearest float32 candidate, whether it
+        has one, and the rays that do (indices)."""
+        n = o.shape[1]
+        key = np.empty(n, np.uint32)
+        for s in range(0, n, self.chunk):
+            sl = slice(s, s + self.chunk)
+            key[sl] = self._closest_keys(o[:, sl], d[:, sl])
+        found = key < np.uint32(0x7F800000)  # a finite, positive t
+        return key, found, np.flatnonzero(found)
+
+    def _primitive(self, key):
+        """The primitive index packed in the low bits of ``key`` (any value where the key has
+        no candidate: refits index with ``mode="wrap"``)."""
+        return (key & np.uint32((1 << self._bits) - 1)).astype(np.int64)
+
+    def _primitive_rows(self, prim):
+        """(9, m) float64 ``p0``, ``e1``, ``e2`` of primitives ``prim``."""
+        return np.take(self._prim, prim, axis=1, mode="wrap")   # "wrap": see BVH._step
+
+
+def _no_hits(n: int):
+    """``t``, triangle, ``b1``, ``b2`` of ``n`` rays that hit nothing."""
+    return np.full(n, np.inf), np.full(n, -1, np.int64), np.zeros(n), np.zeros(n)
 
 
 def chunk_rays(bytes_per_ray: int, l2: int | None) -> tuple[int, str]:

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.vec import frame, put_rows, scale, select, to_local, to_world
+from ..core.vec import frame, put_rows, scale, select, take_rows, to_local, to_world
 from ..scene.types import Scene
 from ..shapes.intersect import texture_uv
 from ..shapes.tangents import local_geometry
@@ -202,18 +202,13 @@ def eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray,
     value = np.zeros((len(wi), 3))
     pdf = np.zeros(len(wi))
     for bsdf, rows in groups:
-        wi_local, wo_local = _local_pair(_rows(hit.sh_n, rows), _rows(wi, rows), _rows(wo, rows))
+        wi_local, wo_local = _local_pair(take_rows(hit.sh_n, rows), take_rows(wi, rows), take_rows(wo, rows))
         f = np.asarray(bsdf.eval(wi_local, wo_local), np.float64)
         if adjoint and bsdf.refracts:
             f = f * importance_scale(bsdf, wi_local, wo_local)[:, None]
         put_rows(value, rows, f)
         pdf[rows] = bsdf.pdf(wi_local, wo_local, hemisphere=hemisphere)
     return value, pdf
-
-
-def _rows(a: np.ndarray, rows) -> np.ndarray:
-    """``a[rows]`` (``rows`` integer indices or a slice): ``np.take`` is ~4x faster on (n, 3)."""
-    return a[rows] if isinstance(rows, slice) else np.take(a, rows, axis=0)
 
 
 def _local_pair(n, a, b):
@@ -263,10 +258,10 @@ def sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarra
         out = ScatterSample(np.zeros((count, 3)), np.zeros((count, 3)), np.zeros(count),
                             np.zeros(count, dtype=bool), np.ones(count))
         for bsdf, rows in groups:
-            n = _rows(hit.sh_n, rows)
+            n = take_rows(hit.sh_n, rows)
             columns = frame(n)
-            bs = bsdf.sample(to_local(_rows(wi, rows), n, columns), _rows(u1, rows),
-                             _rows(u2, rows), hemisphere=hemisphere)
+            bs = bsdf.sample(to_local(take_rows(wi, rows), n, columns), take_rows(u1, rows),
+                             take_rows(u2, rows), hemisphere=hemisphere)
             put_rows(out.wo, rows, to_world(bs.wo, n, columns))
             put_rows(out.weight, rows, select(bs.valid, bs.weight))
             out.pdf[rows] = np.where(bs.valid, bs.pdf, 0.0)
@@ -302,9 +297,9 @@ def dielectric_lobes(scene: Scene, hit, wi: np.ndarray) -> DielectricLobes:
     out = DielectricLobes(np.zeros(count), np.zeros((count, 3)), np.zeros((count, 3)),
                           np.zeros((count, 3)), np.zeros((count, 3)))
     for bsdf, rows in _groups(scene, hit):
-        n = _rows(hit.sh_n, rows)
+        n = take_rows(hit.sh_n, rows)
         columns = frame(n)
-        F, wo_r, weight_r, wo_t, weight_t = bsdf.lobes(to_local(_rows(wi, rows), n, columns))
+        F, wo_r, weight_r, wo_t, weight_t = bsdf.lobes(to_local(take_rows(wi, rows), n, columns))
         out.F[rows] = F
         put_rows(out.wo_r, rows, to_world(wo_r, n, columns))
         put_rows(out.weight_r, rows, weight_r)

@@ -194,4 +194,17 @@ def put_rows(a: np.ndarray, rows, values) -> None:
         a[rows] = values
 
 
+def take_rows(a: np.ndarray, rows) -> np.ndarray:
+    """``a[rows]`` for integer indices ``rows`` or a slice: ``np.take`` along axis 0 is
+    several times faster than fancy indexing of (n, 3) arrays, a slice is a view."""
+    return a[rows] if isinstance(rows, slice) else np.take(a, rows, axis=0)
+
+
+def multiply_rows(a: np.ndarray, rows: np.ndarray, factor: np.ndarray) -> None:
+    """``a[rows] *= factor`` for the (distinct) rows of an (n, k) array: one ``np.take`` and
+    one :func:`put_rows`, where the fancy ``*=`` reads and writes element by element
+    (several times slower)."""
+    put_rows(a, rows, np.take(a, rows, axis=0) * factor)
+
+
 _RECORDS: dict = {}   # (dtype, k) -> the void dtype of one row of k elements

@@ -38,7 +38,7 @@ import numpy as np
 
 from ..bsdfs.shading import eval_bsdf, has_smooth
 from ..core.sampling import power_heuristic
-from ..core.vec import any_row
+from ..core.vec import any_row, put_rows
 from ..emitters.scene_emitters import emitted_radiance, pdf_emitter_direction, sample_emitter
 from ..media.homogeneous import (
     next_medium,
@@ -66,40 +66,45 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
 
     def in_medium(self, scene, paths, rows, t, segment, add_radiance):
         """Scatter inside the medium: a shadow ray (phase MIS), then sample the phase function."""
-        x = paths.o[rows] + t[:, None] * paths.d[rows]
-        wi, medium = -paths.d[rows], paths.medium[rows]
-        paths.beta[rows] *= scattering_albedo(scene, medium, x)
+        d, medium = np.take(paths.d, rows, axis=0), paths.medium[rows]
+        x = np.take(paths.o, rows, axis=0) + t[:, None] * d
+        wi = -d
+        beta = np.take(paths.beta, rows, axis=0) * scattering_albedo(scene, medium, x)
+        put_rows(paths.beta, rows, beta)
         paths.depth[rows] += 1
         alive = paths.depth[rows] < self.depth_limit
-        nee = np.flatnonzero(alive & samples_emitters(scene, medium) & any_row(paths.beta[rows] > 0))
+        emitters = samples_emitters(scene, medium)
+        nee = np.flatnonzero(alive & emitters & any_row(beta > 0))
         x_nee, medium_nee = np.take(x, nee, axis=0), medium[nee]
         self.shadow_ray(scene, paths, rows[nee], x_nee, np.zeros_like(x_nee), lambda wo: medium_nee,
                         phase_f_pdf(scene, medium_nee, np.take(wi, nee, axis=0)), segment,
                         add_radiance)
         wo, pdf = phase_sample(scene, medium, wi, self.uniform(paths, segment, SLOT_DIRECTION, 2, rows))
-        paths.last_p[rows], paths.last_pdf[rows] = x, pdf
-        paths.specular[rows] = ~samples_emitters(scene, medium)
+        put_rows(paths.last_p, rows, x)
+        paths.last_pdf[rows] = pdf
+        paths.specular[rows] = ~emitters
         move(paths, rows, x, np.zeros_like(x), wo)
         return alive & (pdf > 0)
 
     def on_surface(self, scene, paths, rows, hit, segment, add_radiance):
         """Emission found (MIS against the light sample of the last scattering event), a
         shadow ray (BSDF MIS) on smooth BSDFs, then continue by BSDF sampling."""
-        d = paths.d[rows]
+        d, beta = np.take(paths.d, rows, axis=0), np.take(paths.beta, rows, axis=0)
         Le = self.visible_emission(paths.depth[rows], emitted_radiance(scene, hit, -d))
         lit = np.flatnonzero(any_row(Le > 0))
         if len(lit):
             r = rows[lit]
-            pdf_light = pdf_emitter_direction(scene, paths.last_p[r], subset_hit(hit, lit), d[lit])
+            pdf_light = pdf_emitter_direction(scene, np.take(paths.last_p, r, axis=0),
+                                              subset_hit(hit, lit), np.take(d, lit, axis=0))
             full = (paths.depth[r] == 0) | paths.specular[r]
             w = np.where(full, 1.0, power_heuristic(paths.last_pdf[r], pdf_light))
-            add_radiance(paths.beta[r] * Le[lit] * w[:, None], r)
+            add_radiance(np.take(beta, lit, axis=0) * np.take(Le, lit, axis=0) * w[:, None], r)
         # Misses index the last shape's BSDF here; hit.valid drops them.
         smooth = np.flatnonzero(hit.valid & (paths.depth[rows] + 1 < self.depth_limit)
-                                & any_row(paths.beta[rows] > 0) & has_smooth(scene, hit))
+                                & any_row(beta > 0) & has_smooth(scene, hit))
         if len(smooth):
             h, r = subset_hit(hit, smooth), rows[smooth]
-            wi = -paths.d[r]
+            wi = -np.take(d, smooth, axis=0)
             self.shadow_ray(scene, paths, r, h.p, h.n,
                             lambda wo: next_medium(scene, h, paths.medium[r], wo),
                             lambda wo: eval_bsdf(scene, h, wi, wo, self.hemisphere), segment,
@@ -121,7 +126,7 @@ class VolPathIntegrator(VolPathPhaseIntegrator):
         u2 = self.uniform(paths, segment, SLOT_LIGHT + 1, 2, rows)
         light = sample_emitter(scene, SimpleNamespace(p=x), u, u2, test_visibility=False)
         f, pdf_f = f_pdf(light.wo)
-        contribution = paths.beta[rows] * f * light.weight
+        contribution = np.take(paths.beta, rows, axis=0) * f * light.weight
         live = np.flatnonzero((light.pdf > 0) & any_row(contribution > 0))
         if not len(live):
             return

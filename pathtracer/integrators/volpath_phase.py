@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs.shading import sample_bsdf
-from ..core.vec import put_rows
+from ..core.vec import multiply_rows, put_rows
 from ..emitters.scene_emitters import emitted_radiance
 from ..media.heterogeneous import has_heterogeneous, track_heterogeneous
 from ..media.homogeneous import (
@@ -111,24 +111,27 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
         """A null collision ``t`` along the ray of paths ``rows`` (a heterogeneous medium):
         the next segment starts there in the same direction, not a scattering event (depth,
         last vertex and roulette's count unchanged) -> all go on."""
-        paths.o[rows] = paths.o[rows] + t[:, None] * paths.d[rows]
+        o, d = np.take(paths.o, rows, axis=0), np.take(paths.d, rows, axis=0)
+        put_rows(paths.o, rows, o + t[:, None] * d)
         paths.tmax[rows] = paths.tmax[rows] - t
         return np.ones(len(rows), dtype=bool)
 
     def in_medium(self, scene, paths, rows, t, segment, add_radiance):
         """Scatter inside the medium: sample the phase function (weight 1)."""
-        x = paths.o[rows] + t[:, None] * paths.d[rows]
-        paths.beta[rows] *= scattering_albedo(scene, paths.medium[rows], x)
+        d, medium = np.take(paths.d, rows, axis=0), paths.medium[rows]
+        x = np.take(paths.o, rows, axis=0) + t[:, None] * d
+        multiply_rows(paths.beta, rows, scattering_albedo(scene, medium, x))
         paths.depth[rows] += 1
-        wo, pdf = phase_sample(scene, paths.medium[rows], -paths.d[rows],
+        wo, pdf = phase_sample(scene, medium, -d,
                                self.uniform(paths, segment, SLOT_DIRECTION, 2, rows))
         move(paths, rows, x, np.zeros_like(x), wo)
         return (paths.depth[rows] < self.depth_limit) & (pdf > 0)
 
     def on_surface(self, scene, paths, rows, hit, segment, add_radiance):
         """Add the emission found, then continue by BSDF sampling."""
-        Le = emitted_radiance(scene, hit, -paths.d[rows])
-        add_radiance(paths.beta[rows] * self.visible_emission(paths.depth[rows], Le), rows)
+        d, beta = np.take(paths.d, rows, axis=0), np.take(paths.beta, rows, axis=0)
+        Le = emitted_radiance(scene, hit, -d)
+        add_radiance(beta * self.visible_emission(paths.depth[rows], Le), rows)
         return self.bounce(scene, paths, rows, hit, segment)
 
     def bounce(self, scene, paths: Paths, rows: np.ndarray, hit, segment: int) -> np.ndarray:
@@ -143,11 +146,11 @@ class VolPathPhaseIntegrator(VolumeIntegrator):
         on = np.flatnonzero(valid)
         if len(on) < len(rows):
             rows, hit = rows[on], subset_hit(hit, on)
-        wi = -paths.d[rows]
+        wi = -np.take(paths.d, rows, axis=0)
         bs = sample_bsdf(scene, hit, wi, self.uniform(paths, segment, SLOT_LOBE, rows=rows),
                          self.uniform(paths, segment, SLOT_DIRECTION, 2, rows), self.hemisphere)
         real = ~null_event(scene, hit, wi, bs.wo)
-        paths.beta[rows] *= bs.weight
+        multiply_rows(paths.beta, rows, bs.weight)
         paths.eta[rows] *= bs.eta
         paths.depth[rows] += real
         scattering = np.flatnonzero(real)

@@ -21,6 +21,11 @@ light choice, lobe, direction and the null-collision choice, then one per step
 of a shadow ray: a surface crossed or a tentative collision),
 so a path sees the same numbers whatever else is in its batch and the image
 does not depend on batching.
+
+The integrators read the rows of the (n, 3) per-path arrays with ``np.take`` (once per
+step, reusing what they gathered) and write them with ``put_rows`` or ``multiply_rows``
+(:mod:`pathtracer.core.vec`): NumPy's fancy indexing of (n, 3) arrays is several times
+slower, and the values are the same.
 """
 from __future__ import annotations
 

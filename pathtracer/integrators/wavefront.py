@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.rng import RandomStream
+from ..core.vec import put_rows
 from ..sensors.perspective import Rays
 from ..shapes import intersect
 
@@ -196,8 +197,9 @@ class Paths:
     def _deliver(self, paths) -> None:
         """Add the radiance that ``paths`` gathered to their camera rays' rows of ``L``."""
         target = self.row[paths]
-        if self._rows_unique:
-            self._L[target] += self.gathered[paths]
+        if self._rows_unique:    # np.take and put_rows: 3-4x faster than fancy (m, 3) indexing
+            gathered = self.gathered if isinstance(paths, slice) else np.take(self.gathered, paths, axis=0)
+            put_rows(self._L, target, np.take(self._L, target, axis=0) + gathered)
         else:   # rows repeat: unbuffered adds, on the flat array (NumPy's fast path, ~3x)
             flat = (target[:, None] * 3 + np.arange(3)).ravel()
             np.add.at(self._L.reshape(-1), flat, self.gathered[paths].ravel())
@@ -239,7 +241,7 @@ class Paths:
     def next_hit(self, scene) -> None:
         """Trace every path's scattered ray to its next hit (a pool below half its size
         then starts new camera paths)."""
-        rays = spawn(self.hit, self.wo)
+        rays = spawn_rays(self._hit_field("p"), self._hit_field("n"), self.wo)
         self.hit = trace(scene, rays)
         self.wi = -rays.d
         self.wo = None
@@ -261,13 +263,34 @@ class Paths:
         self.hit = concatenate_hits([self.hit, waiting.trace_camera(rays)])
         self.rng = self.rng.joined(waiting.rng.subset(camera))
 
+    @property
+    def hit(self):
+        """The intersection of each live path's current ray (compacted when first read)."""
+        if self._hit_rows is not None:
+            self._hit, self._hit_rows = subset_hit(self._hit, self._hit_rows), None
+        return self._hit
+
+    @hit.setter
+    def hit(self, value) -> None:
+        self._hit, self._hit_rows = value, None
+
+    def _hit_field(self, name: str) -> np.ndarray:
+        """One field of :attr:`hit` for the live paths, without compacting the others."""
+        value = getattr(self._hit, name)
+        return value if self._hit_rows is None else np.take(value, self._hit_rows, axis=0)
+
     def _take(self, rows) -> None:
+        taken = {}    # fields that share an array (prev_p = hit.p) are gathered once
         for name in self._fields:
             value = getattr(self, name)
             if value is not None:
-                setattr(self, name, np.take(value, rows, axis=0))
-        if self.hit is not None:      # None: paths not traced yet (segments)
-            self.hit = subset_hit(self.hit, rows)
+                if id(value) not in taken:
+                    taken[id(value)] = np.take(value, rows, axis=0)
+                setattr(self, name, taken[id(value)])
+        # The hit is compacted when next read: after roulette, only its points and normals
+        # are (to spawn the next rays).
+        if self._hit is not None:      # None: paths not traced yet (segments)
+            self._hit_rows = rows if self._hit_rows is None else np.take(self._hit_rows, rows)
 
 
 def _fresh(camera: np.ndarray, d: np.ndarray) -> tuple:
@@ -328,8 +351,13 @@ def trace(scene, rays: Rays):
 
 def spawn(hit, wo: np.ndarray) -> Rays:
     """Rays leaving the hits along ``wo``, offset against self-intersection."""
-    o = intersect.spawn_ray(hit.p, hit.n, wo)
-    return Rays(o, wo, np.full(len(wo), np.inf))
+    return spawn_rays(hit.p, hit.n, wo)
+
+
+def spawn_rays(p: np.ndarray, n: np.ndarray, wo: np.ndarray) -> Rays:
+    """Rays leaving points ``p`` (geometric normals ``n``) along ``wo``, offset against
+    self-intersection."""
+    return Rays(intersect.spawn_ray(p, n, wo), wo, np.full(len(wo), np.inf))
 
 
 def subset_hit(hit, rows):

@@ -49,6 +49,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.vec import put_rows
 from ..scene.properties import COLOR_TAGS, Props, children
 from ..scene.registry import register
 from ..scene.xml import Plugin
@@ -96,12 +97,16 @@ class HeterogeneousMedium:
 
 def heterogeneous_table(scene) -> np.ndarray:
     """True (M,) for the scene's heterogeneous media."""
-    return np.array([not getattr(m, "is_homogeneous", True) for m in scene.media], dtype=bool)
+    return np.array([_heterogeneous(m) for m in scene.media], dtype=bool)
 
 
 def has_heterogeneous(scene) -> bool:
-    """The scene has a heterogeneous medium."""
-    return bool(getattr(scene, "media", None)) and bool(heterogeneous_table(scene).any())
+    """The scene has a heterogeneous medium (asked per segment and per shadow ray: no array)."""
+    return any(_heterogeneous(m) for m in getattr(scene, "media", None) or ())
+
+
+def _heterogeneous(medium) -> bool:
+    return not getattr(medium, "is_homogeneous", True)
 
 
 def track_heterogeneous(scene, flight, medium: np.ndarray, o: np.ndarray, d: np.ndarray,
@@ -126,7 +131,9 @@ def track_heterogeneous(scene, flight, medium: np.ndarray, o: np.ndarray, d: np.
         rows = rows_all[medium[rows_all] == k]
         med = scene.media[k]
         majorant = med.majorant
-        active, t0, t1 = med.box(o[rows], d[rows])
+        # The rays' (n, 3) rows gathered once, by np.take (fancy indexing is slower)
+        o_k, d_k = np.take(o, rows, axis=0), np.take(d, rows, axis=0)
+        active, t0, t1 = med.box(o_k, d_k)
         with np.errstate(divide="ignore", invalid="ignore"):
             t = t0 - np.log1p(-u[rows]) / majorant
         collided = active & (t <= t1) & (t <= t_surface[rows]) & (majorant > 0)
@@ -136,23 +143,23 @@ def track_heterogeneous(scene, flight, medium: np.ndarray, o: np.ndarray, d: np.
         c = np.flatnonzero(collided)
         real = np.zeros(len(rows), dtype=bool)
         if len(c):
-            x = o[rows[c]] + t[c, None] * d[rows[c]]
+            x = np.take(o_k, c, axis=0) + t[c, None] * np.take(d_k, c, axis=0)
             sigma_t, sigma_s = med.coefficients(x)
             sigma_n = majorant - sigma_t
             if u_null is None:
-                weight[c] = sigma_n / majorant
+                put_rows(weight, c, sigma_n / majorant)
             else:
                 p_null = np.mean(sigma_n / majorant, axis=1)
                 is_null = u_null[rows[c]] < p_null
                 with np.errstate(divide="ignore", invalid="ignore"):
                     w_null = sigma_n / (majorant * p_null[:, None])
                     w_real = sigma_s / (majorant * np.mean(sigma_t / majorant, axis=1))[:, None]
-                weight[c] = np.where(is_null[:, None], w_null, w_real)
+                put_rows(weight, c, np.where(is_null[:, None], w_null, w_real))
                 real[c] = ~is_null
         flight.scattered[rows] = real
         flight.null[rows] = collided & ~real
         flight.t[rows] = np.where(collided, t, t_surface[rows])
-        flight.weight[rows] = weight
+        put_rows(flight.weight, rows, weight)
 
 
 def _volume_parameter(plugin: Plugin, props: Props, volumes: dict, name: str, default: float,

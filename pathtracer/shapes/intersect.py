@@ -113,10 +113,13 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
     n = len(o)
     tmax = np.broadcast_to(np.inf if tmax is None else np.asarray(tmax, np.float64), (n,))
     t, prim, b1, b2 = prepare(scene).intersect(o, d, tmax)
-    # Every ray hit a triangle (a closed room): the triangle records are built whole, no
-    # scatters; the rows that analytic shapes take are written over below.
-    room = bool(n) and prim.min() >= 0
-    records = _triangle_records(scene, prim, b1, b2) if room else None
+    # Most rays hit a triangle (a room, closed or open on a side): the triangle records are
+    # built whole, no scatters, and the rays that missed get empty records after; the rows
+    # that analytic shapes take are written over below.
+    missed = np.flatnonzero(prim < 0)
+    room = 2 * len(missed) <= n and n > 0
+    records = _triangle_records(scene, np.maximum(prim, 0) if len(missed) else prim, b1, b2) \
+        if room else None
     kind = np.where(prim >= 0, 0, -1)  # 0 triangle, 1 sphere, 2 disk, 3 curve, 4 cylinder, 5 sdfgrid
     t = np.where(kind >= 0, t, tmax)  # the far end for the analytic shapes
     for i in range(len(scene.sphere_radius)):
@@ -147,6 +150,10 @@ def intersect(scene, o: np.ndarray, d: np.ndarray, tmax=None) -> Hit:
     t[kind < 0] = np.inf
     if records is not None:
         p, nrm, sh_n, shape, uv = records
+        if len(missed):   # empty records where no triangle was hit (analytic hits come below)
+            for field in (p, nrm, sh_n, uv):
+                field[missed] = 0.0
+            shape[missed] = -1
         hit = Hit(valid=kind >= 0, t=t, p=p, n=nrm, sh_n=sh_n, shape=shape, prim=prim, uv=uv)
     else:
         hit = Hit(valid=kind >= 0, t=t, p=np.zeros((n, 3)), n=np.zeros((n, 3)),
