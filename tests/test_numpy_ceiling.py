@@ -1,10 +1,10 @@
-"""The ceiling of experiments/ceiling.py is a correct renderer: its Cornell box agrees with
+"""The ceiling of experiments/numpy_ceiling.py is a correct renderer: its Cornell box agrees with
 Mitsuba's ``path``, so the rate it reaches is that of a renderer that does the whole work."""
 import json
 
 import pytest
 
-from experiments.ceiling import DiffuseBox, main, render_ceiling
+from experiments.numpy_ceiling import DiffuseBox, main, render_ceiling
 from mitsuba_refs.cache import get_reference
 from mitsuba_refs.stats import compare_means
 from pathtracer import load_scene
@@ -49,7 +49,7 @@ def test_ceiling_refuses_scenes_it_does_not_render():
 
 
 def test_alternation_script_writes_its_rates(tmp_path, capsys):
-    """``python -m experiments.ceiling`` alternates the ceiling and our ``path`` (Mitsuba left
+    """``python -m experiments.numpy_ceiling`` alternates the ceiling and our ``path`` (Mitsuba left
     out here) and writes every round's rate."""
     out = tmp_path / "ceiling.json"
     main(["--resolution", "16", "--spp", "2", "--rounds", "2", "--no-mitsuba", "--core", "-1",

@@ -1,26 +1,30 @@
 """How fast can pure NumPy run this estimator at all? A ceiling for the speed targets.
 
-Run ``python -m experiments.ceiling [--resolution 128] [--spp 16] [--repeats 3]``.
+Run ``python -m experiments.numpy_ceiling [--resolution 128] [--spp 16] [--rounds 5]
+[--json OUT]``: the ceiling, our ``path`` and Mitsuba ``scalar_rgb``'s ``path`` render the
+Cornell box in turn, one render of each per round, in one process pinned to a core, and the
+paths per CPU-second and their ratios are printed per round.
 
 :func:`render_ceiling` is Mitsuba's ``path`` estimator (next-event estimation and BSDF
 sampling combined by the power heuristic, roulette after ``rr_depth``) written for one
 kind of scene only: triangles, ``diffuse`` BSDFs, one-sided area lights, a box filter and
 a pinhole camera, the Cornell box of the bench. It keeps only what that scene needs:
 
-* one layout, (3, n) component rows, so the all-pairs intersection never transposes;
+* one layout, (3, n) component rows, so that every per-component operation runs on
+  contiguous memory and the all-pairs intersection never transposes;
 * one normal and one albedo per triangle (flat shading; every BSDF diffuse), gathered
-  by triangle index, no BSDF or emitter dispatch, no hit records, no texture lookups;
+  by triangle index: no BSDF or emitter dispatch, no hit records, no texture lookups;
+* one compaction per bounce, of eight arrays;
 * NumPy's own bit generator (PCG64), drawn in bulk, instead of per-path counter streams
   (which make the tracer's images independent of batching);
 * the tracer's own float32 all-pairs filter (:class:`pathtracer.accel.small_mesh.SmallMesh`),
   then ``t`` from the winning triangle's plane in float64.
 
-Everything else a general tracer does for the same paths is left out, so its rate in
-paths per CPU-second bounds from above what any pure-NumPy tracer of this estimator can
-reach on the machine at hand, against Mitsuba ``scalar_rgb`` on the same scene (the
-bench's targets: docs/performance.md, "A ceiling for pure NumPy"). Its mean image is
-checked against ``pathtracer``'s ``path`` (``tests/test_ceiling.py``), so the ceiling is
-the rate of a correct renderer, not of one that skips work.
+Everything else a general tracer does for the same paths is left out, so its rate tells
+how far a pure-NumPy tracer of this estimator can get on the machine at hand, and what
+our ``path`` pays for being general (docs/performance.md, "A ceiling for pure NumPy").
+Its image agrees with the committed Mitsuba reference (``tests/test_numpy_ceiling.py``), so
+the ceiling is the rate of a correct renderer, not of one that skips work.
 """
 from __future__ import annotations
 
