@@ -28,6 +28,8 @@ per-path array for that: integrators that do mark their ``radiance`` with
 """
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 from ..core.rng import RandomStream
@@ -241,7 +243,8 @@ class Paths:
     def next_hit(self, scene) -> None:
         """Trace every path's scattered ray to its next hit (a pool below half its size
         then starts new camera paths)."""
-        rays = spawn_rays(self._hit_field("p"), self._hit_field("n"), self.wo)
+        # spawn reads only the hits' points and normals: those two of the compacted hit
+        rays = spawn(SimpleNamespace(p=self._hit_field("p"), n=self._hit_field("n")), self.wo)
         self.hit = trace(scene, rays)
         self.wi = -rays.d
         self.wo = None
@@ -280,13 +283,10 @@ class Paths:
         return value if self._hit_rows is None else np.take(value, self._hit_rows, axis=0)
 
     def _take(self, rows) -> None:
-        taken = {}    # fields that share an array (prev_p = hit.p) are gathered once
         for name in self._fields:
             value = getattr(self, name)
             if value is not None:
-                if id(value) not in taken:
-                    taken[id(value)] = np.take(value, rows, axis=0)
-                setattr(self, name, taken[id(value)])
+                setattr(self, name, np.take(value, rows, axis=0))
         # The hit is compacted when next read: after roulette, only its points and normals
         # are (to spawn the next rays).
         if self._hit is not None:      # None: paths not traced yet (segments)
@@ -350,14 +350,10 @@ def trace(scene, rays: Rays):
 
 
 def spawn(hit, wo: np.ndarray) -> Rays:
-    """Rays leaving the hits along ``wo``, offset against self-intersection."""
-    return spawn_rays(hit.p, hit.n, wo)
-
-
-def spawn_rays(p: np.ndarray, n: np.ndarray, wo: np.ndarray) -> Rays:
-    """Rays leaving points ``p`` (geometric normals ``n``) along ``wo``, offset against
-    self-intersection."""
-    return Rays(intersect.spawn_ray(p, n, wo), wo, np.full(len(wo), np.inf))
+    """Rays leaving the hits (anything with points ``p`` and geometric normals ``n``) along
+    ``wo``, offset against self-intersection."""
+    o = intersect.spawn_ray(hit.p, hit.n, wo)
+    return Rays(o, wo, np.full(len(wo), np.inf))
 
 
 def subset_hit(hit, rows):
