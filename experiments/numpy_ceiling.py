@@ -39,6 +39,7 @@ import numpy as np
 from pathtracer import load_scene, render
 from pathtracer.accel.small_mesh import SmallMesh
 from pathtracer.core.machine import this_machine
+from pathtracer.core.vec import frame
 
 from .bench import SCENES
 
@@ -99,17 +100,6 @@ class DiffuseBox:
         normal = _cols(self.normal, tri)
         t = (self.offset[tri] - np.einsum("ij,ij->j", normal, o)) / np.einsum("ij,ij->j", normal, d)
         return np.where(found, tri, -1), t
-
-
-def _frame(n):
-    """Two unit tangents (3, n) completing unit normals ``n`` (3, n) to an orthonormal frame
-    (Duff et al.'s branchless construction)."""
-    sign = np.copysign(1.0, n[2])
-    a = -1.0 / (sign + n[2])
-    b = n[0] * n[1] * a
-    s = np.stack((1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]))
-    t = np.stack((b, sign + n[1] * n[1] * a, -n[1]))
-    return s, t
 
 
 def _cols(a, index):
@@ -214,8 +204,10 @@ def _radiance(box: DiffuseBox, o, d, rng, rr_depth: int = 5):
         u = rng.random((2, m))
         r, phi = np.sqrt(u[0]), 2 * np.pi * u[1]
         cos_theta = np.sqrt(np.maximum(0.0, 1.0 - u[0]))
-        s_axis, t_axis = _frame(normal)
-        d = s_axis * (r * np.cos(phi)) + t_axis * (r * np.sin(phi)) + normal * cos_theta
+        _, s_axis, t_axis = frame(normal.T)   # the tracer's frame; columns of normal.T are rows
+        x_local, y_local = r * np.cos(phi), r * np.sin(phi)
+        d = np.stack([s_axis[c] * x_local + t_axis[c] * y_local + normal[c] * cos_theta
+                      for c in range(3)])
         beta = beta * albedo
         prev_p, prev_pdf = x, cos_theta / np.pi
         depth += 1

@@ -194,6 +194,15 @@ def put_rows(a: np.ndarray, rows, values) -> None:
         a[rows] = values
 
 
+def rows_by_value(ids: np.ndarray) -> list:
+    """``(k, rows)`` for each distinct value ``k`` of ``ids`` (n,): ``rows`` its indices, or
+    ``slice(None)`` when every row has it (the common case of one medium, BSDF or emitter:
+    views instead of gathers with :func:`take_rows`, and no ``np.unique``, which sorts)."""
+    if len(ids) and (ids == ids[0]).all():
+        return [(ids[0], slice(None))]
+    return [(k, np.flatnonzero(ids == k)) for k in np.unique(ids)]
+
+
 def take_rows(a: np.ndarray, rows) -> np.ndarray:
     """``a[rows]`` for integer indices ``rows`` or a slice: ``np.take`` along axis 0 is
     several times faster than fancy indexing of (n, 3) arrays, a slice is a view."""

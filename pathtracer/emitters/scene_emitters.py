@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.vec import dot, max_component, scale
+from ..core.vec import dot, max_component, rows_by_value, scale
 from ..scene.types import Scene
 from ..shapes import intersect
 from .area import AreaEmitter
@@ -137,10 +137,8 @@ def sample_emitter(scene: Scene, hit, u_choice: np.ndarray, u: np.ndarray,
         which = np.minimum((u_choice * n_emitters).astype(np.int64), n_emitters - 1)
     else:
         which = np.full(count, emitter)
-    # One light (the common case) needs no grouping: every row, as a slice (no gathers).
-    groups = [(which[0], slice(None))] if n_emitters == 1 or emitter is not None else \
-        [(e, np.flatnonzero(which == e)) for e in np.unique(which)]
-    for e, rows in groups:
+    # One light (the common case) is every row, as a slice (no gathers).
+    for e, rows in rows_by_value(which):
         part = scene.emitters[e].sample_direction(scene, hit.p[rows], u[rows])
         sample.wo[rows], sample.dist[rows], sample.pdf[rows] = part.wo, part.dist, part.pdf
         sample.weight[rows], sample.delta[rows] = part.weight, part.delta
@@ -272,8 +270,7 @@ def sample_emitter_position(scene: Scene, u_choice: np.ndarray,
     which = choose_emitter(scene, u_choice)
     out = EmitterPosition(np.zeros((count, 3)), np.zeros((count, 3)), which,
                           np.zeros(count), np.zeros(count, dtype=bool), np.zeros((count, 3)))
-    for e in np.unique(which):
-        rows = np.flatnonzero(which == e)
+    for e, rows in rows_by_value(which):
         light = scene.emitters[e]
         out.p[rows], out.n[rows], out.pdf[rows], out.emission[rows] = \
             light.sample_position(scene, u[rows])
@@ -294,8 +291,7 @@ def sample_emitter_ray(scene: Scene, u_choice: np.ndarray, u_pos: np.ndarray,
     position = sample_emitter_position(scene, u_choice, u_pos)
     count = len(u_choice)
     d, pdf_dir, weight = np.zeros((count, 3)), np.zeros(count), np.zeros((count, 3))
-    for e in np.unique(position.emitter):
-        rows = np.flatnonzero(position.emitter == e)
+    for e, rows in rows_by_value(position.emitter):
         light = scene.emitters[e]
         d[rows], pdf_dir[rows], weight[rows] = light.sample_ray_direction(position.n[rows], u_dir[rows])
     # Area lights: Le cos / (pdf_pos pdf_dir) = Le pi / pdf_pos; Dirac ones: / (1 / N).
@@ -307,8 +303,7 @@ def sample_emitter_ray(scene: Scene, u_choice: np.ndarray, u_pos: np.ndarray,
 def pdf_emitter_ray(scene: Scene, position: EmitterPosition, d: np.ndarray) -> np.ndarray:
     """Solid-angle density with which :func:`sample_emitter_ray` picks ``d`` at ``position``."""
     pdf = np.zeros(len(d))
-    for e in np.unique(position.emitter):
-        rows = np.flatnonzero(position.emitter == e)
+    for e, rows in rows_by_value(position.emitter):
         pdf[rows] = scene.emitters[e].pdf_ray_direction(position.n[rows], d[rows])
     return pdf
 
@@ -319,8 +314,7 @@ def emitted_towards(scene: Scene, position: EmitterPosition, d: np.ndarray) -> n
     Area lights emit on the side their normal faces only, as for :func:`emitted_radiance`.
     """
     out = np.zeros((len(d), 3))
-    for e in np.unique(position.emitter):
-        rows = np.flatnonzero(position.emitter == e)
+    for e, rows in rows_by_value(position.emitter):
         out[rows] = scene.emitters[e].eval_towards(position.n[rows], d[rows])
     return out * position.emission
 

@@ -75,7 +75,17 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..core.vec import any_row, dot, multiply_rows, put_rows, scale, select, take_rows, unscale
+from ..core.vec import (
+    any_row,
+    dot,
+    multiply_rows,
+    put_rows,
+    rows_by_value,
+    scale,
+    select,
+    take_rows,
+    unscale,
+)
 from ..scene.properties import Props, children
 from ..scene.registry import register
 from ..scene.types import Scene
@@ -214,19 +224,10 @@ def sample_free_flight(scene: Scene, medium: np.ndarray, channel: np.ndarray,
     return out
 
 
-def _rows_by_value(ids: np.ndarray):
-    """``(k, rows)`` for each distinct value ``k`` of ``ids`` (n,): ``rows`` its indices, or
-    ``slice(None)`` when every row has it (the common case of one medium or one BSDF: views
-    instead of gathers, and no ``np.unique``, which sorts)."""
-    if len(ids) and (ids == ids[0]).all():
-        return [(ids[0], slice(None))]
-    return [(k, np.flatnonzero(ids == k)) for k in np.unique(ids)]
-
-
 def phase_eval(scene: Scene, medium: np.ndarray, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
     """Phase function value (= pdf) (n,) of each row's medium ``medium`` (n,), all >= 0."""
     value = np.zeros(len(medium))
-    for k, rows in _rows_by_value(medium):
+    for k, rows in rows_by_value(medium):
         value[rows] = scene.media[k].phase.eval(take_rows(wi, rows), take_rows(wo, rows))
     return value
 
@@ -235,7 +236,7 @@ def phase_sample(scene: Scene, medium: np.ndarray, wi: np.ndarray,
                  u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Directions (n, 3) and pdfs (n,) sampled from each row's phase function."""
     wo, pdf = np.zeros((len(medium), 3)), np.zeros(len(medium))
-    for k, rows in _rows_by_value(medium):
+    for k, rows in rows_by_value(medium):
         wo_k, pdf[rows] = scene.media[k].phase.sample(take_rows(wi, rows), take_rows(u, rows))
         put_rows(wo, rows, wo_k)
     return wo, pdf
@@ -248,7 +249,7 @@ def scattering_albedo(scene: Scene, medium: np.ndarray, x: np.ndarray) -> np.nda
     factor = np.ones((len(medium), 3))
     if all(getattr(m, "albedo_volume", None) is None for m in scene.media):
         return factor
-    for k, rows in _rows_by_value(medium):
+    for k, rows in rows_by_value(medium):
         volume = getattr(scene.media[k], "albedo_volume", None)
         if volume is not None:
             put_rows(factor, rows, volume.eval(take_rows(x, rows)))
@@ -275,7 +276,7 @@ def _null_transmission(scene: Scene, hit, rows: np.ndarray, d: np.ndarray) -> np
     from the batch in place."""
     out = np.zeros((len(rows), 3))
     ids = scene.shape_bsdf[hit.shape[rows]]
-    for b, sel in _rows_by_value(ids):
+    for b, sel in rows_by_value(ids):
         bsdf = scene.bsdfs[b]
         if not getattr(bsdf, "null_lobe", False):
             continue
