@@ -25,7 +25,7 @@ import threadpoolctl
 
 import autograder
 import pathtracer
-from mitsuba_refs import cache
+from mitsuba_refs.reference import cache
 
 from . import runtime as runtimes
 

@@ -1,6 +1,6 @@
 """The checks a submission is graded on, their parts, points, limits and statistical budget.
 
-A *check* is one scene x one integrator. It runs :func:`mitsuba_refs.compare.compare` with a
+A *check* is one scene x one integrator. It runs :func:`mitsuba_refs.verdicts.compare.compare` with a
 ``render`` hook that renders in the student's isolated process (:mod:`autograder.isolation`)
 and scores its parts:
 
@@ -33,9 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
-from mitsuba_refs import config as refs_config
-from mitsuba_refs.cache import get_reference
-from mitsuba_refs.compare import (
+from mitsuba_refs.reference import config as refs_config
+from mitsuba_refs.reference.cache import get_reference
+from mitsuba_refs.stats import MAX_VARIANCE_RATIO, ErrorBudget, compare_means
+from mitsuba_refs.verdicts.compare import (
     BOUNCE_REFERENCE,
     SPLATTING,
     TEST_SEED,
@@ -44,7 +45,6 @@ from mitsuba_refs.compare import (
     reference_integrator,
     write_pictures,
 )
-from mitsuba_refs.stats import MAX_VARIANCE_RATIO, ErrorBudget, compare_means
 from pathtracer.render.splats import replica_count
 
 from . import hints
@@ -73,7 +73,7 @@ BOUNCE_DEPTHS = refs_config.PER_BOUNCE_DEPTHS
 #: inside its time limit with its explanations).
 BOUNCE_SPP = SPP
 #: Convergence test of a graded check: ladder, renders at its top level, most growth while
-#: rare paths dominate (mitsuba_refs.compare.convergence_test). Equal work per level: 256
+#: rare paths dominate (mitsuba_refs.verdicts.compare.convergence_test). Equal work per level: 256
 #: image-spp (64 renders at 1 spp ... 1 at 64), at most 512, inside the time limits.
 CONVERGENCE = dict(ladder=(1, 4, 16, 64), replicas=1, max_growth=2)
 
@@ -176,7 +176,7 @@ def check_params(check: Check) -> dict:
 #: up to less than Gradescope's default 10-minute timeout even if every test of a submission hangs.
 CHECKS = (
     # BSDF sampling alone finds a light only by chance: its checks use variants of the scenes
-    # with larger, dimmer lights of the same power (mitsuba_refs.config.GRADING_SCENES).
+    # with larger, dimmer lights of the same power (mitsuba_refs.reference.config.GRADING_SCENES).
     _cornell("path_bsdf", 60, "Path tracing with BSDF sampling (slide 'Path Tracing')", spp=320,
              scene="cornell-box-large-light"),
     _cornell("path_nee", 75, "Path tracing with shadow rays (slide 'Path Tracing with Shadow Rays')", spp=256),

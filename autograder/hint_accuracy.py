@@ -10,7 +10,7 @@ every failed check are classified against the mutant's true cause:
 ``evidence-only``  no hint names a cause: they state the evidence (which bounce, which
                    region or channel, by what ratio).
 
-Hints carry the causes they name (:class:`mitsuba_refs.explain.Hint`), so the classification
+Hints carry the causes they name (:class:`mitsuba_refs.verdicts.explain.Hint`), so the classification
 reads no prose. Usage::
 
     python -m autograder.hint_accuracy --out docs/data/hint_accuracy.json

@@ -25,14 +25,14 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from mitsuba_refs.cache import get_reference
-from mitsuba_refs.compare import Comparison, ConvergenceParts, default_params
-from mitsuba_refs.explain import Hint
+from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.stats.convergence import ConvergenceResult
 from mitsuba_refs.stats.correlation import PixelCorrelation
 from mitsuba_refs.stats.detectable import DetectableBias
 from mitsuba_refs.stats.mean import MeanAgreement
 from mitsuba_refs.stats.variance import VarianceAgreement
+from mitsuba_refs.verdicts.compare import Comparison, ConvergenceParts, default_params
+from mitsuba_refs.verdicts.explain import Hint
 from pathtracer.core.color import LUMINANCE
 
 from . import grading

@@ -1,6 +1,6 @@
 """From the evidence of a failed check to the likely cause, in a student's words.
 
-The rules of :mod:`mitsuba_refs.explain` (image brightness factors, the first diverging
+The rules of :mod:`mitsuba_refs.verdicts.explain` (image brightness factors, the first diverging
 bounce, variance and convergence patterns) run first; the rules here add what only the
 autograder sees, each quoting the numbers it rests on:
 
@@ -20,7 +20,7 @@ autograder sees, each quoting the numbers it rests on:
   (a ratio that follows a power of cos theta, the angle to the optical axis, or a constant).
 
 A rule never runs a test of its own; hints are explanations, never points. Each hint is a
-:class:`mitsuba_refs.explain.Hint` carrying the causes it names (``python -m
+:class:`mitsuba_refs.verdicts.explain.Hint` carrying the causes it names (``python -m
 autograder.hint_accuracy`` measures them against the bug zoo's true causes).
 """
 from __future__ import annotations
@@ -30,9 +30,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mitsuba_refs import explain as base
-from mitsuba_refs.compare import default_params
-from mitsuba_refs.explain import Hint
+from mitsuba_refs.verdicts import explain as base
+from mitsuba_refs.verdicts.compare import default_params
+from mitsuba_refs.verdicts.explain import Hint
 from pathtracer import load_scene
 from pathtracer.core.color import LUMINANCE
 from pathtracer.sensors.perspective import camera_rays
@@ -202,7 +202,7 @@ def _glass_hints(ev: Evidence) -> list:
 
 
 def _variance_policy(hint: str, comparison) -> str:
-    """The variance rule of mitsuba_refs.explain fires only when the variance part failed
+    """The variance rule of mitsuba_refs.verdicts.explain fires only when the variance part failed
     (with a right mean); say what that part allows before suggesting a cause, so that a
     correct estimator that is merely different is never told it is wrong."""
     v = comparison.variance

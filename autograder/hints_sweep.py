@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from mitsuba_refs.explain import Hint
+from mitsuba_refs.verdicts.explain import Hint
 from pathtracer.core.color import LUMINANCE
 
 from . import hints_geometry as geo

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mitsuba_refs.compare import loaded_scene
+from mitsuba_refs.verdicts.compare import loaded_scene
 from pathtracer import render
 from pathtracer.core.rng import RandomStream, sample_keys
 from pathtracer.integrators import make_integrator
@@ -116,7 +116,7 @@ class StudentProcess:
     environment : Environment, optional
 
     Use as a context manager; :meth:`render` has the signature of the ``render=`` hook of
-    :func:`mitsuba_refs.compare.compare`.
+    :func:`mitsuba_refs.verdicts.compare.compare`.
     """
 
     def __init__(self, impl: str, limits: Limits | None = None, *, trusted: bool = False,

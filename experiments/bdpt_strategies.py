@@ -22,8 +22,8 @@ import sys
 
 import numpy as np
 
-from mitsuba_refs.cache import get_reference
 from mitsuba_refs.errors import ReferenceUnavailable
+from mitsuba_refs.reference.cache import get_reference
 from pathtracer import load_scene
 from pathtracer.core.tonemap import auto_scale, tonemap
 from pathtracer.integrators.bdpt import BDPTIntegrator

@@ -15,8 +15,9 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from mitsuba_refs.cache import get_reference
-from mitsuba_refs.compare import (
+from mitsuba_refs.reference.cache import get_reference
+from mitsuba_refs.stats import clopper_pearson, compare_means, compare_variances
+from mitsuba_refs.verdicts.compare import (
     CONVERGENCE_REPLICAS,
     SAME_ESTIMATOR,
     check_convergence,
@@ -24,7 +25,6 @@ from mitsuba_refs.compare import (
     reference_integrator,
     render_ours,
 )
-from mitsuba_refs.stats import clopper_pearson, compare_means, compare_variances
 
 
 def main(argv=None) -> int:

@@ -34,7 +34,7 @@ import time
 
 import numpy as np
 
-from mitsuba_refs.cache import get_reference
+from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.stats import compare_means, image_mse
 from pathtracer import load_scene, render
 from pathtracer.bsdfs.shading import is_delta

@@ -100,7 +100,7 @@ def rare_path_caution(lowest_mses) -> float | None:
 
     Every level has the same replicas here, so rare bright paths (small lights, caustics)
     are mostly absent from the 1-spp renders and, when present, dominate their mean: the
-    slope can then flatten for a correct tracer. ``mitsuba_refs.compare`` avoids this with
+    slope can then flatten for a correct tracer. ``mitsuba_refs.verdicts.compare`` avoids this with
     equal samples per level; the figure only warns.
     """
     lowest = np.asarray(lowest_mses, dtype=float)

@@ -7,7 +7,7 @@ correct renderer is rejected, at alpha 0.05 and 0.2, with 95 % Clopper-Pearson i
 
 * ``tests``: mean and variance tests (``compare_means(max_var_ratio=4)``, ``compare_variances``)
   with the filter's pixel correlation, and with pixels taken as independent;
-* ``convergence``: :func:`mitsuba_refs.compare.convergence_test` (ladder, blocks, equal work)
+* ``convergence``: :func:`mitsuba_refs.verdicts.compare.convergence_test` (ladder, blocks, equal work)
   with one reference shared by all seeds.
 
     python -m experiments.filter_calibration tests --seeds 400          # ~5 min per filter
@@ -20,12 +20,12 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from mitsuba_refs import compare
-from mitsuba_refs.rfilter import filter_metadata
+from mitsuba_refs.reference.rfilter import filter_metadata
 from mitsuba_refs.stats import clopper_pearson, compare_means, compare_variances
 from mitsuba_refs.stats.correlation import pixel_correlation
 from mitsuba_refs.stats.simulate import make_scene
 from mitsuba_refs.stats.simulate_filtered import render_filtered
+from mitsuba_refs.verdicts import compare
 from pathtracer.sensors.film import ReconstructionFilter
 
 LEVELS = (0.05, 0.2)

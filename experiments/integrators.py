@@ -3,7 +3,7 @@
 ``recursive`` (recursive Monte Carlo ray tracing, the slide's N rays per hit),
 ``path`` (path tracing with shadow rays and MIS), ``light`` (light tracing) and
 ``bdpt`` (bidirectional path tracing) each render every built-in scene
-(:data:`mitsuba_refs.config.BUILTIN_SCENES`, at the committed references' film size)
+(:data:`mitsuba_refs.reference.config.BUILTIN_SCENES`, at the committed references' film size)
 for the same CPU time on one core (progressive batches, :func:`experiments.caustics.equal_time_render`).
 Each image is compared with the committed Mitsuba ``path`` reference of its scene
 (4096 spp; every one of the four has the same expectation where it is unbiased):
@@ -35,9 +35,9 @@ import sys
 
 import numpy as np
 
-from mitsuba_refs.cache import get_reference
-from mitsuba_refs.compare import CLOSEST_ESTIMATOR
-from mitsuba_refs.config import BUILTIN_SCENES
+from mitsuba_refs.reference.cache import get_reference
+from mitsuba_refs.reference.config import BUILTIN_SCENES
+from mitsuba_refs.verdicts.compare import CLOSEST_ESTIMATOR
 from pathtracer import load_scene
 
 from . import caustics, common
@@ -67,7 +67,7 @@ def compare_one(scene, name, reference, test_reference, args, seed) -> dict:
     """One integrator on one scene at equal time: the row of the table, or why it cannot run.
 
     ``reference`` gives the errors; ``test_reference`` the mean test's verdict (the Mitsuba
-    estimator the harness compares a mean-only ``name`` with, :data:`mitsuba_refs.compare.CLOSEST_ESTIMATOR`).
+    estimator the harness compares a mean-only ``name`` with, :data:`mitsuba_refs.verdicts.compare.CLOSEST_ESTIMATOR`).
     """
     try:
         pool, points = caustics.equal_time_render(scene, name, args.seconds, seed)

@@ -28,7 +28,7 @@ import sys
 
 import numpy as np
 
-from mitsuba_refs.cache import ReferenceUnavailable, get_reference
+from mitsuba_refs.reference.cache import ReferenceUnavailable, get_reference
 from mitsuba_refs.stats import compare_means
 from pathtracer import load_scene, render
 from pathtracer.core.pathclasses import LECTURE_CLASSES, compile_classes, is_partition

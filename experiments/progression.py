@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from mitsuba_refs.render import (
+from mitsuba_refs.reference.render import (
     INTEGRATOR_MAP,
     check_box_filter,
     integrator_dict,
@@ -30,8 +30,8 @@ from mitsuba_refs.render import (
     split_params,
     stream_id,
 )
-from mitsuba_refs.seeds import pass_seeds
-from mitsuba_refs.variant import set_variant
+from mitsuba_refs.reference.seeds import pass_seeds
+from mitsuba_refs.reference.variant import set_variant
 from pathtracer import load_scene, render
 from pathtracer.core.tonemap import auto_scale, tonemap
 
@@ -100,7 +100,7 @@ def mitsuba_ready() -> tuple[bool, str]:
 def mitsuba_renderer(scene, params, integrator, variant=None):
     """A function (spp, seed) -> mean image rendering ``scene`` in Mitsuba with our estimator's twin.
 
-    Uses :mod:`mitsuba_refs.render`'s integrator mapping and seed spacing; the
+    Uses :mod:`mitsuba_refs.reference.render`'s integrator mapping and seed spacing; the
     scene file is the one our tracer reads (box filter: a pixel is a plain mean).
     """
     path = resolve_scene(scene)

@@ -295,7 +295,7 @@ def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution
     one of them; ``convergence`` False skips compare's convergence test (``--no-convergence``:
     mean and variance verdicts only, about a third of the time)."""
     exe = shutil.which("mitsuba-refs")
-    command = [exe] if exe else [sys.executable, "-m", "mitsuba_refs.cli"]
+    command = [exe] if exe else [sys.executable, "-m", "mitsuba_refs.cli.main"]
     verdicts = {0: "agrees", 1: "disagrees", 2: "refused"}
     for entry in entries:
         if done and entry.file in done:

@@ -8,9 +8,9 @@ NumPy and OpenEXR only. Main entry points::
 """
 from pathtracer import _console  # noqa: F401  (first: a Ctrl-C while the commands start)
 
-from .cache import ReferenceUnavailable, get_reference, reference_key
-from .render import Reference, render_reference, resolve_scene
-from .variant import choose_variant
+from .reference.cache import ReferenceUnavailable, get_reference, reference_key
+from .reference.render import Reference, render_reference, resolve_scene
+from .reference.variant import choose_variant
 
 __all__ = ["Reference", "ReferenceUnavailable", "choose_variant",
            "get_reference", "reference_key", "render_reference",

@@ -1,6 +1,6 @@
 """Errors of the reference side that a user can fix, each told in one line.
 
-The command line (:mod:`mitsuba_refs.cli`) prints such an error as
+The command line (:mod:`mitsuba_refs.cli.main`) prints such an error as
 ``mitsuba-refs <command>: error: <message>`` and exits with status 2; any
 other exception is a bug and keeps its traceback.
 """

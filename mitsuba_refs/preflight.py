@@ -12,9 +12,9 @@ from pathlib import Path
 
 from pathtracer.scene.load import builtin_scene_names
 
-from .cache import parse_xml, scene_hash
 from .errors import RefsInputError
-from .render import check_film_filter, resolve_scene, split_params
+from .reference.cache import parse_xml, scene_hash
+from .reference.render import check_film_filter, resolve_scene, split_params
 
 #: Edge of the tiles of the mean and variance tests (mitsuba_refs.stats), and the fewest
 #: tiles the variance test accepts.

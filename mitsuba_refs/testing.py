@@ -85,7 +85,7 @@ def assert_agrees(scene, *, command=None, images=None, alpha=None, budget=None, 
     **options
         Keyword arguments of :func:`mitsuba_refs.external.check.check` (``params``,
         ``same_estimator``, ``reference``, ``out_dir``, ``jobs``, ``detect`` (a
-        :class:`mitsuba_refs.detect.Detect`: the spp that sees a target bias), ...). The
+        :class:`mitsuba_refs.verdicts.detect.Detect`: the spp that sees a target bias), ...). The
         result's ``detectable`` says what its mean test could see.
 
     Returns

@@ -10,13 +10,13 @@ that a test of its own documents:
   checked against the closed form Le / (1 - rho) instead (test_analytic.py) and
   the reference's bias is asserted in test_mitsuba_known_bias.py (``recursive``
   and ``smallpt`` are compared with Mitsuba's unbiased path_nee / path_bsdf
-  twins there, see mitsuba_refs.compare.CLOSEST_ESTIMATOR);
+  twins there, see mitsuba_refs.verdicts.compare.CLOSEST_ESTIMATOR);
 * ``point-light`` with ``smallpt``: BSDF sampling alone can never reach a Dirac
   light, so the image is black by construction (test_analytic.py asserts it).
 """
 import os
 
-from mitsuba_refs.config import BUILTIN_SCENES, FEATURE_SCENES, LIGHT_SCENES, MEDIA_SCENES
+from mitsuba_refs.reference.config import BUILTIN_SCENES, FEATURE_SCENES, LIGHT_SCENES, MEDIA_SCENES
 from pathtracer import INTEGRATORS
 
 #: A committed 8-bit texture (a coloured grid): what tests project, map and sample.
@@ -24,10 +24,10 @@ GRID_PNG = os.path.join(os.path.dirname(__file__), "..", "pathtracer", "data", "
                         "textured-grid.png")
 
 #: The light tracer is compared with Mitsuba's ``ptracer`` where a reference is committed
-#: (mitsuba_refs.config.LIGHT_SCENES, and the ``caustics`` feature scene): 64 replicas of a
+#: (mitsuba_refs.reference.config.LIGHT_SCENES, and the ``caustics`` feature scene): 64 replicas of a
 #: particle tracer cost 15-25 s of Mitsuba per scene and its test renders ~5 s each, and
 #: several built-in scenes have lights it refuses (environment, directional).
-LIGHT_EXCLUDED = {(scene, "light"): "no ptracer reference (mitsuba_refs.config.LIGHT_SCENES)"
+LIGHT_EXCLUDED = {(scene, "light"): "no ptracer reference (mitsuba_refs.reference.config.LIGHT_SCENES)"
                   for scene in BUILTIN_SCENES if scene not in LIGHT_SCENES}
 
 #: Bidirectional path tracing renders ~10x slower than ``path`` (every pair of subpath vertices
@@ -56,7 +56,7 @@ SURFACE_INTEGRATORS = sorted(name for name, cls in INTEGRATORS.items()
 AGREEMENT_CASES = [(scene, integrator) for scene in BUILTIN_SCENES for integrator in SURFACE_INTEGRATORS
                    if (scene, integrator) not in EXCLUDED]
 
-#: Feature scenes (mitsuba_refs.config.FEATURE_SCENES) with each estimator they have a reference
+#: Feature scenes (mitsuba_refs.reference.config.FEATURE_SCENES) with each estimator they have a reference
 #: for (the media scenes: test_media.py).
 FEATURE_CASES = [(scene, integrator) for scene, (integrators, _, _) in FEATURE_SCENES.items()
                  for integrator in integrators if scene not in MEDIA_SCENES]

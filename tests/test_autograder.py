@@ -279,9 +279,9 @@ def test_misstated_variance_scores_zero_on_the_part_it_attacks(path):
     """A submission that reports 100x or 0.1x its variance (tests/hostile/misstated): zero on the
     part the lie attacks, the parts it does not attack as they would be, and a finding that
     names the ratio; with the reported variance believed, the attack would have worked."""
-    from mitsuba_refs.cache import get_reference
-    from mitsuba_refs.compare import reference_integrator
+    from mitsuba_refs.reference.cache import get_reference
     from mitsuba_refs.stats import compare_means, compare_variances
+    from mitsuba_refs.verdicts.compare import reference_integrator
     expect = constants(path).EXPECT
     check, trusted = grading.CHECKS_BY_ID[expect["check"]], expect.get("trusted", False)
     result = grading.run_check(check, str(path), limits=_limits(check), trusted=trusted)
@@ -361,7 +361,7 @@ def test_refusal_reads_the_source(tmp_path):
     assert "imports the reference solution" in refusal(str(HOSTILE / "solution_import.py"))
     bad = tmp_path / "bad.py"
     for line in ("from pathtracer.integrators.path import PathIntegrator",
-                 "import mitsuba_refs.cache", "from pathtracer.camera import camera_rays",
+                 "import mitsuba_refs.reference.cache", "from pathtracer.camera import camera_rays",
                  "from pathtracer.camera_connection import connect_to_camera",
                  "from pathtracer import INTEGRATORS", "__import__('autograder.solution')"):
         bad.write_text(line + "\n")
@@ -670,7 +670,7 @@ def test_media_hints_read_the_fog_and_clear_regions(integrator, fog, clear, fog_
     the rest: each pattern names its cause first, with the factors it read."""
     from autograder import hints
     from autograder.hints_media import explain_media, fog_pixels
-    from mitsuba_refs.cache import get_reference
+    from mitsuba_refs.reference.cache import get_reference
     check = grading.CHECKS_BY_ID[f"{integrator}-media"]
     refs = {d: get_reference("media-box", {"max_depth": d}, "volpath", render=False).mean
             for d in (1, 2, 3)}

@@ -13,7 +13,7 @@ import pytest
 
 import pathtracer
 from experiments.caustics import first_hits
-from mitsuba_refs.cache import get_reference
+from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.stats import compare_means
 from pathtracer import load_scene, render
 from pathtracer.cli import main

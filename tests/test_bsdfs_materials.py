@@ -358,7 +358,7 @@ def test_mitsuba_thindielectric(mi):
 @pytest.mark.mitsuba
 def test_mitsuba_conductor_presets_are_mitsubas_rgb_values(mi):
     """The committed table is what Mitsuba's scalar_rgb conductor plugin holds for every material."""
-    from mitsuba_refs.conductor_presets import mitsuba_presets
+    from mitsuba_refs.reference.conductor_presets import mitsuba_presets
     theirs = mitsuba_presets()
     assert set(theirs) == set(CONDUCTOR_PRESETS)
     for name, (eta, k) in theirs.items():

@@ -62,7 +62,7 @@ def test_scenes_lists_the_built_in_scenes():
 
 
 def test_mitsuba_refs_compare_exit_codes(tmp_path):
-    from mitsuba_refs.cli import main as refs_main
+    from mitsuba_refs.cli.main import main as refs_main
     assert refs_main(["compare", "no-such-scene"]) == 2
     assert refs_main(["compare", "cornell-box", "-D", "oops"]) == 2
 
@@ -86,8 +86,8 @@ def test_one_rule_for_defines_across_the_command_lines():
 
 def test_scene_names_resolve_to_the_same_file_on_both_sides(tmp_path, monkeypatch):
     """A built-in name, a path with or without .xml: the tracer and mitsuba_refs agree."""
-    from mitsuba_refs.config import BUILTIN_SCENES, FEATURE_SCENES, GRADING_SCENES, OWN_TEST_SCENES
-    from mitsuba_refs.render import resolve_scene
+    from mitsuba_refs.reference.config import BUILTIN_SCENES, FEATURE_SCENES, GRADING_SCENES, OWN_TEST_SCENES
+    from mitsuba_refs.reference.render import resolve_scene
     from pathtracer.scene.load import builtin_scene_names, scene_file
     scene = tmp_path / "sub" / "mine"
     scene.parent.mkdir()
@@ -117,13 +117,13 @@ def test_compare_tests_the_files_own_integrator_by_default(scene, expected, tmp_
     """Without --integrator, ``mitsuba-refs compare`` tests the integrator that renders the
     file's own <integrator> (volpath, ptracer -> light, path), as a user who wrote it expects;
     an explicit --integrator still wins. Nothing is rendered: ``compare`` is replaced."""
-    import mitsuba_refs.compare
-    from mitsuba_refs.cli import main as refs_main
+    import mitsuba_refs.verdicts.compare
+    from mitsuba_refs.cli.main import main as refs_main
 
     def chosen(scene, integrator, *args, **kwargs):
         raise _Chosen(integrator)
 
-    monkeypatch.setattr(mitsuba_refs.compare, "compare", chosen)
+    monkeypatch.setattr(mitsuba_refs.verdicts.compare, "compare", chosen)
     out = ["--out", str(tmp_path / "out")]
     with pytest.raises(_Chosen, match=f"^{expected}$"):
         refs_main(["compare", scene, *out])

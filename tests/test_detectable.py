@@ -1,5 +1,5 @@
 """What a comparison could see: the detectable global bias of its mean test, weak agreements,
-and ``--detect`` (mitsuba_refs.stats.detectable, mitsuba_refs.detect).
+and ``--detect`` (mitsuba_refs.stats.detectable, mitsuba_refs.verdicts.detect).
 
 The bound is checked against the closed forms it extends (stats.power, the grader's tile
 bound) and, by injection, against the mean test itself: renders drawn around committed
@@ -17,19 +17,9 @@ import pytest
 from scipy import stats as sps
 
 from autograder.power import tile_detectable_bias
-from mitsuba_refs.cache import get_reference
-from mitsuba_refs.cli import main
-from mitsuba_refs.compare import compare, default_params
-from mitsuba_refs.detect import (
-    WEAK_BIAS,
-    Detect,
-    is_weak,
-    mean_line,
-    mean_test_power,
-    parse_bias,
-    plan,
-)
+from mitsuba_refs.cli.main import main
 from mitsuba_refs.errors import RefsInputError
+from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.report.html import page
 from mitsuba_refs.report.junit import junit_tree
 from mitsuba_refs.report.results import comparison_record
@@ -37,6 +27,8 @@ from mitsuba_refs.stats import VARIANCE_BOUND, compare_means, detectable_bias
 from mitsuba_refs.stats._tiles import noiseless_pixels
 from mitsuba_refs.stats.correlation import PixelCorrelation
 from mitsuba_refs.stats.detectable import MeanTestPower, detectable_global_bias
+from mitsuba_refs.verdicts.compare import compare, default_params
+from mitsuba_refs.verdicts.detect import WEAK_BIAS, Detect, is_weak, mean_line, mean_test_power, parse_bias, plan
 from tests.budget import ALPHA
 
 LEVEL = 1e-3          # the comparison's alpha (compare's default)

@@ -100,7 +100,7 @@ def test_references_render_the_files_sample_counts(tmp_path):
     file's when its integrator is direct, else 1 each (mitsuba-data's scenes/hello.xml, with
     4 emitter and 0 BSDF samples and point lights, was 4.01x too bright against a 1/1
     reference)."""
-    from mitsuba_refs.render import integrator_dict
+    from mitsuba_refs.reference.render import integrator_dict
     from pathtracer.scene.types import IntegratorSpec
     file_direct = IntegratorSpec("direct", {"emitter_samples": 4, "bsdf_samples": 0})
     assert integrator_dict("direct", {}, file_direct) == {

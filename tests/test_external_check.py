@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mitsuba_refs.cli import main
+from mitsuba_refs.cli.main import main
 from mitsuba_refs.errors import RefsInputError
 from mitsuba_refs.external.check import check
 from mitsuba_refs.external.renders import check_independent
@@ -125,7 +125,7 @@ def test_ctrl_c_kills_every_run_and_leaves_no_temporary_files(tmp_path):
     marker = 96.75
     env = dict(os.environ, TMPDIR=str(tmp_path))
     process = subprocess.Popen(
-        [sys.executable, "-m", "mitsuba_refs.cli", "check", SCENE, "--no-convergence",
+        [sys.executable, "-m", "mitsuba_refs.cli.main", "check", SCENE, "--no-convergence",
          "--out", str(tmp_path / "out"), "--command", fake(f"--sleep {marker}")],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))

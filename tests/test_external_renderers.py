@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from mitsuba_refs.compare import compare
 from mitsuba_refs.external.check import check
+from mitsuba_refs.verdicts.compare import compare
 from pathtracer.scene.load import scene_file
 from tests.budget import ALPHA
 

@@ -117,7 +117,7 @@ def test_loader_defaults_to_mitsubas_gaussian(tmp_path):
 def mi_llvm(mi):
     """Mitsuba in ``llvm_ad_rgb`` (exact filter weights, as the references), then back to
     the conftest's ``scalar_rgb``."""
-    from mitsuba_refs.variant import probe_llvm
+    from mitsuba_refs.reference.variant import probe_llvm
     ok, detail = probe_llvm()
     if not ok:
         pytest.skip(f"llvm_ad_rgb unusable ({detail}); scalar variants tabulate the filter")
@@ -199,7 +199,7 @@ def test_sharp_emitter_edges_match_mitsubas_filtered_film(mi_llvm, tmp_path, kin
     local averages: docs/statistics.md)."""
     from scipy import stats
 
-    from mitsuba_refs.render import render_reference
+    from mitsuba_refs.reference.render import render_reference
     path = tmp_path / "edge.xml"
     path.write_text(EDGE_SCENE)
     ref = render_reference(path, {"rfilter": kind}, "path", 1024, 5, variant="llvm_ad_rgb")

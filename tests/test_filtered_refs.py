@@ -1,5 +1,5 @@
-"""Tent- and gaussian-filtered references in ``scalar_rgb`` (mitsuba_refs.positions,
-mitsuba_refs.filtered): Mitsuba's sample positions recomputed, the exact reconstruction,
+"""Tent- and gaussian-filtered references in ``scalar_rgb`` (mitsuba_refs.reference.positions,
+mitsuba_refs.reference.filtered): Mitsuba's sample positions recomputed, the exact reconstruction,
 and references built live against the tracer (docs/references.md, "Filtered films").
 
 The first tests need no Mitsuba: known answers and hand computations. The live ones
@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mitsuba_refs.filtered import FilteredSums
-from mitsuba_refs.positions import (
+from mitsuba_refs.reference.filtered import FilteredSums
+from mitsuba_refs.reference.positions import (
     batch_positions,
     morton_decode_2d,
     pcg32_first_2d,
@@ -21,7 +21,7 @@ from mitsuba_refs.positions import (
     pixel_seeds,
     spiral_block_ids,
 )
-from mitsuba_refs.render import choose_method
+from mitsuba_refs.reference.render import choose_method
 from pathtracer.sensors.film import ReconstructionFilter
 from tests.budget import ALPHA
 
@@ -172,7 +172,7 @@ def test_pcg32_is_mitsubas_independent_sampler(mi):
 def test_positions_are_the_rays_mitsuba_traces(mi, copies, width, height):
     """Spiral blocks of several films (not multiples of 32 among them), batch copies:
     every ray of a 1-spp render is the camera's ray at the predicted position, exactly."""
-    from mitsuba_refs.positions import position_error
+    from mitsuba_refs.reference.positions import position_error
     assert position_error(copies, width, height, 1 + copies * 7919) == 0.0
 
 
@@ -180,8 +180,8 @@ def test_positions_are_the_rays_mitsuba_traces(mi, copies, width, height):
 def test_positions_hold_in_a_real_render(mi, tmp_path):
     """An emitter seen directly (max_depth 1): each sample of Mitsuba's own estimator is the
     emitter's radiance exactly where the ray at the predicted position hits it, else 0."""
-    from mitsuba_refs.batch import batch_sensor
-    from mitsuba_refs.filtered import integrator_with_blocks
+    from mitsuba_refs.reference.batch import batch_sensor
+    from mitsuba_refs.reference.filtered import integrator_with_blocks
     from tests.test_film import EDGE_SCENE
     path = tmp_path / "edge.xml"
     path.write_text(EDGE_SCENE)
@@ -212,7 +212,7 @@ def test_scalar_filtered_reference_matches_the_tracer_at_sharp_edges(mi, tmp_pat
     box film is told apart."""
     from scipy import stats
 
-    from mitsuba_refs.render import render_reference
+    from mitsuba_refs.reference.render import render_reference
     from pathtracer import load_scene, render
     from pathtracer.sensors.film import effective_counts
     from tests.test_film import EDGE_SCENE, _pixel_z
@@ -241,9 +241,9 @@ def test_a_users_filtered_scene_gets_its_reference_built_live(mi, tmp_path, monk
     install: the gaussian-filtered reference is built from scratch in an empty cache (in
     ``scalar_rgb`` by the batch method; in ``llvm_ad_rgb`` by its film, where a libLLVM
     >= 16 works), and the tracer agrees with it in mean and variance."""
-    from mitsuba_refs.compare import compare
+    from mitsuba_refs.verdicts.compare import compare
     if variant == "llvm_ad_rgb":
-        from mitsuba_refs.variant import probe_llvm
+        from mitsuba_refs.reference.variant import probe_llvm
         ok, detail = probe_llvm()
         if not ok:
             pytest.skip(f"llvm_ad_rgb unusable ({detail}): apt-get install libllvm19, or "

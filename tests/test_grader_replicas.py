@@ -14,7 +14,7 @@ from autograder.replicas import (
     reported_variance_finding,
     scored_render,
 )
-from mitsuba_refs.compare import CONVERGENCE_SEED, TEST_SEED
+from mitsuba_refs.verdicts.compare import CONVERGENCE_SEED, TEST_SEED
 
 SHAPE = (16, 12, 3)
 

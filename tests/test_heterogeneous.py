@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from mitsuba_refs.compare import compare
 from mitsuba_refs.stats import compare_means, compare_variances
+from mitsuba_refs.verdicts.compare import compare
 from pathtracer import load_scene, render
 from pathtracer.core.rng import RandomStream, sample_keys
 from pathtracer.io.vol import VolFormatError, read_vol, write_vol
@@ -308,7 +308,7 @@ def test_hetero_smoke_agrees_with_mitsuba_volpath(integrator):
 def test_grid_bbox_and_mirror_agree_with_live_mitsuba_volpath(tmp_path):
     """A scene written here: a 1-channel trilinear grid placed by use_grid_bbox (the file's
     box) with mirror wrapping, a coloured constvolume albedo, a sphere of smoke on a floor."""
-    from mitsuba_refs.render import render_reference
+    from mitsuba_refs.reference.render import render_reference
     z, y, x = np.mgrid[0:4, 0:5, 0:3]
     write_vol(str(tmp_path / "puff.vol"), ((x + 1) * (5 - y) * (1 + z % 2)) / 30.0,
               bbox=((-1, -1, -1), (1, 1, 1)))

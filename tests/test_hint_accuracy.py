@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from autograder import grading, hint_accuracy, hint_evidence, hints
-from mitsuba_refs.compare import Comparison
-from mitsuba_refs.explain import Hint
 from mitsuba_refs.stats.mean import compare_means
 from mitsuba_refs.stats.variance import compare_variances
+from mitsuba_refs.verdicts.compare import Comparison
+from mitsuba_refs.verdicts.explain import Hint
 
 ROOT = Path(__file__).resolve().parent.parent
 EVIDENCE = ROOT / "tests" / "data" / "hint_evidence"
@@ -161,7 +161,7 @@ def test_a_dark_image_missing_its_noise_says_so_and_names_no_cause():
     a uniformly darker image (variance ratio^2), a brighter one or another estimator get none."""
     from types import SimpleNamespace
 
-    from mitsuba_refs.explain import missing_noise
+    from mitsuba_refs.verdicts.explain import missing_noise
     reference = np.full((8, 8, 3), 2.0)
 
     def comparison(share, same=True):

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from mitsuba_refs import cache
+from mitsuba_refs.reference import cache
 from pathtracer.core import interrupts
 from pathtracer.io import bitmap
 from tests.interrupting import swallowing_reader
@@ -81,7 +81,7 @@ def test_ctrl_c_while_compare_reads_a_reference_is_exit_130(tmp_path):
     script = f"""
 import signal, sys
 sys.path.insert(0, {str(REPO)!r})
-from mitsuba_refs import cache
+from mitsuba_refs.reference import cache
 real = cache.read_mean_variance
 def interrupted(path):
     try:
@@ -90,7 +90,7 @@ def interrupted(path):
         raise RuntimeError("initialization failed") from None
     return real(path)
 cache.read_mean_variance = interrupted
-from mitsuba_refs.cli import main
+from mitsuba_refs.cli.main import main
 sys.exit(main(["compare", "quad-light", "--processes", "1", "--out", {str(tmp_path / "out")!r}]))
 """
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300,

@@ -234,7 +234,7 @@ def test_path_tracing_misses_the_point_light_caustic_that_light_tracing_finds():
     """The caustics experiment's verdict: against Mitsuba's ptracer reference, path tracing
     with shadow rays converges to an image without the caustic (a shadow ray cannot pass
     the glass), and the mean test says so."""
-    from mitsuba_refs.cache import get_reference
+    from mitsuba_refs.reference.cache import get_reference
     from mitsuba_refs.stats import compare_means
     from tests.budget import ALPHA
     params = {"width": 32, "height": 32, "light": "point"}

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mitsuba_refs.compare import check_convergence, compare
+from mitsuba_refs.verdicts.compare import check_convergence, compare
 from pathtracer import load_scene, render
 from pathtracer.core.rng import RandomStream, sample_keys
 from pathtracer.media.homogeneous import shadow_transmittance
@@ -264,7 +264,7 @@ def test_hg_value_matches_mitsuba(mi, g):
 def test_camera_in_medium_agrees_with_live_mitsuba_volpath():
     """The camera's own medium (Mitsuba's batch sensor would drop it: the reference is
     rendered by the moments method), coloured sigma_t, exterior medium of a flipped cube."""
-    from mitsuba_refs.render import render_reference
+    from mitsuba_refs.reference.render import render_reference
     from mitsuba_refs.stats import compare_means, compare_variances
     path = str(Path(__file__).parent / "data" / "camera_in_medium.xml")
     reference = render_reference(path, {}, "volpath", 256, 1)
@@ -290,8 +290,8 @@ def test_a_volpathmis_file_renders_with_volpathmis_compared_by_its_mean(tmp_path
     """A file naming Mitsuba's volpathmis renders with the tracer's volpathmis, its parameters
     kept, and is compared with Mitsuba's volpathmis, mean only (weighted per path there, per
     flight here)."""
-    from mitsuba_refs.compare import SAME_ESTIMATOR, reference_integrator
-    from mitsuba_refs.render import MEAN_ONLY, integrator_dict
+    from mitsuba_refs.reference.render import MEAN_ONLY, integrator_dict
+    from mitsuba_refs.verdicts.compare import SAME_ESTIMATOR, reference_integrator
     scene = write_scene(tmp_path, VOLPATHMIS_BODY)
     assert scene.integrator.name == "volpathmis" and scene.integrator.params == {"max_depth": 8}
     assert reference_integrator("volpathmis") == "volpathmis"
@@ -339,8 +339,8 @@ def test_volpathmis_has_the_mean_of_live_mitsuba_volpathmis(tmp_path):
     variance; the box filter keeps pixels independent)."""
     import mitsuba as mi
 
+    from mitsuba_refs.reference.variant import set_variant
     from mitsuba_refs.stats import compare_means
-    from mitsuba_refs.variant import set_variant
     scene = write_scene(tmp_path, VOLPATHMIS_BODY, origin="0, 0.6, 4", size=16)
     set_variant("scalar_rgb")
     reference = mi.load_file(str(tmp_path / "scene.xml"))

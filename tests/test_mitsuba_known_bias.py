@@ -14,7 +14,7 @@ These tests read fixed files, so they are deterministic.
 import numpy as np
 import pytest
 
-from mitsuba_refs.cache import get_reference
+from mitsuba_refs.reference.cache import get_reference
 
 PARAMS = {"width": 64, "height": 64}
 

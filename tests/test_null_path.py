@@ -48,7 +48,7 @@ def test_path_refuses_media_at_the_medium():
 @pytest.mark.mitsuba
 @pytest.mark.statistical(assertions=2)
 def test_null_bsdf_under_path_agrees_with_mitsuba(tmp_path, monkeypatch, mi):
-    from mitsuba_refs.compare import compare
+    from mitsuba_refs.verdicts.compare import compare
     monkeypatch.setenv("MITSUBA_REFS_CACHE", str(tmp_path))
     comparison = compare(str(NULL_SCENE), "path", spp=64, alpha=ALPHA, convergence=False,
                          bounces=False, processes=2, resolution=(32, 24))

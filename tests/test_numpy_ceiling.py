@@ -5,7 +5,7 @@ import json
 import pytest
 
 from experiments.numpy_ceiling import DiffuseBox, main, render_ceiling
-from mitsuba_refs.cache import get_reference
+from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.stats import compare_means
 from pathtracer import load_scene
 from tests.budget import ALPHA

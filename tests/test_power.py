@@ -51,7 +51,7 @@ def test_injected_power_confirms_the_analytic_bound(check):
 @pytest.mark.parametrize("check", INTEGRATOR_CHECKS, ids=[c.id for c in INTEGRATOR_CHECKS])
 def test_every_integrator_check_detects_a_bias_of_one_and_a_half_percent(check):
     """1.5 % for every integrator check, the BSDF-only ones included (they grade on scenes
-    with larger lights of the same power, mitsuba_refs.config.GRADING_SCENES)."""
+    with larger lights of the same power, mitsuba_refs.reference.config.GRADING_SCENES)."""
     ref = power.reference_of(check)
     worst = max(detectable_bias(ref.mean, ref.var, ref.n, check.spp, alpha=grading.ALPHA, sign=s)
                 for s in (1, -1))
@@ -74,7 +74,7 @@ def test_bsdf_sampling_is_graded_where_it_finds_the_light():
     is what lets the same samples detect 1.5 %."""
     import numpy as np
 
-    from mitsuba_refs.config import GRADING_SCENES
+    from mitsuba_refs.reference.config import GRADING_SCENES
     from pathtracer import load_scene
     bsdf_checks = [c for c in INTEGRATOR_CHECKS if c.integrator == "path_bsdf"]
     assert {c.scene for c in bsdf_checks} == set(GRADING_SCENES)
@@ -99,8 +99,8 @@ def test_every_check_has_its_committed_references():
     """Each check's reference and the per-bounce references its hints compare with (``path``,
     ``volpath`` for the media checks; none for the camera and the splatting light tracer) are
     committed (a missing one would make the grader call Mitsuba on Gradescope)."""
-    from mitsuba_refs.cache import get_reference
-    from mitsuba_refs.compare import BOUNCE_REFERENCE, SPLATTING, default_params
+    from mitsuba_refs.reference.cache import get_reference
+    from mitsuba_refs.verdicts.compare import BOUNCE_REFERENCE, SPLATTING, default_params
     for check in grading.ALL_CHECKS:
         assert power.reference_of(check).n == 4096, check.id
         estimator = BOUNCE_REFERENCE.get(check.integrator, "path")

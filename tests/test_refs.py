@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from mitsuba_refs import config
-from mitsuba_refs.cache import ReferenceUnavailable, get_reference, store, validate
-from mitsuba_refs.exr import write_reference_exr
-from mitsuba_refs.render import Reference, resolve_scene
+from mitsuba_refs.reference import config
+from mitsuba_refs.reference.cache import ReferenceUnavailable, get_reference, store, validate
+from mitsuba_refs.reference.exr import write_reference_exr
+from mitsuba_refs.reference.render import Reference, resolve_scene
 from mitsuba_refs.stats import compare_means
 from pathtracer.io.exr import read_mean_variance as read_reference_exr
 from tests.budget import ALPHA
@@ -170,7 +170,8 @@ def committed(scene, integrator, **extra):
 def test_committed_reference_loads_without_mitsuba():
     code = (
         "import sys; sys.modules['mitsuba'] = None; sys.modules['drjit'] = None\n"
-        "from mitsuba_refs import get_reference, config\n"
+        "from mitsuba_refs import get_reference\n"
+        "from mitsuba_refs.reference import config\n"
         "r = get_reference('cornell-box', {'width': '64', 'height': '64'}, 'path',"
         " config.REF_SPP, config.REF_SEED, render=False)\n"
         "print(r.n, r.mean.shape)\n")
@@ -220,7 +221,7 @@ def test_per_bounce_localisation_finds_the_committed_references_with_rr_depth(mo
     failure against the committed per-bounce references: at max_depth 1-3 no roulette acts
     with rr_depth 8 nor with the file's 5, so they are the same estimator. With rr_depth 2,
     roulette acts at max_depth 3 only, and only that reference keeps rr_depth in its key."""
-    import mitsuba_refs.compare as compare
+    import mitsuba_refs.verdicts.compare as compare
     seen = []
 
     def committed_only(scene, params, *args, strip=False, **kwargs):
@@ -247,7 +248,7 @@ def test_per_bounce_localisation_finds_the_committed_references_with_rr_depth(mo
 @pytest.fixture(scope="module")
 def mi_variant(mi):
     """The variant references are rendered in here; ``scalar_rgb`` again after the module."""
-    from mitsuba_refs.variant import set_variant
+    from mitsuba_refs.reference.variant import set_variant
     variant, _ = set_variant()
     yield variant
     mi.set_variant("scalar_rgb")
@@ -259,7 +260,7 @@ def _spp(variant, jit, scalar):
 
 @pytest.mark.mitsuba
 def test_variant_choice_and_override(monkeypatch):
-    from mitsuba_refs.variant import choose_variant
+    from mitsuba_refs.reference.variant import choose_variant
     v, reason = choose_variant("scalar_rgb")
     assert v == "scalar_rgb" and "explicit" in reason
     monkeypatch.setenv(config.ENV_VARIANT, "scalar_rgb")
@@ -273,7 +274,7 @@ def test_variant_choice_and_override(monkeypatch):
 def test_moment_mean_equals_path_render(mi_variant):
     import mitsuba as mi
 
-    from mitsuba_refs import moments
+    from mitsuba_refs.reference import moments
     scene = mi.load_file(str(resolve_scene("cornell-box")), width=32, height=32)
     spp = 16
     plain = np.array(mi.render(scene, integrator=mi.load_dict({"type": "path"}), spp=spp, seed=7))
@@ -290,7 +291,7 @@ def test_moment_variance_furnace(mi_variant):
     the number of emitter hits is 1 + Geometric, mean 1/(1-rho), per-sample
     variance rho/(1-rho)^2 = 2 for rho = 0.5; without roulette and with
     max_depth D all samples equal (1 - rho^D)/(1 - rho): zero variance."""
-    from mitsuba_refs.render import render_reference
+    from mitsuba_refs.reference.render import render_reference
     spp = _spp(mi_variant, 256, 32)
     ref = render_reference("furnace", {"width": 32, "height": 32, "rr_depth": 1},
                            "path_bsdf", spp, 5, variant=mi_variant)
@@ -308,7 +309,7 @@ def test_moment_variance_furnace(mi_variant):
 @pytest.mark.parametrize("integrator", ["path_bsdf", "path_nee"])
 def test_lecture_integrators_mean_agrees_with_path_live(mi_variant, integrator):
     """Live render on the Cornell box: each lecture estimator vs ``path``."""
-    from mitsuba_refs.render import render_reference
+    from mitsuba_refs.reference.render import render_reference
     spp = _spp(mi_variant, 512, 16)
     size = 64 if mi_variant != "scalar_rgb" else 32
     params = {"width": size, "height": size}
@@ -319,7 +320,7 @@ def test_lecture_integrators_mean_agrees_with_path_live(mi_variant, integrator):
 
 @pytest.mark.mitsuba
 def test_unsupported_filter_refused(tmp_path, mi_variant):
-    from mitsuba_refs.render import render_reference
+    from mitsuba_refs.reference.render import render_reference
     src = resolve_scene("furnace").read_text().replace('<rfilter type="box"/>',
                                                          '<rfilter type="lanczos"/>')
     (tmp_path / "g.xml").write_text(src)
@@ -336,7 +337,7 @@ def test_committed_bsdf_sampling_ref_of_point_light_is_black():
 def test_reference_names_are_unique_per_file(tmp_path, monkeypatch):
     """Four users' ``scene.xml`` in four folders get four references; one file reached by
     two spellings of its path gets one; built-in scenes keep their readable names."""
-    from mitsuba_refs.cache import reference_stem
+    from mitsuba_refs.reference.cache import reference_stem
     from pathtracer.scene.load import builtin_scene_path
 
     files = []

@@ -3,9 +3,9 @@
 Each case asserts the exit status (2: bad input or usage, 130: interrupted; 1 means
 "disagrees" and must never signal an error), one error line without a traceback, and that
 nothing was left in the reference cache or the ``--out`` folder. The cases in
-:data:`SUBPROCESS_CASES` run the real entry point, ``python -m mitsuba_refs.cli``, as
+:data:`SUBPROCESS_CASES` run the real entry point, ``python -m mitsuba_refs.cli.main``, as
 subprocesses started together by one module fixture; those in :data:`IN_PROCESS_CASES` call
-:func:`mitsuba_refs.cli.main` (what the entry point runs) in this process, to share the
+:func:`mitsuba_refs.cli.main.main` (what the entry point runs) in this process, to share the
 interpreter's start-up and imports. Cases marked ``mitsuba`` need a live Mitsuba 3 (it has
 to load or render the file; tests/conftest.py skips them without it); the others pass
 without it.
@@ -25,11 +25,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mitsuba_refs import cache
-from mitsuba_refs.cache import LOCK_NAME, check_finite, store, validate
-from mitsuba_refs.cli import main
+from mitsuba_refs.cli.main import main
 from mitsuba_refs.errors import RefsInputError, mitsuba_error_line
-from mitsuba_refs.render import Reference
+from mitsuba_refs.reference import cache
+from mitsuba_refs.reference.cache import LOCK_NAME, check_finite, store, validate
+from mitsuba_refs.reference.render import Reference
 from tests.test_cli_faults import restore_sigint
 
 REPO = Path(__file__).resolve().parent.parent
@@ -101,7 +101,7 @@ SUBPROCESS_CASES = {
                               False),
     "build-missing-envmap": (["build", "envmap.xml"], 2, ["envmap.xml", "sky.exr"], False),
 }
-#: The same through :func:`mitsuba_refs.cli.main` in this process (which the entry point
+#: The same through :func:`mitsuba_refs.cli.main.main` in this process (which the entry point
 #: calls): the scene work is the same, the interpreter and its imports are shared.
 IN_PROCESS_CASES = {
     # compare: the tracer loads the scene first and its message is the one shown
@@ -149,7 +149,7 @@ def cli_env(cache_folder: Path) -> dict:
 
 
 def run_cli(args, cwd: Path, cache_folder: Path, timeout=300):
-    return subprocess.run([sys.executable, "-m", "mitsuba_refs.cli", *args], cwd=cwd,
+    return subprocess.run([sys.executable, "-m", "mitsuba_refs.cli.main", *args], cwd=cwd,
                           env=cli_env(cache_folder), capture_output=True, text=True,
                           timeout=timeout)
 
@@ -244,7 +244,7 @@ def test_bad_input_in_process_one_line_exit_2_and_leaves_nothing(name, scenes, c
 
 
 def exit_status(args) -> int:
-    """What ``python -m mitsuba_refs.cli ARGS`` exits with (argparse exits by itself)."""
+    """What ``python -m mitsuba_refs.cli.main ARGS`` exits with (argparse exits by itself)."""
     try:
         return main(args)
     except SystemExit as done:
@@ -255,7 +255,7 @@ def test_a_film_in_an_include_is_not_reported_as_missing(scenes):
     """The reference side's own film check used to miss a <film> in an <include>d file
     and say "no <film>"; it now follows includes (and compare lets the tracer speak
     first: case compare-lanczos-film-in-include names the included file and line)."""
-    from mitsuba_refs.render import check_box_filter, check_film_filter
+    from mitsuba_refs.reference.render import check_box_filter, check_film_filter
     check_box_filter(scenes / "incfilm.xml")  # finds the included box film: no exception
     with pytest.raises(ValueError, match="gaussian"):
         check_box_filter(scenes / "incgauss.xml")
@@ -366,7 +366,7 @@ def test_corrupt_reference_in_read_only_cache_is_refused_before_rendering(
         raise AssertionError("rendered although the cache cannot be written")
 
     monkeypatch.setattr(cache.tempfile, "mkstemp", read_only)
-    monkeypatch.setattr("mitsuba_refs.render.render_reference", no_render)
+    monkeypatch.setattr("mitsuba_refs.reference.render.render_reference", no_render)
     monkeypatch.setenv("MITSUBA_REFS_CACHE", str(cache_folder))
     monkeypatch.chdir(REPO)
     status = main(["compare", "quad-light", "--no-convergence", "--out", str(tmp_path / "out")])
@@ -485,7 +485,7 @@ def _inside_main(pid: int) -> bool:
 def test_ctrl_c_gives_one_line_and_exit_130(tmp_path):
     """SIGINT (Ctrl-C) in the middle of ``compare``: one line, status 130, no pictures."""
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "mitsuba_refs.cli", "compare", "quad-light",
+    proc = subprocess.Popen([sys.executable, "-m", "mitsuba_refs.cli.main", "compare", "quad-light",
                              "--processes", "1", "--out", str(out)],
                             env=cli_env(COMMITTED), cwd=REPO, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, preexec_fn=restore_sigint)
@@ -511,7 +511,7 @@ def test_without_mitsuba_a_missing_reference_is_one_line(args, needle, scenes, t
                                                          monkeypatch):
     """A reference nobody committed, on a machine without Mitsuba (simulated here, also where
     it is installed: ``build`` asks through the name the CLI imported)."""
-    from mitsuba_refs import cli
+    from mitsuba_refs.cli import main as cli
     monkeypatch.setattr(cache, "mitsuba_available", lambda: False)
     monkeypatch.setattr(cli, "mitsuba_available", lambda: False)
     monkeypatch.setenv("MITSUBA_REFS_CACHE", str(tmp_path / "cache"))

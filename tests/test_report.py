@@ -23,14 +23,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mitsuba_refs.cli import main
-from mitsuba_refs.compare import compare, render_ours
-from mitsuba_refs.detect import mean_line
+from mitsuba_refs.cli.main import main
 from mitsuba_refs.report import encoding
 from mitsuba_refs.report.html import write_html
 from mitsuba_refs.report.junit import write_junit
 from mitsuba_refs.report.outputs import write_outputs
 from mitsuba_refs.report.results import RESULTS_SCHEMA, SCHEMA, comparison_record, load_results, write_json
+from mitsuba_refs.verdicts.compare import compare, render_ours
+from mitsuba_refs.verdicts.detect import mean_line
 from pathtracer.io.exr import read_mean_variance
 
 SETTINGS = {"spp": 64, "convergence": True, "ladder": (1, 4, 16), "replicas": 2, "processes": 1}
@@ -381,7 +381,7 @@ def test_report_command_refuses_bad_input_in_one_line(case, tmp_path, capsys):
 def test_compare_refuses_an_unwritable_output_before_rendering(option, tmp_path, capsys, monkeypatch):
     a_file = tmp_path / "a_file"
     a_file.write_text("")
-    monkeypatch.setattr("mitsuba_refs.compare.compare", lambda *a, **k: pytest.fail("rendered"))
+    monkeypatch.setattr("mitsuba_refs.verdicts.compare.compare", lambda *a, **k: pytest.fail("rendered"))
     target = a_file if option == "--html" else a_file / "out.file"
     status = main(["compare", "cornell-box", "--out", str(tmp_path / "pics"), option, str(target)])
     err = capsys.readouterr().err
@@ -389,7 +389,7 @@ def test_compare_refuses_an_unwritable_output_before_rendering(option, tmp_path,
 
 
 def test_compare_writes_what_its_options_ask_for(disagreeing, tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr("mitsuba_refs.compare.compare", lambda *a, **k: disagreeing)
+    monkeypatch.setattr("mitsuba_refs.verdicts.compare.compare", lambda *a, **k: disagreeing)
     status = main(["compare", "cornell-box", "--out", str(tmp_path / "pics"),
                    "--json", str(tmp_path / "r.json"), "--junit", str(tmp_path / "j.xml"),
                    "--html", str(tmp_path / "html")])

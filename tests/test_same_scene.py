@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from mitsuba_refs.batch import SampleStatistics, copies_per_call
-from mitsuba_refs.cache import _identity, reference_key, reference_stem
+from mitsuba_refs.reference.batch import SampleStatistics, copies_per_call
+from mitsuba_refs.reference.cache import _identity, reference_key, reference_stem
 from pathtracer import SceneError, load_scene
 from pathtracer.render.driver import integrator_for
 from pathtracer.scene.load import parse_resolution
@@ -89,7 +89,7 @@ def test_undeclared_define_is_an_error_on_both_sides():
 
 
 def test_undeclared_define_exits_2_from_both_command_lines(tmp_path, capsys):
-    from mitsuba_refs.cli import main as refs_main
+    from mitsuba_refs.cli.main import main as refs_main
     from pathtracer.cli import main as tracer_main
     assert tracer_main(["render", str(SCENE), "-D", "max_depth=3", "-o", str(tmp_path / "a.exr")]) == 2
     assert refs_main(["compare", str(SCENE), "-D", "max_depth=3", "--out", str(tmp_path)]) == 2
@@ -166,7 +166,7 @@ def test_sample_statistics_merge_equals_one_pass():
 def mitsuba_variant(mi):
     """scalar_rgb: the variant a user without LLVM gets, where the fast reference path
     matters; it needs no JIT compilation, so these tests take seconds."""
-    from mitsuba_refs.variant import set_variant
+    from mitsuba_refs.reference.variant import set_variant
     return set_variant("scalar_rgb")[0]
 
 
@@ -184,7 +184,7 @@ def test_literal_depth_agrees_live_at_a_non_square_override(mitsuba_variant):
     reference (judged 23 % too dark). Now both render depth 2, at an override film whose
     aspect (24x10) differs from the file's 32x24, so the framing (fov_axis "smaller") is
     tested too. The reference at unlimited depth, what was rendered before, must disagree."""
-    from mitsuba_refs.render import render_reference
+    from mitsuba_refs.reference.render import render_reference
     from mitsuba_refs.stats import compare_means
     size, spp_ref, spp = (24, 10), 1024, 64
     ref = render_reference(SCENE, {}, "path", spp_ref, 5, variant=mitsuba_variant, resolution=size)
@@ -205,7 +205,7 @@ def test_override_keeps_fov_axis_meaning_in_mitsuba(tmp_path, mitsuba_variant, s
     horizontal field of view at the new aspect for every fov_axis (exact, no sampling)."""
     import mitsuba as mi
 
-    from mitsuba_refs.render import load_mitsuba_scene
+    from mitsuba_refs.reference.render import load_mitsuba_scene
     for axis in ("x", "y", "smaller", "larger", "diagonal"):
         path = variant_of_scene(tmp_path, 'value="smaller"', f'value="{axis}"', f"{axis}.xml")
         mi_scene = load_mitsuba_scene(path, {}, size)
@@ -220,7 +220,7 @@ def test_override_keeps_fov_axis_meaning_in_mitsuba(tmp_path, mitsuba_variant, s
 def test_batch_method_matches_moment_wrapper_live(mitsuba_variant):
     """The fast reference (single samples of a batch of camera copies) has the mean and the
     per-sample variance of the rgb_moments wrapper it replaces (independent seeds)."""
-    from mitsuba_refs.render import render_reference
+    from mitsuba_refs.reference.render import render_reference
     spp, size = 256, (16, 12)
     fast = render_reference(SCENE, {}, "path", spp, 21, variant=mitsuba_variant, resolution=size,
                             method="batch")

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mitsuba_refs.rfilter import filter_from_metadata, filter_metadata
+from mitsuba_refs.reference.rfilter import filter_from_metadata, filter_metadata
 from pathtracer import load_scene, render
 from pathtracer.render.jobs import border_samples, sample_grid_size
 from pathtracer.render.moments import filtered_mean_and_variance
@@ -116,7 +116,7 @@ def test_bordered_render_does_not_depend_on_processes_or_batching():
 
 @pytest.mark.mitsuba
 def test_mitsubas_film_has_the_same_border(mi):
-    from mitsuba_refs.rfilter import film_filter
+    from mitsuba_refs.reference.rfilter import film_filter
     for border in ("true", "false"):
         film = mi.load_file(str(SCENE), sample_border=border).sensors()[0].film()
         assert film_filter(film) == load_scene(SCENE, sample_border=border).camera.rfilter
@@ -131,8 +131,8 @@ def test_sample_border_agrees_with_mitsuba(tmp_path, monkeypatch, mi, rfilter):
     the filter weights: mitsuba-refs refuses that for tent and gaussian films because of sharp
     edges (and its exact scalar route samples no border), and this scene has none in the image
     or its border (see the file), so the refusal is lifted for this test only."""
-    import mitsuba_refs.render as reference_render
-    from mitsuba_refs.compare import compare
+    import mitsuba_refs.reference.render as reference_render
+    from mitsuba_refs.verdicts.compare import compare
     monkeypatch.setenv("MITSUBA_REFS_CACHE", str(tmp_path))
     monkeypatch.setattr(reference_render, "check_variant", lambda *args: None)
     monkeypatch.setattr(reference_render, "choose_method", lambda *args, **kwargs: "moments")

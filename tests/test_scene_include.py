@@ -262,7 +262,7 @@ def test_the_reference_key_hashes_the_files_the_loader_reads(tree):
     next to the grandparent (lvl1/c.xml), the mesh in the top file's <path>, the working
     directory's mesh (only_cwd.ply), an included file's mesh by the top file's folders (not
     found there: listed where first looked for, the loader refuses it too)."""
-    from mitsuba_refs.cache import included_files
+    from mitsuba_refs.reference.cache import included_files
     found = [os.path.relpath(p, tree) for p in included_files(include_order_scene(tree))]
     assert found == ["scene/mat.xml", "scene/lvl1/a.xml", "scene/lvl1/lvl2/b.xml", "scene/lvl1/c.xml",
                      "pathA/m.ply"]

@@ -470,7 +470,7 @@ def test_builtin_scenes_match_mitsuba(mi):
         np.testing.assert_allclose(ours.camera.to_world, np.array(params["to_world"].matrix),
                                    atol=1e-4, err_msg=name)
         assert (ours.camera.width, ours.camera.height) == tuple(sensor.film().size()), name
-        from mitsuba_refs.rfilter import film_filter
+        from mitsuba_refs.reference.rfilter import film_filter
         assert ours.camera.rfilter == film_filter(sensor.film()), name
         assert ours.spp == sensor.sampler().sample_count(), name
         assert len(ours.emitters) == len(theirs.emitters()), name

@@ -123,7 +123,7 @@ def test_stratified_sampler_by_reference_renders_independently(tmp_path):
     with pytest.warns(UserWarning, match="independent sampler too"):
         scene = load_scene(str(path))
     assert scene.spp == 9
-    from mitsuba_refs.cache import _identity
+    from mitsuba_refs.reference.cache import _identity
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         assert "stratified" in _identity(str(path), {}, "path", 16, 0)["sampler"]
@@ -131,7 +131,7 @@ def test_stratified_sampler_by_reference_renders_independently(tmp_path):
 
 @pytest.mark.mitsuba
 def test_mitsuba_reference_sampler_is_independent(tmp_path, mi):
-    from mitsuba_refs.render import load_mitsuba_scene
+    from mitsuba_refs.reference.render import load_mitsuba_scene
     sampler = '<sampler type="multijitter"><integer name="sample_count" value="16"/>' \
               '<boolean name="jitter" value="true"/></sampler>'
     scene = load_mitsuba_scene(_write(tmp_path, CYLINDERS, sampler), {})

@@ -218,7 +218,7 @@ def test_mitsuba_loads_and_refuses_the_same_files(tmp_path, mi, body, loads):
 @pytest.mark.statistical(assertions=2)
 def test_upgraded_scene_agrees_with_mitsuba(tmp_path, monkeypatch, mi):
     """The 0.6 file (camelCase, uscale/vscale, an included 0.5 file) rendered by both."""
-    from mitsuba_refs.compare import compare
+    from mitsuba_refs.verdicts.compare import compare
     monkeypatch.setenv("MITSUBA_REFS_CACHE", str(tmp_path))
     comparison = compare(str(LEGACY_SCENE), "path", spp=64, alpha=ALPHA, convergence=False,
                          bounces=False, processes=2, resolution=(32, 24))

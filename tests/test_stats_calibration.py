@@ -235,7 +235,7 @@ def test_mse_law_detects_bias_floor(conv_scene):
 
 
 # ------------------------------------------------- convergence test with rare bright paths
-# Rendered through mitsuba_refs.compare.convergence_test itself (equal work per level,
+# Rendered through mitsuba_refs.verdicts.compare.convergence_test itself (equal work per level,
 # renders doubled while rare errors dominate), with simulated images in place of renders.
 
 RARE_LADDER = (1, 4, 16)
@@ -247,7 +247,7 @@ def _simulated_convergence(sc, seed, *, replicas=2, equal_work=True):
     drawn from generators keyed by ``seed`` and the render seed."""
     from types import SimpleNamespace
 
-    from mitsuba_refs import compare
+    from mitsuba_refs.verdicts import compare
     rm, rv = render_stats(sc, RARE_REF_SPP, 1, np.random.default_rng([seed, 0]))
     reference = SimpleNamespace(mean=rm[0], var=rv[0], n=RARE_REF_SPP)
 

@@ -1,4 +1,4 @@
-"""Unit tests of mitsuba_refs.stats and mitsuba_refs.diagnostics (deterministic, fast).
+"""Unit tests of mitsuba_refs.stats and mitsuba_refs.report.diagnostics (deterministic, fast).
 
 Tests that draw random numbers use fixed seeds; where an assertion is statistical its
 false-failure probability (over seeds) is stated and < 1e-4."""
@@ -236,7 +236,7 @@ def test_budget():
 
 
 def test_diagnostics_write_pngs(tmp_path):
-    from mitsuba_refs import diagnostics as dg
+    from mitsuba_refs.report import diagnostics as dg
     ma, va, mb, vb = _pair(32, 48, seed=8)
     r = compare_means(ma * 0.9, va, 64, mb, vb, 4096, alpha=1e-3)
     p1 = dg.plot_mean_comparison(tmp_path / "mean.png", ma * 0.9, mb, r, "synthetic 10% dark")
@@ -430,8 +430,8 @@ def test_a_nearly_noiseless_image_skips_the_variance_test_with_its_reason():
     """Fewer than 8 tiles with variance (mitsuba-data's integrator_depth_1: max_depth 1 under
     a gaussian film, noisy only at 2 tiles' edges): compare_variances raises TooFewTiles,
     and a comparison says the variance was not tested, and why, instead of failing."""
-    from mitsuba_refs.compare import Comparison
     from mitsuba_refs.stats.variance import TooFewTiles, compare_variances
+    from mitsuba_refs.verdicts.compare import Comparison
     var = np.zeros((32, 32, 3))
     var[:8, :8] = var[-8:, -8:] = 0.1
     with pytest.raises(TooFewTiles, match="got 2"):

@@ -12,8 +12,8 @@ comparisons at the end.
 import numpy as np
 import pytest
 
-from mitsuba_refs.compare import compare
 from mitsuba_refs.stats import compare_means
+from mitsuba_refs.verdicts.compare import compare
 from pathtracer import load_scene, render
 from pathtracer.emitters.scene_emitters import (
     emitted_radiance,

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 import pathtracer
-from mitsuba_refs.cache import get_reference
+from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.stats import compare_means
 from mitsuba_refs.stats.mean import VARIANCE_BOUND
 

@@ -1,6 +1,6 @@
 """``check``: a renderer that is not ours, judged against Mitsuba with the verdicts of ``compare``.
 
-Two ways in, one pipeline out (:func:`mitsuba_refs.compare.compare` and its statistics):
+Two ways in, one pipeline out (:func:`mitsuba_refs.verdicts.compare.compare` and its statistics):
 
 * ``command``: the harness runs the user's renderer (:mod:`.runner`, :mod:`.renders`) as
   often as the verdicts need it: one mean-and-variance render at ``spp`` (or ``K`` replicas
@@ -27,9 +27,12 @@ import numpy as np
 
 from pathtracer.render.splats import replica_count
 
-from .. import config
-from ..cache import get_reference
-from ..compare import (
+from ..errors import RefsInputError
+from ..preflight import check_scene, scene_path
+from ..reference import config
+from ..reference.cache import get_reference
+from ..reference.render import reference_settings
+from ..verdicts.compare import (
     CONVERGENCE_SEED,
     TEST_SEED,
     Comparison,
@@ -40,10 +43,7 @@ from ..compare import (
     reference_options,
     write_pictures,
 )
-from ..errors import RefsInputError
-from ..explain import hints
-from ..preflight import check_scene, scene_path
-from ..render import reference_settings
+from ..verdicts.explain import hints
 from .images import ImageError, image_faults, read_image
 from .renders import ExternalRenders, RendererFault, replica_moments
 from .runner import Runner
@@ -123,9 +123,9 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
     seed_offset : int
         0: the renderer gets the comparison's own seeds; another value scrambles every seed
         (one bijection per offset), for independent repetitions of one check.
-    detect : mitsuba_refs.detect.Detect, optional
+    detect : mitsuba_refs.verdicts.detect.Detect, optional
         ``command`` only: choose ``spp`` from a pilot run so that the mean test sees
-        ``detect.target`` (:func:`mitsuba_refs.detect.choose_spp`).
+        ``detect.target`` (:func:`mitsuba_refs.verdicts.detect.choose_spp`).
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""An external renderer as the ``render=`` hook of :func:`mitsuba_refs.compare.compare`.
+"""An external renderer as the ``render=`` hook of :func:`mitsuba_refs.verdicts.compare.compare`.
 
 The comparison asks for images by ``(spp, seed, max_depth)``: a mean and per-sample variance
 for the mean and variance verdicts, a mean alone for each render of the convergence ladder.
@@ -74,7 +74,7 @@ class Request:
 
 
 class ExternalRenders:
-    """Images of an external command, in the shape :func:`~mitsuba_refs.compare.compare` asks.
+    """Images of an external command, in the shape :func:`~mitsuba_refs.verdicts.compare.compare` asks.
 
     Parameters
     ----------

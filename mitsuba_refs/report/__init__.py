@@ -1,6 +1,6 @@
 """Machine-readable results of comparisons, and the reports people and CI read.
 
-* :mod:`.results`: a :class:`~mitsuba_refs.compare.Comparison` as a JSON record (schema
+* :mod:`.results`: a :class:`~mitsuba_refs.verdicts.compare.Comparison` as a JSON record (schema
   ``mitsuba-refs/result/1``) with its images saved as EXR beside it; results files
   (``mitsuba-refs/results/1``) written and read back.
 * :mod:`.verdicts`: each verdict of a comparison as a JSON entry.

@@ -24,8 +24,8 @@ from pathlib import Path
 from pathtracer.io.exr import read_mean_variance
 from pathtracer.io.output import atomic_path
 
-from ..detect import percent
 from ..errors import one_line
+from ..verdicts.detect import percent
 from . import figures
 from .encoding import to_array, to_float
 from .results import record_path

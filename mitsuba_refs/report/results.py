@@ -20,13 +20,13 @@ import numpy as np
 from pathtracer.io.exr import warn_clamped, write_mean_variance
 from pathtracer.io.output import atomic_path
 
-from ..detect import is_weak
 from ..errors import RefsInputError
+from ..verdicts.detect import is_weak
 from .encoding import number, plain
 from .verdicts import verdict_entries
 
 if TYPE_CHECKING:
-    from ..compare import Comparison
+    from ..verdicts.compare import Comparison
 
 __all__ = ["SCHEMA", "RESULTS_SCHEMA", "comparison_record", "write_json", "load_results",
            "record_path", "default_stem"]
@@ -96,7 +96,7 @@ def _run_totals(runs: list) -> dict:
 
 
 def _detect(result: Comparison) -> dict | None:
-    """What ``--detect`` chose (:class:`mitsuba_refs.detect.SppChoice`), JSON-able."""
+    """What ``--detect`` chose (:class:`mitsuba_refs.verdicts.detect.SppChoice`), JSON-able."""
     choice = getattr(result, "detect", None)
     if choice is None:
         return None
@@ -113,7 +113,7 @@ def comparison_record(result: Comparison, out_dir, *, stem: str | None = None) -
     Parameters
     ----------
     result : Comparison
-        What :func:`mitsuba_refs.compare.compare` (or ``check``) returned.
+        What :func:`mitsuba_refs.verdicts.compare.compare` (or ``check``) returned.
     out_dir : path or None
         The folder of the results file: the test and reference images are written there as
         ``<stem>-test.exr`` and ``<stem>-reference.exr``, and every path of the record (images,

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..detect import WEAK_BIAS, is_weak, mean_line
 from ..stats.convergence import mse_levels
+from ..verdicts.detect import WEAK_BIAS, is_weak, mean_line
 from .encoding import plain
 
 __all__ = ["VERDICTS", "mean_entry", "variance_entry", "convergence_entry", "bounces_entry",
@@ -59,7 +59,7 @@ def mean_entry(mean) -> dict:
 
 
 def detectable_entry(result) -> dict | None:
-    """What the comparison's mean test could see (:mod:`mitsuba_refs.detect`), or None.
+    """What the comparison's mean test could see (:mod:`mitsuba_refs.verdicts.detect`), or None.
 
     ``bias``: every global bias at least this large (brighter or darker) is detected with
     probability ``power`` at level ``alpha``; ``brighter`` / ``darker`` per sign; ``floor``: the
@@ -77,7 +77,7 @@ def detectable_entry(result) -> dict | None:
 
 
 def variance_entry(result) -> dict:
-    """The variance verdict of a :class:`~mitsuba_refs.compare.Comparison` as a JSON entry.
+    """The variance verdict of a :class:`~mitsuba_refs.verdicts.compare.Comparison` as a JSON entry.
 
     ``applicable``: Mitsuba ran the same estimator as the test side (ours by name; an external
     renderer by its user's word, ``--same-estimator``), so that the per-sample variances are

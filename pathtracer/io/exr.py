@@ -12,7 +12,7 @@ and header attributes saying how it was made (strings, ints, floats: a render's 
 ``seed``, ``integrator``...; a reference's ``key``, ``pixel_sha256``...). Values beyond
 the stored float type's range are stored as its largest value and counted in the header
 (``clamped_mean``, ``clamped_variance``); NaN stays NaN. :mod:`pathtracer.io.output`
-writes renders with it, :mod:`mitsuba_refs.exr` references.
+writes renders with it, :mod:`mitsuba_refs.reference.exr` references.
 """
 from __future__ import annotations
 

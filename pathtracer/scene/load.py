@@ -73,7 +73,7 @@ def scene_file(path: str | os.PathLike) -> str:
     """The XML file of ``path``: a file path, or a built-in scene name (:func:`is_builtin_name`).
 
     This is the one rule from a scene argument to its file; the reference side
-    (:func:`mitsuba_refs.render.resolve_scene`) uses it too.
+    (:func:`mitsuba_refs.reference.render.resolve_scene`) uses it too.
     """
     text = os.fspath(path)
     if is_builtin_name(text):

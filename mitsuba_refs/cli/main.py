@@ -22,15 +22,23 @@ from pathtracer.core import interrupts
 from pathtracer.scene.defines import parse_defines
 from pathtracer.scene.load import parse_resolution
 
-from . import config
-from .cache import ReferenceUnavailable, cache_dir, get_reference, mitsuba_available, reference_stem, validate
-from .cli_check import add_check
-from .cli_compare import add_compare
-from .errors import RefsInputError, one_line
-from .preflight import check_scene, check_spp, parse_xml, scene_path
-from .render import INTEGRATOR_MAP, xml_defaults
-from .report.cli import add_report
-from .variant import choose_variant
+from ..errors import RefsInputError, one_line
+from ..preflight import check_scene, check_spp, scene_path
+from ..reference import config
+from ..reference.cache import (
+    ReferenceUnavailable,
+    cache_dir,
+    get_reference,
+    mitsuba_available,
+    parse_xml,
+    reference_stem,
+    validate,
+)
+from ..reference.render import INTEGRATOR_MAP, xml_defaults
+from ..reference.variant import choose_variant
+from .check import add_check
+from .compare import add_compare
+from .report import add_report
 
 #: Exit status -> meaning, for every subcommand.
 EXIT_CODES = {0: "success / agrees", 1: "compare: disagrees with Mitsuba",

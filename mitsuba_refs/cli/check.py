@@ -11,13 +11,13 @@ import sys
 
 from pathtracer.scene.defines import parse_defines
 
-from . import config
-from .cli_compare import _positive_ints, _resolution, add_detect_options, detect_of
-from .config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
-from .errors import RefsInputError
-from .external.template import PLACEHOLDERS, CommandTemplate
-from .preflight import check_ladder, check_output_folder, check_spp
-from .report.outputs import add_output_options, check_output_options, write_outputs
+from ..errors import RefsInputError
+from ..external.template import PLACEHOLDERS, CommandTemplate
+from ..preflight import check_ladder, check_output_folder, check_spp
+from ..reference import config
+from ..reference.config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
+from ..report.outputs import add_output_options, check_output_options, write_outputs
+from .compare import _positive_ints, _resolution, add_detect_options, detect_of
 
 PLACEHOLDER_HELP = "placeholders: " + "; ".join(f"{{{name}}} {text}" for name, text in PLACEHOLDERS.items())
 
@@ -93,7 +93,7 @@ def run_check(args) -> int:
     if detect is not None and args.command is None:
         raise RefsInputError("--detect goes with --command: images rendered elsewhere have "
                              "their sample count (the verdict says what they could see)")
-    from .external.check import check  # the statistics load inside main, where Ctrl-C is caught
+    from ..external.check import check  # the statistics load inside main, where Ctrl-C is caught
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
     command_mode = args.command is not None
     result = check(args.scene, command=args.command, images=args.images, params=params,

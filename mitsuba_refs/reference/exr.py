@@ -4,7 +4,7 @@
 The header holds ``spp``, ``seed``, ``integrator``, ``variant``, ``mitsuba_version``,
 ``scene_hash``, ``key``... and ``pixel_sha256``, the SHA-256 of the float32 mean and
 variance bytes as stored, so that truncation or bit rot is detected
-(:func:`mitsuba_refs.cache.validate`). Read a reference with
+(:func:`mitsuba_refs.reference.cache.validate`). Read a reference with
 :func:`pathtracer.io.exr.read_mean_variance`.
 """
 

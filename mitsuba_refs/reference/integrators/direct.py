@@ -13,7 +13,7 @@ Mitsuba's ``direct`` integrator with ``emitter_samples = 1`` and
 
 one emitter sample and one BSDF sample combined by MIS, which is the
 lecture's ``direct`` estimator. No custom integrator is needed: this module
-only names the mapping so that :mod:`mitsuba_refs.render` and the docs agree.
+only names the mapping so that :mod:`mitsuba_refs.reference.render` and the docs agree.
 """
 
 

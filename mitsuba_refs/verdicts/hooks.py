@@ -1,4 +1,4 @@
-"""Wrappers of the ``render=`` hook of :func:`mitsuba_refs.compare.compare`.
+"""Wrappers of the ``render=`` hook of :func:`mitsuba_refs.verdicts.compare.compare`.
 
 A hook is ``render(scene, integrator, params, spp, seed, processes=..., max_depth=...)``
 returning ``(mean, variance)``; it may also have ``render_mean(...)`` returning the mean alone

@@ -21,7 +21,7 @@ From these, the unbiased per-sample variance is
 
 and the variance of the pixel mean is :math:`s^2 / n`. Channels are read by
 name (``m1.R`` ...), never by position. With a tent or gaussian filter the film
-holds filter-weighted moments instead (:mod:`mitsuba_refs.rfilter`).
+holds filter-weighted moments instead (:mod:`mitsuba_refs.reference.rfilter`).
 
 Moments of several passes (independent seeds, :math:`n_j` samples each)
 combine exactly: :math:`\bar m_k = \sum_j n_j \bar m_{k,j} / \sum_j n_j`.

@@ -2,7 +2,7 @@ r"""Per-pixel mean and per-sample variance from single Mitsuba samples, no Pytho
 
 Mitsuba's ``moment`` integrator gives second moments of X, Y, Z only (no RGB
 cross terms, so no RGB variance), and wrapping the estimator in a Python
-integrator (:mod:`mitsuba_refs.moments`) costs one Python call per sample in
+integrator (:mod:`mitsuba_refs.reference.moments`) costs one Python call per sample in
 ``scalar_rgb``. Here each render call puts ``k`` copies of the scene's camera
 side by side in Mitsuba's ``batch`` sensor and takes **one** sample per pixel:
 the film (box filter) then holds ``k`` independent single samples of every
@@ -14,10 +14,10 @@ calls with Chan's formula, so
 
     \bar L = \frac1n \sum L_i, \qquad s^2 = \frac{M_2}{n - 1}
 
-are exactly the statistics of :mod:`mitsuba_refs.moments` (same samples model,
+are exactly the statistics of :mod:`mitsuba_refs.reference.moments` (same samples model,
 float64 sums, and exactly zero variance where all samples agree).
 
-Every call has its own seed (:func:`mitsuba_refs.seeds.pass_seeds`, spaced
+Every call has its own seed (:func:`mitsuba_refs.reference.seeds.pass_seeds`, spaced
 for the ``k`` times wider film); a copy's pixel is a different film pixel, so
 it draws its own random stream.
 """
@@ -83,7 +83,7 @@ def render_moments(scene, integrator, spp, seed, stream, log=None):
     integrator : mitsuba.Integrator
         The estimator itself (no wrapper).
     spp, seed, stream : int
-        Samples per pixel; base seed and stream of :func:`mitsuba_refs.seeds.pass_seeds`.
+        Samples per pixel; base seed and stream of :func:`mitsuba_refs.reference.seeds.pass_seeds`.
     log : callable, optional
 
     Returns

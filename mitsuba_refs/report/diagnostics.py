@@ -17,7 +17,7 @@ from matplotlib.colors import TwoSlopeNorm
 from pathtracer.core.color import LUMINANCE
 from pathtracer.core.tonemap import auto_scale, tonemap
 
-from .stats.convergence import mse_levels
+from ..stats.convergence import mse_levels
 
 __all__ = ["plot_mean_comparison", "plot_convergence", "plot_variance_comparison"]
 

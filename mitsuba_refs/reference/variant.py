@@ -1,7 +1,7 @@
 """Choose the Mitsuba variant that renders references.
 
 ``llvm_ad_rgb`` is preferred: it is 2-4x faster than ``scalar_rgb`` and runs
-the Python integrators of :mod:`mitsuba_refs.integrators` as one vectorised
+the Python integrators of :mod:`mitsuba_refs.reference.integrators` as one vectorised
 kernel instead of one Python call per sample. It needs a libLLVM >= 16; with
 an older one Dr.Jit *aborts the process* on the first kernel, so the probe
 renders a tiny scene in a subprocess and only trusts a clean exit. The
@@ -15,8 +15,8 @@ import os
 import subprocess
 import sys
 
+from ..errors import RefsInputError
 from .config import ENV_VARIANT
-from .errors import RefsInputError
 
 PREFERRED = "llvm_ad_rgb"
 FALLBACK = "scalar_rgb"

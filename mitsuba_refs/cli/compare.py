@@ -17,11 +17,11 @@ from pathtracer import INTEGRATORS
 from pathtracer.scene.defines import parse_defines
 from pathtracer.scene.load import parse_resolution
 
-from . import config
-from .config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
-from .errors import RefsInputError
-from .preflight import check_image_size, check_ladder, check_output_folder, check_scene, check_spp, scene_path
-from .report.outputs import add_output_options, check_output_options, write_outputs
+from ..errors import RefsInputError
+from ..preflight import check_image_size, check_ladder, check_output_folder, check_scene, check_spp, scene_path
+from ..reference import config
+from ..reference.config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
+from ..report.outputs import add_output_options, check_output_options, write_outputs
 
 
 def _positive_ints(text: str) -> tuple[int, ...]:
@@ -54,13 +54,13 @@ def add_detect_options(p) -> None:
 
 
 def detect_of(args):
-    """The :class:`mitsuba_refs.detect.Detect` of ``--detect`` / ``--max-time`` (None without
+    """The :class:`mitsuba_refs.verdicts.detect.Detect` of ``--detect`` / ``--max-time`` (None without
     --detect); one-line errors for a bad value or a conflicting option."""
     if args.detect is None:
         if args.max_time is not None:
             raise RefsInputError("--max-time goes with --detect (it caps the spp --detect chooses)")
         return None
-    from .detect import DEFAULT_MAX_TIME, Detect, parse_bias
+    from ..verdicts.detect import DEFAULT_MAX_TIME, Detect, parse_bias
     target = parse_bias(args.detect)
     if args.spp is not None:
         raise RefsInputError("--spp and --detect both set the sample count: give one of them")
@@ -116,7 +116,7 @@ def add_compare(subparsers):
 
 
 def run_compare(args) -> int:
-    """Handler of ``compare``; input errors propagate to :func:`mitsuba_refs.cli.main`
+    """Handler of ``compare``; input errors propagate to :func:`mitsuba_refs.cli.main.main`
     (one line, exit status 2)."""
     params = parse_defines(args.defines)
     check_options(args)
@@ -124,7 +124,7 @@ def run_compare(args) -> int:
     loaded = preload(args.scene, params, args.resolution)
     integrator = args.integrator or loaded.integrator.name     # the file's own by default
     # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught.
-    from .compare import compare
+    from ..verdicts.compare import compare
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
     options = {k: v for k, v in (("max_depth", args.max_depth), ("rr_depth", args.rr_depth))
                if v is not None} or None
@@ -160,14 +160,14 @@ def preload(scene, params, resolution=None):
     """Load ``scene`` in our tracer first (its messages name file and line), then check
     what Mitsuba will be given, all before any reference is looked up or rendered.
 
-    The loaded scene is kept by :func:`mitsuba_refs.compare.loaded_scene` for the renders,
+    The loaded scene is kept by :func:`mitsuba_refs.verdicts.compare.loaded_scene` for the renders,
     and returned (its ``integrator`` is the file's own, the default of ``--integrator``).
     Warnings of the loader (e.g. a parameter the file does not use) are printed as one
     line each once the input is known to be good.
     """
     scene_path(scene)
     # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught.
-    from .compare import default_params, loaded_scene
+    from ..verdicts.compare import default_params, loaded_scene
     params = {**default_params(scene), **params}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -1,11 +1,11 @@
 r"""Filtered (tent, gaussian) references in ``scalar_rgb``: single samples at known positions.
 
 Mitsuba's scalar film weights samples with a 31-entry table of the filter
-(:mod:`mitsuba_refs.rfilter`); the references need the exact weights, which the tracer and
+(:mod:`mitsuba_refs.reference.rfilter`); the references need the exact weights, which the tracer and
 Mitsuba's vectorised variants use. So the samples are rendered as for a box film
-(:mod:`mitsuba_refs.batch`: ``k`` copies of the camera side by side, one sample per pixel,
+(:mod:`mitsuba_refs.reference.batch`: ``k`` copies of the camera side by side, one sample per pixel,
 the C++ estimator alone), the film position of each is computed exactly as Mitsuba drew it
-(:mod:`mitsuba_refs.positions`), and NumPy splats them with the tracer's filter weights
+(:mod:`mitsuba_refs.reference.positions`), and NumPy splats them with the tracer's filter weights
 (:meth:`pathtracer.sensors.film.ReconstructionFilter.eval`). Per pixel ``p`` this accumulates over all
 ``n`` samples of the whole film
 
@@ -16,7 +16,7 @@ the C++ estimator alone), the film position of each is computed exactly as Mitsu
 
 ``w_i(p) = w(c_p - x_i)`` the separable filter weight, weights outside the image dropped:
 exactly what Mitsuba's ``hdrfilm`` holds with the ``rgb_moments`` AOVs in ``llvm_ad_rgb``,
-so :func:`mitsuba_refs.rfilter.per_sample_variance` turns them into the same per-sample
+so :func:`mitsuba_refs.reference.rfilter.per_sample_variance` turns them into the same per-sample
 variance ``(m_2 - m_1^2) n_eff / (n_eff - 1)``. The samples have the distribution of the
 filtered film's: ``n`` per pixel, uniform in it (no sample border).
 
@@ -125,7 +125,7 @@ def render_filtered_moments(scene, integrator, spp, seed, stream, rfilter, log=N
     integrator : mitsuba.Integrator
         The estimator, loaded from :func:`integrator_with_blocks`'s dictionary.
     spp, seed, stream : int
-        As for :func:`mitsuba_refs.batch.render_moments`.
+        As for :func:`mitsuba_refs.reference.batch.render_moments`.
     rfilter : pathtracer.sensors.film.ReconstructionFilter
     log : callable, optional
 

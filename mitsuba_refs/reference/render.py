@@ -5,13 +5,13 @@ sets the film size and the integrator options the tracer's loader reads from
 the same file (:func:`reference_settings`: literal values, ``$params``,
 ``<default>``s and overrides alike), and renders it with the Mitsuba estimator
 matching one of ours. Per-pixel mean and per-sample variance come from single
-samples (:mod:`mitsuba_refs.batch`: ``k`` copies of the camera side by side,
+samples (:mod:`mitsuba_refs.reference.batch`: ``k`` copies of the camera side by side,
 one sample per pixel each, no Python per sample) in ``scalar_rgb``; in JIT
-variants the ``rgb_moments`` wrapper (:mod:`mitsuba_refs.moments`), which
+variants the ``rgb_moments`` wrapper (:mod:`mitsuba_refs.reference.moments`), which
 runs there once per wavefront (:func:`default_method`). A tent or gaussian film's
 samples are weighted by Mitsuba's film in JIT variants, and in ``scalar_rgb``, whose
 film tabulates the weights, by NumPy at their recomputed positions
-(:mod:`mitsuba_refs.filtered`; :func:`choose_method`).
+(:mod:`mitsuba_refs.reference.filtered`; :func:`choose_method`).
 
 Integrator mapping (ours -> Mitsuba):
 
@@ -171,7 +171,7 @@ def sensor_has_medium(path):
                for child in sensor.children)
 
 
-#: Film reconstruction filters both renderers implement (mitsuba_refs.rfilter).
+#: Film reconstruction filters both renderers implement (mitsuba_refs.reference.rfilter).
 SUPPORTED_FILTERS = ("box", "tent", "gaussian")
 
 
@@ -360,8 +360,8 @@ def choose_method(variant, rfilter, mitsuba_integrator, camera_in_medium, reques
     ``replicas`` for the particle tracer (box films only); the wrapper (``moments``) where
     the camera sits in a medium (the batch sensor drops it); otherwise ``requested`` or
     :func:`default_method`. A tent or gaussian film takes ``moments`` in JIT variants (their
-    film weighs exactly) and ``batch`` in scalar ones (:mod:`mitsuba_refs.filtered`: the
-    scalar film's weights are tabulated, :func:`mitsuba_refs.rfilter.check_variant`).
+    film weighs exactly) and ``batch`` in scalar ones (:mod:`mitsuba_refs.reference.filtered`: the
+    scalar film's weights are tabulated, :func:`mitsuba_refs.reference.rfilter.check_variant`).
     ``ValueError`` for a combination that has no exact route.
     """
     scalar = variant.startswith("scalar")
@@ -409,10 +409,10 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         Total samples per pixel (the file's sample count is not used); base
         seed (see :func:`pass_seeds`).
     variant : str, optional
-        Mitsuba variant; default chosen by :func:`mitsuba_refs.variant.choose_variant`.
+        Mitsuba variant; default chosen by :func:`mitsuba_refs.reference.variant.choose_variant`.
     pass_spp : int, optional
         ``method="moments"``: samples per pass (default
-        :data:`~mitsuba_refs.config.PASS_SPP`).
+        :data:`~mitsuba_refs.reference.config.PASS_SPP`).
     log : callable, optional
         Called with progress strings.
     options : dict, optional

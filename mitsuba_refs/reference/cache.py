@@ -53,8 +53,8 @@ from pathtracer.scene.errors import SceneError
 from pathtracer.scene.load import BUILTIN_DIR
 from pathtracer.scene.xml_files import XMLSyntaxError, read_elements, scene_files
 
+from ..errors import CacheNotWritable, ReferenceUnavailable, RefsInputError, is_mitsuba_error, mitsuba_error_line
 from . import config
-from .errors import CacheNotWritable, ReferenceUnavailable, RefsInputError, is_mitsuba_error, mitsuba_error_line
 from .exr import pixel_checksum, write_reference_exr
 from .render import (
     INTEGRATOR_MAP,
@@ -79,7 +79,7 @@ def cache_dir():
     env = os.environ.get(config.ENV_CACHE)
     if env:
         return Path(env)
-    return Path(__file__).resolve().parent / "references"
+    return Path(__file__).resolve().parents[1] / "references"
 
 
 def _sha256_file(path):
@@ -223,7 +223,7 @@ def validate(scene, params, integrator, spp, seed, directory=None, options=None,
     -------
     (status, detail, reference)
         ``status`` is ``"ok"`` (``reference`` is the loaded
-        :class:`~mitsuba_refs.render.Reference`), ``"missing"``, ``"stale"``
+        :class:`~mitsuba_refs.reference.render.Reference`), ``"missing"``, ``"stale"``
         or ``"corrupt"`` (``reference`` is None).
 
     Raises
@@ -436,7 +436,7 @@ def get_reference(scene, params, integrator, spp=config.REF_SPP,
     Parameters
     ----------
     scene, params, integrator, spp, seed
-        As for :func:`mitsuba_refs.render.render_reference`.
+        As for :func:`mitsuba_refs.reference.render.render_reference`.
     directory : path, optional
         Cache folder (default :func:`cache_dir`).
     variant : str, optional

@@ -8,7 +8,7 @@ page and/or the JUnit XML of all their comparisons together. Exit status 0 when 
 from __future__ import annotations
 
 from ..errors import RefsInputError
-from .outputs import check_output_options, write_reports
+from ..report.outputs import check_output_options, write_reports
 
 __all__ = ["add_report", "run_report"]
 
@@ -29,12 +29,12 @@ def add_report(subparsers):
 
 
 def run_report(args) -> int:
-    """Handler of ``report``; input errors propagate to :func:`mitsuba_refs.cli.main`
+    """Handler of ``report``; input errors propagate to :func:`mitsuba_refs.cli.main.main`
     (one line, exit status 2)."""
     if not (args.html or args.junit):
         raise RefsInputError("nothing to write: give --html DIR and/or --junit FILE")
     check_output_options(args)
-    from .results import load_results  # the reader (and SciPy, of the verdicts) loads inside main
+    from ..report.results import load_results  # the reader (and SciPy, of the verdicts) loads inside main
     records = [record for path in args.results for record in load_results(path)]
     for line in write_reports(records, junit=args.junit, html=args.html):
         print(line)

@@ -13,7 +13,7 @@ which moves pixel values at sharp edges by up to 0.4 % (tent) / 0.8 % (gaussian)
 edge's contrast; the tracer follows the exact weights of the vectorised variants. So a
 filtered reference comes either from a vectorised variant's film, or, in ``scalar_rgb``,
 from single samples at known positions splatted by NumPy with the exact weights
-(:mod:`mitsuba_refs.filtered`): the same ``m1``, ``m2`` either way.
+(:mod:`mitsuba_refs.reference.filtered`): the same ``m1``, ``m2`` either way.
 """
 
 from pathtracer.render.moments import variance_from_power_means
@@ -45,7 +45,7 @@ def film_filter(film):
 def check_variant(variant, rfilter, route):
     """Refuse a scalar variant's own film for a tent or gaussian filter (its weights are
     tabulated) on ``route``, a route that would use it (the ``rgb_moments`` wrapper, a
-    camera inside a medium); the ``batch`` method (:mod:`mitsuba_refs.filtered`) splats
+    camera inside a medium); the ``batch`` method (:mod:`mitsuba_refs.reference.filtered`) splats
     with the exact weights instead."""
     if not rfilter.is_box and variant.startswith("scalar"):
         raise ValueError(f"a {rfilter.describe()} film with {route} needs a vectorised "
@@ -85,7 +85,7 @@ def per_sample_variance(m1, m2, n, rfilter):
 def reference_correlation(reference):
     """How the reference's film filter correlates pixels (:mod:`mitsuba_refs.stats.correlation`)."""
     # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught.
-    from .stats.correlation import pixel_correlation
+    from ..stats.correlation import pixel_correlation
     return pixel_correlation(filter_from_metadata(getattr(reference, "metadata", None)))
 
 

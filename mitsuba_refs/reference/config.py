@@ -7,9 +7,9 @@ Test resolution
     ``spot-directional``), which keep the agreement tests of the extra
     emitters cheap.
     48 is not a multiple of 32: in ``scalar_rgb`` Mitsuba seeds 32 x 32
-    blocks from ``seed * W * H``, so :mod:`mitsuba_refs.render` spaces pass
+    blocks from ``seed * W * H``, so :mod:`mitsuba_refs.reference.render` spaces pass
     seeds far enough apart for the padded block count (see
-    :func:`mitsuba_refs.seeds.pass_seeds`). EXR files stay ~20-50 KB.
+    :func:`mitsuba_refs.reference.seeds.pass_seeds`). EXR files stay ~20-50 KB.
 
 Samples
     ``TEST_MAX_SPP`` = 64 is the most samples per pixel any test renders at
@@ -106,7 +106,7 @@ PER_BOUNCE_DEPTHS = (1, 2, 3)
 
 #: spp ladder of ``compare``'s convergence test (4x steps: RMSE should halve) and the
 #: independent replicas at its top level; lower levels get more
-#: (:func:`mitsuba_refs.compare.level_replicas`).
+#: (:func:`mitsuba_refs.verdicts.compare.level_replicas`).
 CONVERGENCE_LADDER = (1, 4, 16, 64)
 CONVERGENCE_REPLICAS = 2
 

@@ -29,14 +29,11 @@ from pathtracer import load_scene, render
 from pathtracer.integrators import INTEGRATORS
 from pathtracer.render.driver import SCENE_OPTIONS
 
-from . import config
-from .cache import get_reference, scene_hash
-from .detect import choose_spp, comparison_bound, mean_line, status_text
-from .explain import hints
-from .hooks import RecordingRuns, WithOptions, mean_of
-from .render import bounce_reference, resolve_scene, xml_defaults
-from .rfilter import pixel_value_counts, reference_correlation
-from .stats import (
+from ..reference import config
+from ..reference.cache import get_reference, scene_hash
+from ..reference.render import bounce_reference, resolve_scene, xml_defaults
+from ..reference.rfilter import pixel_value_counts, reference_correlation
+from ..stats import (
     compare_means,
     compare_variances,
     convergence_law,
@@ -45,8 +42,11 @@ from .stats import (
     rare_errors_dominate,
     reference_mse_floor,
 )
-from .stats.mean import VARIANCE_BOUND
-from .stats.variance import TooFewTiles
+from ..stats.mean import VARIANCE_BOUND
+from ..stats.variance import TooFewTiles
+from .detect import choose_spp, comparison_bound, mean_line, status_text
+from .explain import hints
+from .hooks import RecordingRuns, WithOptions, mean_of
 
 #: spp ladder of the convergence test and its replicas at the top level (defined in config,
 #: so that the command line's parser does not import the statistics).
@@ -280,9 +280,9 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
         estimator (our name for it, e.g. ``light`` for Mitsuba's ``ptracer``), whether the test
         side runs that same estimator (then the variance verdict applies), and whether its
         paths splat into many pixels. By default all three follow from ``integrator``.
-    detect : mitsuba_refs.detect.Detect, optional
+    detect : mitsuba_refs.verdicts.detect.Detect, optional
         Choose ``spp`` from a pilot render so that the mean test sees ``detect.target``
-        (:func:`mitsuba_refs.detect.choose_spp`); replaces ``spp``.
+        (:func:`mitsuba_refs.verdicts.detect.choose_spp`); replaces ``spp``.
     heavy_tail_guard : bool, optional
         The mean test's ``same_estimator`` guard (:mod:`mitsuba_refs.stats.mean`): on for the
         same estimator unless False (the grader's: its power was measured without it).
@@ -584,7 +584,7 @@ def localise_bounce(scene, integrator, name, params, spp, alpha, processes, rend
 def write_pictures(result: Comparison, out_dir: Path, mean, variance, reference) -> dict:
     """Diagnostic PNGs for the failed tests (all tests when everything agrees: none)."""
     # The pictures are drawn with matplotlib (heavy): imported only when there are some to draw.
-    from .diagnostics import plot_convergence, plot_mean_comparison, plot_variance_comparison
+    from ..report.diagnostics import plot_convergence, plot_mean_comparison, plot_variance_comparison
     out_dir.mkdir(parents=True, exist_ok=True)
     stem = f"{Path(str(result.scene)).stem}-{result.integrator}"
     title = f"{result.integrator} vs Mitsuba on {result.scene}"

@@ -1,8 +1,8 @@
 r"""Where Mitsuba's ``scalar_rgb`` renderer puts each camera sample of a one-sample render.
 
 A filtered (tent, gaussian) reference needs every sample's film position, so that NumPy can
-weight it with the exact filter (:mod:`mitsuba_refs.filtered`); Mitsuba's scalar film would
-use tabulated weights instead (:mod:`mitsuba_refs.rfilter`). With **one** sample per pixel
+weight it with the exact filter (:mod:`mitsuba_refs.reference.filtered`); Mitsuba's scalar film would
+use tabulated weights instead (:mod:`mitsuba_refs.reference.rfilter`). With **one** sample per pixel
 the position is the first thing the sampler draws, before the scene is touched, so it is a
 function of the seed and the pixel alone, and this module computes it as Mitsuba 3.9.1 does
 (``src/render/integrator.cpp``, ``spiral.cpp``, ``sensors/batch.cpp``):

@@ -1,4 +1,5 @@
-"""The Mitsuba seeds of a reference's render passes (:mod:`mitsuba_refs.render`, :mod:`mitsuba_refs.batch`)."""
+"""The Mitsuba seeds of a reference's render passes (:mod:`mitsuba_refs.reference.render`,
+:mod:`mitsuba_refs.reference.batch`)."""
 
 import math
 

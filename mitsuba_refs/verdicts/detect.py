@@ -32,11 +32,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import config
-from .errors import RefsInputError
-from .rfilter import reference_correlation
-from .stats.detectable import DetectableBias, MeanTestPower
-from .stats.mean import VARIANCE_BOUND
+from ..errors import RefsInputError
+from ..reference import config
+from ..reference.rfilter import reference_correlation
+from ..stats.detectable import DetectableBias, MeanTestPower
+from ..stats.mean import VARIANCE_BOUND
 
 __all__ = ["POWER", "WEAK_BIAS", "Detect", "percent", "SppChoice", "parse_bias", "mean_test_power",
            "comparison_bound", "is_weak", "status_text", "mean_line", "plan", "choose_spp"]
@@ -97,7 +97,7 @@ class Detect:
 def mean_test_power(reference, test_var, *, alpha: float, same: bool, splats: bool,
                     guard: bool | None = None):
     """The :class:`~mitsuba_refs.stats.detectable.MeanTestPower` of the mean test that
-    :func:`mitsuba_refs.compare.compare` runs against ``reference`` (bounded variance for the
+    :func:`mitsuba_refs.verdicts.compare.compare` runs against ``reference`` (bounded variance for the
     same estimator, tiles only for a splatting render, the film's pixel correlation); None
     when ``test_var`` is missing or not finite (an overflowed render: nothing to bound).
     ``guard``: the mean test's heavy-tail guard (default: ``same``)."""
