@@ -7,6 +7,9 @@
   which keeps it out of start-up; or in a module that docs/architecture.md's section
   "Deferred imports" names with the reason.
 * No module over 600 lines, except those docs/architecture.md names with the reason.
+* The house's figures (docs/architecture.md, "Size rules"): few modules loose at each package's
+  root, no function over 120 lines, no function of the harness or the grader with more than
+  10 parameters, one p-value formatter.
 """
 from __future__ import annotations
 
@@ -20,6 +23,13 @@ PACKAGES = ("pathtracer", "mitsuba_refs", "autograder", "experiments")
 #: What an import inside a function may name: heavy, optional, and so kept out of start-up.
 DEFERRABLE = ("mitsuba", "drjit", "matplotlib", "dask", "distributed")
 MAX_LINES = 600
+#: Modules (``__init__.py`` aside) a package may hold loose at its root; the rest live in
+#: folders that say what they are.
+MAX_ROOT_MODULES = {"mitsuba_refs": 6, "autograder": 10, "pathtracer": 4}
+MAX_FUNCTION_LINES = 120
+#: Parameters (``self`` / ``cls`` aside) of a function of the harness or the grader: more
+#: travel as one settings value.
+MAX_PARAMETERS = 10
 
 
 def _modules() -> dict[str, Path]:
@@ -240,3 +250,49 @@ def test_documented_deferrals_still_defer():
         if not any(inside for _, inside in _imports(module)):
             stale.append(relative)
     assert not stale, f"docs/architecture.md lists modules without imports inside functions: {stale}"
+
+
+def _functions():
+    """``(path, node)`` of every function and method of the packages."""
+    for path in MODULES.values():
+        tree = ast.parse(path.read_text(), str(path))
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                yield path.relative_to(ROOT).as_posix(), node
+
+
+def _parameters(node) -> int:
+    args = node.args
+    named = [*args.posonlyargs, *args.args, *args.kwonlyargs]
+    count = len(named) + bool(args.vararg) + bool(args.kwarg)
+    return count - bool(named and named[0].arg in ("self", "cls"))
+
+
+def test_few_modules_loose_at_each_root():
+    crowded = []
+    for package, most in MAX_ROOT_MODULES.items():
+        loose = sorted(p.name for p in (ROOT / package).glob("*.py") if p.name != "__init__.py")
+        if len(loose) > most:
+            crowded.append(f"{package}/: {len(loose)} > {most} ({', '.join(loose)})")
+    assert not crowded, "packages with too many root modules: " + "; ".join(crowded)
+
+
+def test_no_function_over_120_lines():
+    long = [f"{path}:{node.lineno} {node.name} ({node.end_lineno - node.lineno + 1} lines)"
+            for path, node in _functions() if node.end_lineno - node.lineno + 1 > MAX_FUNCTION_LINES]
+    assert not long, "functions over 120 lines: " + "; ".join(long)
+
+
+def test_harness_and_grader_functions_take_at_most_10_parameters():
+    many = [f"{path}:{node.lineno} {node.name} ({_parameters(node)})" for path, node in _functions()
+            if path.split("/")[0] in ("mitsuba_refs", "autograder") and _parameters(node) > MAX_PARAMETERS]
+    assert not many, "functions with more than 10 parameters (pass a settings value): " + "; ".join(many)
+
+
+def test_one_p_value_formatter():
+    # A p-value printed in two styles reads as two different numbers; every verdict line,
+    # JSON record and report asks mitsuba_refs/report for its digits.
+    pattern = re.compile(r"def \w*(fmt|format)_p(value)?\b")
+    homes = [path.relative_to(ROOT).as_posix() for path in MODULES.values()
+             if pattern.search(path.read_text())]
+    assert len(homes) == 1 and homes[0].startswith("mitsuba_refs/report/"), homes
