@@ -35,6 +35,7 @@ import numpy as np
 
 from mitsuba_refs.reference import config as refs_config
 from mitsuba_refs.reference.cache import get_reference
+from mitsuba_refs.settings import Settings
 from mitsuba_refs.stats import MAX_VARIANCE_RATIO, ErrorBudget, compare_means
 from mitsuba_refs.verdicts.compare import (
     BOUNCE_REFERENCE,
@@ -403,10 +404,10 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
         try:
             # Without the heavy-tail guard: every check's calibration and power
             # (docs/autograder.md) were measured without it.
-            comparison = compare(check.scene, check.integrator, check_params(check),
-                                 spp=check.spp, alpha=alpha, convergence=wants_convergence,
-                                 bounces=False, render=scored, heavy_tail_guard=False,
-                                 **CONVERGENCE)
+            settings = Settings(spp=check.spp, alpha=alpha, convergence=wants_convergence,
+                                bounces=False, heavy_tail_guard=False, **CONVERGENCE)
+            comparison = compare(check.scene, check.integrator, check_params(check), settings,
+                                 render=scored)
         except StudentFailure as failure:
             return _failed(result, failure, start)
         result.comparison = comparison
