@@ -26,6 +26,7 @@ variance and convergence tests each control their own internal families at that 
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from dataclasses import dataclass, field
@@ -547,14 +548,11 @@ def _pictures(result: CheckResult, comparison, main_render, out_dir: Path) -> di
                               reference_integrator(check.integrator))
     mean, variance = main_render["image"]
     out_dir.mkdir(parents=True, exist_ok=True)
-    scene = comparison.scene
-    comparison.scene = check.id
-    try:
-        return write_pictures(comparison, out_dir, mean, variance, reference)
+    try:    # named after the check (a comparison is frozen: a copy with the check's id)
+        return write_pictures(dataclasses.replace(comparison, scene=check.id), out_dir, mean,
+                              variance, reference)
     except Exception as error:  # pictures are a courtesy: never fail grading on them
         return {"error": f"could not draw pictures: {error}"}
-    finally:
-        comparison.scene = scene
 
 
 def grade(impl: str, checks=CHECKS, out_dir=None, seed_offset: int = 0, log=None,
