@@ -26,6 +26,7 @@ variance and convergence tests each control their own internal families at that 
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from dataclasses import dataclass, field
@@ -35,6 +36,7 @@ import numpy as np
 
 from mitsuba_refs.reference import config as refs_config
 from mitsuba_refs.reference.cache import get_reference
+from mitsuba_refs.settings import Settings
 from mitsuba_refs.stats import MAX_VARIANCE_RATIO, ErrorBudget, compare_means
 from mitsuba_refs.verdicts.compare import (
     BOUNCE_REFERENCE,
@@ -403,10 +405,10 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
         try:
             # Without the heavy-tail guard: every check's calibration and power
             # (docs/autograder.md) were measured without it.
-            comparison = compare(check.scene, check.integrator, check_params(check),
-                                 spp=check.spp, alpha=alpha, convergence=wants_convergence,
-                                 bounces=False, render=scored, heavy_tail_guard=False,
-                                 **CONVERGENCE)
+            settings = Settings(spp=check.spp, alpha=alpha, convergence=wants_convergence,
+                                bounces=False, heavy_tail_guard=False, **CONVERGENCE)
+            comparison = compare(check.scene, check.integrator, check_params(check), settings,
+                                 render=scored)
         except StudentFailure as failure:
             return _failed(result, failure, start)
         result.comparison = comparison
@@ -546,14 +548,11 @@ def _pictures(result: CheckResult, comparison, main_render, out_dir: Path) -> di
                               reference_integrator(check.integrator))
     mean, variance = main_render["image"]
     out_dir.mkdir(parents=True, exist_ok=True)
-    scene = comparison.scene
-    comparison.scene = check.id
-    try:
-        return write_pictures(comparison, out_dir, mean, variance, reference)
+    try:    # named after the check (a comparison is frozen: a copy with the check's id)
+        return write_pictures(dataclasses.replace(comparison, scene=check.id), out_dir, mean,
+                              variance, reference)
     except Exception as error:  # pictures are a courtesy: never fail grading on them
         return {"error": f"could not draw pictures: {error}"}
-    finally:
-        comparison.scene = scene
 
 
 def grade(impl: str, checks=CHECKS, out_dir=None, seed_offset: int = 0, log=None,

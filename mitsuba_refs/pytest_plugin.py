@@ -91,9 +91,12 @@ class Checker:
         return self.budget.alpha
 
     def assert_agrees(self, scene, **options):
-        """As :func:`mitsuba_refs.testing.assert_agrees`, pictures in the test's folder."""
+        """As :func:`mitsuba_refs.testing.assert_agrees`, pictures in the test's folder (unless
+        ``out_dir`` or ``settings.out_dir`` says where)."""
         from .testing import assert_agrees
-        options.setdefault("out_dir", self.out_dir)
+        settings = options.get("settings")
+        if settings is None or settings.out_dir is None:
+            options.setdefault("out_dir", self.out_dir)
         return assert_agrees(scene, budget=self.budget, **options)
 
 

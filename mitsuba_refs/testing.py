@@ -27,6 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .external.check import check
+from .settings import Settings
 from .stats.budget import SUITE_ALPHA, per_test_alpha
 
 #: Verdicts one check makes at most (mean, variance, convergence): each spends its alpha.
@@ -68,7 +69,8 @@ class SuiteBudget:
                 f"{self.alpha:.3g}")
 
 
-def assert_agrees(scene, *, command=None, images=None, alpha=None, budget=None, **options):
+def assert_agrees(scene, *, command=None, images=None, settings: Settings | None = None,
+                  alpha=None, budget=None, **options):
     """Check a renderer (``command``) or its ``images`` against Mitsuba on ``scene``; raise
     :class:`Disagreement` unless every verdict agrees.
 
@@ -78,14 +80,18 @@ def assert_agrees(scene, *, command=None, images=None, alpha=None, budget=None, 
         Built-in scene name or Mitsuba XML file.
     command, images
         As for ``mitsuba-refs check --command / --images``.
+    settings : mitsuba_refs.settings.Settings, optional
+        What is rendered and how it is judged (:func:`mitsuba_refs.external.check.check`);
+        its ``alpha`` is replaced by the level below.
     alpha : float, optional
         Level of each verdict; default from ``budget``.
     budget : SuiteBudget, optional
         The suite's budget (default: one check with the default budget).
     **options
-        Keyword arguments of :func:`mitsuba_refs.external.check.check` (``params``,
-        ``same_estimator``, ``reference``, ``out_dir``, ``jobs``, ``detect`` (a
-        :class:`mitsuba_refs.verdicts.detect.Detect`: the spp that sees a target bias), ...). The
+        Keyword arguments of :func:`mitsuba_refs.external.check.check`: ``params``,
+        ``renderer_scene``, ... and the fields of ``Settings`` (``same_estimator``,
+        ``reference``, ``out_dir``, ``jobs``, ``detect`` (a :class:`mitsuba_refs.settings.Detect`:
+        the spp that sees a target bias), ...), which replace those of ``settings``. The
         result's ``detectable`` says what its mean test could see.
 
     Returns
@@ -94,7 +100,8 @@ def assert_agrees(scene, *, command=None, images=None, alpha=None, budget=None, 
         The verdicts, when they all agree.
     """
     level = alpha if alpha is not None else (budget or SuiteBudget()).alpha
-    result = check(scene, command=command, images=images, alpha=level, **options)
+    result = check(scene, command=command, images=images, settings=settings, alpha=level,
+                   **options)
     if not result.agree:
         raise Disagreement(result)
     return result

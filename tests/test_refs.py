@@ -222,6 +222,7 @@ def test_per_bounce_localisation_finds_the_committed_references_with_rr_depth(mo
     with rr_depth 8 nor with the file's 5, so they are the same estimator. With rr_depth 2,
     roulette acts at max_depth 3 only, and only that reference keeps rr_depth in its key."""
     import mitsuba_refs.verdicts.compare as compare
+    from mitsuba_refs.settings import Settings
     seen = []
 
     def committed_only(scene, params, *args, strip=False, **kwargs):
@@ -232,13 +233,13 @@ def test_per_bounce_localisation_finds_the_committed_references_with_rr_depth(mo
 
     params = {**compare.default_params("glass-cube"), "rr_depth": 8}
     monkeypatch.setattr(compare, "get_reference", committed_only)
-    found = compare.localise_bounce("glass-cube", "path", "path", params, 4, 1e-3, 1,
-                                    compare.render_ours)
+    quick = Settings(spp=4, alpha=1e-3, processes=1)
+    found = compare.localise_bounce("glass-cube", "path", params, quick, compare.render_ours)
     assert sorted(found) == [1, 2, 3] and seen == [None, None, None]
     seen.clear()
     monkeypatch.setattr(compare, "get_reference",
                         lambda *a, **k: committed_only(*a, strip=True, **k))
-    compare.localise_bounce("glass-cube", "path", "path", {**params, "rr_depth": 2}, 4, 1e-3, 1,
+    compare.localise_bounce("glass-cube", "path", {**params, "rr_depth": 2}, quick,
                             compare.render_ours)
     assert seen == [None, None, 2]
 

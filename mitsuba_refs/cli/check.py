@@ -17,6 +17,7 @@ from ..preflight import check_ladder, check_output_folder, check_spp
 from ..reference import config
 from ..reference.config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 from ..report.outputs import add_output_options, check_output_options, write_outputs
+from ..settings import Settings
 from .compare import _positive_ints, _resolution, add_detect_options, detect_of
 
 PLACEHOLDER_HELP = "placeholders: " + "; ".join(f"{{{name}}} {text}" for name, text in PLACEHOLDERS.items())
@@ -96,15 +97,18 @@ def run_check(args) -> int:
     from ..external.check import check  # the statistics load inside main, where Ctrl-C is caught
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
     command_mode = args.command is not None
+    settings = Settings(
+        spp=(args.spp or config.TEST_MAX_SPP) if command_mode else config.TEST_MAX_SPP,
+        alpha=args.alpha, convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
+        jobs=args.jobs, timeout=args.timeout, variance_replicas=args.variance_replicas,
+        reference=args.reference_integrator, same_estimator=args.same_estimator,
+        splatting=args.splatting, resolution=args.resolution, ladder=args.ladder,
+        replicas=args.replicas, detect=detect,
+        options={"max_depth": int(args.max_depth)} if args.max_depth is not None else None)
     result = check(args.scene, command=args.command, images=args.images, params=params,
-                   spp=(args.spp or config.TEST_MAX_SPP) if command_mode else config.TEST_MAX_SPP,
-                   images_spp=None if command_mode else args.spp, alpha=args.alpha,
-                   convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
-                   jobs=args.jobs, timeout=args.timeout, replicas=args.variance_replicas,
-                   renderer_scene=args.renderer_scene, reference=args.reference_integrator,
-                   same_estimator=args.same_estimator, splatting=args.splatting,
-                   max_depth=args.max_depth, resolution=args.resolution, ladder=args.ladder,
-                   ladder_replicas=args.replicas, output_suffix=args.output_suffix, detect=detect,
+                   settings=settings, renderer_scene=args.renderer_scene,
+                   output_suffix=args.output_suffix,
+                   images_spp=None if command_mode else args.spp,
                    log=lambda message: print(message, file=sys.stderr))
     print(result.report())
     for line in write_outputs(args, [result], alpha=args.alpha):

@@ -22,6 +22,7 @@ from ..preflight import check_image_size, check_ladder, check_output_folder, che
 from ..reference import config
 from ..reference.config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 from ..report.outputs import add_output_options, check_output_options, write_outputs
+from ..settings import DEFAULT_MAX_TIME, Detect, Settings
 
 
 def _positive_ints(text: str) -> tuple[int, ...]:
@@ -54,13 +55,13 @@ def add_detect_options(p) -> None:
 
 
 def detect_of(args):
-    """The :class:`mitsuba_refs.verdicts.detect.Detect` of ``--detect`` / ``--max-time`` (None without
+    """The :class:`mitsuba_refs.settings.Detect` of ``--detect`` / ``--max-time`` (None without
     --detect); one-line errors for a bad value or a conflicting option."""
     if args.detect is None:
         if args.max_time is not None:
             raise RefsInputError("--max-time goes with --detect (it caps the spp --detect chooses)")
         return None
-    from ..verdicts.detect import DEFAULT_MAX_TIME, Detect, parse_bias
+    from ..verdicts.detect import parse_bias
     target = parse_bias(args.detect)
     if args.spp is not None:
         raise RefsInputError("--spp and --detect both set the sample count: give one of them")
@@ -128,11 +129,11 @@ def run_compare(args) -> int:
     bounces = {"auto": None, "always": True, "never": False}[args.bounces]
     options = {k: v for k, v in (("max_depth", args.max_depth), ("rr_depth", args.rr_depth))
                if v is not None} or None
-    result = compare(args.scene, integrator, params, spp=args.spp or config.TEST_MAX_SPP,
-                     alpha=args.alpha, detect=detect,
-                     convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
-                     processes=args.processes, ladder=args.ladder, replicas=args.replicas,
-                     options=options, resolution=args.resolution,
+    settings = Settings(spp=args.spp or config.TEST_MAX_SPP, alpha=args.alpha, detect=detect,
+                        convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
+                        processes=args.processes, ladder=args.ladder, replicas=args.replicas,
+                        options=options, resolution=args.resolution)
+    result = compare(args.scene, integrator, params, settings,
                      log=lambda message: print(message, file=sys.stderr))
     print(result.report())
     for line in write_outputs(args, [result]):

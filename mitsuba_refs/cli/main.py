@@ -27,8 +27,8 @@ from ..preflight import check_scene, check_spp, scene_path
 from ..reference import config
 from ..reference.cache import (
     ReferenceUnavailable,
+    build_reference,
     cache_dir,
-    get_reference,
     mitsuba_available,
     parse_xml,
     reference_stem,
@@ -159,8 +159,8 @@ def cmd_build(args):
             kept += 1
             continue
         t0 = time.time()
-        get_reference(scene, params, integ, args.spp, args.seed,
-                      directory=directory, variant=variant, force=True, **where)
+        build_reference(scene, params, integ, args.spp, args.seed,
+                        directory=directory, variant=variant, **where)
         built += 1
         print(f"  built    {stem}  [{status}: {detail}]  {time.time() - t0:.1f} s",
               flush=True)

@@ -17,11 +17,13 @@ applicable, with the ratio.
 """
 from __future__ import annotations
 
+import dataclasses
 import glob
 import hashlib
 import os
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -32,18 +34,17 @@ from ..preflight import check_scene, scene_path
 from ..reference import config
 from ..reference.cache import get_reference
 from ..reference.render import reference_settings
+from ..settings import Settings, settings_of
 from ..verdicts.compare import (
-    CONVERGENCE_SEED,
     TEST_SEED,
     Comparison,
-    ConvergenceParts,
+    FaultyImages,
     compare,
-    convergence_requests,
+    concluded,
     default_params,
     reference_options,
-    write_pictures,
 )
-from ..verdicts.explain import hints
+from ..verdicts.convergence import CONVERGENCE_SEED, ConvergenceParts, convergence_requests
 from .images import ImageError, image_faults, read_image
 from .renders import ExternalRenders, RendererFault, replica_moments
 from .runner import Runner
@@ -59,8 +60,11 @@ SPLATTING_REFERENCES = ("light",)
 MIN_IMAGE_REPLICAS = 8
 #: Fewest sample counts for a convergence verdict from images.
 MIN_IMAGE_LEVELS = 3
-#: The harness's default timeout of one renderer run, in seconds.
-DEFAULT_TIMEOUT = 600.0
+#: The harness's default timeout of one renderer run, in seconds (``Settings.timeout``).
+DEFAULT_TIMEOUT = config.DEFAULT_TIMEOUT
+#: check's older keyword names -> the Settings fields they set (``max_depth`` sets ``options``;
+#: ``replicas`` was the variance replicas and is refused: say ``variance_replicas``).
+CHECK_ALIASES = {"ladder_replicas": "replicas"}
 
 
 def reference_name(scene_file, file_integrator: str, given=None) -> str:
@@ -76,13 +80,32 @@ def reference_name(scene_file, file_integrator: str, given=None) -> str:
     return REFERENCES[given]
 
 
-def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_SPP,
-          alpha=1e-3, convergence=True, bounces=None, out_dir=None, jobs=None,
-          timeout=DEFAULT_TIMEOUT, replicas=None, renderer_scene=None, reference=None,
-          same_estimator=False, splatting=None, max_depth=None, resolution=None,
-          ladder=config.CONVERGENCE_LADDER, ladder_replicas=config.CONVERGENCE_REPLICAS,
-          images_spp=None, output_suffix=".exr", seed_offset=0, log=None,
-          detect=None) -> Comparison:
+def check_settings(settings: Settings | None, keywords: dict) -> Settings:
+    """``settings`` with check's keywords: the fields of :class:`~mitsuba_refs.settings.Settings`,
+    ``ladder_replicas`` (the older name of ``replicas``) and ``max_depth`` (sets ``options``)."""
+    keywords = dict(keywords)
+    if "replicas" in keywords:
+        raise TypeError("check() no longer takes replicas= (the replicas for variance): say "
+                        "variance_replicas=; the convergence ladder's are Settings.replicas")
+    if "max_depth" in keywords:
+        depth = keywords.pop("max_depth")
+        keywords["options"] = {"max_depth": int(depth)} if depth is not None else None
+    keywords = {CHECK_ALIASES.get(name, name): value for name, value in keywords.items()}
+    return settings_of(settings, keywords, "check")
+
+
+class CommandSetup(NamedTuple):
+    """What ``check --command`` knows of the renderer's runs before the first one."""
+
+    size: tuple[int, int]
+    transport: dict
+    renderer_scene: Path
+    suffix: str
+
+
+def check(scene, *, command=None, images=None, params=None, settings: Settings | None = None,
+          renderer_scene=None, output_suffix=".exr", images_spp=None, log=None,
+          **keywords) -> Comparison:
     """Judge an external renderer (``command``) or its images (``images``) against Mitsuba.
 
     Parameters
@@ -95,122 +118,106 @@ def check(scene, *, command=None, images=None, params=None, spp=config.TEST_MAX_
         Image files, or glob patterns of them, rendered elsewhere.
     params : dict, optional
         Scene parameters (``-D``), for Mitsuba and ``{defines}``.
-    spp : int
-        Samples of the mean-and-variance render (command).
-    alpha : float
-        Level of each verdict.
-    convergence, bounces : bool
-        Run the convergence verdict; localise the bounce (None: on a disagreement, when the
-        template passes ``{max_depth}``).
-    jobs, timeout : int, float
-        Runs at once (default: the cores) and the seconds each may take.
-    replicas : int, optional
-        ``K`` for variance from replicas (default 8).
+    settings : mitsuba_refs.settings.Settings, optional
+        What is rendered and how it is judged (default ``Settings()``). For check: ``spp`` is
+        the command's mean-and-variance render; ``bounces`` None localises on a disagreement
+        when the template passes ``{max_depth}``; ``reference`` a Mitsuba type (e.g.
+        ``ptracer``), default the file's; ``same_estimator`` the user's word that the renderer
+        runs it (None: False); ``splatting`` default: when the reference is a particle tracer;
+        ``options`` only ``{"max_depth": d}``; ``jobs``, ``timeout``, ``variance_replicas`` and
+        ``seed_offset`` the renderer's runs; ``detect`` with ``command`` only.
     renderer_scene : path, optional
         The file the renderer reads instead of ``scene`` (``{scene}``).
-    reference : str, optional
-        Reference estimator (Mitsuba type, e.g. ``ptracer``); default: the file's.
-    same_estimator : bool
-        The renderer runs the reference's estimator: the variance verdict applies.
-    splatting : bool, optional
-        Its paths splat into many pixels (default: when the reference is a particle tracer).
-    max_depth : int, optional
-        Longest path for both sides, replacing the file's.
-    resolution : (int, int), optional
-        Film size for both sides, replacing the file's.
+    output_suffix : str
+        The suffix of the renderer's ``{out}`` files.
     images_spp : int, optional
         Sample count of images whose header and sidecar give none.
-    seed_offset : int
-        0: the renderer gets the comparison's own seeds; another value scrambles every seed
-        (one bijection per offset), for independent repetitions of one check.
-    detect : mitsuba_refs.verdicts.detect.Detect, optional
-        ``command`` only: choose ``spp`` from a pilot run so that the mean test sees
-        ``detect.target`` (:func:`mitsuba_refs.verdicts.detect.choose_spp`).
+    log : callable, optional
+        Called with progress lines.
+    **keywords
+        Fields of ``Settings`` replacing those of ``settings``, as ``mitsuba-refs check``'s
+        options read: ``check(scene, command=..., same_estimator=True, jobs=4)``. Older names:
+        ``ladder_replicas`` (``replicas``), ``max_depth`` (``options={"max_depth": d}``).
 
     Returns
     -------
     Comparison
         With ``runs`` (one record per renderer run) and ``notes``.
     """
+    settings = check_settings(settings, keywords)
     if (command is None) == (images is None):
         raise RefsInputError("check needs exactly one of --command and --images")
-    if detect is not None and command is None:
+    if settings.detect is not None and command is None:
         raise RefsInputError("--detect goes with --command (images have their sample count)")
     start = time.perf_counter()
     path = scene_path(scene)
     params = {**default_params(scene), **(params or {})}
     check_scene(scene, params)
-    options = {"max_depth": int(max_depth)} if max_depth is not None else None
-    _, transport, settings = reference_settings(path, params, options, resolution)
-    ref_name = reference_name(path, settings.integrator.name, reference)
-    splats = ref_name in SPLATTING_REFERENCES if splatting is None else bool(splatting)
-    size = settings.resolution
-    estimator = dict(reference_name=ref_name, same_estimator=same_estimator, splatting=splats)
+    _, transport, file_settings = reference_settings(path, params, settings.options,
+                                                     settings.resolution)
+    ref_name = reference_name(path, file_settings.integrator.name, settings.reference)
+    splats = (ref_name in SPLATTING_REFERENCES if settings.splatting is None
+              else bool(settings.splatting))
+    settings = dataclasses.replace(settings, reference=ref_name, splatting=splats,
+                                   same_estimator=bool(settings.same_estimator))
+    size = file_settings.resolution
     if command is not None:
-        result = _check_command(scene, CommandTemplate.parse(command), params, size, transport,
-                                estimator, spp=spp, alpha=alpha, convergence=convergence,
-                                bounces=bounces, out_dir=out_dir, jobs=jobs, timeout=timeout,
-                                replicas=replicas, renderer_scene=renderer_scene or path,
-                                options=options, resolution=resolution, ladder=ladder,
-                                ladder_replicas=ladder_replicas, suffix=output_suffix, log=log,
-                                seed_offset=seed_offset, detect=detect)
-        result.renderer = f"command: {command}"
+        setup = CommandSetup(size, transport, renderer_scene or path, output_suffix)
+        result = _check_command(scene, CommandTemplate.parse(command), params, settings, setup, log)
+        renderer = f"command: {command}"
     else:
-        result = _check_images(scene, image_files(images), params, size, estimator, alpha=alpha,
-                               convergence=convergence, out_dir=out_dir, options=options,
-                               resolution=resolution, images_spp=images_spp, log=log)
-        result.renderer = f"images: {images if isinstance(images, str) else ' '.join(map(str, images))}"
+        result = _check_images(scene, image_files(images), params, settings, (size, images_spp),
+                               log)
+        renderer = f"images: {images if isinstance(images, str) else ' '.join(map(str, images))}"
+    notes = list(result.notes)
     if renderer_scene is not None:
-        result.notes.append(f"the renderer read {renderer_scene}; its film size ({size[0]}x{size[1]}) "
-                            f"was checked, but not that it describes the same scene as {path}")
+        notes.append(f"the renderer read {renderer_scene}; its film size ({size[0]}x{size[1]}) "
+                     f"was checked, but not that it describes the same scene as {path}")
     if result.runs:
         cpu = sum(run["cpu_seconds"] for run in result.runs)
         wall = sum(run["seconds"] for run in result.runs)
         longest = max(run["seconds"] for run in result.runs)
-        result.notes.append(f"{len(result.runs)} renderer runs, {cpu:.1f} CPU-seconds "
-                            f"({wall:.1f} s of runs, the longest {longest:.2f} s)")
-    result.seconds = time.perf_counter() - start
-    return result
+        notes.append(f"{len(result.runs)} renderer runs, {cpu:.1f} CPU-seconds "
+                     f"({wall:.1f} s of runs, the longest {longest:.2f} s)")
+    return dataclasses.replace(result, renderer=renderer, notes=notes,
+                               seconds=time.perf_counter() - start)
 
 
-def _check_command(scene, template, params, size, transport, estimator, *, spp, alpha,
-                   convergence, bounces, out_dir, jobs, timeout, replicas, renderer_scene,
-                   options, resolution, ladder, ladder_replicas, suffix, log, seed_offset,
-                   detect=None):
-    if bounces and not template.takes_max_depth:
+def _check_command(scene, template, params, settings: Settings, setup: CommandSetup, log):
+    if settings.bounces and not template.takes_max_depth:
         raise RefsInputError("--bounces always needs {max_depth} in --command: the renderer must "
                              "be told the path length to localise a bounce")
-    runner = Runner(jobs or os.cpu_count() or 1, float(timeout))
-    depth = int(transport.get("max_depth", -1))
-    renders = ExternalRenders(template, runner, renderer_scene, size, params, depth,
-                              replicas or 8, suffix, log, seed_offset)
-    reference = get_reference(scene, params, estimator["reference_name"], log=log,
-                              options=reference_options(options), resolution=resolution)
-    if detect is None:      # with --detect the pilot chooses the spp inside compare()
-        renders.plan([renders.request(spp, TEST_SEED)])
-    if convergence:
-        renders.plan([renders.request(n, seed, variance=False)
-                      for n, seed in convergence_requests(reference, ladder, ladder_replicas)])
-        renders.extend_with(_GrowingLadder(renders, reference, ladder, ladder_replicas))
+    runner = Runner(settings.jobs or os.cpu_count() or 1, float(settings.timeout))
+    depth = int(setup.transport.get("max_depth", -1))
+    renders = ExternalRenders(template, runner, setup.renderer_scene, setup.size, params, depth,
+                              settings.variance_replicas or 8, setup.suffix, log,
+                              settings.seed_offset)
+    reference = get_reference(scene, params, settings.reference, log=log,
+                              options=reference_options(settings.options),
+                              resolution=settings.resolution)
+    if settings.detect is None:      # with --detect the pilot chooses the spp inside compare()
+        renders.plan([renders.request(settings.spp, TEST_SEED)])
+    if settings.convergence:
+        renders.plan([renders.request(n, seed, variance=False) for n, seed
+                      in convergence_requests(reference, settings.ladder, settings.replicas)])
+        renders.extend_with(_GrowingLadder(renders, reference, settings.ladder, settings.replicas))
     if template.takes_max_depth:
-        renders.plan([renders.request(spp, TEST_SEED + d, d) for d in config.PER_BOUNCE_DEPTHS])
+        renders.plan([renders.request(settings.spp, TEST_SEED + d, d)
+                      for d in config.PER_BOUNCE_DEPTHS])
     try:
-        result = compare(scene, _label(template), params, spp=spp, alpha=alpha,
-                         convergence=convergence,
-                         bounces=bounces if template.takes_max_depth else False,
-                         out_dir=out_dir, render=renders, ladder=ladder, replicas=ladder_replicas,
-                         options=options, resolution=resolution, log=log, detect=detect,
-                         **estimator)
+        result = compare(scene, _label(template), params, dataclasses.replace(
+            settings, bounces=settings.bounces if template.takes_max_depth else False),
+            render=renders, log=log)
     except RendererFault as fault:
-        result = faulty(scene, _label(template), params, spp, fault.lines, alpha)
+        result = faulty(scene, _label(template), params, settings.spp, fault.lines, settings.alpha)
     finally:
         renders.close()
-    result.runs = [run.record() for run in renders.runs]
+    notes = list(result.notes)
     if renders.has_variance is False:
-        count = replica_count(result.spp, replicas or 8)
-        result.notes.append(f"its images carry no variance: mean and variance from {count} "
-                            "independent replicas with seeds of their own")
-    return result
+        count = replica_count(result.spp, settings.variance_replicas or 8)
+        notes.append(f"its images carry no variance: mean and variance from {count} "
+                     "independent replicas with seeds of their own")
+    return dataclasses.replace(result, runs=[run.record() for run in renders.runs], notes=notes)
 
 
 class _GrowingLadder:
@@ -234,22 +241,10 @@ def _label(template: CommandTemplate) -> str:
     return os.path.basename(first) or "renderer"
 
 
-class FaultyImages:
-    """The mean verdict of a renderer whose images hold NaN, Inf or negative radiance."""
-
-    agree = False
-    p_value = 0.0
-
-    def __init__(self, lines, alpha):
-        self.faults, self.alpha = list(lines), alpha
-        self.verdict = "disagree: the renderer's images hold impossible values: " + "; ".join(lines)
-
-
 def faulty(scene, label, params, spp, lines, alpha) -> Comparison:
     """A disagreement saying what was wrong with the renderer's values."""
-    result = Comparison(scene, label, params, spp, FaultyImages(lines, alpha))
-    result.hints = ["the renderer wrote " + lines[0].split(": ", 1)[-1]]
-    return result
+    return Comparison(scene, label, params, spp, FaultyImages(lines, alpha),
+                      hints=["the renderer wrote " + lines[0].split(": ", 1)[-1]])
 
 
 # ---- images rendered elsewhere ---------------------------------------------------------
@@ -312,30 +307,32 @@ def mean_and_variance(images):
     return mean, variance * top, top * len(level)
 
 
-def _check_images(scene, files, params, size, estimator, *, alpha, convergence, out_dir,
-                  options, resolution, images_spp, log):
-    images, faults = read_images(files, size, images_spp)
+def _check_images(scene, files, params, settings: Settings, film, log):
+    """The verdicts of images rendered elsewhere; ``film`` = (the scene's film size, the sample
+    count of images that give none)."""
+    images, faults = read_images(files, *film)
     if faults:
-        return faulty(scene, "images", params, max(i.spp for i in images), faults, alpha)
+        return faulty(scene, "images", params, max(i.spp for i in images), faults, settings.alpha)
     mean, variance, samples = mean_and_variance(images)
-    result = compare(scene, "images", params, spp=samples, alpha=alpha, convergence=False,
-                     bounces=False, render=lambda *args, **kwargs: (mean, variance),
-                     options=options, resolution=resolution, log=log, **estimator)
-    result.runs = []                      # nothing was rendered here
+    start = time.perf_counter()
+    result = compare(scene, "images", params, dataclasses.replace(
+        settings, spp=samples, convergence=False, bounces=False, out_dir=None),
+        render=lambda *args, **kwargs: (mean, variance), log=log)
     # compare() found or built the reference: this is the cached file, read once more.
-    reference = get_reference(scene, params, estimator["reference_name"], log=log,
-                              options=reference_options(options), resolution=resolution)
+    reference = get_reference(scene, params, settings.reference, log=log,
+                              options=reference_options(settings.options),
+                              resolution=settings.resolution)
     levels = sorted({image.spp for image in images})
-    if convergence and len(levels) >= MIN_IMAGE_LEVELS:
+    notes, law, mse, ladder = list(result.notes), None, None, result.ladder
+    if settings.convergence and len(levels) >= MIN_IMAGE_LEVELS:
         parts = ConvergenceParts.of(reference, levels)
         mse = [sum((parts.mse(i.mean) for i in images if i.spp == n), []) for n in parts.ladder]
-        result.convergence, result.convergence_mse = parts.verdict(mse, reference, alpha)
-        result.ladder = parts.ladder
-    elif convergence:
-        result.notes.append(f"convergence not judged: the images have {len(levels)} sample "
-                            f"count(s), it needs >= {MIN_IMAGE_LEVELS}")
-    result.notes.append(f"{len(images)} images; mean and variance from {samples} samples per pixel")
-    result.hints = hints(result)
-    if out_dir is not None:
-        result.pictures = write_pictures(result, Path(out_dir), mean, variance, reference)
-    return result
+        law, mse = parts.verdict(mse, reference, settings.alpha)
+        ladder = parts.ladder
+    elif settings.convergence:
+        notes.append(f"convergence not judged: the images have {len(levels)} sample "
+                     f"count(s), it needs >= {MIN_IMAGE_LEVELS}")
+    notes.append(f"{len(images)} images; mean and variance from {samples} samples per pixel")
+    result = dataclasses.replace(result, runs=[], convergence=law, convergence_mse=mse,
+                                 ladder=ladder, notes=notes)    # nothing was rendered here
+    return concluded(result, settings.out_dir, (mean, variance, reference), start)

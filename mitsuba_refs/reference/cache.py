@@ -44,6 +44,7 @@ import sys
 import tempfile
 import threading
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -429,8 +430,8 @@ def mitsuba_available():
 
 
 def get_reference(scene, params, integrator, spp=config.REF_SPP,
-                  seed=config.REF_SEED, *, directory=None, variant=None,
-                  render=True, force=False, log=None, options=None, resolution=None):
+                  seed=config.REF_SEED, *, directory=None, render=True, log=None, options=None,
+                  resolution=None):
     """Return a valid cached reference, or render and cache one.
 
     Parameters
@@ -439,12 +440,8 @@ def get_reference(scene, params, integrator, spp=config.REF_SPP,
         As for :func:`mitsuba_refs.reference.render.render_reference`.
     directory : path, optional
         Cache folder (default :func:`cache_dir`).
-    variant : str, optional
-        Mitsuba variant if a render is needed.
     render : bool
-        Render when no valid reference is cached (needs Mitsuba).
-    force : bool
-        Render even if a valid one is cached.
+        Render (Mitsuba's default variant) when no valid reference is cached (needs Mitsuba).
     options : dict, optional
         Overrides of ``max_depth``, ``rr_depth``, ``hide_emitters`` (the tracer's
         render options of the same names).
@@ -463,19 +460,59 @@ def get_reference(scene, params, integrator, spp=config.REF_SPP,
         The scene file or ``params`` are wrong, Mitsuba refuses the file
         (its message in one line), or the render is not finite
         (:func:`check_finite`); nothing is stored.
+
+    See :func:`build_reference` to render one even when a valid one is cached, in a chosen
+    Mitsuba variant.
     """
+    params, where = _normalised(params, options, resolution)
+    # Bad parameters are the user's error whatever the cache holds: report them first.
+    reference_key(scene, params, integrator, spp, seed, **where)
+    status, detail, ref = validate(scene, params, integrator, spp, seed, directory, **where)
+    if status == "ok":
+        return ref
+    request = _Request(scene, params, integrator, spp, seed, directory, where)
+    return _render_and_store(request, render=render, variant=None, log=log, why=(status, detail))
+
+
+def build_reference(scene, params, integrator, spp=config.REF_SPP, seed=config.REF_SEED, *,
+                    directory=None, variant=None, log=None, options=None, resolution=None):
+    """Render a reference and cache it, even if a valid one is cached (``mitsuba-refs build``).
+
+    Parameters as for :func:`get_reference`; ``variant`` is the Mitsuba variant to render in
+    (default :func:`mitsuba_refs.reference.variant.choose_variant`'s). Raises as it does.
+    """
+    params, where = _normalised(params, options, resolution)
+    reference_key(scene, params, integrator, spp, seed, **where)
+    request = _Request(scene, params, integrator, spp, seed, directory, where)
+    return _render_and_store(request, render=True, variant=variant, log=log,
+                             why=("forced", "--force"))
+
+
+class _Request(NamedTuple):
+    """One reference of the cache: what :func:`reference_key` and :func:`validate` take."""
+
+    scene: str | Path
+    params: dict
+    integrator: str
+    spp: int
+    seed: int
+    directory: str | Path | None
+    where: dict
+
+
+def _normalised(params, options, resolution):
+    """``params`` as strings, and ``options`` and ``resolution`` as the cache keys them."""
     params = {str(k): str(v) for k, v in (params or {}).items()}
     options = {str(k): v for k, v in (options or {}).items() if v is not None} or None
     resolution = tuple(int(v) for v in resolution) if resolution is not None else None
-    where = dict(options=options, resolution=resolution)
-    # Bad parameters are the user's error whatever the cache holds: report them first.
-    reference_key(scene, params, integrator, spp, seed, **where)
-    status, detail = "forced", "--force"
-    if not force:
-        status, detail, ref = validate(scene, params, integrator, spp, seed,
-                                       directory, **where)
-        if status == "ok":
-            return ref
+    return params, dict(options=options, resolution=resolution)
+
+
+def _render_and_store(request: _Request, *, render, variant, log, why):
+    """Render ``request`` with Mitsuba, check, store and validate it; ``why`` = (status,
+    detail) of the cached one, for the messages."""
+    scene, params, integrator, spp, seed, directory, where = request
+    status, detail = why
     exr_path, _ = reference_paths(scene, params, integrator, spp, seed, directory, **where)
     if render:
         check_writable(exr_path.parent)

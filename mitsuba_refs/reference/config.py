@@ -109,6 +109,11 @@ PER_BOUNCE_DEPTHS = (1, 2, 3)
 #: (:func:`mitsuba_refs.verdicts.compare.level_replicas`).
 CONVERGENCE_LADDER = (1, 4, 16, 64)
 CONVERGENCE_REPLICAS = 2
+#: The convergence test's replicas double (at every level) while rare bright paths carry the
+#: mean MSE (stats.rare_errors_dominate), up to this many times the first count.
+CONVERGENCE_MAX_GROWTH = 16
+#: Seconds one run of an external renderer (``check --command``) may take by default.
+DEFAULT_TIMEOUT = 600.0
 
 #: Environment variables.
 ENV_VARIANT = "MITSUBA_REFS_VARIANT"

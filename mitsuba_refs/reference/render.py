@@ -392,8 +392,7 @@ def choose_method(variant, rfilter, mitsuba_integrator, camera_in_medium, reques
 
 
 def render_reference(scene_path_or_name, params, integrator, spp, seed,
-                     variant=None, pass_spp=None, log=None, *, options=None,
-                     resolution=None, method=None):
+                     variant=None, log=None, *, options=None, resolution=None, method=None):
     """Render a reference with Mitsuba.
 
     Parameters
@@ -410,9 +409,6 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         seed (see :func:`pass_seeds`).
     variant : str, optional
         Mitsuba variant; default chosen by :func:`mitsuba_refs.reference.variant.choose_variant`.
-    pass_spp : int, optional
-        ``method="moments"``: samples per pass (default
-        :data:`~mitsuba_refs.reference.config.PASS_SPP`).
     log : callable, optional
         Called with progress strings.
     options : dict, optional
@@ -423,7 +419,8 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     method : {"batch", "moments"}, optional
         ``batch``: single samples from a batch of camera copies (no Python per
         sample); ``moments``: the ``rgb_moments`` wrapper (one Python call per
-        sample in ``scalar_rgb``, per wavefront in JIT variants). Same
+        sample in ``scalar_rgb``, per wavefront in JIT variants; passes of
+        :data:`~mitsuba_refs.reference.config.PASS_SPP` samples). Same
         statistics. Default and the combinations allowed: :func:`choose_method`.
 
     Returns
@@ -464,7 +461,7 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         m1, var, n, per_call, seeds = _render_replicas(scene, nested, spp, seed, stream, log)
     elif method == "moments":
         m1, m2, n, per_call, seeds = _render_with_wrapper(
-            scene, nested, spp, seed, stream, pass_spp, log)
+            scene, nested, spp, seed, stream, config.PASS_SPP, log)
         var = per_sample_variance(m1, m2, n, rfilter)
     else:
         raise ValueError(f"unknown method {method!r} (batch or moments)")

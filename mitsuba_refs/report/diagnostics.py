@@ -6,6 +6,7 @@ in :mod:`mitsuba_refs.stats` (pure functions).  All functions return the written
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import matplotlib
 
@@ -19,7 +20,7 @@ from pathtracer.core.tonemap import auto_scale, tonemap
 
 from ..stats.convergence import mse_levels
 
-__all__ = ["plot_mean_comparison", "plot_convergence", "plot_variance_comparison"]
+__all__ = ["plot_mean_comparison", "plot_convergence", "plot_variance_comparison", "write_pictures"]
 
 Z_CLIP = 10.0
 
@@ -159,3 +160,21 @@ def plot_variance_comparison(path, var_test, var_ref, agreement, title: str = ""
     axes[2].set_ylabel("tile row")
     fig.suptitle(f"{title}\n{agreement.verdict}", fontsize=10)
     return _save(fig, path)
+
+
+def write_pictures(result, out_dir: Path, mean, variance, reference) -> dict:
+    """Diagnostic PNGs of a :class:`~mitsuba_refs.verdicts.compare.Comparison` for its verdicts
+    (mean always, variance and convergence where they ran); {name: path}."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stem = f"{Path(str(result.scene)).stem}-{result.integrator}"
+    title = f"{result.integrator} vs Mitsuba on {result.scene}"
+    pictures = {"mean": plot_mean_comparison(out_dir / f"{stem}-mean.png", mean, reference.mean,
+                                             result.mean, title)}
+    if result.variance is not None:
+        pictures["variance"] = plot_variance_comparison(out_dir / f"{stem}-variance.png", variance,
+                                                        reference.var, result.variance, title)
+    if result.convergence is not None:
+        pictures["convergence"] = plot_convergence(out_dir / f"{stem}-convergence.png",
+                                                   np.array(result.ladder), result.convergence_mse,
+                                                   result.convergence, title)
+    return {k: str(v) for k, v in pictures.items()}

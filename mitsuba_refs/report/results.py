@@ -13,7 +13,6 @@ import json
 import os
 import re
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,9 +24,6 @@ from ..verdicts.detect import is_weak
 from .encoding import number, plain
 from .verdicts import verdict_entries
 
-if TYPE_CHECKING:
-    from ..verdicts.compare import Comparison
-
 __all__ = ["SCHEMA", "RESULTS_SCHEMA", "comparison_record", "write_json", "load_results",
            "record_path", "default_stem"]
 
@@ -37,7 +33,7 @@ RESULTS_SCHEMA = "mitsuba-refs/results/1"
 REQUIRED = ("scene", "renderer", "integrator", "spp", "agree", "verdicts")
 
 
-def default_stem(result: Comparison) -> str:
+def default_stem(result) -> str:
     """The file-name stem of a comparison's images: ``<scene stem>-<integrator>``, in
     letters, digits, ``.``, ``_`` and ``-``."""
     text = f"{Path(str(result.scene)).stem}-{result.integrator}"
@@ -52,7 +48,7 @@ def _relative(path, folder: Path) -> str:
         return str(path)
 
 
-def _save_images(result: Comparison, folder: Path, stem: str) -> dict | None:
+def _save_images(result, folder: Path, stem: str) -> dict | None:
     """Write ``<stem>-test.exr`` and ``<stem>-reference.exr`` (mean and per-sample variance)
     into ``folder``; their names relative to it, or None when the comparison kept no images."""
     arrays = result.arrays or {}
@@ -76,7 +72,7 @@ def _save_images(result: Comparison, folder: Path, stem: str) -> dict | None:
     return names
 
 
-def _film(result: Comparison) -> dict:
+def _film(result) -> dict:
     image = (result.arrays or {}).get("reference_mean")
     if image is None:
         image = (result.arrays or {}).get("test_mean")
@@ -95,7 +91,7 @@ def _run_totals(runs: list) -> dict:
                             else None)}
 
 
-def _detect(result: Comparison) -> dict | None:
+def _detect(result) -> dict | None:
     """What ``--detect`` chose (:class:`mitsuba_refs.verdicts.detect.SppChoice`), JSON-able."""
     choice = getattr(result, "detect", None)
     if choice is None:
@@ -107,7 +103,7 @@ def _detect(result: Comparison) -> dict | None:
                   "seconds_per_spp": choice.seconds_per_spp, "reason": choice.reason})
 
 
-def comparison_record(result: Comparison, out_dir, *, stem: str | None = None) -> dict:
+def comparison_record(result, out_dir, *, stem: str | None = None) -> dict:
     """A JSON-serialisable record of one comparison (schema :data:`SCHEMA`).
 
     Parameters

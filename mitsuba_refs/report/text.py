@@ -1,13 +1,15 @@
-"""The short texts both reports print: p-values, intervals, a record's name and its pictures."""
+"""The short texts the reports print: p-values, intervals, a record's name and its pictures, and
+the lines of a comparison (``Comparison.report()``) with what both sides rendered."""
 from __future__ import annotations
 
 import math
 
+from ..verdicts.detect import mean_line, status_text
 from .encoding import to_float
 from .results import record_path
 
 __all__ = ["format_p", "interval_text", "detectable_text", "suite_name", "picture_lines",
-           "run_summary"]
+           "run_summary", "comparison_report", "rendered_settings"]
 
 
 def format_p(value) -> str:
@@ -87,3 +89,45 @@ def run_summary(record: dict) -> str:
     if math.isfinite(total):
         text += f"; the whole comparison {total:.1f} s"
     return text
+
+
+def comparison_report(result) -> str:
+    """A few lines a student can read: the text of a
+    :class:`~mitsuba_refs.verdicts.compare.Comparison` (its ``report()``)."""
+    lines = [f"{result.integrator} on {result.scene} ({result.spp} spp): {status_text(result)}",
+             f"  mean:        {mean_line(result)}"]
+    if result.rendered:
+        lines.insert(1, f"  rendered:    {result.rendered}")
+    if result.variance is not None:
+        lines.append(f"  variance:    {result.variance.verdict}")
+    elif result.variance_skipped:
+        lines.append(f"  variance:    {result.variance_skipped}")
+    elif result.compares_variance:
+        lines.append("  variance:    not compared (both images are noiseless)")
+    else:
+        lines.append(f"  variance:    {result.variance_not_applicable()}")
+    if result.convergence is not None:
+        lines.append(f"  convergence: {result.convergence.verdict}")
+    if result.bounce is not None:
+        lines.append(f"  bounces:     {result.bounce[1]}")
+    for hint in result.hints:
+        lines.append(f"  likely cause: {hint}")
+    for note in result.notes:
+        lines.append(f"  note:        {note}")
+    for name, path in result.pictures.items():
+        lines.append(f"  picture ({name}): {path}")
+    lines.append(f"  ({result.seconds:.1f} s)")
+    return "\n".join(lines)
+
+
+def rendered_settings(metadata: dict) -> str:
+    """What both sides rendered, from the reference's metadata: film size and light transport
+    (Mitsuba's defaults, which are also ours, where the file and the overrides set nothing)."""
+    nested = metadata.get("mitsuba_integrator", {})
+    transport = {"max_depth": -1, "rr_depth": 5, "hide_emitters": False}
+    transport.update({k: v for k, v in nested.items() if k in transport})
+    if nested.get("type") == "direct":
+        transport = {k: v for k, v in transport.items() if k == "hide_emitters"}
+    text = ", ".join(f"{k}={str(v).lower() if isinstance(v, bool) else v}"
+                     for k, v in transport.items())
+    return f"{metadata.get('width')}x{metadata.get('height')} on both sides; {text}"

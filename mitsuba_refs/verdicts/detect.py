@@ -35,21 +35,21 @@ import numpy as np
 from ..errors import RefsInputError
 from ..reference import config
 from ..reference.rfilter import reference_correlation
+from ..settings import DEFAULT_MAX_TIME, PILOT_SPP, Detect, Settings
 from ..stats.detectable import DetectableBias, MeanTestPower
 from ..stats.mean import VARIANCE_BOUND
 
-__all__ = ["POWER", "WEAK_BIAS", "Detect", "percent", "SppChoice", "parse_bias", "mean_test_power",
-           "comparison_bound", "is_weak", "status_text", "mean_line", "plan", "choose_spp"]
+__all__ = ["POWER", "WEAK_BIAS", "Detect", "DEFAULT_MAX_TIME", "PILOT_SPP", "percent", "SppChoice",
+           "parse_bias", "mean_test_power", "comparison_bound", "is_weak", "status_text", "mean_line",
+           "plan", "choose_spp"]
 
 #: The detection probability every printed bound is for.
 POWER = 0.95
 #: An agreement whose detectable global bias exceeds this is marked weak.
 WEAK_BIAS = 0.05
-#: ``--max-time``'s default: seconds the mean-and-variance render may take.
-DEFAULT_MAX_TIME = 300.0
-#: The pilot render of ``--detect``: its sample count and seed (below the comparison's
-#: TEST_SEED = 1000 and its bounce seeds, far from the convergence seeds from 2000).
-PILOT_SPP = 16
+#: The pilot render of ``--detect``: its seed (below the comparison's TEST_SEED = 1000 and its
+#: bounce seeds, far from the convergence seeds from 2000); its sample count ``PILOT_SPP`` and
+#: ``--max-time``'s default ``DEFAULT_MAX_TIME`` are those of :class:`mitsuba_refs.settings.Detect`.
 PILOT_SEED = 900
 #: The chosen sample count is a multiple of this, and this many times what the pilot asks for.
 SPP_STEP = 16
@@ -81,16 +81,6 @@ def parse_bias(text: str, option: str = "--detect") -> float:
         raise RefsInputError(f"{option} takes a relative bias between 0 and 100 %, as a percentage "
                              f"or a fraction (e.g. 2% or 0.02), got {text!r}")
     return value
-
-
-@dataclass(frozen=True)
-class Detect:
-    """What ``--detect`` asks: a ``target`` bias seen with probability :data:`POWER`, the
-    mean-and-variance render within ``max_time`` seconds."""
-
-    target: float
-    max_time: float = DEFAULT_MAX_TIME
-    pilot_spp: int = PILOT_SPP
 
 
 # ---- the bound of one comparison ----------------------------------------------------------
@@ -274,13 +264,17 @@ def _round_up(n: int, step: int) -> int:
     return int(-(-int(n) // step) * step)
 
 
-def choose_spp(detect: Detect, render, scene, integrator, params, reference, *, alpha: float,
-               same: bool, splats: bool, processes=None, log=None) -> SppChoice:
-    """Render the pilot with the comparison's ``render`` hook, then :func:`plan`.
+def choose_spp(settings: Settings, render, scene, integrator, params, reference,
+               log=None) -> SppChoice:
+    """Render the pilot of ``settings.detect`` with the comparison's ``render`` hook, then
+    :func:`plan`. ``settings`` as :func:`mitsuba_refs.verdicts.compare.compare` resolved them
+    (``same_estimator`` and ``splatting`` set): ``alpha`` and ``processes`` too.
 
     A target under the reference's floor needs no pilot for the verdict that it cannot be
     met; the pilot still gives the pace and the spp to render.
     """
+    detect, alpha, same = settings.detect, settings.alpha, bool(settings.same_estimator)
+    splats, processes = bool(settings.splatting), settings.processes
     start = time.perf_counter()
     _, pilot_var = render(scene, integrator, params, detect.pilot_spp, PILOT_SEED,
                           processes=processes)
