@@ -84,7 +84,7 @@ class ScoredRender:
     def halves(self):
         """``(mean, reported variance), spp`` of each half of the replicas: two independent
         renders whose difference the reported variances should predict
-        (:func:`autograder.hints.independence`)."""
+        (:func:`autograder.hints.explain.independence`)."""
         half = self.replicas // 2
         per_replica = self.spp // self.replicas
         out = []

@@ -665,11 +665,11 @@ def test_sandboxed_render_is_the_direct_render():
     ("volpath", 1.00, 0.80, 1.00, "surface steps"),
 ])
 def test_media_hints_read_the_fog_and_clear_regions(integrator, fog, clear, fog_later, first_words):
-    """The media rules (autograder/hints_media.py) on sweeps made from the committed per-bounce
+    """The media rules (autograder/hints/media.py) on sweeps made from the committed per-bounce
     references, what each depth adds scaled by one factor in the fog's pixels and another in
     the rest: each pattern names its cause first, with the factors it read."""
-    from autograder import hints
-    from autograder.hints_media import explain_media, fog_pixels
+    from autograder.hints.explain import Evidence
+    from autograder.hints.media import explain_media, fog_pixels
     from mitsuba_refs.cache import get_reference
     check = grading.CHECKS_BY_ID[f"{integrator}-media"]
     refs = {d: get_reference("media-box", {"max_depth": d}, "volpath", render=False).mean
@@ -683,7 +683,7 @@ def test_media_hints_read_the_fog_and_clear_regions(integrator, fog, clear, fog_
         rel = float(test[depth].sum() / refs[depth].sum() - 1)
         sweep[depth] = (SimpleNamespace(agree=abs(rel) < 1e-3, rel_bias=rel), test[depth], refs[depth])
     comparison = SimpleNamespace(mean=SimpleNamespace(agree=False, rel_bias=0.05))
-    found = explain_media(hints.Evidence(check=check, comparison=comparison, sweep=sweep))
+    found = explain_media(Evidence(check=check, comparison=comparison, sweep=sweep))
     text = " ".join(found)
     assert found and first_words in found[0].split("; or ")[0], found
     assert f"x{fog:.2f}" in text and not re.search(r"\bx?(nan|inf)\b", text.lower()), text
