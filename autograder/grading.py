@@ -1,8 +1,8 @@
 """The checks a submission is graded on, their parts, points, limits and statistical budget.
 
 A *check* is one scene x one integrator. It runs :func:`mitsuba_refs.compare.compare` with a
-``render`` hook that renders in the student's isolated process (:mod:`autograder.isolation`)
-and scores its parts:
+``render`` hook that renders in the student's isolated process
+(:mod:`autograder.isolation.process`) and scores its parts:
 
 ``mean``         the image agrees with Mitsuba's (tile + whole-image z test);
 ``variance``     the per-sample variance is at most 1.5x that of Mitsuba's run of the *same*
@@ -49,7 +49,7 @@ from pathtracer.render.splats import replica_count
 
 from .contract import refusal
 from .hints.explain import Evidence, camera_evidence, camera_findings, explain, independence
-from .isolation import SOLUTION, Limits, StudentFailure, StudentProcess
+from .isolation.process import SOLUTION, Limits, StudentFailure, StudentProcess
 from .replicas import REPLICAS, reported_variance_finding, scored_render
 
 #: Chance that grading a correct submission costs it any point (whole submission).

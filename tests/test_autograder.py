@@ -27,7 +27,7 @@ import pytest
 
 from autograder import grading, results
 from autograder.contract import refusal
-from autograder.isolation import Limits, StudentProcess
+from autograder.isolation.process import Limits, StudentProcess
 
 ROOT = Path(__file__).resolve().parent.parent
 ZOO = ROOT / "tests" / "bugzoo"
@@ -234,7 +234,7 @@ def test_misbehaving_submission_fails_cleanly(name, kind, words):
 def _runtime_processes() -> list:
     """Processes still alive that run from one of this test session's student runtimes
     (a fork keeps its parent's command line, so escaped children count too)."""
-    from autograder import runtime
+    from autograder.isolation import runtime
     folders = [str(path).encode() for path in runtime._BUILT.values()]
     alive = []
     for entry in os.listdir("/proc"):
@@ -310,7 +310,7 @@ def test_misstated_variance_scores_zero_on_the_part_it_attacks(path):
 def test_student_runtime_has_no_solution(tmp_path):
     """The runtime a submission imports from: integrators and camera are the skeleton's stubs,
     no path-class integrator, no references, no grader."""
-    from autograder import runtime
+    from autograder.isolation import runtime
     from autograder.skeleton import STUBS, stub_names
     folder = runtime.build(tmp_path / "rt")
     stubs = [(relative, name) for relative, (names, _) in STUBS.items()
@@ -334,7 +334,7 @@ def test_student_runtime_has_no_solution(tmp_path):
                  for node in ast.walk(ast.parse(module.read_text())) if isinstance(node, ast.Call)}
         assert not calls & steps, (module.name, calls & steps)
     # Ungraded integrators keep their class and name, not their algorithm.
-    from autograder.runtime import UNGRADED_MODULES
+    from autograder.isolation.runtime import UNGRADED_MODULES
     from pathtracer import INTEGRATORS
     for relative in UNGRADED_MODULES:
         stub = (folder / "pathtracer" / relative).read_text()
@@ -578,7 +578,7 @@ def test_light_tracer_written_as_a_student_renders_in_the_student_runtime(tmp_pa
     (its light.py calls the package's own camera_connection.py; the runtime's are stubs)
     renders in the student runtime, its splats carried back as the two images, bit for bit
     what pathtracer.render gives; the skeleton itself is 'not implemented'."""
-    from autograder.isolation import StudentFailure
+    from autograder.isolation.process import StudentFailure
     from autograder.skeleton import generate
     from pathtracer import load_scene, render
     filled = generate(tmp_path / "filled", stubs=False, assignment="light-tracing")

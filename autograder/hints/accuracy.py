@@ -31,7 +31,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from .. import grading
-from ..isolation import Limits
+from ..isolation.process import Limits
 from . import evidence_io
 from .explain import explain
 
