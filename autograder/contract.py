@@ -25,7 +25,7 @@ package directory) that exposes
     ``paths.scatter(wo, weight, eta)`` and ``paths.next_hit(scene)`` continue them,
     ``paths.add_radiance(value)`` adds to the result, and ``self.emission``,
     ``self.sample_direct`` (a shadow ray) and ``self.russian_roulette`` are shared steps.
-    Their use is optional: a ``radiance`` that keeps its own arrays with the older helpers
+    Their use is optional: a ``radiance`` that keeps its own arrays with the lower-level helpers
     (``trace``, ``spawn``, ``subset_hit`` of :mod:`pathtracer.integrators.base`,
     ``rng.subset``/``rng.branch``) is graded the same way.
 
