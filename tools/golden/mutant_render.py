@@ -13,6 +13,7 @@ ZOO = Path(__file__).resolve().parents[2] / "tests" / "bugzoo"
 
 
 def main():
+    """Register the mutant's integrators, then run ``pathtracer render`` with the arguments."""
     mutant_name, args = sys.argv[1], sys.argv[2:]
     sys.path.insert(0, str(ZOO))
     mutant = __import__(mutant_name)

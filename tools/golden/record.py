@@ -38,12 +38,12 @@ def runs() -> dict[str, list[str]]:
         "compare-readme": [
             "mitsuba-refs compare cornell-box --integrator path --out {o}/pictures " + REPORTS],
         "check-pathtracer": [
-            f"mitsuba-refs check cornell-box --same-estimator --no-convergence --out {{o}}/pictures "
-            f"--command '{PATHTRACER}' " + REPORTS],
+            "mitsuba-refs check cornell-box --same-estimator --no-convergence --out {o}/pictures "
+            "--command '" + PATHTRACER + "' " + REPORTS],
         "check-smallpt": [
             "make -s -C examples/smallpt-cpp",
-            f"mitsuba-refs check smallpt --reference-integrator path_bsdf --output-suffix .pfm "
-            f"--out {{o}}/pictures --command '{SMALLPT}' " + REPORTS],
+            "mitsuba-refs check smallpt --reference-integrator path_bsdf --output-suffix .pfm "
+            "--out {o}/pictures --command '" + SMALLPT + "' " + REPORTS],
         "check-images": [
             "pathtracer render cornell-box --resolution 64x64 --spp 64 --seed 5 -o {o}/renders/a.exr "
             "--no-progress",
@@ -52,21 +52,24 @@ def runs() -> dict[str, list[str]]:
             "mitsuba-refs check cornell-box --images '{o}/renders/*.exr' --same-estimator "
             "--out {o}/pictures " + REPORTS],
         "check-failing": [
-            f"mitsuba-refs check cornell-box --reference-integrator path_nee --same-estimator "
-            f"--no-convergence --out {{o}}/pictures --command '{MUTANT}' " + REPORTS],
+            "mitsuba-refs check cornell-box --reference-integrator path_nee --same-estimator "
+            "--no-convergence --out {o}/pictures --command '" + MUTANT + "' " + REPORTS],
         "grade-solution": [
-            "pytest -q -p no:cacheprovider autograder/tests_for_students --impl autograder/solution.py "
+            "pytest -q -p no:cacheprovider autograder/tests_for_students "
             "--gradescope {o}/results.json"],
         "grade-extra-inv-pi": [
             "pytest -q -p no:cacheprovider autograder/tests_for_students --impl tests/bugzoo/extra_inv_pi.py "
+            "--solution-runtime "
             "--gradescope {o}/results.json"],
         "grade-mis-weights": [
             "pytest -q -p no:cacheprovider autograder/tests_for_students --impl tests/bugzoo/mis_weights.py "
+            "--solution-runtime "
             "--gradescope {o}/results.json"],
     }
 
 
 def record(out: Path, root: Path, only: list[str]) -> None:
+    """Run every command of ``runs()`` (or those named in ``only``) into ``out/NAME/``."""
     env = dict(os.environ, PATH=f"{root / '.venv' / 'bin'}{os.pathsep}{os.environ['PATH']}",
                PYTHONHASHSEED="0", COLUMNS="100")
     env.pop("VIRTUAL_ENV", None)
@@ -77,7 +80,7 @@ def record(out: Path, root: Path, only: list[str]) -> None:
         folder.mkdir(parents=True, exist_ok=True)
         log = []
         for command in commands:
-            command = command.format(o=folder)
+            command = command.replace("{o}", str(folder))
             done = subprocess.run(command, shell=True, cwd=root, env=env, capture_output=True, text=True)
             log.append(f"$ {command}\n[exit {done.returncode}]\n--- stdout\n{done.stdout}--- stderr\n"
                        f"{done.stderr}")
@@ -126,6 +129,7 @@ def _same_pixels(a, b) -> bool:
 
 
 def diff(before: Path, after: Path) -> int:
+    """Print every difference between two recordings, clocks aside; 1 if there is one."""
     problems = []
     files_a = {p.relative_to(before) for p in before.rglob("*") if p.is_file()}
     files_b = {p.relative_to(after) for p in after.rglob("*") if p.is_file()}
@@ -156,6 +160,7 @@ def diff(before: Path, after: Path) -> int:
 
 
 def main(argv=None) -> int:
+    """``record`` or ``diff``, as the module's docstring shows."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="action", required=True)
     rec = sub.add_parser("record")
