@@ -25,7 +25,7 @@ package directory) that exposes
     ``paths.scatter(wo, weight, eta)`` and ``paths.next_hit(scene)`` continue them,
     ``paths.add_radiance(value)`` adds to the result, and ``self.emission``,
     ``self.sample_direct`` (a shadow ray) and ``self.russian_roulette`` are shared steps.
-    Their use is optional: a ``radiance`` that keeps its own arrays with the older helpers
+    Their use is optional: a ``radiance`` that keeps its own arrays with the lower-level helpers
     (``trace``, ``spawn``, ``subset_hit`` of :mod:`pathtracer.integrators.base`,
     ``rng.subset``/``rng.branch``) is graded the same way.
 
@@ -50,7 +50,7 @@ reference solution (``pathtracer.integrators.INTEGRATORS`` plus
 ``pathtracer.camera.camera_rays``) and is what ``--impl`` grades by default; the student
 skeleton (:mod:`autograder.skeleton`) is generated from it.
 
-What a submission may import: the student runtime (:mod:`autograder.runtime`), i.e. the
+What a submission may import: the student runtime (:mod:`autograder.isolation.runtime`), i.e. the
 tracer's building blocks with the integrators and the camera as stubs, NumPy and SciPy. The
 grader reads a submission's source before running it and refuses it, with zero points and a
 message saying why (:func:`refusal`), when it imports the reference solution, the grader or

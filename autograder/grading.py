@@ -1,8 +1,8 @@
 """The checks a submission is graded on, their parts, points, limits and statistical budget.
 
 A *check* is one scene x one integrator. It runs :func:`mitsuba_refs.verdicts.compare.compare` with a
-``render`` hook that renders in the student's isolated process (:mod:`autograder.isolation`)
-and scores its parts:
+``render`` hook that renders in the student's isolated process
+(:mod:`autograder.isolation.process`) and scores its parts:
 
 ``mean``         the image agrees with Mitsuba's (tile + whole-image z test);
 ``variance``     the per-sample variance is at most 1.5x that of Mitsuba's run of the *same*
@@ -49,9 +49,9 @@ from mitsuba_refs.verdicts.compare import (
 )
 from pathtracer.render.splats import replica_count
 
-from . import hints
 from .contract import refusal
-from .isolation import SOLUTION, Limits, StudentFailure, StudentProcess
+from .hints.explain import Evidence, camera_evidence, camera_findings, explain, independence
+from .isolation.process import SOLUTION, Limits, StudentFailure, StudentProcess
 from .replicas import REPLICAS, reported_variance_finding, scored_render
 
 #: Chance that grading a correct submission costs it any point (whole submission).
@@ -347,7 +347,8 @@ class CheckResult:
 
 def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
               limits: Limits | None = None, history: dict | None = None,
-              alpha: float | None = None, trusted: bool = False) -> CheckResult:
+              alpha: float | None = None, trusted: bool = False,
+              explain=explain) -> CheckResult:
     """Grade one check of implementation ``impl`` (a ``.py`` file, a package folder, or
     ``"autograder.solution"``).
 
@@ -360,6 +361,9 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
     alpha : float, optional  per-part level (default: :func:`alpha_of` the check)
     trusted : bool  grade in the solution runtime without the refusal check (the reference
         solution, the bug zoo and the correct alternatives; never a student's submission)
+    explain : callable  the hints of a failed check's :class:`~autograder.hints.explain.Evidence`
+        (default :func:`autograder.hints.explain.explain`; :mod:`autograder.hints.accuracy`
+        passes one that also keeps the evidence)
     """
     start = time.perf_counter()
     alpha = alpha_of(check) if alpha is None else alpha
@@ -420,19 +424,19 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
             # The camera's geometry is measured on every submission (a few rays, no render):
             # a mirrored or mis-sampled camera is reported even where the image hides it.
             try:
-                camera_geometry = hints.camera_evidence(check, student)
-                result.findings = hints.camera_findings(
+                camera_geometry = camera_evidence(check, student)
+                result.findings = camera_findings(
                     camera_geometry, all(p.passed for p in result.parts))
             except StudentFailure as failure:
                 result.findings = [f"camera geometry not measured: {str(failure).splitlines()[0]}"]
         if not all(p.passed for p in result.parts):
-            evidence = hints.Evidence(check=check, comparison=comparison, history=history or {})
+            evidence = Evidence(check=check, comparison=comparison, history=history or {})
             try:
                 if check.camera:
                     evidence.camera = camera_geometry
                 elif check.integrator in SPLATTING:
                     # No camera rays to probe and no per-bounce light references: the light
-                    # rules read the scored render itself (hints.light_hints).
+                    # rules read the scored render itself (hints.explain.light_hints).
                     evidence.images = _images(check, main_render)
                 else:
                     evidence.sweep = _bounce_sweep(check, render, alpha=alpha)
@@ -442,10 +446,10 @@ def run_check(check: Check, impl: str, *, out_dir=None, seed_offset: int = 0,
                     if "replicas" in main_render:
                         # Do the reported variances predict how much independent renders
                         # differ? (Samples of a pixel that share random numbers do not.)
-                        evidence.independence = hints.independence(*main_render["replicas"].halves())
+                        evidence.independence = independence(*main_render["replicas"].halves())
             except StudentFailure as failure:
                 evidence.incomplete = str(failure).splitlines()[0]
-            result.hints = hints.explain(evidence)
+            result.hints = explain(evidence)
             if out_dir is not None:
                 result.pictures = _pictures(result, comparison, main_render, Path(out_dir))
     result.seconds = time.perf_counter() - start

@@ -13,7 +13,8 @@ The zip holds what Gradescope's Ubuntu image needs (https://gradescope-autograde
 ``run_autograder``  copies the submission, runs the graded tests as root with
                     ``AUTOGRADER_STUDENT_USER=student`` (each test's student process runs as
                     that user, from the student runtime without the solution, under seccomp;
-                    see :mod:`autograder.isolation`) and always leaves a valid results file;
+                    see :mod:`autograder.isolation.process`) and always leaves a valid
+                    results file;
 ``source/``         the project (pyproject.toml, requirements.txt, pathtracer/, mitsuba_refs/,
                     autograder/), used through ``PYTHONPATH``.
 
@@ -21,8 +22,9 @@ Both scripts take ``AUTOGRADER_ROOT`` (default ``/autograder``), so that the pac
 tested end to end in a temporary folder; ``setup.sh`` also takes ``AUTOGRADER_PYTHON`` (an
 interpreter that already has the dependencies: no apt, no venv) and
 ``AUTOGRADER_STUDENT_USER`` / ``AUTOGRADER_STUDENT_PYTHON`` / ``AUTOGRADER_STUDENT_SITE``
-(see :class:`autograder.environment.Environment`), which it records in ``ROOT/env.sh`` for
-``run_autograder``. ``AUTOGRADER_PYTEST_K`` grades only the checks a pytest ``-k`` expression selects.
+(see :class:`autograder.isolation.environment.Environment`), which it records in
+``ROOT/env.sh`` for ``run_autograder``. ``AUTOGRADER_PYTEST_K`` grades only the checks a pytest
+``-k`` expression selects.
 """
 from __future__ import annotations
 

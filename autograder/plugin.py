@@ -13,10 +13,10 @@ Options
 
 Before the first test, when the student's code runs as its own user
 (``AUTOGRADER_STUDENT_USER``), the grader checks as that user that nothing private is
-readable (:func:`autograder.environment.require_safe_environment`), and in every setup it
-starts one student process that closes its sandbox and loads nothing
-(:func:`autograder.isolation.probe_sandbox`: capabilities, Landlock, seccomp); if either
-fails, it writes a results file that says so and stops without grading. Where nothing
+readable (:func:`autograder.isolation.environment.require_safe_environment`), and in every
+setup it starts one student process that closes its sandbox and loads nothing
+(:func:`autograder.isolation.process.probe_sandbox`: capabilities, Landlock, seccomp); if
+either fails, it writes a results file that says so and stops without grading. Where nothing
 confines the file system of a submission running as the grader's own user, it says so in
 one line. The results file is the grader's alone (no student process can write anywhere); a
 write that fails is one line on stderr and exit status 3, not a traceback.
@@ -77,8 +77,8 @@ def pytest_configure(config):
 def pytest_sessionstart(session):
     """Refuse to grade in an environment where the submission could read private files or
     where the student process cannot close its sandbox."""
-    from .environment import SetupError, require_safe_environment
-    from .isolation import probe_sandbox
+    from .isolation.environment import SetupError, require_safe_environment
+    from .isolation.process import probe_sandbox
     results = session.config.stash.get(_RESULTS, None)
     extra = [os.path.dirname(results.path)] if results is not None else []
     try:

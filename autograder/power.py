@@ -30,6 +30,7 @@ import json
 import math
 import sys
 import time
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.stats import norm
@@ -103,24 +104,12 @@ def tile_detectable_bias(ref_mean, ref_var, ref_n, n_test, *, alpha: float, powe
     return hi
 
 
-def injected_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float, seeds: int,
-                   seed: int = 0, max_var_ratio: float | None = VARIANCE_BOUND,
-                   image_components: bool = True, replicas: int | None = None) -> float:
-    """Fraction of ``seeds`` simulated renders ``(1+b)`` times the truth that the mean test rejects.
+@dataclass(frozen=True)
+class Injection:
+    """How :func:`injected_power` simulates renders and tests them.
 
-    The committed reference image is taken as the truth ``T``.  Each seed draws a reference
-    ``T + e_b`` and a test ``(1+b)(T + e_a)`` with per-pixel normal errors of variance
-    ``v/ref_n`` and ``v/n_test`` (``v`` the reference's per-sample variances; one standard
-    normal per pixel shared by the channels, as one path carries all three) and runs
-    :func:`compare_means` exactly as the grader does. With ``replicas`` = K the test is K
-    such renders of ``n_test / K`` samples and its variance their spread, as the grader
-    measures it (:mod:`autograder.replicas`); otherwise the test's variance is the true one.
-
-    Parameters
+    Attributes
     ----------
-    b : float  relative bias
-    ref_mean, ref_var : array (H, W, 3)  reference mean and per-sample variance
-    ref_n, n_test : int  samples per pixel of the reference and of the test
     alpha : float  level of the mean test
     seeds : int  simulated renders
     seed : int  seed of the generator (results are deterministic)
@@ -128,20 +117,48 @@ def injected_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float, 
     image_components : bool  as the grader passes it (False for a light tracer)
     replicas : int, optional  the test's variance from this many replicas
     """
-    rng = np.random.default_rng(seed)
+
+    alpha: float
+    seeds: int
+    seed: int = 0
+    max_var_ratio: float | None = VARIANCE_BOUND
+    image_components: bool = True
+    replicas: int | None = None
+
+
+def injected_power(b: float, ref_mean, ref_var, ref_n, n_test, injection: Injection) -> float:
+    """Fraction of ``injection.seeds`` simulated renders ``(1+b)`` times the truth that the mean
+    test rejects.
+
+    The committed reference image is taken as the truth ``T``.  Each seed draws a reference
+    ``T + e_b`` and a test ``(1+b)(T + e_a)`` with per-pixel normal errors of variance
+    ``v/ref_n`` and ``v/n_test`` (``v`` the reference's per-sample variances; one standard
+    normal per pixel shared by the channels, as one path carries all three) and runs
+    :func:`compare_means` exactly as the grader does. With ``injection.replicas`` = K the test
+    is K such renders of ``n_test / K`` samples and its variance their spread, as the grader
+    measures it (:mod:`autograder.replicas`); otherwise the test's variance is the true one.
+
+    Parameters
+    ----------
+    b : float  relative bias
+    ref_mean, ref_var : array (H, W, 3)  reference mean and per-sample variance
+    ref_n, n_test : int  samples per pixel of the reference and of the test
+    injection : Injection  the simulation and the mean test's settings
+    """
+    rng = np.random.default_rng(injection.seed)
     truth = np.asarray(ref_mean, dtype=np.float64)
     v = np.maximum(np.asarray(ref_var, dtype=np.float64), 0.0)
     sd_ref = np.sqrt(v / ref_n)
     h, w = truth.shape[:2]
     rejected = 0
-    for _ in range(seeds):
+    for _ in range(injection.seeds):
         reference = truth + sd_ref * rng.standard_normal((h, w, 1))
-        test, test_var = _simulated_test(rng, truth, v, n_test, b, replicas)
+        test, test_var = _simulated_test(rng, truth, v, n_test, b, injection.replicas)
         result = compare_means(test, test_var, n_test, reference, v, ref_n,
-                               alpha=alpha, max_var_ratio=max_var_ratio,
-                               image_components=image_components)
+                               alpha=injection.alpha, max_var_ratio=injection.max_var_ratio,
+                               image_components=injection.image_components)
         rejected += not result.agree
-    return rejected / seeds
+    return rejected / injection.seeds
 
 
 def _simulated_test(rng, truth, v, n_test, b, replicas):
@@ -202,11 +219,11 @@ def power_table(checks=None, *, alpha: float | None = None, seeds: int = 200,
         for sign, key in ((1, "brighter"), (-1, "darker")):
             b = bound(ref.mean, ref.var, ref.n, check.spp, alpha=level, power=POWER, sign=sign)
             row[f"bias_{key}"] = b
+            injection = Injection(alpha=level, seeds=seeds, seed=1000 * i + (sign > 0),
+                                  image_components=not tiles_only,
+                                  replicas=grading.scored_replicas(check))
             row[f"injected_power_{key}"] = injected_power(sign * b, ref.mean, ref.var, ref.n,
-                                                          check.spp, alpha=level, seeds=seeds,
-                                                          seed=1000 * i + (sign > 0),
-                                                          image_components=not tiles_only,
-                                                          replicas=grading.scored_replicas(check))
+                                                          check.spp, injection)
             if renders:
                 row[f"rendered_power_{key}"] = rendered_power(check, sign * b, renders,
                                                               alpha=level)

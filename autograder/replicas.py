@@ -23,7 +23,7 @@ variance part grades that. The work is the same ``spp`` samples per pixel as one
 Replicas that share their noise would make the spread too small: identical images (not constant
 ones: a black image has no noise to share), or two whose
 deviations correlate above :data:`MAX_SHARED_NOISE` (independent ones: near 0), fail the
-check with a message (:class:`~autograder.isolation.StudentFailure`). A smaller shared part is
+check with a message (:class:`~autograder.isolation.process.StudentFailure`). A smaller shared part is
 not hidden either: it is noise the spread does not see, so it inflates the mean part's
 statistics and fails the mean, which the variance part needs first.
 
@@ -38,7 +38,7 @@ import numpy as np
 
 from mitsuba_refs.stats.replicas import replica_moments, shared_noise
 
-from .isolation import StudentFailure
+from .isolation.process import StudentFailure
 
 #: Independent renders of a check's scored render (``K``; ``K - 1`` = 7 degrees of freedom per
 #: pixel, hundreds per 8x8 tile). Every check's ``spp`` is a multiple of it.
@@ -84,7 +84,7 @@ class ScoredRender:
     def halves(self):
         """``(mean, reported variance), spp`` of each half of the replicas: two independent
         renders whose difference the reported variances should predict
-        (:func:`autograder.hints.independence`)."""
+        (:func:`autograder.hints.explain.independence`)."""
         half = self.replicas // 2
         per_replica = self.spp // self.replicas
         out = []

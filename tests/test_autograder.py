@@ -27,7 +27,7 @@ import pytest
 
 from autograder import grading, results
 from autograder.contract import refusal
-from autograder.isolation import Limits, StudentProcess
+from autograder.isolation.process import Limits, StudentProcess
 
 ROOT = Path(__file__).resolve().parent.parent
 ZOO = ROOT / "tests" / "bugzoo"
@@ -234,7 +234,7 @@ def test_misbehaving_submission_fails_cleanly(name, kind, words):
 def _runtime_processes() -> list:
     """Processes still alive that run from one of this test session's student runtimes
     (a fork keeps its parent's command line, so escaped children count too)."""
-    from autograder import runtime
+    from autograder.isolation import runtime
     folders = [str(path).encode() for path in runtime._BUILT.values()]
     alive = []
     for entry in os.listdir("/proc"):
@@ -310,7 +310,7 @@ def test_misstated_variance_scores_zero_on_the_part_it_attacks(path):
 def test_student_runtime_has_no_solution(tmp_path):
     """The runtime a submission imports from: integrators and camera are the skeleton's stubs,
     no path-class integrator, no references, no grader."""
-    from autograder import runtime
+    from autograder.isolation import runtime
     from autograder.skeleton import STUBS, stub_names
     folder = runtime.build(tmp_path / "rt")
     stubs = [(relative, name) for relative, (names, _) in STUBS.items()
@@ -334,7 +334,7 @@ def test_student_runtime_has_no_solution(tmp_path):
                  for node in ast.walk(ast.parse(module.read_text())) if isinstance(node, ast.Call)}
         assert not calls & steps, (module.name, calls & steps)
     # Ungraded integrators keep their class and name, not their algorithm.
-    from autograder.runtime import UNGRADED_MODULES
+    from autograder.isolation.runtime import UNGRADED_MODULES
     from pathtracer import INTEGRATORS
     for relative in UNGRADED_MODULES:
         stub = (folder / "pathtracer" / relative).read_text()
@@ -578,7 +578,7 @@ def test_light_tracer_written_as_a_student_renders_in_the_student_runtime(tmp_pa
     (its light.py calls the package's own camera_connection.py; the runtime's are stubs)
     renders in the student runtime, its splats carried back as the two images, bit for bit
     what pathtracer.render gives; the skeleton itself is 'not implemented'."""
-    from autograder.isolation import StudentFailure
+    from autograder.isolation.process import StudentFailure
     from autograder.skeleton import generate
     from pathtracer import load_scene, render
     filled = generate(tmp_path / "filled", stubs=False, assignment="light-tracing")
@@ -665,11 +665,11 @@ def test_sandboxed_render_is_the_direct_render():
     ("volpath", 1.00, 0.80, 1.00, "surface steps"),
 ])
 def test_media_hints_read_the_fog_and_clear_regions(integrator, fog, clear, fog_later, first_words):
-    """The media rules (autograder/hints_media.py) on sweeps made from the committed per-bounce
+    """The media rules (autograder/hints/media.py) on sweeps made from the committed per-bounce
     references, what each depth adds scaled by one factor in the fog's pixels and another in
     the rest: each pattern names its cause first, with the factors it read."""
-    from autograder import hints
-    from autograder.hints_media import explain_media, fog_pixels
+    from autograder.hints.explain import Evidence
+    from autograder.hints.media import explain_media, fog_pixels
     from mitsuba_refs.reference.cache import get_reference
     check = grading.CHECKS_BY_ID[f"{integrator}-media"]
     refs = {d: get_reference("media-box", {"max_depth": d}, "volpath", render=False).mean
@@ -683,7 +683,7 @@ def test_media_hints_read_the_fog_and_clear_regions(integrator, fog, clear, fog_
         rel = float(test[depth].sum() / refs[depth].sum() - 1)
         sweep[depth] = (SimpleNamespace(agree=abs(rel) < 1e-3, rel_bias=rel), test[depth], refs[depth])
     comparison = SimpleNamespace(mean=SimpleNamespace(agree=False, rel_bias=0.05))
-    found = explain_media(hints.Evidence(check=check, comparison=comparison, sweep=sweep))
+    found = explain_media(Evidence(check=check, comparison=comparison, sweep=sweep))
     text = " ".join(found)
     assert found and first_words in found[0].split("; or ")[0], found
     assert f"x{fog:.2f}" in text and not re.search(r"\bx?(nan|inf)\b", text.lower()), text

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from autograder import grading
-from autograder.isolation import StudentFailure
+from autograder.isolation.process import StudentFailure
 from autograder.replicas import (
     REPLICAS,
     ScoredRender,

@@ -24,7 +24,7 @@ from pathlib import Path
 import pytest
 
 from autograder import package, results
-from autograder.environment import kill_user_processes, user_processes
+from autograder.isolation.environment import kill_user_processes, user_processes
 from autograder.skeleton import generate
 
 ROOT = Path(__file__).resolve().parent.parent

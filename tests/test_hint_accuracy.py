@@ -1,4 +1,4 @@
-"""Hints that do not mislead (autograder/hint_accuracy.py, docs/autograder.md "Hint accuracy").
+"""Hints that do not mislead (autograder/hints/accuracy.py, docs/autograder.md "Hint accuracy").
 
 The measurement grades every bug-zoo and hint mutant (minutes of CPU); these tests re-explain
 the evidence it recorded for a subset (tests/data/hint_evidence: the mistakes whose hints used
@@ -14,7 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from autograder import grading, hint_accuracy, hint_evidence, hints
+from autograder import grading
+from autograder.hints import accuracy, evidence_io
+from autograder.hints.explain import Evidence, explain
 from mitsuba_refs.stats.mean import compare_means
 from mitsuba_refs.stats.variance import compare_variances
 from mitsuba_refs.verdicts.compare import Comparison
@@ -35,36 +37,36 @@ def test_recorded_subset_covers_the_issue():
 
 @pytest.mark.parametrize("name", CASES)
 def test_recorded_evidence_names_no_wrong_cause(name):
-    evidence, record = hint_evidence.read(EVIDENCE, name)
-    found = hints.explain(evidence)
-    verdict, causes = hint_accuracy.classify(found, record["cause"])
+    evidence, record = evidence_io.read(EVIDENCE, name)
+    found = explain(evidence)
+    verdict, causes = accuracy.classify(found, record["cause"])
     assert verdict in ("right", "evidence-only"), (verdict, causes, [str(h) for h in found])
     assert verdict == record["verdict"], (verdict, record["verdict"], [str(h) for h in found])
 
 
 def test_classification():
     right = Hint("x", ("roulette", "depth_cut"))
-    assert hint_accuracy.classify([right, Hint("numbers")], "depth_cut") == \
+    assert accuracy.classify([right, Hint("numbers")], "depth_cut") == \
         ("right", ["depth_cut", "roulette"])
-    assert hint_accuracy.classify([right, Hint("y", ("mis_weights",))], "depth_cut")[0] == "wrong"
-    assert hint_accuracy.classify([Hint("numbers only")], "roulette") == ("evidence-only", [])
-    assert hint_accuracy.classify(["a plain string"], "roulette")[0] == "untagged"
+    assert accuracy.classify([right, Hint("y", ("mis_weights",))], "depth_cut")[0] == "wrong"
+    assert accuracy.classify([Hint("numbers only")], "roulette") == ("evidence-only", [])
+    assert accuracy.classify(["a plain string"], "roulette")[0] == "untagged"
 
 
 def test_committed_measurement_has_no_wrong_cause():
-    """docs/data/hint_accuracy.json, written by python -m autograder.hint_accuracy: every
+    """docs/data/hint_accuracy.json, written by python -m autograder.hints.accuracy: every
     mutant was graded, detected, and no hint named a wrong (or an untagged) cause."""
     report = json.loads((ROOT / "docs" / "data" / "hint_accuracy.json").read_text())
     assert report["summary"]["all"]["wrong"] == 0
     assert report["summary"]["all"]["untagged"] == 0
     assert report["summary"]["all"]["not detected"] == 0
     graded = {(r["mutant"], r["check"]) for r in report["rows"]}
-    assert graded == {(n, c) for n, _, _, c, _ in hint_accuracy.cases()}
+    assert graded == {(n, c) for n, _, _, c, _ in accuracy.cases()}
     assert report["summary"]["hint_mutants"]["checks"] >= 12
 
 
 # ----------------------------------------------------------------------------------------
-# The measurement's cache: full evidence as data only (hint_evidence.dump / load)
+# The measurement's cache: full evidence as data only (evidence_io.dump / load)
 
 def _same(a, b) -> bool:
     """Whether two evidence trees are equal: same types (a NumPy scalar comes back as the Python
@@ -88,7 +90,7 @@ def _same(a, b) -> bool:
     return a == b
 
 
-def _real_evidence() -> hints.Evidence:
+def _real_evidence() -> Evidence:
     """Evidence built of the real result classes a graded check produces."""
     rng = np.random.default_rng(7)
     ref = rng.uniform(0.2, 1.0, (32, 32, 3))
@@ -103,35 +105,35 @@ def _real_evidence() -> hints.Evidence:
     check = grading.CHECKS[0]
     earlier = grading.CheckResult(check=check, comparison=comparison, parts=[
         grading.Part("mean", 0.0, 5.0, False, f"p = {float('nan')}")])
-    return hints.Evidence(check=check, comparison=comparison, history={check.id: earlier},
-                          sweep={2: (mean, test.astype(np.float32), ref)},
-                          independence=float("inf"), probe=(3, 4096),
-                          images={"mean": test, "n": np.int64(64), "flags": np.array([True])},
-                          incomplete="")
+    return Evidence(check=check, comparison=comparison, history={check.id: earlier},
+                    sweep={2: (mean, test.astype(np.float32), ref)},
+                    independence=float("inf"), probe=(3, 4096),
+                    images={"mean": test, "n": np.int64(64), "flags": np.array([True])},
+                    incomplete="")
 
 
 def test_full_evidence_round_trips_exactly(tmp_path):
     evidence = _real_evidence()
-    hint_evidence.dump(evidence, tmp_path, "case", {"mutant": "m", "score": 0.0})
-    again, entry = hint_evidence.load(tmp_path, "case")
+    evidence_io.dump(evidence, tmp_path, "case", {"mutant": "m", "score": 0.0})
+    again, entry = evidence_io.load(tmp_path, "case")
     assert entry == {"mutant": "m", "score": 0.0}
     assert _same(again, evidence)
     assert again.check is evidence.check                       # restored by its id
     assert again.history[evidence.check.id].passed is False    # properties of the real class
     assert again.comparison.agree == evidence.comparison.agree
     assert again.images["n"] == 64 and type(again.images["n"]) is int
-    hint_evidence.dump(None, tmp_path, "none", {})
-    assert hint_evidence.load(tmp_path, "none") == (None, {})
+    evidence_io.dump(None, tmp_path, "none", {})
+    assert evidence_io.load(tmp_path, "none") == (None, {})
 
 
 @pytest.mark.parametrize("name", CASES[:4])
 def test_full_evidence_explains_alike(tmp_path, name):
     """The committed cases, through dump and load, give the same hints, causes and all."""
-    evidence, _ = hint_evidence.read(EVIDENCE, name)
-    hint_evidence.dump(evidence, tmp_path, name)
-    again, _ = hint_evidence.load(tmp_path, name)
-    assert [(str(h), h.causes) for h in hints.explain(again)] == \
-        [(str(h), h.causes) for h in hints.explain(evidence)]
+    evidence, _ = evidence_io.read(EVIDENCE, name)
+    evidence_io.dump(evidence, tmp_path, name)
+    again, _ = evidence_io.load(tmp_path, name)
+    assert [(str(h), h.causes) for h in explain(again)] == \
+        [(str(h), h.causes) for h in explain(evidence)]
 
 
 def test_full_evidence_runs_no_code(tmp_path):
@@ -140,19 +142,19 @@ def test_full_evidence_runs_no_code(tmp_path):
     class Stranger:
         pass
     with pytest.raises(TypeError, match="Stranger"):
-        hint_evidence.dump({"x": Stranger()}, tmp_path, "bad")
+        evidence_io.dump({"x": Stranger()}, tmp_path, "bad")
     with pytest.raises(TypeError, match="objects"):
-        hint_evidence.dump(np.array([Stranger()], dtype=object), tmp_path, "bad")
-    hint_evidence.dump(_real_evidence(), tmp_path, "case")
+        evidence_io.dump(np.array([Stranger()], dtype=object), tmp_path, "bad")
+    evidence_io.dump(_real_evidence(), tmp_path, "case")
     (tmp_path / "forged.json").write_text(json.dumps(
         {"evidence": {"object": "Popen", "fields": {"args": ["true"]}}}))
     np.savez(tmp_path / "forged.npz")
     with pytest.raises(KeyError, match="Popen"):
-        hint_evidence.load(tmp_path, "forged")
+        evidence_io.load(tmp_path, "forged")
     (tmp_path / "forged.json").write_text(json.dumps({"evidence": {"array": "a0"}}))
     np.savez(tmp_path / "forged.npz", a0=np.array([print], dtype=object))
     with pytest.raises(ValueError, match="allow_pickle"):
-        hint_evidence.load(tmp_path, "forged")
+        evidence_io.load(tmp_path, "forged")
 
 
 def test_a_dark_image_missing_its_noise_says_so_and_names_no_cause():

@@ -42,8 +42,8 @@ def test_injected_power_confirms_the_analytic_bound(check):
     for sign in (1, -1):
         b = detectable_bias(ref.mean, ref.var, ref.n, check.spp, alpha=grading.ALPHA, sign=sign)
         rate = power.injected_power(sign * b, ref.mean, ref.var, ref.n, check.spp,
-                                    alpha=grading.ALPHA, seeds=100, seed=7 + (sign > 0),
-                                    replicas=grading.scored_replicas(check))
+                                    power.Injection(alpha=grading.ALPHA, seeds=100, seed=7 + (sign > 0),
+                                                    replicas=grading.scored_replicas(check)))
         print(check.id, sign, f"b={b:.4f}", rate)
         assert round(rate * 100) >= need, (check.id, sign, b, rate)
 
@@ -139,7 +139,8 @@ def test_light_check_detects_a_bias_of_one_and_a_half_percent(check):
     for sign in (1, -1):
         b = power.tile_detectable_bias(ref.mean, ref.var, ref.n, check.spp, alpha=level, sign=sign)
         assert b <= power.TARGET_BIAS, f"{check.id}: {100 * b:.2f} % at {check.spp} spp"
-        rate = power.injected_power(sign * b, ref.mean, ref.var, ref.n, check.spp, alpha=level,
-                                    seeds=50, seed=11 + (sign > 0), image_components=False,
-                                    replicas=grading.scored_replicas(check))
+        rate = power.injected_power(sign * b, ref.mean, ref.var, ref.n, check.spp,
+                                    power.Injection(alpha=level, seeds=50, seed=11 + (sign > 0),
+                                                    image_components=False,
+                                                    replicas=grading.scored_replicas(check)))
         assert round(rate * 50) >= need, (check.id, sign, b, rate)

@@ -33,7 +33,7 @@ from pathlib import Path
 import pytest
 
 from autograder import results
-from autograder.environment import kill_user_processes, user_processes
+from autograder.isolation.environment import kill_user_processes, user_processes
 from autograder.sandbox import landlock, seccomp, syscalls
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -326,7 +326,7 @@ def test_grader_memory_is_closed_to_the_child_of_the_same_user(throwaway_user):
 
 def test_student_process_reports_its_layers():
     """A student process closes every layer this machine offers before it loads anything."""
-    from autograder.isolation import probe_sandbox
+    from autograder.isolation.process import probe_sandbox
     layers = probe_sandbox()
     assert "seccomp" in layers and "no-new-privileges" in layers, layers
     assert any(layer.startswith("no capabilities") for layer in layers), layers
@@ -340,8 +340,9 @@ def test_student_process_reports_its_layers():
 ZOO_RUNNER = r'''
 import json, os, sys
 from pathlib import Path
-from autograder import grading, runtime
-from autograder.isolation import Limits
+from autograder import grading
+from autograder.isolation import runtime
+from autograder.isolation.process import Limits
 check = grading.Check("quick", "path", "quad-light", (("mean", 1),), 10)
 found = {}
 for entry in sys.argv[2:]:
@@ -502,8 +503,8 @@ def test_a_results_file_that_cannot_be_written_is_one_line(tmp_path):
 
 def _patched_student(tmp_path, module: str, old: str, new: str):
     """A StudentProcess (probe) whose runtime has ``old`` replaced by ``new`` in ``module``."""
-    from autograder import runtime as runtimes
-    from autograder.isolation import Limits, StudentProcess
+    from autograder.isolation import runtime as runtimes
+    from autograder.isolation.process import Limits, StudentProcess
     folder = runtimes.build(tmp_path / "runtime", "student")
     path = folder / "grading_child" / module
     assert old in path.read_text()
@@ -516,7 +517,7 @@ def _patched_student(tmp_path, module: str, old: str, new: str):
 def test_a_sandbox_that_cannot_close_is_refused_in_one_line(tmp_path):
     """A child that cannot install its filter (an unsupported machine, here pretended) sends a
     setup error before it imports anything: the grader raises SetupError, one line."""
-    from autograder.environment import SetupError
+    from autograder.isolation.environment import SetupError
     student = _patched_student(tmp_path, "seccomp.py", '    reason = supported()\n',
                                '    reason = "the grading sandbox\'s seccomp filter exists for '
                                'Linux on x86-64 and aarch64 only, not Linux ppc64le"\n')
@@ -530,12 +531,12 @@ def test_a_sandbox_that_cannot_close_is_refused_in_one_line(tmp_path):
 def test_no_file_system_confinement_is_said_in_one_line(tmp_path, capsys):
     """Without Landlock (here pretended) a child of the grader's own user still closes every
     other layer, and the grader says once, on stderr, that this is not a security boundary."""
-    from autograder import isolation
+    from autograder.isolation import process
     student = _patched_student(tmp_path, "landlock.py", "    version = abi() if version is None else version\n",
                                "    version = 0\n")
-    isolation._WARNED.clear()
+    process._WARNED.clear()
     with student:
         layers = student.sandbox
     assert "seccomp" in layers and any(layer.startswith("no file-system confinement") for layer in layers)
     lines = [line for line in capsys.readouterr().err.splitlines() if "not a security boundary" in line]
-    assert lines == [isolation.NOT_A_BOUNDARY.format(why="Landlock is not available in this kernel")]
+    assert lines == [process.NOT_A_BOUNDARY.format(why="Landlock is not available in this kernel")]

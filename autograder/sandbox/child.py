@@ -1,9 +1,9 @@
 """The student process: load a submission and answer the grader's requests.
 
-Started by :class:`autograder.isolation.StudentProcess` as a fresh interpreter
+Started by :class:`autograder.isolation.process.StudentProcess` as a fresh interpreter
 (``python -S -E -s -B -c BOOT RUNTIME CONFIG``) from the *student runtime*
-(:mod:`autograder.runtime`), already running as the unprivileged student user when the
-grader runs as root with one. This file is copied there with :mod:`wire`, :mod:`seccomp`,
+(:mod:`autograder.isolation.runtime`), already running as the unprivileged student user when
+the grader runs as root with one. This file is copied there with :mod:`wire`, :mod:`seccomp`,
 :mod:`syscalls`, :mod:`landlock` and :mod:`privileges`; it imports nothing of the grader.
 Before the submission is imported it
 

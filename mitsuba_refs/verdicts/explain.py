@@ -8,7 +8,7 @@ sentence that quotes those numbers. Rules never run a test of their own.
 Each hint is a :class:`Hint`: its text, and the causes it names (short ids such as
 ``"double_emission"``; none when it only states the evidence). A rule names a cause only where
 its evidence is specific to that cause; where the numbers fit several, it says so or states
-the numbers alone (``autograder.hint_accuracy`` measures how often the named cause is right).
+the numbers alone (``autograder.hints.accuracy`` measures how often the named cause is right).
 """
 from __future__ import annotations
 

@@ -13,11 +13,11 @@ every failed check are classified against the mutant's true cause:
 Hints carry the causes they name (:class:`mitsuba_refs.verdicts.explain.Hint`), so the classification
 reads no prose. Usage::
 
-    python -m autograder.hint_accuracy --out docs/data/hint_accuracy.json
-    python -m autograder.hint_accuracy --reuse --out ...   # explain the recorded evidence again
+    python -m autograder.hints.accuracy --out docs/data/hint_accuracy.json
+    python -m autograder.hints.accuracy --reuse --out ...   # explain the recorded evidence again
 
 The evidence of each graded check (sweep, probes, ratios) is kept in ``--cache`` (JSON and
-``.npz`` at full precision, :func:`autograder.hint_evidence.dump`; data only, so a cache a
+``.npz`` at full precision, :func:`autograder.hints.evidence_io.dump`; data only, so a cache a
 mutant could have written never runs code; not committed), so that ``--reuse`` measures
 changed rules without rendering again.
 """
@@ -27,14 +27,15 @@ import argparse
 import ast
 import json
 import sys
-import threading
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from . import grading, hint_evidence, hints
-from .isolation import Limits
+from .. import grading
+from ..isolation.process import Limits
+from . import evidence_io
+from .explain import explain
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 FOLDERS = (ROOT / "tests" / "bugzoo", ROOT / "tests" / "hint_mutants")
 DEFAULT_CACHE = ROOT / "out" / "hint-evidence"
 #: The true cause of each bug-zoo mutant (the hint mutants state theirs as ``CAUSE``).
@@ -102,38 +103,28 @@ def cases(only=()) -> list:
     return out
 
 
-_seen = threading.local()
-
-
-def _capturing(explain):
-    """hints.explain that also keeps the evidence it was given (per thread)."""
-    def capture(evidence):
-        _seen.evidence = evidence
-        return explain(evidence)
-    capture.original = explain
-    return capture
-
-
 def record(case, cache: Path, scale: float = 6.0) -> dict:
     """Grade one mutant on one check; keep its evidence in ``cache``; return the record."""
     name, folder, path, check_id, cause = case
     check = grading.CHECKS_BY_ID[check_id]
     limits = Limits(check.seconds * scale, grading.MEMORY_MB, grading.OUTPUT_BYTES)
-    _seen.evidence = None
-    if not hasattr(hints.explain, "original"):
-        hints.explain = _capturing(hints.explain)       # run_check calls hints.explain
-    result = grading.run_check(check, path, limits=limits, trusted=True)
+    seen = []
+
+    def keeping(evidence):
+        """:func:`explain`, keeping the evidence run_check gives it (one per failed check)."""
+        seen.append(evidence)
+        return explain(evidence)
+    result = grading.run_check(check, path, limits=limits, trusted=True, explain=keeping)
     entry = dict(mutant=name, folder=folder, check=check_id, cause=cause,
                  score=result.score, max_score=result.max_score,
                  failure=result.failure or "", seconds=round(result.seconds, 1))
-    hint_evidence.dump(_seen.evidence, cache, f"{name}--{check_id}", entry)
+    evidence_io.dump(seen[-1] if seen else None, cache, f"{name}--{check_id}", entry)
     return entry
 
 
 def explained(cache: Path, name: str, check_id: str) -> tuple:
     """The recorded entry and the hints today's rules give on its evidence."""
-    evidence, stored = hint_evidence.load(cache, f"{name}--{check_id}")
-    explain = getattr(hints.explain, "original", hints.explain)
+    evidence, stored = evidence_io.load(cache, f"{name}--{check_id}")
     return stored, (explain(evidence) if evidence is not None else [])
 
 
@@ -187,16 +178,15 @@ def table(report: dict) -> str:
 
 
 def write_compact(rows, cache: Path, folder: Path) -> None:
-    """The evidence of ``rows`` in compact form (:mod:`autograder.hint_evidence`), with the
+    """The evidence of ``rows`` in compact form (:mod:`autograder.hints.evidence_io`), with the
     verdict it got; each is read back and must name the same causes as the full evidence (its
     numbers may differ in the last digit: the images are float16)."""
     for row in rows:
         name = f"{row['mutant']}--{row['check']}"
-        evidence, _ = hint_evidence.load(cache, name)
-        hint_evidence.write(evidence, folder, name, mutant=row["mutant"], cause=row["cause"],
-                            verdict=row["verdict"])
-        again, _ = hint_evidence.read(folder, name)
-        explain = getattr(hints.explain, "original", hints.explain)
+        evidence, _ = evidence_io.load(cache, name)
+        evidence_io.write(evidence, folder, name, mutant=row["mutant"], cause=row["cause"],
+                          verdict=row["verdict"])
+        again, _ = evidence_io.read(folder, name)
         if classify(explain(again), row["cause"]) != (row["verdict"], row["named"]):
             raise SystemExit(f"{name}: the compact evidence names other causes than the full one")
 
@@ -212,7 +202,7 @@ def main(argv=None) -> int:
     parser.add_argument("--table", action="store_true", help="print the Markdown table")
     parser.add_argument("--compact", type=Path,
                         help="also write the recorded evidence of --only in compact form here "
-                             "(autograder.hint_evidence; what the tests re-explain)")
+                             "(autograder.hints.evidence_io; what the tests re-explain)")
     args = parser.parse_args(argv)
     todo = cases(args.only)
     entries = [dict(mutant=n, folder=f, check=c, cause=k) for n, f, _, c, k in todo]

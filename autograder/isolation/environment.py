@@ -4,7 +4,7 @@
 the unprivileged user (when the grader runs as root); :func:`kill_user_processes` ends
 everything that user runs; :func:`audit_environment` proves, as that user, that the
 references, the solution and the grader are out of reach before anything is graded
-(:func:`require_safe_environment`). :mod:`autograder.isolation` starts the child.
+(:func:`require_safe_environment`). :mod:`autograder.isolation.process` starts the child.
 """
 from __future__ import annotations
 

@@ -67,12 +67,6 @@ def fog_pixels(scene_name: str, params: dict) -> tuple:
     return count == 4, count == 0
 
 
-def region_ratio(test, ref, mask) -> float:
-    """Luminance ratio test / reference over the pixels of ``mask``."""
-    r = float((np.asarray(ref)[mask] @ LUMINANCE).sum())
-    return float((np.asarray(test)[mask] @ LUMINANCE).sum()) / r if r > 0 else math.nan
-
-
 def added_region_ratio(sweep, depth, mask) -> float:
     """Ratio, over ``mask``, of what max_depth = ``depth`` adds to max_depth - 1 (student /
     Mitsuba, both on top of Mitsuba's render at depth - 1)."""

@@ -6,9 +6,9 @@ by ``1 / cos_l``, dropping the distance squared by ``d^2``, the receiver's cosin
 light pdf by ``cos_s / cos_l``, a BSDF evaluated with its arguments swapped by
 ``cos_v / cos_s`` (the cosine towards the camera where the light's belongs), a cosine counted
 twice by ``cos_s``. A mistake in the choice of one of several lights scales each light's
-share by its own constant. The rules of :mod:`autograder.hints` name such a cause only when
-the 8x8 tiles' ratio of what max_depth = 2 adds follows its quantity (a rank correlation of
-at least :data:`FOLLOWS`, clearly above every other candidate's) or, for the light choice,
+share by its own constant. The rules of :mod:`autograder.hints.sweep` name such a cause only
+when the 8x8 tiles' ratio of what max_depth = 2 adds follows its quantity (a rank correlation
+of at least :data:`FOLLOWS`, clearly above every other candidate's) or, for the light choice,
 when two constants, one per light, explain the tiles.
 
 Geometry is measured at the first hit of each pixel centre's camera ray (no render): the

@@ -1,8 +1,8 @@
 """Run a submission in a sandboxed process that cannot cheat, escape or outlive its test.
 
 One :class:`StudentProcess` serves one graded test. It starts a fresh interpreter from the
-*student runtime* (:mod:`autograder.runtime`: the tracer without the reference solution)
-running :mod:`autograder.sandbox.child`, and talks to it over two pipes in plain frames
+*student runtime* (:mod:`.runtime`: the tracer without the reference solution) running
+:mod:`autograder.sandbox.child`, and talks to it over two pipes in plain frames
 (:mod:`autograder.sandbox.wire`: a JSON header and raw float64 arrays, checked against the
 exact names, dtypes and shapes expected; never pickle, so a reply cannot run code here).
 
@@ -10,9 +10,9 @@ Layers, from the strongest (docs/autograder.md, "Which boundary holds where"):
 
 * **A user of its own** when the grader runs as root and ``AUTOGRADER_STUDENT_USER`` names
   one (Gradescope's setup creates ``student``): the references, the solution, the grader
-  and the results are not readable or writable by it (:func:`autograder.environment.audit_environment` checks
-  this before grading and refuses to grade otherwise), it cannot signal the grader, and
-  every process of that user is killed when the test ends.
+  and the results are not readable or writable by it (:func:`.environment.audit_environment`
+  checks this before grading and refuses to grade otherwise), it cannot signal the grader,
+  and every process of that user is killed when the test ends.
 * **No capabilities, no new privileges** (:mod:`autograder.sandbox.privileges`): a child of a
   root grader without a student user drops every capability before the submission runs, or
   refuses to run it.
@@ -22,8 +22,8 @@ Layers, from the strongest (docs/autograder.md, "Which boundary holds where"):
 * **A seccomp allowlist** (:mod:`autograder.sandbox.seccomp`, :mod:`autograder.sandbox.syscalls`):
   default deny; no new processes, no signals or prlimit to other processes, no file writes,
   no pipes, sockets or memfd, whatever the user.
-* **The grader not dumpable** (:func:`autograder.environment.protect_grader`): its memory is
-  closed to the child even where both are one user.
+* **The grader not dumpable** (:func:`.environment.protect_grader`): its memory is closed to
+  the child even where both are one user.
 * **Resource limits**: address space, CPU time (behind the grader's wall-clock deadline),
   output size, no core dumps, open files, threads of its real uid, queued signals.
 * **Its own session**: the whole process group is killed at the end of the test.
@@ -55,9 +55,9 @@ from pathtracer.integrators import make_integrator
 from pathtracer.render.driver import integrator_for
 from pathtracer.sensors.perspective import Rays, camera_rays
 
+from ..sandbox import wire
 from . import runtime as runtimes
 from .environment import Environment, SetupError, kill_user_processes, protect_grader
-from .sandbox import wire
 
 #: The implementation that means "the reference solution" (graded in the solution runtime).
 SOLUTION = "autograder.solution"

@@ -4,11 +4,11 @@ Both forms are data only (JSON and ``.npz`` read with ``allow_pickle=False``): n
 runs code, so a cache that a graded mutant could have written can mislead a measurement at
 worst, never take over the process that reads it.
 
-:func:`dump` / :func:`load` keep everything :func:`autograder.hints.explain` may read, at full
-precision: the evidence's tree of dicts, tuples and the project's own result dataclasses
-(:data:`CLASSES`, restored as those classes, so their properties work) as JSON, every array in
-the ``.npz`` beside it, the check by its id. :mod:`autograder.hint_accuracy` keeps its cache
-this way.
+:func:`dump` / :func:`load` keep everything :func:`autograder.hints.explain.explain` may read,
+at full precision: the evidence's tree of dicts, tuples and the project's own result
+dataclasses (:data:`CLASSES`, restored as those classes, so their properties work) as JSON,
+every array in the ``.npz`` beside it, the check by its id. :mod:`autograder.hints.accuracy`
+keeps its cache this way.
 
 :func:`write` / :func:`read` keep a few cases small enough to commit (a test cannot render the
 mutants again): the numbers the rules read (the comparison's verdicts and ratios, the sweep's
@@ -35,8 +35,8 @@ from mitsuba_refs.verdicts.compare import Comparison, ConvergenceParts, default_
 from mitsuba_refs.verdicts.explain import Hint
 from pathtracer.core.color import LUMINANCE
 
-from . import grading
-from .hints import Evidence
+from .. import grading
+from .explain import Evidence
 
 #: The classes a full record may hold, by name; any other object is refused when writing.
 CLASSES = {cls.__name__: cls for cls in (
@@ -70,7 +70,7 @@ def _encode(value, arrays: dict):
         return {"check": value.id}
     name = type(value).__name__
     if CLASSES.get(name) is not type(value):
-        raise TypeError(f"{type(value).__module__}.{name} is not among hint_evidence.CLASSES")
+        raise TypeError(f"{type(value).__module__}.{name} is not among evidence_io.CLASSES")
     return {"object": name, "fields": {k: _encode(v, arrays) for k, v in vars(value).items()}}
 
 

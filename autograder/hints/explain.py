@@ -4,10 +4,10 @@ The rules of :mod:`mitsuba_refs.verdicts.explain` (image brightness factors, the
 bounce, variance and convergence patterns) run first; the rules here add what only the
 autograder sees, each quoting the numbers it rests on:
 
-* the per-bounce sweep (:mod:`autograder.hints_sweep`): the first wrong depth, the *added
+* the per-bounce sweep (:mod:`autograder.hints.sweep`): the first wrong depth, the *added
   term* ``(test_d - ref_{d-1}) / (ref_d - ref_{d-1})`` over the image and its 8x8 tiles, and
   what that term's error follows (one factor everywhere, a factor of each pixel's geometry,
-  one constant per light: :mod:`autograder.hints_geometry`); a cause is named only where that
+  one constant per light: :mod:`autograder.hints.geometry`); a cause is named only where that
   evidence is specific to it, otherwise the hint states the numbers;
 * sample independence: a second render with another seed differs from the first by
   ``R`` times what the per-pixel variances predict (R ~ 1 for independent samples, biased or
@@ -21,7 +21,7 @@ autograder sees, each quoting the numbers it rests on:
 
 A rule never runs a test of its own; hints are explanations, never points. Each hint is a
 :class:`mitsuba_refs.verdicts.explain.Hint` carrying the causes it names (``python -m
-autograder.hint_accuracy`` measures them against the bug zoo's true causes).
+autograder.hints.accuracy`` measures them against the bug zoo's true causes).
 """
 from __future__ import annotations
 
@@ -37,8 +37,8 @@ from pathtracer import load_scene
 from pathtracer.core.color import LUMINANCE
 from pathtracer.sensors.perspective import camera_rays
 
-from .hints_media import explain_media
-from .hints_sweep import sweep_hints
+from .media import explain_media
+from .sweep import sweep_hints
 
 #: R above this or below its inverse: samples are not independent (R ~ 1 +- 0.1 for
 #: independent samples at 64x64).
@@ -176,7 +176,7 @@ def _camera_hints(cam) -> list:
 
 
 def _sweep_hints(ev: Evidence) -> list:
-    """Rules on the per-bounce sweep (:mod:`autograder.hints_sweep`)."""
+    """Rules on the per-bounce sweep (:mod:`autograder.hints.sweep`)."""
     if not ev.sweep:
         return []
     return sweep_hints(ev, _scene_facts(ev.check)["emitters"], DEPTH_TOLERANCE,

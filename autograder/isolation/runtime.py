@@ -29,10 +29,10 @@ from pathlib import Path
 
 import pathtracer
 
-from .skeleton import STUBS, stub_source
+from ..skeleton import STUBS, stub_source
 
 PATHTRACER = Path(pathtracer.__file__).resolve().parent
-SANDBOX = Path(__file__).resolve().parent / "sandbox"
+SANDBOX = Path(__file__).resolve().parents[1] / "sandbox"
 SANDBOX_FILES = ("__init__.py", "child.py", "wire.py", "seccomp.py", "syscalls.py", "landlock.py",
                  "privileges.py")
 #: Solution code that is not a stub target of the skeleton: left out of the student runtime.
@@ -150,7 +150,7 @@ def public_solution_runtimes() -> list:
 
 
 def main(argv=None) -> int:
-    """``python -m autograder.runtime DEST [--flavour student|solution]``."""
+    """``python -m autograder.isolation.runtime DEST [--flavour student|solution]``."""
     parser = argparse.ArgumentParser(description="write the student runtime")
     parser.add_argument("dest")
     parser.add_argument("--flavour", choices=FLAVOURS, default="student")

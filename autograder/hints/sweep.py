@@ -10,7 +10,7 @@ references. A rule names a cause only where the sweep's evidence is specific to 
   cosine pdf); near 2, evenly, with shadow rays and no MIS (emission counted twice); near 1/N
   evenly with N lights (the light choice's 1/N); a tile pattern that two constants, one per
   light, explain (the light choice's pdf); a ratio that follows one factor of the shadow ray's
-  estimate (:mod:`autograder.hints_geometry`); a loss that is never a gain, uneven, and
+  estimate (:mod:`autograder.hints.geometry`); a loss that is never a gain, uneven, and
   follows none of them (shadow rays blocked); right where Mitsuba's direct light is, with
   extra light only where it has none (a two-sided emitter lights what is behind it);
 * depths 1-3 right but the full image wrong beyond what depth 3 allows: the longer paths,
@@ -29,7 +29,7 @@ import numpy as np
 from mitsuba_refs.verdicts.explain import Hint
 from pathtracer.core.color import LUMINANCE
 
-from . import hints_geometry as geo
+from . import geometry as geo
 
 #: Integrators with shadow rays / with MIS / with Russian roulette / with paths beyond max_depth 2.
 SHADOW_RAY_INTEGRATORS = ("path", "direct", "path_nee")
@@ -266,7 +266,7 @@ def direct_light(ev, added, fields, n_lights, numbers) -> list:
 
 
 def sweep_hints(ev, n_lights, depth_tolerance, off_by_one_tolerance) -> list:
-    """Hints from the per-bounce sweep of ``ev`` (an :class:`autograder.hints.Evidence`)."""
+    """Hints from the per-bounce sweep of ``ev`` (an :class:`autograder.hints.explain.Evidence`)."""
     sweep, check = ev.sweep, ev.check
     if not sweep:
         return []
