@@ -29,6 +29,7 @@ from mitsuba_refs.report.html import write_html
 from mitsuba_refs.report.junit import write_junit
 from mitsuba_refs.report.outputs import write_outputs
 from mitsuba_refs.report.results import RESULTS_SCHEMA, SCHEMA, comparison_record, load_results, write_json
+from mitsuba_refs.report.wording import verdict_line
 from mitsuba_refs.verdicts.compare import compare, render_ours
 from mitsuba_refs.verdicts.detect import mean_line
 from pathtracer.io.exr import read_mean_variance
@@ -78,7 +79,7 @@ def test_record_holds_the_comparisons_values(agreeing, tmp_path):
     mean = record["verdicts"]["mean"]
     assert mean["status"] == ("agree" if agreeing.mean.agree else "disagree")
     assert mean["p_value"] == agreeing.mean.p_value and mean["line"] == mean_line(agreeing)
-    assert mean["line"].startswith(agreeing.mean.verdict)
+    assert mean["line"].startswith(verdict_line(agreeing.mean))
     assert mean["detectable_bias"]["bias"] == agreeing.detectable.bias
     assert mean["rel_bias"] == agreeing.mean.rel_bias
     assert mean["rel_bias_ci"] == list(agreeing.mean.rel_bias_ci)

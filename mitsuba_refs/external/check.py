@@ -241,8 +241,7 @@ class FaultyImages:
     p_value = 0.0
 
     def __init__(self, lines, alpha):
-        self.faults, self.alpha = list(lines), alpha
-        self.verdict = "disagree: the renderer's images hold impossible values: " + "; ".join(lines)
+        self.faults, self.alpha = list(lines), alpha    # the line: report.wording.mean_verdict
 
 
 def faulty(scene, label, params, spp, lines, alpha) -> Comparison:

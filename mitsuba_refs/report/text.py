@@ -5,27 +5,16 @@ import math
 
 from .encoding import to_float
 from .results import record_path
+from .wording import percent
 
-__all__ = ["format_p", "interval_text", "detectable_text", "suite_name", "picture_lines",
+__all__ = ["interval_text", "detectable_text", "suite_name", "picture_lines",
            "run_summary"]
-
-
-def format_p(value) -> str:
-    """A p-value as the verdict lines write it (``0.53``, ``2.2e-26``, ``<1e-300``); ``–`` for none."""
-    if value is None:
-        return "–"
-    p = to_float(value)
-    if math.isnan(p):
-        return "–"
-    if p >= 0.01:
-        return f"{p:.2f}"
-    return f"{p:.1e}" if p > 0 else "<1e-300"
 
 
 def _pair(values, percent: bool = False, digits: int = 3) -> str:
     low, high = (to_float(v) for v in values)
     if percent:
-        return f"[{100 * low:+.1f}%, {100 * high:+.1f}%]"
+        return f"[{percent(low, signed=True, minus='-')}, {percent(high, signed=True, minus='-')}]"
     return f"[{low:.{digits}f}, {high:.{digits}f}]"
 
 
@@ -35,7 +24,7 @@ def interval_text(name: str, entry: dict) -> str:
         return ""
     if name == "mean":
         level = to_float(entry.get("ci_level", 0.95))
-        text = (f"relative bias {100 * to_float(entry['rel_bias']):+.1f}% "
+        text = (f"relative bias {percent(to_float(entry['rel_bias']), signed=True, minus='-')} "
                 f"{_pair(entry['rel_bias_ci'], percent=True)} ({100 * level:.0f}% CI)")
         return text + detectable_text(entry.get("detectable_bias"))
     if name == "variance":

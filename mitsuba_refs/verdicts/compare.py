@@ -33,18 +33,20 @@ from ..reference import config
 from ..reference.cache import get_reference, scene_hash
 from ..reference.render import bounce_reference, resolve_scene, xml_defaults
 from ..reference.rfilter import pixel_value_counts, reference_correlation
+from ..report.wording import bounce_verdict, convergence_verdict, mean_line, status_text, variance_verdict
 from ..stats import (
+    MeanTestOptions,
+    VarianceTestOptions,
     compare_means,
     compare_variances,
     convergence_law,
-    first_diverging_bounce,
     image_mse_parts,
     rare_errors_dominate,
     reference_mse_floor,
 )
 from ..stats.mean import VARIANCE_BOUND
 from ..stats.variance import TooFewTiles
-from .detect import choose_spp, comparison_bound, mean_line, status_text
+from .detect import choose_spp, comparison_bound
 from .explain import hints
 from .hooks import RecordingRuns, WithOptions, mean_of
 
@@ -172,7 +174,7 @@ class Comparison:
         if self.rendered:
             lines.insert(1, f"  rendered:    {self.rendered}")
         if self.variance is not None:
-            lines.append(f"  variance:    {self.variance.verdict}")
+            lines.append(f"  variance:    {variance_verdict(self.variance)}")
         elif self.variance_skipped:
             lines.append(f"  variance:    {self.variance_skipped}")
         elif self.compares_variance:
@@ -180,7 +182,7 @@ class Comparison:
         else:
             lines.append(f"  variance:    {self.variance_not_applicable()}")
         if self.convergence is not None:
-            lines.append(f"  convergence: {self.convergence.verdict}")
+            lines.append(f"  convergence: {convergence_verdict(self.convergence)}")
         if self.bounce is not None:
             lines.append(f"  bounces:     {self.bounce[1]}")
         for hint in self.hints:
@@ -316,8 +318,8 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     result = Comparison(scene, name, params, spp,
                         compare_means(mean, variance, spp, reference.mean, reference.var,
                                       reference.n, alpha=alpha, max_var_ratio=bound,
-                                      pixel_correlation=correlation,
-                                      image_components=not splats, same_estimator=guard))
+                                      image_components=not splats,
+                                      options=MeanTestOptions(pixel_correlation=correlation, same_estimator=guard)))
     result.detectable = comparison_bound(reference, variance, spp, alpha=alpha, same=same,
                                          splats=splats, guard=guard)
     result.detect = choice
@@ -332,8 +334,8 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
     if same and (np.any(variance) or np.any(reference.var)):    # else both noiseless
         try:
             result.variance = compare_variances(variance, spp, reference.var, reference.n,
-                                                alpha=alpha, pixel_correlation=correlation,
-                                                mean_a=mean, mean_b=reference.mean)
+                                                alpha=alpha, mean_a=mean, mean_b=reference.mean,
+                                                options=VarianceTestOptions(pixel_correlation=correlation))
         except TooFewTiles as few:    # e.g. max_depth 1: noisy at a few edges only
             result.variance_skipped = f"not tested: {str(few).split(';')[0]} (a nearly " \
                                       "noiseless image; the mean test decides)"
@@ -347,7 +349,7 @@ def compare(scene: str, integrator="path", params: dict | None = None, *,
                                                 processes, RecordingRuns(render, runs, "bounces"),
                                                 log, options, resolution,
                                                 bounce_reference(ref_name), splats)
-        result.bounce = first_diverging_bounce(result.bounce_results)
+        result.bounce = bounce_verdict(result.bounce_results)
     result.runs = runs
     result.hints = hints(result)
     if out_dir is not None:
@@ -500,11 +502,8 @@ class ConvergenceParts:
         whole_floor = self.whole[1][0]    # the reference's share of the whole image's MSE
         law = convergence_law(np.array(self.ladder), mse, ref_mse_floor=whole_floor,
                               alpha=alpha, image_mean=float(reference.mean.mean()))
-        if rare:
-            note = (f"rare bright paths carry the error even with {top} replicas at the top "
-                    "level: this verdict is less reliable")
-            law = dataclasses.replace(law, warnings=law.warnings + (note,),
-                                      verdict=f"{law.verdict} [{note}]")
+        if rare:    # the verdict says it is less reliable (report.wording)
+            law = dataclasses.replace(law, rare_replicas=top)
         return law, mse
 
 
@@ -575,9 +574,9 @@ def localise_bounce(scene, integrator, name, params, spp, alpha, processes, rend
                                 processes=processes, max_depth=depth)
         results[depth] = compare_means(mean, variance, spp, reference.mean, reference.var,
                                        reference.n, alpha=alpha,
-                                       pixel_correlation=reference_correlation(reference),
                                        image_components=not (name in SPLATTING if splatting is None
-                                                             else splatting))
+                                                             else splatting),
+                                       options=MeanTestOptions(pixel_correlation=reference_correlation(reference)))
     return results
 
 
