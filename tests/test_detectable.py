@@ -23,13 +23,13 @@ from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.report.html import page
 from mitsuba_refs.report.junit import junit_tree
 from mitsuba_refs.report.results import comparison_record
-from mitsuba_refs.report.wording import verdict_line
+from mitsuba_refs.report.wording import mean_line, verdict_line
 from mitsuba_refs.stats import VARIANCE_BOUND, MeanTestOptions, compare_means, detectable_bias
 from mitsuba_refs.stats._tiles import noiseless_pixels
 from mitsuba_refs.stats.correlation import PixelCorrelation
 from mitsuba_refs.stats.detectable import MeanTestPower, detectable_global_bias
 from mitsuba_refs.verdicts.compare import compare, default_params
-from mitsuba_refs.verdicts.detect import WEAK_BIAS, Detect, is_weak, mean_line, mean_test_power, parse_bias, plan
+from mitsuba_refs.verdicts.detect import WEAK_BIAS, Detect, is_weak, mean_test_power, parse_bias, plan
 from tests.budget import ALPHA
 
 LEVEL = 1e-3          # the comparison's alpha (compare's default)

@@ -29,9 +29,8 @@ from mitsuba_refs.report.html import write_html
 from mitsuba_refs.report.junit import write_junit
 from mitsuba_refs.report.outputs import write_outputs
 from mitsuba_refs.report.results import RESULTS_SCHEMA, SCHEMA, comparison_record, load_results, write_json
-from mitsuba_refs.report.wording import verdict_line
+from mitsuba_refs.report.wording import mean_line, verdict_line
 from mitsuba_refs.verdicts.compare import compare, render_ours
-from mitsuba_refs.verdicts.detect import mean_line
 from pathtracer.io.exr import read_mean_variance
 
 SETTINGS = {"spp": 64, "convergence": True, "ladder": (1, 4, 16), "replicas": 2, "processes": 1}

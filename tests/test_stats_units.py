@@ -419,7 +419,7 @@ def test_detectable_bias_closed_form_on_a_uniform_image():
     from scipy import special
 
     from mitsuba_refs.stats import detectable_bias, spp_for_bias
-    from mitsuba_refs.stats.power import bias_power, image_critical_z
+    from mitsuba_refs.stats.detectable import bias_power, image_critical_z
     P, v, nb = 64 * 64, 50.0, 4096
     mean, var = np.ones((64, 64, 3)), np.full((64, 64, 3), v)
     alpha = 4.8e-5

@@ -11,9 +11,9 @@ __all__ = ["interval_text", "detectable_text", "suite_name", "picture_lines",
            "run_summary"]
 
 
-def _pair(values, percent: bool = False, digits: int = 3) -> str:
+def _pair(values, as_percent: bool = False, digits: int = 3) -> str:
     low, high = (to_float(v) for v in values)
-    if percent:
+    if as_percent:
         return f"[{percent(low, signed=True, minus='-')}, {percent(high, signed=True, minus='-')}]"
     return f"[{low:.{digits}f}, {high:.{digits}f}]"
 
@@ -25,7 +25,7 @@ def interval_text(name: str, entry: dict) -> str:
     if name == "mean":
         level = to_float(entry.get("ci_level", 0.95))
         text = (f"relative bias {percent(to_float(entry['rel_bias']), signed=True, minus='-')} "
-                f"{_pair(entry['rel_bias_ci'], percent=True)} ({100 * level:.0f}% CI)")
+                f"{_pair(entry['rel_bias_ci'], as_percent=True)} ({100 * level:.0f}% CI)")
         return text + detectable_text(entry.get("detectable_bias"))
     if name == "variance":
         return f"variance ratio {to_float(entry['ratio']):.3f} {_pair(entry['ratio_ci'])}"

@@ -250,10 +250,11 @@ class MeanAgreement:
     ci_level: float = 0.95
     critical_z: float = math.nan
     significant: np.ndarray = None
-    shape: tuple = (0, 0)
-    max_var_ratio: float | None = None
-    bounded_z: np.ndarray | None = None
-    bounded_only: bool = False
+    # Not in the repr, which stays what it was before these fields (test logs print it).
+    shape: tuple = field(default=(0, 0), repr=False)
+    max_var_ratio: float | None = field(default=None, repr=False)
+    bounded_z: np.ndarray | None = field(default=None, repr=False)
+    bounded_only: bool = field(default=False, repr=False)
 
     def __bool__(self) -> bool:  # ``if compare_means(...):`` reads naturally
         return bool(self.agree)
