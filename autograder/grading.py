@@ -36,6 +36,7 @@ import numpy as np
 
 from mitsuba_refs.reference import config as refs_config
 from mitsuba_refs.reference.cache import get_reference
+from mitsuba_refs.report.wording import convergence_verdict, mean_verdict, variance_policy_verdict
 from mitsuba_refs.settings import Settings
 from mitsuba_refs.stats import MAX_VARIANCE_RATIO, ErrorBudget, compare_means
 from mitsuba_refs.verdicts.compare import (
@@ -478,20 +479,20 @@ def score_parts(check: Check, comparison) -> list:
     parts = []
     for name, points in check.parts:
         if name == "mean":
-            ok, detail = mean_ok, comparison.mean.verdict
+            ok, detail = mean_ok, mean_verdict(comparison.mean)
         elif name == "variance":
             test = comparison.variance
             ok = mean_ok and test is not None and bool(test.policy_agree)
             if test is not None and test.max_ratio != MAX_VARIANCE_RATIO:
                 raise ValueError(f"variance compared against {test.max_ratio}x, the policy is "
                                  f"{MAX_VARIANCE_RATIO}x")
-            detail = test.policy_verdict if test is not None else "not compared"
+            detail = variance_policy_verdict(test) if test is not None else "not compared"
             if not mean_ok:
                 detail = "needs a right mean first; " + detail
         elif name == "convergence":
             test = comparison.convergence
             ok = mean_ok and test is not None and bool(test.passed)
-            detail = test.verdict if test is not None else "not run"
+            detail = convergence_verdict(test) if test is not None else "not run"
             if not mean_ok:
                 detail = "needs a right mean first; " + detail
         else:

@@ -12,16 +12,17 @@
    the reference image at the real per-pixel variances (4096 and ``check.spp`` samples),
    multiplies the test by ``1+b`` and runs the grader's :func:`compare_means` on them;
 3. the gross-error bound: the observed image-mean deviation that fails the mean part whatever
-   the submission's own variance (:func:`mitsuba_refs.stats.power.gross_error_bound`);
+   the submission's own variance (:func:`mitsuba_refs.stats.detectable.gross_error_bound`);
 4. optionally (``--renders K``) on real renders of the reference solution at ``check.spp``,
    scaled by ``1+b`` and compared with the committed reference (K seeds; slow).
 
 A light tracer's check (``mitsuba_refs.verdicts.compare.SPLATTING``) has no whole-image components:
 its pixels are correlated across the image (docs/statistics.md, section 8), so the tiles
 decide alone, with their own variance and with the bounded one. Its analytic bound is
-:func:`tile_detectable_bias` (each tile's best channel, Bonferroni over the two components,
-tiles and channels), its injection runs ``compare_means`` without the image components, and
-its gross-error bound is the tiles' (:func:`mitsuba_refs.stats.power.tile_gross_error_bound`).
+:func:`mitsuba_refs.stats.detectable.tile_detectable_bias` (each tile's best channel,
+Bonferroni over the two components, tiles and channels), its injection runs ``compare_means``
+without the image components, and its gross-error bound is the tiles'
+(:func:`mitsuba_refs.stats.detectable.tile_gross_error_bound`).
 """
 from __future__ import annotations
 
@@ -33,11 +34,15 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import norm
 
 from mitsuba_refs.reference.cache import get_reference
-from mitsuba_refs.stats import VARIANCE_BOUND, compare_means, detectable_bias
-from mitsuba_refs.stats.power import gross_error_bound, tile_gross_error_bound
+from mitsuba_refs.stats import VARIANCE_BOUND, compare_means
+from mitsuba_refs.stats.detectable import (
+    detectable_bias,
+    gross_error_bound,
+    tile_detectable_bias,
+    tile_gross_error_bound,
+)
 from mitsuba_refs.stats.replicas import replica_moments
 from mitsuba_refs.verdicts.compare import SPLATTING, reference_integrator, render_ours
 
@@ -60,48 +65,6 @@ def reference_of(check):
 def splats(check) -> bool:
     """Whether ``check`` grades an integrator that splats (its mean test has tiles only)."""
     return check.integrator in SPLATTING
-
-
-def tile_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float, tile: int = 8,
-               components: int = 2) -> float:
-    """Probability that the tiles-only mean test rejects an image ``(1+b)`` times the truth.
-
-    Each tile rejects when its best channel's ``|z|`` (own variance) exceeds the Bonferroni
-    critical value over the test's ``components`` (own-variance tiles and bounded-variance
-    tiles), tiles and channels (the real test's Šidák and its correlated-channel maximum have
-    a smaller one) and the tiles are independent: a lower bound on the power, so the bias
-    :func:`tile_detectable_bias` returns is an upper bound.
-    """
-    mean = np.asarray(ref_mean, dtype=np.float64)
-    per_sample = np.maximum(np.asarray(ref_var, dtype=np.float64), 0.0)
-    h, w = mean.shape[0] - mean.shape[0] % tile, mean.shape[1] - mean.shape[1] % tile
-
-    def tiles(x):
-        return x[:h, :w].reshape(h // tile, tile, w // tile, tile, -1).sum(axis=(1, 3))
-    signal = tiles(mean)
-    se = np.sqrt(tiles(per_sample) * (1.0 + b) ** 2 / n_test + tiles(per_sample) / ref_n)
-    informative = (se > 0).any(axis=2)
-    m = max(int(informative.sum()), 1)
-    critical = norm.isf(alpha / (components * 2 * 3 * m))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        shift = np.where(se > 0, np.abs(b * signal) / se, 0.0).max(axis=2)[informative]
-    miss = norm.cdf(critical - shift)
-    return float(1.0 - np.prod(miss))
-
-
-def tile_detectable_bias(ref_mean, ref_var, ref_n, n_test, *, alpha: float, power: float = 0.95,
-                         sign: int = +1) -> float:
-    """Smallest relative bias (sign ``sign``) the tiles-only test detects with probability
-    >= ``power`` by :func:`tile_power` (an upper bound); ``inf`` if none up to 100 %."""
-    def enough(size):
-        return tile_power(sign * size, ref_mean, ref_var, ref_n, n_test, alpha=alpha) >= power
-    lo, hi = 0.0, 1.0 - 1e-9
-    if not enough(hi):
-        return math.inf
-    while hi - lo > 1e-6:
-        mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if enough(mid) else (mid, hi)
-    return hi
 
 
 @dataclass(frozen=True)

@@ -35,6 +35,7 @@ import time
 import numpy as np
 
 from mitsuba_refs.reference.cache import get_reference
+from mitsuba_refs.report.wording import mean_region, verdict_line
 from mitsuba_refs.stats import compare_means, image_mse
 from pathtracer import load_scene, render
 from pathtracer.bsdfs.shading import is_delta
@@ -209,8 +210,8 @@ def run_light(light, args, bar):
         rows[name] = dict(
             curve=curve, seconds=curve[-1]["seconds"], spp=pool.n, rmse=curve[-1]["rmse"],
             mse=mse, efficiency=1.0 / (mse * curve[-1]["seconds"]),
-            agree=bool(test.agree), p_value=test.p_value, verdict=test.verdict,
-            worst_tile=None if worst is None else list(worst[:2]), worst_region=test.worst_region,
+            agree=bool(test.agree), p_value=test.p_value, verdict=verdict_line(test),
+            worst_tile=None if worst is None else list(worst[:2]), worst_region=mean_region(test),
             worst_in_caustic=bool(worst is not None
                                   and (tile_pixels(worst, test.tile, floor.shape) & caustic).any()),
             image=pool.mean)

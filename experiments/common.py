@@ -18,7 +18,6 @@ import math
 import multiprocessing
 import os
 import sys
-import time
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -392,10 +391,3 @@ def run_tasks(tasks, store: ResultStore, on_result, *, workers=None, dask=None, 
     finally:
         bar.close()
     return store
-
-
-def timed(fn, *args, **kwargs):
-    """(result, seconds) of a call."""
-    start = time.perf_counter()
-    value = fn(*args, **kwargs)
-    return value, time.perf_counter() - start

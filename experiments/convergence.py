@@ -25,6 +25,7 @@ import sys
 
 import numpy as np
 
+from mitsuba_refs.report.wording import verdict_line
 from mitsuba_refs.stats import compare_means, convergence_law, effective_rows, rare_errors_dominate, reference_mse_floor
 
 from . import common
@@ -127,7 +128,7 @@ def summary_rows(results, ladder):
             rmse_ratio_lo=law.ratio_ci[0] if law else math.nan,
             rmse_ratio_hi=law.ratio_ci[1] if law else math.nan,
             convergence_passed=law.passed if law else None,
-            convergence_verdict=law.verdict if law else "",
+            convergence_verdict=verdict_line(law) if law else "",
             mean_agrees=agreement.get("agree"),
             mean_p=agreement.get("p_value"),
             mean_rel_bias=agreement.get("rel_bias"),
@@ -257,7 +258,7 @@ def main(argv=None) -> int:
             agreement = compare_means(output["mean"], output["variance"], task.spp,
                                       ref.mean, ref.var, ref.n, alpha=args.alpha)
             record.update(agree=agreement.agree, p_value=agreement.p_value,
-                          rel_bias=agreement.rel_bias, verdict=agreement.verdict)
+                          rel_bias=agreement.rel_bias, verdict=verdict_line(agreement))
         return record
 
     store = common.ResultStore(out / "results.jsonl")

@@ -31,6 +31,7 @@ import time
 
 import numpy as np
 
+from mitsuba_refs.report.wording import verdict_line
 from mitsuba_refs.stats import compare_means
 from pathtracer import load_scene
 from pathtracer import render as _render
@@ -207,7 +208,7 @@ def part_hemisphere(args, bar):
                              alpha=args.alpha)
         for row in rows[-2:]:
             row["same_mean_as_cosine"] = same.agree
-            row["same_mean_verdict"] = same.verdict
+            row["same_mean_verdict"] = verdict_line(same)
     for integrator in ("path_bsdf", "path"):
         pair = [r for r in rows if r["integrator"] == integrator]
         for r in pair:
@@ -264,7 +265,7 @@ def part_roulette(args, bar):
             agreement = compare_means(r.mean, r.variance, r.spp, reference.mean, reference.var, reference.n,
                                       alpha=args.alpha)
             row.update(agrees_with_mitsuba=agreement.agree, rel_bias=agreement.rel_bias,
-                       mean_verdict=agreement.verdict)
+                       mean_verdict=verdict_line(agreement))
         rows.append(row)
         bar.update()
     for r in rows:

@@ -21,7 +21,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from mitsuba_refs.reference.rfilter import filter_metadata
-from mitsuba_refs.stats import clopper_pearson, compare_means, compare_variances
+from mitsuba_refs.stats import MeanTestOptions, VarianceTestOptions, clopper_pearson, compare_means, compare_variances
 from mitsuba_refs.stats.correlation import pixel_correlation
 from mitsuba_refs.stats.simulate import make_scene
 from mitsuba_refs.stats.simulate_filtered import render_filtered
@@ -52,8 +52,9 @@ def tests(kind: str, seeds: int, size: int, n_test: int, n_ref: int) -> None:
         mb, vb = render_filtered(scene, rfilter, n_ref, rng)
         for label, corr in (("corrected", pixel_correlation(rfilter)), ("independent", None)):
             mean = compare_means(ma, va, n_test, mb, vb, n_ref, alpha=0.05, max_var_ratio=4,
-                                 pixel_correlation=corr)
-            var = compare_variances(va, n_test, vb, n_ref, alpha=0.05, pixel_correlation=corr)
+                                 options=MeanTestOptions(pixel_correlation=corr))
+            var = compare_variances(va, n_test, vb, n_ref, alpha=0.05,
+                                    options=VarianceTestOptions(pixel_correlation=corr))
             for name, p in (("mean", mean.p_value), ("mean tiles", mean.scale_p_values["8px"]),
                             ("variance", var.p_value), ("variance global", var.global_p),
                             ("variance tiles", var.tile_p)):

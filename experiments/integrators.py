@@ -37,6 +37,7 @@ import numpy as np
 
 from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.reference.config import BUILTIN_SCENES
+from mitsuba_refs.report.wording import verdict_line
 from mitsuba_refs.verdicts.compare import CLOSEST_ESTIMATOR
 from pathtracer import load_scene
 
@@ -79,7 +80,7 @@ def compare_one(scene, name, reference, test_reference, args, seed) -> dict:
     test = caustics.verdict(pool, test_reference, everywhere, name, args.alpha)
     return dict(ran=True, seconds=seconds, spp=spp, **errors,
                 efficiency=1.0 / (errors["mse"] * seconds), agree=bool(test.agree),
-                p_value=test.p_value, verdict=test.verdict)
+                p_value=test.p_value, verdict=verdict_line(test))
 
 
 def run_scene(scene_name, args, bar) -> dict:

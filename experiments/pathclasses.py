@@ -29,6 +29,7 @@ import sys
 import numpy as np
 
 from mitsuba_refs.reference.cache import ReferenceUnavailable, get_reference
+from mitsuba_refs.report.wording import verdict_line
 from mitsuba_refs.stats import compare_means
 from pathtracer import load_scene, render
 from pathtracer.core.pathclasses import LECTURE_CLASSES, compile_classes, is_partition
@@ -199,13 +200,13 @@ def main(argv=None) -> int:
         render_seconds=result["seconds"],
         bounces=[dict(expression=r["expression"], mitsuba=r["mitsuba_label"], agree=r["agreement"].agree,
                       p_value=r["agreement"].p_value, rel_bias=r["agreement"].rel_bias,
-                      verdict=r["agreement"].verdict) for r in bounce_rows]))
+                      verdict=verdict_line(r["agreement"])) for r in bounce_rows]))
     print(f"{args.scene}: {len(expressions)} classes in {result['seconds']:.1f} s")
     for row in table:
         print(f"  {row['expression']:<12} {100 * row['share']:6.2f} % of the image")
     print(f"partition {' | '.join(PARTITION)}: {why}; max |sum - full| = {error:.2e}")
     for r in bounce_rows:
-        print(f"  {r['expression']:<6} vs Mitsuba {r['mitsuba_label']}: {r['agreement'].verdict}")
+        print(f"  {r['expression']:<6} vs Mitsuba {r['mitsuba_label']}: {verdict_line(r['agreement'])}")
     print(f"wrote {', '.join(f for f in figures + bounce_figures if f.endswith('.png'))}")
     return 0 if ok else 1
 

@@ -10,7 +10,8 @@ are compared with them by the tile-aggregated z test of
 import numpy as np
 import pytest
 
-from mitsuba_refs.stats import compare_means
+from mitsuba_refs.report.wording import verdict_line
+from mitsuba_refs.stats import MeanTestOptions, compare_means
 from pathtracer import INTEGRATORS, load_scene, render
 from pathtracer.sensors.perspective import camera_rays
 from pathtracer.shapes.intersect import intersect
@@ -40,8 +41,8 @@ def footprint_average(scene, radiance_at, sub=4):
 
 def assert_matches(result, expected):
     agreement = compare_means(result.mean, result.variance, result.spp,
-                              expected, np.zeros_like(expected), 1 << 30, tile=8, alpha=ALPHA)
-    assert agreement.agree, agreement.verdict
+                              expected, np.zeros_like(expected), 1 << 30, alpha=ALPHA, options=MeanTestOptions(tile=8))
+    assert agreement.agree, verdict_line(agreement)
 
 
 def polygon_irradiance(x, vertices, normal, radiance):

@@ -28,6 +28,7 @@ import pytest
 from autograder import grading, results
 from autograder.contract import refusal
 from autograder.isolation.process import Limits, StudentProcess
+from mitsuba_refs.report.wording import variance_policy_verdict, verdict_line
 
 ROOT = Path(__file__).resolve().parent.parent
 ZOO = ROOT / "tests" / "bugzoo"
@@ -304,7 +305,7 @@ def test_misstated_variance_scores_zero_on_the_part_it_attacks(path):
     believed_variance = compare_variances(variance, check.spp, reference.var, reference.n,
                                           alpha=alpha)
     believed = {"mean": bool(believed_mean.agree), "variance": bool(believed_variance.policy_agree)}
-    assert believed[expect["zero"][0]], (believed_mean.verdict, believed_variance.policy_verdict)
+    assert believed[expect["zero"][0]], (verdict_line(believed_mean), variance_policy_verdict(believed_variance))
 
 
 def test_student_runtime_has_no_solution(tmp_path):

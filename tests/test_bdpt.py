@@ -14,7 +14,8 @@ import pytest
 import pathtracer
 from experiments.caustics import first_hits
 from mitsuba_refs.reference.cache import get_reference
-from mitsuba_refs.stats import compare_means
+from mitsuba_refs.report.wording import verdict_line
+from mitsuba_refs.stats import MeanTestOptions, compare_means
 from pathtracer import load_scene, render
 from pathtracer.cli import main
 from pathtracer.core.rng import RandomStream, sample_keys
@@ -69,10 +70,9 @@ def test_each_unweighted_strategy_estimates_the_paths_of_its_length(unweighted_b
     strategies = strategies_of_length(k)
     for strategy in strategies:
         mean, variance = unweighted_box[strategy]
-        verdict = compare_means(mean, variance, 64, expected, expected_var, upper.n,
-                                tile=STRATEGY_TILE, alpha=ALPHA / len(strategies),
-                                image_components=False)
-        assert verdict.agree, f"strategy {strategy}: {verdict.verdict}"
+        verdict = compare_means(mean, variance, 64, expected, expected_var, upper.n, alpha=ALPHA / len(strategies),
+                                image_components=False, options=MeanTestOptions(tile=STRATEGY_TILE))
+        assert verdict.agree, f"strategy {strategy}: {verdict_line(verdict)}"
 
 
 def test_weighted_strategy_images_sum_to_the_render():
@@ -124,7 +124,7 @@ def test_bdpt_finds_the_point_light_caustic():
     verdict = compare_means(ours.mean * floor, ours.variance * floor, ours.spp,
                             reference.mean * floor, reference.var * floor, reference.n,
                             alpha=ALPHA, image_components=False)
-    assert verdict.agree, verdict.verdict
+    assert verdict.agree, verdict_line(verdict)
 
 
 @pytest.mark.statistical(assertions=1)

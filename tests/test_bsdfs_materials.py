@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from mitsuba_refs.report.wording import verdict_line
 from pathtracer.bsdfs import (
     Conductor,
     Plastic,
@@ -408,4 +409,4 @@ def test_smallpt_renders_every_material_as_path_does():
     path = render(scene, "path", spp=256, seed=4, processes=1)
     agreement = compare_means(smallpt.mean, smallpt.variance, smallpt.spp,
                               path.mean, path.variance, path.spp, alpha=ALPHA)
-    assert agreement.agree, agreement.verdict
+    assert agreement.agree, verdict_line(agreement)

@@ -17,6 +17,7 @@ import pytest
 from scipy import stats
 
 from mitsuba_refs.reference.cache import get_reference
+from mitsuba_refs.report.wording import verdict_line
 from mitsuba_refs.stats import VARIANCE_BOUND, compare_means, compare_variances
 from mitsuba_refs.verdicts.compare import default_params, render_ours
 from tests.budget import ALPHA
@@ -83,7 +84,7 @@ def test_two_percent_global_bias_is_rejected(reference, deep_render):
                          alpha=ALPHA).agree
     biased = compare_means(mean * 1.02, var * 1.02 ** 2, 1024, reference.mean, reference.var,
                            reference.n, alpha=ALPHA)
-    assert not biased.agree, biased.verdict
+    assert not biased.agree, verdict_line(biased)
     assert 0.01 < biased.rel_bias < 0.03
 
 
@@ -94,6 +95,6 @@ def test_three_percent_regional_bias_is_rejected(reference, deep_render):
     mean[region] *= 1.03
     var[region] *= 1.03 ** 2
     result = compare_means(mean, var, 1024, reference.mean, reference.var, reference.n, alpha=ALPHA)
-    assert not result.agree, result.verdict
+    assert not result.agree, verdict_line(result)
     worst_row, worst_col = result.worst_tile[0], result.worst_tile[1]
-    assert 3 <= worst_row <= 4 and 1 <= worst_col <= 2, result.verdict
+    assert 3 <= worst_row <= 4 and 1 <= worst_col <= 2, verdict_line(result)

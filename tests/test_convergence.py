@@ -13,6 +13,7 @@ RMSE(N)/RMSE(4N) with 2, and the MSE must show no bias floor
 import numpy as np
 import pytest
 
+from mitsuba_refs.report.wording import verdict_line
 from mitsuba_refs.verdicts.compare import CONVERGENCE_LADDER, check_convergence
 from pathtracer.integrators.path import PathIntegrator
 from tests.budget import ALPHA
@@ -28,7 +29,7 @@ REPLICAS = 2
 def test_convergence_law(scene, integrator):
     law, mse = check_convergence(scene, integrator, alpha=ALPHA, processes=2, ladder=LADDER,
                                  replicas=REPLICAS, options=integrator_options(integrator))
-    assert law.passed, f"{law.verdict}\nMSE per replica x spp {LADDER}:\n{mse}"
+    assert law.passed, f"{verdict_line(law)}\nMSE per replica x spp {LADDER}:\n{mse}"
 
 
 @pytest.mark.parametrize("scene,integrator", sorted(NOISELESS))
@@ -57,4 +58,4 @@ def test_convergence_catches_reused_random_numbers():
     # plateaus: the full default ladder (up to 64 spp) is needed to see the floor.
     law, mse = check_convergence("cornell-box", ReusedRandomNumbers(), alpha=ALPHA, processes=2,
                                  ladder=CONVERGENCE_LADDER, replicas=REPLICAS)
-    assert not law.passed, f"{law.verdict}\n{mse}"
+    assert not law.passed, f"{verdict_line(law)}\n{mse}"

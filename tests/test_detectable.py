@@ -1,7 +1,7 @@
 """What a comparison could see: the detectable global bias of its mean test, weak agreements,
 and ``--detect`` (mitsuba_refs.stats.detectable, mitsuba_refs.verdicts.detect).
 
-The bound is checked against the closed forms it extends (stats.power, the grader's tile
+The bound is checked against the closed forms it extends (stats.detectable's closed forms, the tile
 bound) and, by injection, against the mean test itself: renders drawn around committed
 references at their per-pixel variances (fixed seeds), scaled by ``1+b`` at the printed bound,
 are rejected as often as a detection probability of 0.95 says, and at half the bound far less
@@ -16,19 +16,19 @@ import numpy as np
 import pytest
 from scipy import stats as sps
 
-from autograder.power import tile_detectable_bias
 from mitsuba_refs.cli.main import main
 from mitsuba_refs.errors import RefsInputError
 from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.report.html import page
 from mitsuba_refs.report.junit import junit_tree
 from mitsuba_refs.report.results import comparison_record
-from mitsuba_refs.stats import VARIANCE_BOUND, compare_means, detectable_bias
+from mitsuba_refs.report.wording import mean_line, verdict_line
+from mitsuba_refs.stats import VARIANCE_BOUND, MeanTestOptions, compare_means, detectable_bias
 from mitsuba_refs.stats._tiles import noiseless_pixels
 from mitsuba_refs.stats.correlation import PixelCorrelation
-from mitsuba_refs.stats.detectable import MeanTestPower, detectable_global_bias
+from mitsuba_refs.stats.detectable import MeanTestPower, detectable_global_bias, tile_detectable_bias
 from mitsuba_refs.verdicts.compare import compare, default_params
-from mitsuba_refs.verdicts.detect import WEAK_BIAS, Detect, is_weak, mean_line, mean_test_power, parse_bias, plan
+from mitsuba_refs.verdicts.detect import WEAK_BIAS, Detect, is_weak, mean_test_power, parse_bias, plan
 from tests.budget import ALPHA
 
 LEVEL = 1e-3          # the comparison's alpha (compare's default)
@@ -42,7 +42,7 @@ def reference(scene, integrator="path"):
 
 def test_image_component_is_the_closed_form_of_stats_power():
     """Without tiles that see more (a uniform image: every tile as noisy as the image), the
-    bound is stats.power.detectable_bias with the test's variance as a ratio."""
+    bound is stats.detectable.detectable_bias with the test's variance as a ratio."""
     mean = np.full((32, 32, 3), 0.5)
     var = np.full((32, 32, 3), 4.0)
     for ratio in (1.0, 3.0):
@@ -63,7 +63,8 @@ def test_the_heavy_tail_guard_moves_only_the_darker_bound_by_its_closed_form():
     from scipy import optimize
     mean, var, n_a, n_b = np.full((32, 32, 3), 0.5), np.full((32, 32, 3), 4.0), 64, 4096
     plain = detectable_global_bias(mean, var, n_b, var, n_a, alpha=LEVEL)
-    guarded = detectable_global_bias(mean, var, n_b, var, n_a, alpha=LEVEL, same_estimator=True)
+    guarded = detectable_global_bias(mean, var, n_b, var, n_a, alpha=LEVEL,
+                                     options=MeanTestOptions(same_estimator=True))
     assert guarded.brighter == pytest.approx(plain.brighter, rel=1e-9)
     crit = MeanTestPower(mean, var, var, alpha=LEVEL).image_crit
     pixels = 32 * 32
@@ -93,16 +94,17 @@ def test_the_heavy_tail_guard_keeps_a_short_render_that_missed_its_rare_samples(
     dark = 0.95 * truth
     plain = compare_means(dark, 0.3 * ref_var, 64, ref, ref_var, 4096, alpha=LEVEL)
     guarded = compare_means(dark, 0.3 * ref_var, 64, ref, ref_var, 4096, alpha=LEVEL,
-                            same_estimator=True)
+                            options=MeanTestOptions(same_estimator=True))
     assert not plain.agree and guarded.agree
     assert abs(guarded.image_z).max() < abs(plain.image_z).max() / 1.5
     noisy = [compare_means(dark, 3.0 * ref_var, 64, ref, ref_var, 4096, alpha=LEVEL,
-                           same_estimator=guard).image_z for guard in (False, True)]
+                           options=MeanTestOptions(same_estimator=guard)).image_z
+             for guard in (False, True)]
     np.testing.assert_array_equal(noisy[0], noisy[1])
 
 
 def test_tiles_only_bound_is_the_graders_on_the_light_reference():
-    """A splatting render's bound is the tiles' (autograder.power.tile_detectable_bias, an
+    """A splatting render's bound is the tiles' (stats.detectable.tile_detectable_bias, an
     independent implementation: Bonferroni where this one uses Šidák, so nearly equal)."""
     ref = reference("cornell-box", "light")
     bound = detectable_global_bias(ref.mean, ref.var, ref.n, ref.var, 64, alpha=LEVEL,
@@ -119,12 +121,12 @@ def test_a_filtered_film_changes_the_tiles_not_the_image_sums():
     tent = PixelCorrelation((0.25, 1.0, 0.25))
     share = tent.within_tile_share(8)
     box, filtered = (detectable_global_bias(ref.mean, ref.var, ref.n, ref.var, 64, alpha=LEVEL,
-                                            image_components=False, pixel_correlation=c)
+                                            image_components=False, options=MeanTestOptions(pixel_correlation=c))
                      for c in (None, tent))
     assert filtered.brighter < box.brighter
     assert filtered.brighter / box.brighter == pytest.approx(math.sqrt(share), rel=0.02)
     model_box = MeanTestPower(ref.mean, ref.var, ref.var, alpha=LEVEL)
-    model_tent = MeanTestPower(ref.mean, ref.var, ref.var, alpha=LEVEL, pixel_correlation=tent)
+    model_tent = MeanTestPower(ref.mean, ref.var, ref.var, alpha=LEVEL, options=MeanTestOptions(pixel_correlation=tent))
     assert model_box._image_power(0.01, 64, 4096) == model_tent._image_power(0.01, 64, 4096)
 
 
@@ -167,7 +169,7 @@ def injected(b, ref, test_var, n, *, same, splats, seeds, seed):
         test = scaled * (truth + sd_test * rng.standard_normal(shape))
         result = compare_means(test, test_var * (1.0 + b) ** 2, n, simulated_ref, v, ref.n,
                                alpha=LEVEL, max_var_ratio=VARIANCE_BOUND if same else None,
-                               image_components=not splats, same_estimator=same)
+                               image_components=not splats, options=MeanTestOptions(same_estimator=same))
         rejected += not result.agree
     return rejected
 
@@ -194,7 +196,7 @@ def test_an_image_scaled_at_the_printed_bound_fails_with_probability_095(case):
     test_var = ratio * np.maximum(np.asarray(ref.var, dtype=np.float64), 0.0)
     bound = detectable_global_bias(ref.mean, ref.var, ref.n, test_var, 64, alpha=LEVEL,
                                    max_var_ratio=VARIANCE_BOUND if same else None,
-                                   image_components=not splats, same_estimator=same)
+                                   image_components=not splats, options=MeanTestOptions(same_estimator=same))
     need = int(sps.binom.ppf(ALPHA, 100, 0.95))
     most = int(sps.binom.isf(ALPHA, 50, 0.5))
     for k, (sign, b) in enumerate(((1, bound.brighter), (-1, bound.darker))):
@@ -224,7 +226,7 @@ def test_every_mean_verdict_says_what_it_could_see():
     bound = result.detectable
     assert result.agree and not is_weak(result) and bound.bias < WEAK_BIAS
     line = mean_line(result)
-    assert line.startswith(result.mean.verdict)
+    assert line.startswith(verdict_line(result.mean))
     assert f"+{100 * bound.brighter:.1f}% / \u2212{100 * bound.darker:.1f}%" in line
     assert "with probability 0.95 (alpha 0.001)" in line
     report = result.report()

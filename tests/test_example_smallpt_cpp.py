@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mitsuba_refs.report.wording import verdict_line
 from tests.budget import ALPHA
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -125,7 +126,7 @@ def test_agrees_with_our_smallpt(correct):
     """Against Mitsuba it is judged by ``mitsuba-refs check`` (tests/test_external_renderers.py)."""
     ours = verify.render_ours(OURS_SPP, seed=2)
     against_ours = verify.against_ours(correct, SPP, ours, OURS_SPP, ALPHA)
-    assert against_ours.agree, against_ours.verdict
+    assert against_ours.agree, verdict_line(against_ours)
 
 
 @pytest.mark.parametrize("bug", ["roulette", "fresnel-split"])
@@ -133,8 +134,8 @@ def test_injected_bug_is_rejected(binary, workdir, reference, bug):
     """Power, not a false-failure risk: fixed seeds, p ~ 1e-16 (roulette) and 1e-31."""
     image = verify.render_cpp(binary, workdir, SPP, seed=1, bug=bug)
     result = verify.against_mitsuba(image, SPP, reference, ALPHA)
-    assert not result.agree, result.verdict
-    assert result.rel_bias_ci[1] < 0, result.verdict     # both bugs lose energy
+    assert not result.agree, verdict_line(result)
+    assert result.rel_bias_ci[1] < 0, verdict_line(result)     # both bugs lose energy
 
 
 @pytest.mark.statistical(assertions=1)
@@ -143,4 +144,4 @@ def test_max_depth_agrees_with_our_smallpt(binary, workdir, max_depth):
     cpp = verify.render_cpp(binary, workdir, OURS_SPP, seed=10 + max_depth, max_depth=max_depth)
     ours = verify.render_ours(OURS_SPP, seed=20 + max_depth, max_depth=max_depth)
     result = verify.against_ours(cpp, OURS_SPP, ours, OURS_SPP, ALPHA)
-    assert result.agree, result.verdict
+    assert result.agree, verdict_line(result)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy import stats as sps
 
-from mitsuba_refs.stats import compare_means, compare_variances
+from mitsuba_refs.stats import MeanTestOptions, VarianceTestOptions, compare_means, compare_variances
 from mitsuba_refs.stats.correlation import pixel_correlation
 from mitsuba_refs.stats.simulate import make_scene
 from mitsuba_refs.stats.simulate_filtered import render_filtered
@@ -32,8 +32,9 @@ def _p_values(kind):
         ma, va = render_filtered(scene, rfilter, N_TEST, rng)
         mb, vb = render_filtered(scene, rfilter, N_REF, rng)
         mean = compare_means(ma, va, N_TEST, mb, vb, N_REF, alpha=ALPHA, max_var_ratio=4,
-                             pixel_correlation=correlation)
-        var = compare_variances(va, N_TEST, vb, N_REF, alpha=ALPHA, pixel_correlation=correlation)
+                             options=MeanTestOptions(pixel_correlation=correlation))
+        var = compare_variances(va, N_TEST, vb, N_REF, alpha=ALPHA,
+                                options=VarianceTestOptions(pixel_correlation=correlation))
         naive = compare_variances(va, N_TEST, vb, N_REF, alpha=ALPHA)
         rows.append((mean.p_value, var.p_value, naive.p_value))
     return np.array(rows)

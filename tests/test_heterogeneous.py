@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from mitsuba_refs.stats import compare_means, compare_variances
+from mitsuba_refs.report.wording import verdict_line
+from mitsuba_refs.stats import MeanTestOptions, VarianceTestOptions, compare_means, compare_variances
 from mitsuba_refs.verdicts.compare import compare
 from pathtracer import load_scene, render
 from pathtracer.core.rng import RandomStream, sample_keys
@@ -244,9 +245,9 @@ def test_constvolume_medium_equals_the_homogeneous_one_in_mean(tmp_path, integra
     homogeneous = write_scene(tmp_path, CONST_CUBE.format(kind="homogeneous", sigma_t=rgb), **kw)
     a = render(hetero, integrator, spp=64, seed=32, processes=1)
     b = render(homogeneous, integrator, spp=64, seed=33, processes=1)
-    agreement = compare_means(a.mean, a.variance, a.spp, b.mean, b.variance, b.spp, tile=4,
-                              alpha=ALPHA)
-    assert agreement.agree, agreement.verdict
+    agreement = compare_means(a.mean, a.variance, a.spp, b.mean, b.variance, b.spp,
+                              alpha=ALPHA, options=MeanTestOptions(tile=4))
+    assert agreement.agree, verdict_line(agreement)
 
 
 @pytest.mark.parametrize("integrator", VOLUMETRIC)
@@ -327,11 +328,11 @@ def test_grid_bbox_and_mirror_agree_with_live_mitsuba_volpath(tmp_path):
     reference = render_reference(path, {}, "volpath", 1024, 1)
     ours = render(load_scene(path), "volpath", spp=64, seed=34, processes=1)
     mean = compare_means(ours.mean, ours.variance, 64, reference.mean, reference.var,
-                         reference.n, tile=4, alpha=ALPHA)
-    assert mean.agree, mean.verdict
-    variance = compare_variances(ours.variance, 64, reference.var, reference.n, tile=4,
-                                 alpha=ALPHA)
-    assert variance.agree, variance.verdict
+                         reference.n, alpha=ALPHA, options=MeanTestOptions(tile=4))
+    assert mean.agree, verdict_line(mean)
+    variance = compare_variances(ours.variance, 64, reference.var, reference.n,
+                                 alpha=ALPHA, options=VarianceTestOptions(tile=4))
+    assert variance.agree, verdict_line(variance)
 
 
 def test_hetero_smoke_reads_its_grids():

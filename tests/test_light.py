@@ -8,6 +8,7 @@ in test_agreement.py / test_convergence.py (tests/scenes.py: ``LIGHT_SCENES`` an
 import numpy as np
 import pytest
 
+from mitsuba_refs.report.wording import verdict_line
 from pathtracer import load_scene, render
 from pathtracer.bsdfs.dielectric import Dielectric
 from pathtracer.bsdfs.roughdielectric import RoughDielectric
@@ -242,4 +243,4 @@ def test_path_tracing_misses_the_point_light_caustic_that_light_tracing_finds():
     ours = render(load_scene("caustics", **params), "path", spp=64, seed=21, processes=1)
     verdict = compare_means(ours.mean, ours.variance, ours.spp, reference.mean, reference.var,
                             reference.n, alpha=ALPHA)
-    assert not verdict.agree, verdict.verdict
+    assert not verdict.agree, verdict_line(verdict)

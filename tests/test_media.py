@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mitsuba_refs.report.wording import verdict_line
+from mitsuba_refs.stats import MeanTestOptions, VarianceTestOptions
 from mitsuba_refs.verdicts.compare import check_convergence, compare
 from pathtracer import load_scene, render
 from pathtracer.core.rng import RandomStream, sample_keys
@@ -211,7 +213,7 @@ def test_lecture_scene_agrees_with_mitsuba_volpath(scene, integrator):
 def test_volpath_converges_on_the_lecture_scene():
     law, _ = check_convergence("lecture-media-3", "volpath", alpha=ALPHA, processes=2,
                                ladder=(1, 4, 16), replicas=1)
-    assert law.passed, law.verdict
+    assert law.passed, verdict_line(law)
 
 
 # -- the scene description (its errors are cases of tests/test_scene_errors.py) -------------
@@ -271,10 +273,11 @@ def test_camera_in_medium_agrees_with_live_mitsuba_volpath():
     assert reference.metadata["method"] == "moments"
     ours = render(load_scene(path), "volpath", spp=64, seed=24, processes=1)
     mean = compare_means(ours.mean, ours.variance, 64, reference.mean, reference.var,
-                         reference.n, tile=8, alpha=ALPHA)
-    assert mean.agree, mean.verdict
-    variance = compare_variances(ours.variance, 64, reference.var, reference.n, tile=8, alpha=ALPHA)
-    assert variance.agree, variance.verdict
+                         reference.n, alpha=ALPHA, options=MeanTestOptions(tile=8))
+    assert mean.agree, verdict_line(mean)
+    variance = compare_variances(ours.variance, 64, reference.var, reference.n, alpha=ALPHA,
+                                 options=VarianceTestOptions(tile=8))
+    assert variance.agree, verdict_line(variance)
 
 
 VOLPATHMIS_BODY = """
@@ -348,9 +351,9 @@ def test_volpathmis_has_the_mean_of_live_mitsuba_volpathmis(tmp_path):
     renders = np.stack([np.array(mi.render(reference, spp=64, seed=1 + k)) for k in range(16)])
     ref_mean, ref_var = renders.mean(axis=0), renders.var(axis=0, ddof=1) * 64
     ours = render(scene, spp=64, seed=41, processes=1)
-    mean = compare_means(ours.mean, ours.variance, 64, ref_mean, ref_var, 16 * 64, tile=4,
-                         alpha=ALPHA)
-    assert mean.agree, mean.verdict
+    mean = compare_means(ours.mean, ours.variance, 64, ref_mean, ref_var, 16 * 64,
+                         alpha=ALPHA, options=MeanTestOptions(tile=4))
+    assert mean.agree, verdict_line(mean)
 
 
 @pytest.mark.parametrize("integrator", VOLUMETRIC)

@@ -6,7 +6,8 @@ import pytest
 
 from experiments.numpy_ceiling import DiffuseBox, main, render_ceiling
 from mitsuba_refs.reference.cache import get_reference
-from mitsuba_refs.stats import compare_means
+from mitsuba_refs.report.wording import verdict_line
+from mitsuba_refs.stats import MeanTestOptions, compare_means
 from pathtracer import load_scene
 from tests.budget import ALPHA
 
@@ -19,9 +20,9 @@ def test_ceiling_agrees_with_mitsuba_on_the_cornell_box():
     suite's tiled mean test at its per-assertion alpha."""
     reference = get_reference("cornell-box", BOX, "path", render=False)
     mean, variance = render_ceiling(load_scene("cornell-box", **BOX), spp=64, seed=0)
-    agreement = compare_means(mean, variance, 64, reference.mean, reference.var, reference.n,
-                              tile=8, alpha=ALPHA)
-    assert agreement.agree, agreement.verdict
+    agreement = compare_means(mean, variance, 64, reference.mean, reference.var, reference.n, alpha=ALPHA,
+                              options=MeanTestOptions(tile=8))
+    assert agreement.agree, verdict_line(agreement)
 
 
 def test_the_agreement_test_has_the_power_to_reject_a_3_percent_bias():
@@ -31,7 +32,7 @@ def test_the_agreement_test_has_the_power_to_reject_a_3_percent_bias():
     mean, variance = render_ceiling(load_scene("cornell-box", **BOX), spp=64, seed=0)
     reference = get_reference("cornell-box", BOX, "path", render=False)
     agreement = compare_means(mean * 0.97, variance, 64, reference.mean, reference.var,
-                              reference.n, tile=8, alpha=ALPHA)
+                              reference.n, alpha=ALPHA, options=MeanTestOptions(tile=8))
     assert not agreement.agree
 
 

@@ -3,6 +3,7 @@ classes of light tracing and BDPT (automata read from the light end and joined).
 import numpy as np
 import pytest
 
+from mitsuba_refs.report.wording import verdict_line
 from pathtracer import load_scene, render
 from pathtracer.core.pathclasses import PathRegexError, compile_class, compile_joined, enumerate_paths, is_partition
 from pathtracer.integrators import make_integrator
@@ -161,7 +162,7 @@ def test_light_and_bdpt_class_images_agree_with_the_path_tracer():
         verdict = compare_means(*images[integrator, expression], *images[other, expression],
                                 alpha=ALPHA / len(CLASS_CASES), image_components=False)
         if not verdict.agree:
-            failures.append(f"{integrator} {expression} vs {other}: {verdict.verdict}")
+            failures.append(f"{integrator} {expression} vs {other}: {verdict_line(verdict)}")
     assert not failures, "\n".join(failures)
 
 

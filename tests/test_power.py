@@ -1,4 +1,4 @@
-"""Power of the graded mean parts (autograder.power, mitsuba_refs.stats.power).
+"""Power of the graded mean parts (autograder.power, mitsuba_refs.stats.detectable).
 
 The detectable bias is computed analytically from the committed references; the injection
 check draws renders at the references' real per-pixel variances with fixed seeds.  Neither

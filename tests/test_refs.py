@@ -23,6 +23,7 @@ from mitsuba_refs.reference import config
 from mitsuba_refs.reference.cache import ReferenceUnavailable, get_reference, store, validate
 from mitsuba_refs.reference.exr import write_reference_exr
 from mitsuba_refs.reference.render import Reference, resolve_scene
+from mitsuba_refs.report.wording import verdict_line
 from mitsuba_refs.stats import compare_means
 from pathtracer.io.exr import read_mean_variance as read_reference_exr
 from tests.budget import ALPHA
@@ -34,7 +35,7 @@ REPO = Path(__file__).resolve().parent.parent
 def assert_same_mean(a, b, what):
     """The library's mean test (tiles + image) at the suite's level: a and b agree."""
     agreement = compare_means(a.mean, a.var, a.n, b.mean, b.var, b.n, alpha=ALPHA)
-    assert agreement, f"{what}: {agreement.verdict}"
+    assert agreement, f"{what}: {verdict_line(agreement)}"
 
 
 def fake_reference(h=8, w=8, seed=0):

@@ -17,6 +17,7 @@ from scipy import stats
 
 from mitsuba_refs.reference.batch import SampleStatistics, copies_per_call
 from mitsuba_refs.reference.cache import _identity, reference_key, reference_stem
+from mitsuba_refs.report.wording import verdict_line
 from pathtracer import SceneError, load_scene
 from pathtracer.render.driver import integrator_for
 from pathtracer.scene.load import parse_resolution
@@ -192,7 +193,7 @@ def test_literal_depth_agrees_live_at_a_non_square_override(mitsuba_variant):
     assert (ref.metadata["width"], ref.metadata["height"]) == size and ref.mean.shape == (10, 24, 3)
     mean, var = our_render(SCENE, size, spp, 9)
     verdict = compare_means(mean, var, spp, ref.mean, ref.var, ref.n, alpha=ALPHA)
-    assert verdict.agree, verdict.verdict
+    assert verdict.agree, verdict_line(verdict)
     old = render_reference(SCENE, {}, "path", 256, 6, variant=mitsuba_variant, resolution=size,
                            options={"max_depth": -1})
     assert not compare_means(mean, var, spp, old.mean, old.var, old.n, alpha=ALPHA).agree

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from scipy import stats as sps
 
+from mitsuba_refs.report.wording import verdict_line
 from mitsuba_refs.stats import compare_means, compare_variances, convergence_law, image_mse
 from mitsuba_refs.stats.simulate import make_scene, render_means, render_stats
 
@@ -119,7 +120,7 @@ def test_mean_power_region_3pct():
     reg[24:40, 8:24] = 0.97
     res = [compare_means(ma[i] * reg, va[i] * reg ** 2, 1024, mb[i], vb[i], 16384, alpha=1e-3) for i in range(S)]
     rej = sum(not r.agree for r in res)
-    print(f"power(3% in 16x16, 1024 spp, alpha=1e-3) = {rej}/200; e.g. {res[0].verdict}")
+    print(f"power(3% in 16x16, 1024 spp, alpha=1e-3) = {rej}/200; e.g. {verdict_line(res[0])}")
     assert rej >= 180
     located = sum(r.worst_tile is not None and 3 <= r.worst_tile[0] <= 4 and 1 <= r.worst_tile[1] <= 2
                   for r in res if not r.agree)
@@ -135,7 +136,7 @@ def test_mean_power_roulette_without_division(moderate):
     m2, v2 = render_stats(sc, 64, 200, rng, noise_scale=0.9)
     res = [compare_means(m2[i], v2[i], 64, mb[i], vb[i], 4096, alpha=2e-5) for i in range(200)]
     assert sum(not r.agree for r in res) >= 180
-    assert "too dark" in res[0].verdict
+    assert "too dark" in verdict_line(res[0])
 
 
 # ------------------------------------------------------------------------ variance test
@@ -175,7 +176,7 @@ def test_variance_power_3x(moderate):
     res = [compare_variances(v3[i], 64, vb[i], 4096, alpha=2e-5) for i in range(100)]
     assert all(not r.agree for r in res)
     assert abs(np.median([r.ratio for r in res]) - 3.0) < 0.1
-    assert "3.0" in res[0].verdict or "2.9" in res[0].verdict
+    assert "3.0" in verdict_line(res[0]) or "2.9" in verdict_line(res[0])
 
 
 # --------------------------------------------------------------------- convergence test
@@ -219,7 +220,7 @@ def test_mse_law_detects_correlated_samples(conv_scene):
     M, floor, _ = _ladders(conv_scene, np.random.default_rng(8), 100, 8, correlated=True)
     res = [convergence_law(LADDER, M[i], floor[i], alpha=2e-5) for i in range(100)]
     assert all(not r.passed and r.correlated for r in res)
-    assert "correlated" in res[0].verdict
+    assert "correlated" in verdict_line(res[0])
 
 
 def test_mse_law_detects_bias_floor(conv_scene):
@@ -230,7 +231,7 @@ def test_mse_law_detects_bias_floor(conv_scene):
     res = [convergence_law(LADDER, M[i], floor[i], alpha=1e-3, image_mean=mean[i]) for i in range(100)]
     assert sum(r.floor_detected and not r.passed for r in res) >= 90
     r = res[0]
-    assert "bias floor" in r.verdict and 0.03 < r.bias_rel < 0.09
+    assert "bias floor" in verdict_line(r) and 0.03 < r.bias_rel < 0.09
     assert 100 < r.floor_spp < 5000
 
 
@@ -341,7 +342,7 @@ def test_mse_law_one_dominant_row_stays_calibrated():
            for _ in range(200)]
     _check_rate(sum(r.slope_p <= 0.05 for r in res), 200, 0.05, conservative_ok=True)
     assert all(r.passed for r in res)
-    assert "rests on ~1 of 16 rows" in res[0].verdict
+    assert "rests on ~1 of 16 rows" in verdict_line(res[0])
 
 
 def test_mse_law_one_dominant_row_still_sees_correlated_samples():

@@ -9,8 +9,18 @@ import math
 import numpy as np
 import pytest
 
+from mitsuba_refs.report.wording import (
+    bounce_verdict,
+    convergence_warnings,
+    mean_region,
+    region_name,
+    variance_policy_verdict,
+    variance_region,
+    verdict_line,
+)
 from mitsuba_refs.stats import (
     ErrorBudget,
+    MeanTestOptions,
     compare_means,
     compare_variances,
     convergence_law,
@@ -22,8 +32,8 @@ from mitsuba_refs.stats import (
     suite_false_failure,
 )
 from mitsuba_refs.stats._mvn import p_max_abs
-from mitsuba_refs.stats._tiles import region_name, tile_counts, tile_sums
-from mitsuba_refs.stats.power import tile_gross_error_bound
+from mitsuba_refs.stats._tiles import tile_counts, tile_sums
+from mitsuba_refs.stats.detectable import tile_gross_error_bound
 from mitsuba_refs.stats.simulate import make_scene, render_stats
 
 
@@ -78,11 +88,11 @@ def test_mean_agree_non_multiple_size_and_fields():
     """Not multiples of the tile (40x56 with tile 16 -> partial edge tiles).  A correct pair
     agrees at alpha=1e-4 (fixed seed; false failure < 1e-4 by calibration)."""
     ma, va, mb, vb = _pair()
-    r = compare_means(ma, va, 64, mb, vb, 4096, tile=16, alpha=1e-4)
+    r = compare_means(ma, va, 64, mb, vb, 4096, alpha=1e-4, options=MeanTestOptions(tile=16))
     assert r.agree and bool(r)
     assert r.z_tiles.shape == (3, 4, 3)
-    assert r.verdict.startswith("agree (p=")
-    assert "relative bias" in r.verdict
+    assert verdict_line(r).startswith("agree (p=")
+    assert "relative bias" in verdict_line(r)
     assert r.rel_bias_ci[0] <= r.rel_bias <= r.rel_bias_ci[1]
     with pytest.raises(ValueError):
         r.z_tiles[0, 0, 0] = 1.0                          # read-only result arrays
@@ -103,8 +113,8 @@ def test_mean_black_and_deterministic_tiles():
     m3[8:, 8:] = 0.01                                      # deterministic but different
     r3 = compare_means(m3, v, 16, m, v, 1024, alpha=1e-3)
     assert not r3.agree and r3.p_value == 0.0
-    assert r3.worst_tile[:2] == (1, 1) and r3.worst_region == "bottom-right"
-    r4 = compare_means(m3, v, 16, m, v, 1024, alpha=1e-3, rel_floor=0.0)
+    assert r3.worst_tile[:2] == (1, 1) and mean_region(r3) == "bottom-right"
+    r4 = compare_means(m3, v, 16, m, v, 1024, alpha=1e-3, options=MeanTestOptions(rel_floor=0.0))
     assert np.isinf(r4.z_tiles[1, 1]).all()
 
 
@@ -114,10 +124,10 @@ def test_mean_verdict_names_region_and_bias():
     s[:16, :16] = 0.85                                     # 15 % too dark in the top-left
     r = compare_means(ma * s, va * s ** 2, 1024, mb, vb, 16384, alpha=1e-3)
     assert not r.agree
-    assert "top-left" in r.verdict and "too dark" in r.verdict
+    assert "top-left" in verdict_line(r) and "too dark" in verdict_line(r)
     assert r.worst_z < 0 and r.n_significant >= 2
     g = compare_means(ma * 0.9, va * 0.81, 1024, mb, vb, 16384, alpha=1e-3)
-    assert "10." in g.verdict or "9." in g.verdict        # "image 10.0% too dark [...]"
+    assert "10." in verdict_line(g) or "9." in verdict_line(g)        # "image 10.0% too dark [...]"
     assert g.rel_bias_ci[0] < -0.09 < g.rel_bias_ci[1] or abs(g.rel_bias + 0.1) < 0.01
 
 
@@ -125,7 +135,7 @@ def test_mean_determinism_and_validation():
     ma, va, mb, vb = _pair(seed=4)
     r1 = compare_means(ma * 0.95, va, 64, mb, vb, 4096, alpha=0.01)
     r2 = compare_means(ma * 0.95, va, 64, mb, vb, 4096, alpha=0.01)
-    assert r1.verdict == r2.verdict and r1.p_value == r2.p_value
+    assert verdict_line(r1) == verdict_line(r2) and r1.p_value == r2.p_value
     with pytest.raises(ValueError):
         compare_means(ma, va, 1, mb, vb, 4096, alpha=0.01)         # n < 2
     with pytest.raises(ValueError):
@@ -155,14 +165,14 @@ def test_variance_basic_and_verdict():
     ma, va, mb, vb = _pair(64, 64, seed=6)
     r = compare_variances(va, 64, vb, 4096, alpha=1e-3)
     assert r.agree and r.ratio_ci[0] <= r.ratio <= r.ratio_ci[1]
-    assert r.verdict.startswith("variance agrees")
+    assert verdict_line(r).startswith("variance agrees")
     r3 = compare_variances(va * 3, 64, vb, 4096, alpha=1e-3)
-    assert not r3.agree and "3.0" in r3.verdict and "the reference" in r3.verdict
+    assert not r3.agree and "3.0" in verdict_line(r3) and "the reference" in verdict_line(r3)
     loc = va.copy()
     loc[48:, 48:] *= 20                                    # a firefly corner
     r4 = compare_variances(loc, 64, vb, 4096, alpha=1e-3)
-    assert not r4.agree and r4.n_outliers >= 1 and r4.worst_region == "bottom-right"
-    assert compare_variances(va, 64, vb, 4096, alpha=1e-3).verdict == r.verdict   # deterministic
+    assert not r4.agree and r4.n_outliers >= 1 and variance_region(r4) == "bottom-right"
+    assert verdict_line(compare_variances(va, 64, vb, 4096, alpha=1e-3)) == verdict_line(r)   # deterministic
     with pytest.raises(ValueError):
         compare_variances(np.zeros((16, 16, 3)), 64, np.zeros((16, 16, 3)), 64, alpha=0.01)
 
@@ -194,31 +204,36 @@ def test_mse_law_exact_and_failures():
     r = convergence_law(spp, good, alpha=1e-3)
     assert r.passed and r.slope_ci[0] <= -1 <= r.slope_ci[1]
     assert r.ratio_ci[0] <= 2 <= r.ratio_ci[1]
-    assert r.verdict.startswith("converges as N^-1/2")
+    assert verdict_line(r).startswith("converges as N^-1/2")
     flat = 2.0 * (1 + 0.02 * rng.standard_normal((6, 5)))
     rf = convergence_law(spp, flat, alpha=1e-3)
-    assert not rf.passed and rf.correlated and "correlated" in rf.verdict
+    assert not rf.passed and rf.correlated and "correlated" in verdict_line(rf)
     floor = (2.0 / spp + 0.01) * (1 + 0.02 * rng.standard_normal((6, 5)))
     rb = convergence_law(spp, floor, alpha=1e-3, image_mean=1.0)
-    assert rb.floor_detected and "bias floor" in rb.verdict
+    assert rb.floor_detected and "bias floor" in verdict_line(rb)
     assert 100 < rb.floor_spp < 400 and rb.bias_rel == pytest.approx(0.1, rel=0.3)
     with pytest.raises(ValueError):
         convergence_law(spp, good[:1], alpha=1e-3)
     w = convergence_law(spp, good, ref_mse_floor=0.005, alpha=1e-3)
-    assert w.warnings and "longer reference" in w.verdict
+    assert convergence_warnings(w) and "longer reference" in verdict_line(w)
 
 
 def test_first_diverging_bounce():
     class R:
         def __init__(self, agree, p=0.5):
             self.agree, self.p_value, self.verdict = agree, p, "v"
-    d, t = first_diverging_bounce({1: R(True), 2: R(False, 1e-9), 3: R(False, 1e-12)})
+
+    def bounce(results):
+        depth, text = bounce_verdict(results, line=lambda r: r.verdict)
+        assert depth == first_diverging_bounce(results)
+        return depth, text
+    d, t = bounce({1: R(True), 2: R(False, 1e-9), 3: R(False, 1e-12)})
     assert d == 2 and t.startswith("direct light (bounce 2) disagrees") and "directly visible" in t
-    d, t = first_diverging_bounce({2: R(False, 1e-9), 3: R(False)})
+    d, t = bounce({2: R(False, 1e-9), 3: R(False)})
     assert d == 2 and "already disagrees" in t
-    d, t = first_diverging_bounce({1: R(True), -1: R(True), 3: R(True)})
+    d, t = bounce({1: R(True), -1: R(True), 3: R(True)})
     assert d is None and "all depths agree" in t
-    d, t = first_diverging_bounce({1: R(True), 4: R(False), -1: R(False)})
+    d, t = bounce({1: R(True), 4: R(False), -1: R(False)})
     assert d == 4 and "2 indirect bounces (bounce 4)" in t
 
 
@@ -276,13 +291,13 @@ def test_mean_bounded_variance_catches_an_exploding_bias():
     assert own.agree                                       # the flaw this component fixes
     r = compare_means(m, v, 64, mb, vb, 4096, alpha=4.8e-5, max_var_ratio=4.0)
     assert not r.agree and r.p_value == 0.0
-    assert "at most 4x the reference's variance" in r.verdict and "too bright" in r.verdict
+    assert "at most 4x the reference's variance" in verdict_line(r) and "too bright" in verdict_line(r)
     assert set(r.scale_p_values) == {"8px", "image", "image, bounded variance"}
     # a glass render 930x too bright with a variance to match: the same
     m2, v2 = ma * 930, va * 930 ** 2 * 1e4
     assert compare_means(m2, v2, 64, mb, vb, 4096, alpha=4.8e-5).agree
     r2 = compare_means(m2, v2, 64, mb, vb, 4096, alpha=4.8e-5, max_var_ratio=4.0)
-    assert not r2.agree and "x too bright" in r2.verdict and r2.rel_bias == pytest.approx(929, rel=0.01)
+    assert not r2.agree and "x too bright" in verdict_line(r2) and r2.rel_bias == pytest.approx(929, rel=0.01)
 
 
 def test_tiles_only_mean_test_bounds_the_variance_tile_by_tile():
@@ -297,7 +312,7 @@ def test_tiles_only_mean_test_bounds_the_variance_tile_by_tile():
                       max_var_ratio=4.0)
     assert set(r.scale_p_values) == {"8px", "8px, bounded variance"}
     assert not r.agree and r.scale_p_values["8px, bounded variance"] < 1e-12
-    assert "at most 4x the reference's variance" in r.verdict and r.n_significant >= 1
+    assert "at most 4x the reference's variance" in verdict_line(r) and r.n_significant >= 1
     assert compare_means(ma, va, 64, mb, vb, 4096, alpha=1e-4, image_components=False,
                          max_var_ratio=4.0).agree
 
@@ -312,7 +327,7 @@ def test_tile_gross_error_bound_is_a_guarantee():
     for r, rejected in ((1.001 * bound, True), (-1.001 * bound, True), (0.1 * bound, False)):
         verdict = compare_means(mb * (1 + r), vb * 1e6, 256, mb, vb, 4096, alpha=1e-3,
                                 image_components=False, max_var_ratio=4.0)
-        assert verdict.agree is not rejected, (r, verdict.verdict)
+        assert verdict.agree is not rejected, (r, verdict_line(verdict))
 
 
 def test_mean_bounded_variance_is_exact_for_a_noiseless_reference_shift():
@@ -337,7 +352,7 @@ def test_values_that_overflow_give_a_failed_verdict_not_a_crash():
     ma, va, mb, vb = _pair(64, 64, seed=10)
     big = compare_means(ma * 1e300, np.full_like(va, np.inf), 64, mb, vb, 4096, alpha=1e-3,
                         max_var_ratio=4.0)
-    assert not big.agree and "too bright" in big.verdict and "e+299x" in big.verdict
+    assert not big.agree and "too bright" in verdict_line(big) and "e+299x" in verdict_line(big)
     huge = compare_means(ma * 1e300, va * 1e300, 64, mb, vb, 4096, alpha=1e-3)
     assert not huge.agree and math.isfinite(huge.worst_z)
     rv = compare_variances(va * 1e300, 64, vb, 4096, alpha=1e-3)
@@ -345,7 +360,7 @@ def test_values_that_overflow_give_a_failed_verdict_not_a_crash():
     spp = np.array([1, 4, 16, 64])
     table = np.full((4, 4), np.inf)
     rc = convergence_law(spp, table, alpha=1e-3)
-    assert not rc.passed and "too large to compute" in rc.verdict
+    assert not rc.passed and "too large to compute" in verdict_line(rc)
     with np.errstate(over="ignore"):
         assert image_mse(ma * 1e300, mb, vb, 4096) == np.inf
     with pytest.raises(ValueError):
@@ -376,11 +391,11 @@ def test_variance_policy_one_sided_fields():
     ma, va, mb, vb = _pair(64, 64, n_a=1024, seed=6)
     same = compare_variances(va, 1024, vb, 4096, alpha=1e-3)
     assert same.policy_agree and same.agree and same.max_ratio == 1.5
-    assert same.policy_verdict.startswith("variance within 1.5x the reference")
+    assert variance_policy_verdict(same).startswith("variance within 1.5x the reference")
     r13 = compare_variances(va * 1.3, 1024, vb, 4096, alpha=1e-3)
     assert r13.policy_agree and not r13.agree
     r19 = compare_variances(va * 1.9, 1024, vb, 4096, alpha=1e-3)
-    assert not r19.policy_agree and r19.policy_verdict.startswith("variance above 1.5x")
+    assert not r19.policy_agree and variance_policy_verdict(r19).startswith("variance above 1.5x")
     low = compare_variances(va * 0.5, 1024, vb, 4096, alpha=1e-3)
     assert low.policy_agree and not low.agree
     loc = va.copy()
@@ -404,7 +419,7 @@ def test_detectable_bias_closed_form_on_a_uniform_image():
     from scipy import special
 
     from mitsuba_refs.stats import detectable_bias, spp_for_bias
-    from mitsuba_refs.stats.power import bias_power, image_critical_z
+    from mitsuba_refs.stats.detectable import bias_power, image_critical_z
     P, v, nb = 64 * 64, 50.0, 4096
     mean, var = np.ones((64, 64, 3)), np.full((64, 64, 3), v)
     alpha = 4.8e-5

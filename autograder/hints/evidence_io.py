@@ -26,6 +26,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from mitsuba_refs.reference.cache import get_reference
+from mitsuba_refs.report.wording import mean_region, mean_verdict, variance_policy_verdict
 from mitsuba_refs.stats.convergence import ConvergenceResult
 from mitsuba_refs.stats.correlation import PixelCorrelation
 from mitsuba_refs.stats.detectable import DetectableBias
@@ -134,8 +135,15 @@ def _plain(value):
     return value
 
 
+#: Fields kept in words: the verdict's line and region as the report says them.
+WORDS = {"worst_region": mean_region, "verdict": mean_verdict,
+         "policy_verdict": variance_policy_verdict}
+
+
 def _fields(obj, names) -> dict | None:
-    return None if obj is None else {n: _plain(getattr(obj, n)) for n in names}
+    if obj is None:
+        return None
+    return {n: _plain(WORDS[n](obj) if n in WORDS else getattr(obj, n)) for n in names}
 
 
 def _number(value):

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mitsuba_refs.report.wording import mean_region, variance_policy_verdict
 from mitsuba_refs.verdicts import explain as base
 from mitsuba_refs.verdicts.compare import default_params
 from mitsuba_refs.verdicts.explain import Hint
@@ -191,7 +192,7 @@ def _glass_hints(ev: Evidence) -> list:
     if diffuse is not None and not diffuse.passed:
         return [Hint(f"fix {check.integrator} on the Cornell box first: it fails there too")]
     m = ev.comparison.mean
-    where = f"largest |z| = {abs(m.worst_z):.1f} in the {m.worst_region}"
+    where = f"largest |z| = {abs(m.worst_z):.1f} in the {mean_region(m)}"
     prefix = ("the Cornell box check of this integrator passed, so the diffuse part is right; "
               if diffuse is not None else "")
     return [Hint(f"{prefix}wrong with glass in the scene ({where}; image x{1 + m.rel_bias:.3f}): "
@@ -206,7 +207,7 @@ def _variance_policy(hint: str, comparison) -> str:
     (with a right mean); say what that part allows before suggesting a cause, so that a
     correct estimator that is merely different is never told it is wrong."""
     v = comparison.variance
-    policy = (f"the variance part failed ({v.policy_verdict}); it compares your image's "
+    policy = (f"the variance part failed ({variance_policy_verdict(v)}); it compares your image's "
               "per-sample variance with Mitsuba's run of the same estimator and allows a correct "
               f"estimator written differently (another MIS heuristic, roulette rule or light "
               f"choice) to be up to {v.max_ratio:g}x noisier, failing only beyond that bound")

@@ -104,11 +104,6 @@ class Reference:
     n: int
     metadata: dict
 
-    @property
-    def var_of_mean(self):
-        """Variance of the per-pixel mean, ``var / n``."""
-        return self.var / self.n
-
 
 def resolve_scene(scene):
     """Return the file of ``scene``: a file path, or a built-in name

@@ -19,6 +19,7 @@ from pathtracer.core.color import LUMINANCE
 from pathtracer.core.tonemap import auto_scale, tonemap
 
 from ..stats.convergence import mse_levels
+from .wording import convergence_verdict, mean_verdict, variance_verdict
 
 __all__ = ["plot_mean_comparison", "plot_convergence", "plot_variance_comparison", "write_pictures"]
 
@@ -85,7 +86,7 @@ def plot_mean_comparison(path, mean_test, mean_ref, agreement, title: str = "") 
         ax.set_xlabel("x [px]")
         ax.set_ylabel("y [px]")
     _tile_grid(axes[2], tile, h, w)
-    fig.suptitle(f"{title}\n{agreement.verdict}", fontsize=10)
+    fig.suptitle(f"{title}\n{mean_verdict(agreement)}", fontsize=10)
     return _save(fig, path)
 
 
@@ -126,7 +127,7 @@ def plot_convergence(path, spp, mse, result, title: str = "") -> str:
     ax.set_ylabel("RMSE vs reference (radiance units)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title(f"{title}\n{result.verdict}", fontsize=8, wrap=True)
+    ax.set_title(f"{title}\n{convergence_verdict(result)}", fontsize=8, wrap=True)
     return _save(fig, path)
 
 
@@ -158,7 +159,7 @@ def plot_variance_comparison(path, var_test, var_ref, agreement, title: str = ""
         ax.set_ylabel("y [px]")
     axes[2].set_xlabel("tile column")
     axes[2].set_ylabel("tile row")
-    fig.suptitle(f"{title}\n{agreement.verdict}", fontsize=10)
+    fig.suptitle(f"{title}\n{variance_verdict(agreement)}", fontsize=10)
     return _save(fig, path)
 
 

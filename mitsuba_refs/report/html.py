@@ -25,12 +25,12 @@ from pathtracer.io.exr import read_mean_variance
 from pathtracer.io.output import atomic_path
 
 from ..errors import one_line
-from ..verdicts.detect import percent
 from . import figures
 from .encoding import to_array, to_float
 from .results import record_path
-from .text import format_p, interval_text, picture_lines, run_summary, suite_name
+from .text import interval_text, picture_lines, run_summary, suite_name
 from .verdicts import VERDICTS
+from .wording import format_p, percent
 
 __all__ = ["write_html", "page"]
 

@@ -22,8 +22,9 @@ from pathlib import Path
 from pathtracer.io.output import atomic_path
 
 from .encoding import to_float
-from .text import format_p, interval_text, picture_lines, suite_name
+from .text import interval_text, picture_lines, suite_name
 from .verdicts import VERDICTS
+from .wording import format_p
 
 __all__ = ["write_junit", "junit_tree"]
 

@@ -4,30 +4,18 @@ from __future__ import annotations
 
 import math
 
-from ..verdicts.detect import mean_line, status_text
 from .encoding import to_float
 from .results import record_path
+from .wording import convergence_verdict, mean_line, percent, status_text, variance_verdict
 
-__all__ = ["format_p", "interval_text", "detectable_text", "suite_name", "picture_lines",
+__all__ = ["interval_text", "detectable_text", "suite_name", "picture_lines",
            "run_summary", "comparison_report", "rendered_settings"]
 
 
-def format_p(value) -> str:
-    """A p-value as the verdict lines write it (``0.53``, ``2.2e-26``, ``<1e-300``); ``–`` for none."""
-    if value is None:
-        return "–"
-    p = to_float(value)
-    if math.isnan(p):
-        return "–"
-    if p >= 0.01:
-        return f"{p:.2f}"
-    return f"{p:.1e}" if p > 0 else "<1e-300"
-
-
-def _pair(values, percent: bool = False, digits: int = 3) -> str:
+def _pair(values, as_percent: bool = False, digits: int = 3) -> str:
     low, high = (to_float(v) for v in values)
-    if percent:
-        return f"[{100 * low:+.1f}%, {100 * high:+.1f}%]"
+    if as_percent:
+        return f"[{percent(low, signed=True, minus='-')}, {percent(high, signed=True, minus='-')}]"
     return f"[{low:.{digits}f}, {high:.{digits}f}]"
 
 
@@ -37,8 +25,8 @@ def interval_text(name: str, entry: dict) -> str:
         return ""
     if name == "mean":
         level = to_float(entry.get("ci_level", 0.95))
-        text = (f"relative bias {100 * to_float(entry['rel_bias']):+.1f}% "
-                f"{_pair(entry['rel_bias_ci'], percent=True)} ({100 * level:.0f}% CI)")
+        text = (f"relative bias {percent(to_float(entry['rel_bias']), signed=True, minus='-')} "
+                f"{_pair(entry['rel_bias_ci'], as_percent=True)} ({100 * level:.0f}% CI)")
         return text + detectable_text(entry.get("detectable_bias"))
     if name == "variance":
         return f"variance ratio {to_float(entry['ratio']):.3f} {_pair(entry['ratio_ci'])}"
@@ -99,7 +87,7 @@ def comparison_report(result) -> str:
     if result.rendered:
         lines.insert(1, f"  rendered:    {result.rendered}")
     if result.variance is not None:
-        lines.append(f"  variance:    {result.variance.verdict}")
+        lines.append(f"  variance:    {variance_verdict(result.variance)}")
     elif result.variance_skipped:
         lines.append(f"  variance:    {result.variance_skipped}")
     elif result.compares_variance:
@@ -107,7 +95,7 @@ def comparison_report(result) -> str:
     else:
         lines.append(f"  variance:    {result.variance_not_applicable()}")
     if result.convergence is not None:
-        lines.append(f"  convergence: {result.convergence.verdict}")
+        lines.append(f"  convergence: {convergence_verdict(result.convergence)}")
     if result.bounce is not None:
         lines.append(f"  bounces:     {result.bounce[1]}")
     for hint in result.hints:

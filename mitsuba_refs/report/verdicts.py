@@ -10,8 +10,18 @@ from __future__ import annotations
 import numpy as np
 
 from ..stats.convergence import mse_levels
-from ..verdicts.detect import WEAK_BIAS, is_weak, mean_line
+from ..verdicts.detect import WEAK_BIAS, is_weak
 from .encoding import plain
+from .wording import (
+    convergence_verdict,
+    convergence_warnings,
+    mean_line,
+    mean_region,
+    mean_verdict,
+    variance_policy_verdict,
+    variance_region,
+    variance_verdict,
+)
 
 __all__ = ["VERDICTS", "mean_entry", "variance_entry", "convergence_entry", "bounces_entry",
            "verdict_entries", "detectable_entry"]
@@ -39,7 +49,7 @@ def mean_entry(mean) -> dict:
     """
     if getattr(mean, "faults", None):      # the renderer's images held NaN, Inf or negatives
         return plain({"status": "disagree", "agree": False, "p_value": mean.p_value,
-                      "alpha": mean.alpha, "line": mean.verdict, "faults": list(mean.faults)})
+                      "alpha": mean.alpha, "line": mean_verdict(mean), "faults": list(mean.faults)})
     z = np.asarray(mean.z_tiles, dtype=np.float64)
     significant = getattr(mean, "significant", None)
     if significant is None:
@@ -47,13 +57,13 @@ def mean_entry(mean) -> dict:
     tiles = [[int(r), int(c), int(ch), z[r, c, ch]] for r, c, ch in np.argwhere(significant)]
     return plain({
         "status": _status(mean.agree), "agree": mean.agree, "p_value": mean.p_value,
-        "alpha": mean.alpha, "line": mean.verdict,
+        "alpha": mean.alpha, "line": mean_verdict(mean),
         "rel_bias": mean.rel_bias, "rel_bias_ci": mean.rel_bias_ci, "ci_level": mean.ci_level,
         "rel_bias_channels": mean.rel_bias_channels,
         "component_p_values": dict(mean.scale_p_values), "image_z": mean.image_z,
         "tile": mean.tile, "n_tests": mean.n_tests, "n_significant": mean.n_significant,
         "critical_z": getattr(mean, "critical_z", None), "significant_tiles": tiles,
-        "worst_tile": mean.worst_tile, "worst_z": mean.worst_z, "worst_region": mean.worst_region,
+        "worst_tile": mean.worst_tile, "worst_z": mean.worst_z, "worst_region": mean_region(mean),
         "z_tiles": z,
     })
 
@@ -99,12 +109,12 @@ def variance_entry(result) -> dict:
     return plain({
         "status": _status(variance.agree), "applicable": applicable, "compared": True,
         "agree": variance.agree, "p_value": variance.p_value, "alpha": variance.alpha,
-        "line": variance.verdict, "ratio": variance.ratio, "ratio_ci": variance.ratio_ci,
+        "line": variance_verdict(variance), "ratio": variance.ratio, "ratio_ci": variance.ratio_ci,
         "ci_level": variance.ci_level, "global_p": variance.global_p, "tile_p": variance.tile_p,
         "tile": variance.tile, "n_tiles": variance.n_tiles, "n_outliers": variance.n_outliers,
-        "worst_tile": variance.worst_tile, "worst_region": variance.worst_region,
+        "worst_tile": variance.worst_tile, "worst_region": variance_region(variance),
         "policy": {"max_ratio": variance.max_ratio, "agree": variance.policy_agree,
-                   "p_value": variance.policy_p, "line": variance.policy_verdict},
+                   "p_value": variance.policy_p, "line": variance_policy_verdict(variance)},
         "tile_log_ratio": variance.tile_log_ratio,
     })
 
@@ -131,12 +141,12 @@ def convergence_entry(result) -> dict:
               if result.convergence_mse is not None else {})
     return plain({
         "status": _status(law.passed), "compared": True, "agree": law.passed,
-        "p_value": law.p_value, "alpha": law.alpha, "line": law.verdict,
+        "p_value": law.p_value, "alpha": law.alpha, "line": convergence_verdict(law),
         "slope": law.slope, "slope_ci": law.slope_ci, "ratio": law.ratio, "ratio_ci": law.ratio_ci,
         "slope_p": law.slope_p, "floor_p": law.floor_p, "floor_detected": law.floor_detected,
         "floor_spp": law.floor_spp, "bias_rel": law.bias_rel, "correlated": law.correlated,
         "ladder": ladder, "levels_used": list(law.levels_used), **levels,
-        "warnings": list(law.warnings),
+        "warnings": convergence_warnings(law),
     })
 
 
@@ -152,7 +162,7 @@ def bounces_entry(result) -> dict:
         return _not_compared(reason, compared=False)
     first, text = result.bounce if result.bounce is not None else (None, "")
     depths = [{"max_depth": depth, "agree": mean.agree, "p_value": mean.p_value,
-               "rel_bias": mean.rel_bias, "rel_bias_ci": mean.rel_bias_ci, "line": mean.verdict}
+               "rel_bias": mean.rel_bias, "rel_bias_ci": mean.rel_bias_ci, "line": mean_verdict(mean)}
               for depth, mean in sorted(result.bounce_results.items(), key=lambda item: (item[0] < 0, item[0]))]
     first_mean = result.bounce_results.get(first) if first is not None else None
     return plain({

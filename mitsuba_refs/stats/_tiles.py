@@ -10,7 +10,6 @@ __all__ = [
     "tile_counts",
     "sidak",
     "sidak_per_test",
-    "region_name",
     "as_image",
     "as_count",
     "noiseless_pixels",
@@ -83,19 +82,6 @@ def sidak_per_test(alpha: float, m: int) -> float:
     if m <= 0:
         return float(alpha)
     return float(-math.expm1(math.log1p(-alpha) / m))
-
-
-def region_name(row_center: float, col_center: float, h: float, w: float) -> str:
-    """Name the 3x3 region of an image (top-left, top, ..., center, ..., bottom-right)."""
-    r = min(2, max(0, int(3 * row_center / h)))
-    c = min(2, max(0, int(3 * col_center / w)))
-    vert = ["top", "", "bottom"][r]
-    horz = ["left", "", "right"][c]
-    if not vert and not horz:
-        return "center"
-    if vert and horz:
-        return f"{vert}-{horz}"
-    return vert or horz
 
 
 def _magnitude(mean) -> np.ndarray:

@@ -168,20 +168,19 @@ def reference_mse_floor(ref_var, ref_n) -> float:
 
 @dataclass(frozen=True, eq=False)
 class ConvergenceResult:
-    """Result of :func:`convergence_law`.
+    """Result of :func:`convergence_law`: numbers only (the words:
+    :func:`mitsuba_refs.report.wording.convergence_verdict` and ``convergence_warnings``).
 
     Attributes
     ----------
     slope, slope_ci : float, (float, float)
-        Fitted d log MSE / d log N (expected -1) and its CI.
+        Fitted d log MSE / d log N (expected ``expected_slope``, -1) and its CI.
     ratio, ratio_ci : float, (float, float)
         RMSE(N)/RMSE(4N) = 4^(-slope/2) (expected 2) and its CI.
     p_value : float
         Family p-value (Šidák over slope test and floor test).
     floor_detected : bool
         The fitted bias term B > 0 is significant.
-    verdict : str
-        One line.
     slope_p, floor_p : float
         Component p-values (two-sided slope = -1; one-sided B > 0).
     floor_spp : float
@@ -194,6 +193,23 @@ class ConvergenceResult:
         p_value > alpha.
     levels_used : tuple of int
         Ladder levels used in the fit (levels with non-positive mean MSE are dropped).
+    expected_slope : float
+        The slope of the null hypothesis.
+    dropped_levels : tuple of int
+        Levels (spp) left out for a non-positive mean MSE.
+    noisy_reference_levels : tuple of int
+        Levels (spp) whose mean MSE is below 4x the reference's own noise.
+    rough_slope : bool
+        A level's error rests on fewer than ``FEW_ROWS`` effective rows of a paired table.
+    effective_rows : float
+        The fewest effective rows of a level (paired tables; nan otherwise).
+    rows : int
+        Rows of a paired table (0 for independent levels).
+    overflowed : bool
+        The squared error overflowed float64: nothing was fitted.
+    rare_replicas : int or None
+        Set by the caller: rare bright paths still carried the error with this many
+        replicas at the top level (None: they did not).
     """
 
     slope: float
@@ -202,7 +218,6 @@ class ConvergenceResult:
     ratio_ci: tuple
     p_value: float
     floor_detected: bool
-    verdict: str
     slope_p: float = math.nan
     floor_p: float = math.nan
     floor_spp: float = math.nan
@@ -212,14 +227,17 @@ class ConvergenceResult:
     passed: bool = True
     alpha: float = 0.05
     levels_used: tuple = ()
-    warnings: tuple = ()
+    expected_slope: float = -1.0
+    dropped_levels: tuple = ()
+    noisy_reference_levels: tuple = ()
+    rough_slope: bool = False
+    effective_rows: float = math.nan
+    rows: int = 0
+    overflowed: bool = False
+    rare_replicas: int | None = None
 
     def __bool__(self) -> bool:
         return bool(self.passed)
-
-
-def _fmt_p(p: float) -> str:
-    return f"{p:.2f}" if p >= 0.01 else (f"{p:.1e}" if p > 0 else "<1e-300")
 
 
 def mse_levels(mse, n_levels: int) -> tuple[list, np.ndarray | None]:
@@ -302,15 +320,12 @@ def _pow4(x: float) -> float:
     return math.inf if x * math.log(4.0) > 709.0 else 4.0 ** x
 
 
-def _overflowed(n_levels: int, alpha: float, what: str) -> ConvergenceResult:
+def _overflowed(alpha: float) -> ConvergenceResult:
     """A failed result for MSEs beyond float64 (the image is astronomically far off)."""
-    verdict = (f"the error is too large to compute: {what} (the image is astronomically far "
-               "from the reference, e.g. a weight that grows without bound)")
     nan2 = (math.nan, math.nan)
     return ConvergenceResult(slope=math.nan, slope_ci=nan2, ratio=math.nan, ratio_ci=nan2,
-                             p_value=0.0, floor_detected=False, verdict=verdict, slope_p=0.0,
-                             floor_p=math.nan, passed=False, alpha=float(alpha),
-                             warnings=(verdict,))
+                             p_value=0.0, floor_detected=False, slope_p=0.0,
+                             floor_p=math.nan, passed=False, alpha=float(alpha), overflowed=True)
 
 
 def _t_test(estimate: float, null: float, se: float, df: float, *, two_sided: bool) -> float:
@@ -320,6 +335,39 @@ def _t_test(estimate: float, null: float, se: float, df: float, *, two_sided: bo
         return 0.0 if differs else 1.0
     t = (estimate - null) / se
     return float(2 * sps.t.sf(abs(t), df)) if two_sided else float(sps.t.sf(t, df))
+
+
+def _usable_levels(N, mse, ref_mse_floor):
+    """The level means of ``mse`` (scaled when huge), the levels kept (positive mean MSE), the
+    dropped and the noisy-reference levels (spp), and the scale."""
+    levels, table = mse_levels(mse, N.size)
+    # MSEs of a wildly wrong image (~1e70 for values ~1e35) make their variances overflow;
+    # every statistic below is invariant to a common scale except sqrt(B), scaled back.
+    scale = overflow_scale(*levels, guard=1e100)
+    if scale != 1.0:
+        mse = table / scale if table is not None else [level / scale for level in levels]
+        if ref_mse_floor is not None:
+            ref_mse_floor = ref_mse_floor / scale
+    data = _LevelMeans(mse, N.size)
+    keep = data.ybar > 0
+    dropped = tuple(N[~keep].astype(int).tolist())
+    noisy = ()
+    if ref_mse_floor is not None and np.any(keep & (data.ybar < 4 * ref_mse_floor)):
+        noisy = tuple(N[keep & (data.ybar < 4 * ref_mse_floor)].astype(int).tolist())
+    data.keep(keep)
+    return data, N[keep], dropped, noisy, scale
+
+
+def _bias_floor(N, data):
+    """Fit ybar = C/N + B (WLS, weights N^2): ``(C, B, p of B > 0)``."""
+    L = N.size
+    X = np.column_stack([1.0 / N, np.ones(L)])
+    W = N ** 2                 # relative errors under the null model y = C/N (data-independent weights)
+    XtW = X.T * W
+    Amat = np.linalg.solve(XtW @ X, XtW)                            # (2, L): coef = Amat @ ybar
+    Chat, Bhat = (float(v) for v in Amat @ data.ybar)
+    seB, dfB = data.se_df(Amat[1])
+    return Chat, Bhat, _t_test(Bhat, 0.0, seB, dfB, two_sided=False)
 
 
 def convergence_law(spp, mse, ref_mse_floor: float | None = None, *, alpha: float = 0.01,
@@ -338,8 +386,9 @@ def convergence_law(spp, mse, ref_mse_floor: float | None = None, *, alpha: floa
         At least 2 values per level.
     ref_mse_floor : float, optional
         The reference's own noise contribution (:func:`reference_mse_floor`).  Levels whose
-        mean MSE is below 4x this are flagged in ``warnings``: there the unmodelled error
-        of the common reference (the same for all replicas) is no longer negligible.
+        mean MSE is below 4x this are flagged (``noisy_reference_levels``): there the
+        unmodelled error of the common reference (the same for all replicas) is no longer
+        negligible.
     alpha : float
         Family level of the slope + floor tests.
     ci_level : float
@@ -356,92 +405,46 @@ def convergence_law(spp, mse, ref_mse_floor: float | None = None, *, alpha: floa
     N = np.asarray(spp, dtype=np.float64)
     if N.ndim != 1 or np.any(np.diff(N) <= 0) or N[0] <= 0:
         raise ValueError("spp must be positive and increasing")
-    levels, table = mse_levels(mse, N.size)
+    levels, _ = mse_levels(mse, N.size)
     if any(np.any(np.isnan(level)) for level in levels):
         raise ValueError("mse contains NaN")
     if any(np.any(np.isinf(level)) for level in levels):
-        return _overflowed(N.size, alpha, "the squared error overflows float64 (pixel values "
-                                          "beyond ~1e154)")
-    # MSEs of a wildly wrong image (~1e70 for values ~1e35) make their variances overflow;
-    # every statistic below is invariant to a common scale except sqrt(B), scaled back.
-    scale = overflow_scale(*levels, guard=1e100)
-    if scale != 1.0:
-        mse = table / scale if table is not None else [level / scale for level in levels]
-        if ref_mse_floor is not None:
-            ref_mse_floor = ref_mse_floor / scale
-    data = _LevelMeans(mse, N.size)
-    keep = data.ybar > 0
-    warnings = []
-    if not keep.all():
-        warnings.append(f"dropped levels with non-positive mean MSE: {N[~keep].astype(int).tolist()}")
-    if ref_mse_floor is not None and np.any(keep & (data.ybar < 4 * ref_mse_floor)):
-        warnings.append("reference noise comparable to the test error at spp "
-                        f"{N[keep & (data.ybar < 4 * ref_mse_floor)].astype(int).tolist()}: use a longer reference")
-    data.keep(keep)
-    N, ybar = N[keep], data.ybar
-    L = N.size
-    if L < 3:
+        return _overflowed(alpha)   # pixel values beyond ~1e154
+    data, N, dropped, noisy, scale = _usable_levels(N, mse, ref_mse_floor)
+    if N.size < 3:
         raise ValueError("need >= 3 levels with positive MSE")
 
     # ---- slope ----------------------------------------------------------------------
     x = np.log(N)
     c = (x - x.mean()) / np.sum((x - x.mean()) ** 2)
-    slope = float(c @ np.log(ybar))
+    slope = float(c @ np.log(data.ybar))
     se, df = data.slope_se_df(c)
     slope_p = _t_test(slope, expected_slope, se, df, two_sided=True)
     tq = float(sps.t.ppf(0.5 + ci_level / 2, df))
     slope_ci = (slope - tq * se, slope + tq * se)
-    if data.paired is not None and data.effective < FEW_ROWS:
-        warnings.append(f"one level's error rests on ~{data.effective:.0f} of {len(data.paired)} "
-                        "rows (e.g. a light smaller than a pixel in one image block): the slope "
-                        "is known only roughly and the test has little power")
+    rough = data.paired is not None and data.effective < FEW_ROWS
     ratio = _pow4(-slope / 2)
     ratio_ci = (_pow4(-slope_ci[1] / 2), _pow4(-slope_ci[0] / 2))
 
     # ---- bias floor: ybar = C/N + B, WLS with weights N^2 ------------------------
-    X = np.column_stack([1.0 / N, np.ones(L)])
-    W = N ** 2                 # relative errors under the null model y = C/N (data-independent weights)
-    XtW = X.T * W
-    Amat = np.linalg.solve(XtW @ X, XtW)                            # (2, L): coef = Amat @ ybar
-    Chat, Bhat = (float(v) for v in Amat @ ybar)
-    seB, dfB = data.se_df(Amat[1])
-    floor_p = _t_test(Bhat, 0.0, seB, dfB, two_sided=False)
+    Chat, Bhat, floor_p = _bias_floor(N, data)
 
     p_family = sidak(min(slope_p, floor_p), 2)
     passed = not (p_family <= alpha)
     a2 = sidak_per_test(alpha, 2)
     floor_detected = floor_p <= a2
-    slope_rejected = slope_p <= a2
-    correlated = slope_rejected and slope > -0.25
+    correlated = slope_p <= a2 and slope > -0.25
     floor_spp = Chat / Bhat if (floor_detected and Bhat > 0 and Chat > 0) else (
         0.0 if floor_detected else math.nan)
     bias_rms = math.sqrt(Bhat) * math.sqrt(scale) if floor_detected and Bhat > 0 else math.nan
     bias_rel = bias_rms / image_mean if (image_mean and math.isfinite(bias_rms)) else math.nan
-
-    # ---- verdict ------------------------------------------------------------------------
-    law = (f"slope {slope:.3f} [{slope_ci[0]:.3f}, {slope_ci[1]:.3f}], "
-           f"RMSE(N)/RMSE(4N) = {ratio:.2f} [{ratio_ci[0]:.2f}, {ratio_ci[1]:.2f}]")
-    if passed:
-        verdict = f"converges as N^-1/2 (p={_fmt_p(p_family)}): {law}"
-    elif correlated:
-        verdict = (f"error does not fall: samples are correlated / random numbers reused "
-                   f"(p={_fmt_p(p_family)}): {law}")
-    elif floor_detected:
-        btxt = f"{100 * bias_rel:.2g}% of the mean" if math.isfinite(bias_rel) else f"RMS {bias_rms:.3g}"
-        where = f"~{floor_spp:.0f} spp" if floor_spp > 0 else "the first level"
-        verdict = (f"bias floor: error stops falling at {where} (bias \u2248 {btxt}) "
-                   f"(p={_fmt_p(p_family)}): {law}")
-    elif slope < expected_slope:
-        verdict = (f"error falls faster than N^-1/2 (stratified or correlated across levels?) "
-                   f"(p={_fmt_p(p_family)}): {law}")
-    else:
-        verdict = f"error falls slower than N^-1/2 (p={_fmt_p(p_family)}): {law}"
-    if warnings:
-        verdict += " [" + "; ".join(warnings) + "]"
     return ConvergenceResult(
         slope=slope, slope_ci=(float(slope_ci[0]), float(slope_ci[1])), ratio=float(ratio),
         ratio_ci=(float(ratio_ci[0]), float(ratio_ci[1])), p_value=float(p_family),
-        floor_detected=bool(floor_detected), verdict=verdict, slope_p=slope_p, floor_p=floor_p,
+        floor_detected=bool(floor_detected), slope_p=slope_p, floor_p=floor_p,
         floor_spp=float(floor_spp), bias_rms=float(bias_rms), bias_rel=float(bias_rel),
         correlated=bool(correlated), passed=bool(passed), alpha=float(alpha),
-        levels_used=tuple(int(v) for v in N), warnings=tuple(warnings))
+        levels_used=tuple(int(v) for v in N), expected_slope=float(expected_slope),
+        dropped_levels=dropped, noisy_reference_levels=noisy, rough_slope=bool(rough),
+        effective_rows=float(data.effective),
+        rows=0 if data.paired is None else len(data.paired))

@@ -1,7 +1,7 @@
 r"""What a comparison could see: the smallest global bias its mean test detects.
 
-:mod:`mitsuba_refs.stats.power` bounds the power of the whole-image component against a
-reference alone (the test side's variance a multiple of the reference's). A comparison knows
+The closed forms at the end of these notes bound the power of the whole-image component
+against a reference alone (the test side's variance a multiple of the reference's). A comparison knows
 more: the test side's own per-sample variances and its sample count. :class:`MeanTestPower`
 takes both sides and the mean test's configuration as :func:`mitsuba_refs.stats.compare_means`
 was called (bounded variance or not, whole-image components or tiles only, the film's pixel
@@ -55,6 +55,40 @@ counts; and the family's power is taken as its most powerful component's.
 
 Pure functions, no I/O; the sums over the image are taken once, so the bias at many sample
 counts (``mitsuba-refs compare --detect``) is cheap.
+
+The whole-image component alone, against a reference alone
+------------------------------------------------------------
+:func:`detectable_bias`, :func:`bias_power` and :func:`spp_for_bias` bound the power of the
+whole-image component from a reference alone (the test side's variance a multiple of the
+reference's); :func:`gross_error_bound` and :func:`tile_gross_error_bound` give what the
+bounded-variance components always reject, and :func:`tile_detectable_bias` the tiles-only
+test's bound with Bonferroni over tiles (the grader's, :mod:`autograder.power`).
+
+A submission whose image is :math:`(1+b)` times the truth everywhere shifts the whole-image
+mean of channel :math:`c` by :math:`b\,\mu_c`.  :func:`mitsuba_refs.stats.compare_means`
+tests the whole-image means with
+
+.. math:: z_c = \frac{\bar a_c - \bar b_c}{\sqrt{s_{a,c}^2 + s_{b,c}^2}},\qquad
+          s_{a,c}^2 = \frac{1}{P^2}\sum_p \frac{v^a_{pc}}{n_a},\quad
+          s_{b,c}^2 = \frac{1}{P^2}\sum_p \frac{v^b_{pc}}{n_b},
+
+(``P`` pixels) and rejects when :math:`\max_c |z_c|` exceeds the critical value of its share of
+the level.  With :math:`2^{18}` or more samples per image, :math:`z_c` is normal with mean
+
+.. math:: \delta_c(b) = \frac{b\,\mu_c}{\sqrt{\rho(1+b)^2 \sigma_c^2/n_a + \sigma_c^2/n_b}},
+          \qquad \sigma_c^2 = \frac{1}{P^2}\sum_p v^b_{pc},
+
+where :math:`\rho` is the test estimator's variance relative to the reference's (1 for the
+same estimator), and the reference's own noise (the :math:`1/n_b` term) is counted: it stays
+whatever the test's sample count.
+
+Two simplifications make the result an *upper bound* on the detectable bias (the real test
+is at least this powerful):
+
+* the critical value is the one for independent channels (the largest possible: the test
+  itself uses the estimated channel correlation, which lowers it);
+* the power is that of the single best channel, :math:`P(|Z+\delta_{max}| \ge z^*)`, and the
+  tile component (which also reacts to a global bias) is ignored.
 """
 from __future__ import annotations
 
@@ -63,14 +97,19 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import special
+from scipy.stats import norm
 
 from ._tiles import as_image, noiseless_pixels, sidak_per_test, tile_counts, tile_sums
-from .correlation import INDEPENDENT, PixelCorrelation
+from .correlation import INDEPENDENT
+from .mean import MeanTestOptions, tile_z
 
-__all__ = ["DetectableBias", "MeanTestPower", "detectable_global_bias"]
+__all__ = ["DetectableBias", "MeanTestPower", "detectable_global_bias", "WEAK_BIAS",
+           "weak_agreement", "image_mean_se", "image_critical_z", "bias_power", "detectable_bias",
+           "spp_for_bias", "gross_error_bound", "tile_gross_error_bound", "tile_power",
+           "tile_detectable_bias"]
 
-#: The mean test's relative numerical floor on its standard errors (compare_means' rel_floor).
-REL_FLOOR = 1e-5
+#: An agreement whose detectable global bias exceeds this is weak.
+WEAK_BIAS = 0.05
 #: Largest bias the search tries, brighter (a factor 1e6) and darker (all but black).
 _LARGEST = {+1: 1e6, -1: 1.0 - 1e-12}
 #: "Infinitely many" test samples (finite, so that the no-hit guard's weights stay numbers).
@@ -146,18 +185,17 @@ class MeanTestPower:
         As given to ``compare_means``: adds the bounded-variance component.
     image_components : bool
         As given to ``compare_means``; False: the tiles decide alone.
-    pixel_correlation : PixelCorrelation, optional
-        The film's (tiles only; the image sums need none).
-    tile : int
-        Tile edge of the mean test.
-    same_estimator : bool
-        As given to ``compare_means``: the image components' heavy-tail guard.
+    options : MeanTestOptions
+        As given to ``compare_means``: its tile edge, numerical floor, the film's pixel
+        correlation (tiles only; the image sums need none) and the image components'
+        heavy-tail guard (``same_estimator``).
     """
 
     def __init__(self, ref_mean, ref_var, test_var, *, alpha: float,
                  max_var_ratio: float | None = None, image_components: bool = True,
-                 pixel_correlation: PixelCorrelation | None = None, tile: int = 8,
-                 same_estimator: bool = False):
+                 options: MeanTestOptions = MeanTestOptions()):
+        tile, pixel_correlation = options.tile, options.pixel_correlation
+        same_estimator, self.rel_floor = options.same_estimator, options.rel_floor
         if not 0.0 < alpha < 1.0:
             raise ValueError("alpha must be in (0, 1)")
         mean = as_image(ref_mean, "ref_mean")
@@ -210,9 +248,8 @@ class MeanTestPower:
             return tiles
         return max(tiles, self._image_power(b, test_spp, reference_spp))
 
-    @staticmethod
-    def _floor(b, mu, sampled):
-        return (REL_FLOOR * np.maximum(np.abs(mu), np.abs(mu + b * sampled))) ** 2
+    def _floor(self, b, mu, sampled):
+        return (self.rel_floor * np.maximum(np.abs(mu), np.abs(mu + b * sampled))) ** 2
 
     def _image_power(self, b, n_a, n_b):
         ref = self.image_ref / n_b
@@ -297,8 +334,7 @@ class MeanTestPower:
 def detectable_global_bias(ref_mean, ref_var, ref_n, test_var, test_n, *, alpha: float,
                            power: float = 0.95, max_var_ratio: float | None = None,
                            image_components: bool = True,
-                           pixel_correlation: PixelCorrelation | None = None,
-                           tile: int = 8, same_estimator: bool = False) -> DetectableBias:
+                           options: MeanTestOptions = MeanTestOptions()) -> DetectableBias:
     """The smallest global bias ``compare_means`` (called with these arguments) detects with
     probability ``power``: :meth:`MeanTestPower.bound` (an upper bound, see the module notes).
 
@@ -306,13 +342,207 @@ def detectable_global_bias(ref_mean, ref_var, ref_n, test_var, test_n, *, alpha:
     ----------
     ref_mean, ref_var, ref_n : the reference's mean, per-sample variance and sample count
     test_var, test_n : the test side's per-sample variance and sample count
-    alpha, max_var_ratio, image_components, pixel_correlation, tile, same_estimator : as for
-        ``compare_means``
+    alpha, max_var_ratio, image_components, options : as for ``compare_means``
     power : float
         Detection probability (0.95).
     """
     model = MeanTestPower(ref_mean, ref_var, test_var, alpha=alpha, max_var_ratio=max_var_ratio,
-                          image_components=image_components,
-                          pixel_correlation=pixel_correlation, tile=tile,
-                          same_estimator=same_estimator)
+                          image_components=image_components, options=options)
     return model.bound(float(test_n), float(ref_n), power=power)
+
+
+def weak_agreement(agree: bool, bound: DetectableBias | None) -> bool:
+    """An agreement that could not see a global bias of :data:`WEAK_BIAS`."""
+    return bool(agree and bound is not None and bound.bias > WEAK_BIAS)
+
+
+# ---- the whole-image component alone, against a reference alone ----------------------
+def image_mean_se(ref_var, n) -> np.ndarray:
+    r"""Standard error of each channel's whole-image mean for per-sample variances ``ref_var``
+    (H, W, C) at ``n`` samples per pixel: :math:`\sqrt{\sum_p v_p / n} / P`."""
+    v = np.maximum(np.asarray(ref_var, dtype=np.float64), 0.0)
+    if v.ndim == 2:
+        v = v[..., None]
+    pixels = v.shape[0] * v.shape[1]
+    return np.sqrt(v.sum(axis=(0, 1)) / float(n)) / pixels
+
+
+def image_critical_z(alpha: float, *, components: int = 3, channels: int = 3) -> float:
+    """Largest |z| the image component of the mean test may reach without rejecting.
+
+    ``alpha`` is the whole mean test's level; it is split by Šidák over ``components``
+    (tiles, image, bounded-variance image: 3) and, conservatively, over independent
+    ``channels``.
+    """
+    level = sidak_per_test(sidak_per_test(alpha, components), channels)
+    return float(-special.ndtri(level / 2))
+
+
+def bias_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float,
+               variance_ratio: float = 1.0, components: int = 3) -> float:
+    """Lower bound on the chance that the mean test rejects an image ``(1+b)`` times the truth.
+
+    Parameters
+    ----------
+    b : float
+        Relative global bias (> -1).
+    ref_mean, ref_var : array (H, W, C)
+        The reference's per-pixel mean and per-sample variance (taken as the truth).
+    ref_n, n_test : float
+        Samples per pixel of the reference and of the test render.
+    alpha : float
+        Level of the whole mean test.
+    variance_ratio : float
+        Test estimator's per-sample variance / the reference's (1: same estimator).
+    components : int
+        Components of the mean test's family (see :func:`image_critical_z`).
+    """
+    mu = np.asarray(ref_mean, dtype=np.float64)
+    mu = (mu if mu.ndim == 3 else mu[..., None]).mean(axis=(0, 1))
+    se_ref = image_mean_se(ref_var, ref_n)
+    se_test = image_mean_se(ref_var, n_test) * math.sqrt(variance_ratio) * abs(1.0 + b)
+    se = np.sqrt(se_ref ** 2 + se_test ** 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        delta = np.where(se > 0, np.abs(b * mu) / se, np.where(b * mu != 0, np.inf, 0.0))
+    best = float(np.max(delta))
+    crit = image_critical_z(alpha, components=components, channels=mu.size)
+    if math.isinf(best):
+        return 1.0
+    # P(|Z + delta| >= crit) = Φc(crit - delta) + Φc(crit + delta)
+    return float(0.5 * (special.erfc((crit - best) / math.sqrt(2))
+                        + special.erfc((crit + best) / math.sqrt(2))))
+
+
+def detectable_bias(ref_mean, ref_var, ref_n, n_test, *, alpha: float, power: float = 0.95,
+                    variance_ratio: float = 1.0, components: int = 3, sign: int = +1) -> float:
+    """Smallest relative bias ``|b|`` (sign ``sign``) detected with probability >= ``power``.
+
+    Upper bound (see the module notes); ``inf`` when even ``b = -1`` or ``b = 1e6`` is not
+    detected (a noiseless-but-black image).  Parameters as for :func:`bias_power`.
+    """
+    if sign not in (-1, 1):
+        raise ValueError("sign must be +1 or -1")
+    if not 0.0 < power < 1.0:
+        raise ValueError("power must be in (0, 1)")
+
+    def enough(size):
+        return bias_power(sign * size, ref_mean, ref_var, ref_n, n_test, alpha=alpha,
+                          variance_ratio=variance_ratio, components=components) >= power
+
+    hi = 1.0 - 1e-12 if sign < 0 else 1e6
+    if not enough(hi):
+        return math.inf
+    lo = 0.0
+    for _ in range(100):        # the power grows monotonically with |b| on either side
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if enough(mid) else (mid, hi)
+        if hi - lo < 1e-7:
+            break
+    return hi
+
+
+def spp_for_bias(target: float, ref_mean, ref_var, ref_n, *, alpha: float, power: float = 0.95,
+                 variance_ratio: float = 1.0, components: int = 3, step: int = 64,
+                 max_spp: int = 1 << 16) -> int | None:
+    """Smallest multiple of ``step`` samples per pixel at which both a bias of ``+target`` and
+    one of ``-target`` are detected with probability >= ``power``; None if no count up to
+    ``max_spp`` suffices (the reference's own noise alone is too large)."""
+    def ok(n):
+        return all(detectable_bias(ref_mean, ref_var, ref_n, n, alpha=alpha, power=power,
+                                   variance_ratio=variance_ratio, components=components,
+                                   sign=s) <= target for s in (1, -1))
+    if not ok(max_spp):
+        return None
+    lo, hi = 0, max_spp // step           # ok(hi * step) holds; find the smallest such
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if ok(mid * step) else (mid, hi)
+    return hi * step
+
+
+def gross_error_bound(ref_mean, ref_var, ref_n, n_test, *, alpha: float, max_var_ratio: float,
+                      components: int = 3) -> float:
+    r"""Relative image-mean deviation that the bounded-variance component always rejects.
+
+    Whatever the test side's own variance, an observed image :math:`(1+r)` times the
+    reference's with :math:`|r|` at least this value is rejected:
+    :math:`|r|\,\bar b_c \ge z^* \sqrt{K\sum_p v_{pc}/n_a + \sum_p v_{pc}/n_b}/P` in some
+    channel (``K = max_var_ratio``, :math:`z^*` as in :func:`image_critical_z`; the rel_floor
+    term, 1e-5, is neglected).  A deterministic guarantee on the observed image, not a power.
+    """
+    mu = np.asarray(ref_mean, dtype=np.float64)
+    mu = (mu if mu.ndim == 3 else mu[..., None]).mean(axis=(0, 1))
+    se = np.sqrt(max_var_ratio * image_mean_se(ref_var, n_test) ** 2
+                 + image_mean_se(ref_var, ref_n) ** 2)
+    crit = image_critical_z(alpha, components=components, channels=mu.size)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(se > 0, np.abs(mu) / se, np.where(mu != 0, np.inf, 0.0))
+    best = float(np.max(ratio))
+    return math.inf if best == 0 else crit / best
+
+
+def tile_gross_error_bound(ref_mean, ref_var, ref_n, n_test, *, alpha: float,
+                           max_var_ratio: float, tile: int = 8, components: int = 2) -> float:
+    r"""Relative deviation that the tiles' bounded-variance component always rejects.
+
+    The tiles-only mean test (``compare_means(..., image_components=False,
+    max_var_ratio=K)``) rejects an observed image whose tile means are :math:`(1+r)` times the
+    reference's with :math:`|r|` at least this value, whatever the test side's own variance:
+    in the tile and channel with the largest :math:`\bar b / \mathrm{se}` the bounded
+    :math:`|z|` reaches the Bonferroni critical value over ``components``, tiles and channels
+    (at least the test's own critical value, so the guarantee holds). The z is
+    :func:`mitsuba_refs.stats.mean.tile_z`'s with the test side's variance ``K`` times the
+    reference's (rel_floor neglected). A deterministic guarantee on the observed image, not a
+    power.
+    """
+    mu = np.asarray(ref_mean, dtype=np.float64)
+    var = np.maximum(np.asarray(ref_var, dtype=np.float64), 0.0)
+    # The bounded z of an image twice the reference's (r = 1) is each tile's mean / se.
+    z, informative = tile_z(2.0 * mu, max_var_ratio * var, n_test, mu, var, ref_n, tile,
+                            rel_floor=0.0)
+    m = max(int(informative.any(axis=2).sum()), 1)
+    crit = float(-special.ndtri(sidak_per_test(alpha, components) / (2 * z.shape[2] * m)))
+    best = float(np.max(np.abs(z)))
+    return math.inf if best == 0 else crit / best
+
+
+def tile_power(b: float, ref_mean, ref_var, ref_n, n_test, *, alpha: float, tile: int = 8,
+               components: int = 2) -> float:
+    """Probability that the tiles-only mean test rejects an image ``(1+b)`` times the truth.
+
+    Each tile rejects when its best channel's ``|z|`` (own variance) exceeds the Bonferroni
+    critical value over the test's ``components`` (own-variance tiles and bounded-variance
+    tiles), tiles and channels (the real test's Šidák and its correlated-channel maximum have
+    a smaller one) and the tiles are independent: a lower bound on the power, so the bias
+    :func:`tile_detectable_bias` returns is an upper bound.
+    """
+    mean = np.asarray(ref_mean, dtype=np.float64)
+    per_sample = np.maximum(np.asarray(ref_var, dtype=np.float64), 0.0)
+    h, w = mean.shape[0] - mean.shape[0] % tile, mean.shape[1] - mean.shape[1] % tile
+
+    def tiles(x):
+        return x[:h, :w].reshape(h // tile, tile, w // tile, tile, -1).sum(axis=(1, 3))
+    signal = tiles(mean)
+    se = np.sqrt(tiles(per_sample) * (1.0 + b) ** 2 / n_test + tiles(per_sample) / ref_n)
+    informative = (se > 0).any(axis=2)
+    m = max(int(informative.sum()), 1)
+    critical = norm.isf(alpha / (components * 2 * 3 * m))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        shift = np.where(se > 0, np.abs(b * signal) / se, 0.0).max(axis=2)[informative]
+    miss = norm.cdf(critical - shift)
+    return float(1.0 - np.prod(miss))
+
+
+def tile_detectable_bias(ref_mean, ref_var, ref_n, n_test, *, alpha: float, power: float = 0.95,
+                         sign: int = +1) -> float:
+    """Smallest relative bias (sign ``sign``) the tiles-only test detects with probability
+    >= ``power`` by :func:`tile_power` (an upper bound); ``inf`` if none up to 100 %."""
+    def enough(size):
+        return tile_power(sign * size, ref_mean, ref_var, ref_n, n_test, alpha=alpha) >= power
+    lo, hi = 0.0, 1.0 - 1e-9
+    if not enough(hi):
+        return math.inf
+    while hi - lo > 1e-6:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if enough(mid) else (mid, hi)
+    return hi

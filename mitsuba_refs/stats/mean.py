@@ -120,10 +120,10 @@ from scipy import optimize, special
 from pathtracer.core.color import LUMINANCE
 
 from ._mvn import correlation_from_differences, p_max_abs
-from ._tiles import as_count, as_image, region_name, sidak, sidak_per_test, tile_counts, tile_sums
+from ._tiles import as_count, as_image, sidak, sidak_per_test, tile_counts, tile_sums
 from .correlation import INDEPENDENT, PixelCorrelation
 
-__all__ = ["MeanAgreement", "compare_means", "tile_z", "VARIANCE_BOUND", "overflow_scale"]
+__all__ = ["MeanAgreement", "MeanTestOptions", "compare_means", "tile_z", "VARIANCE_BOUND", "overflow_scale"]
 
 #: Default ``max_var_ratio`` of the bounded-variance image component for two renders of the
 #: same estimator: a correct test side is assumed to have at most this many times the
@@ -153,18 +153,43 @@ def overflow_scale(*arrays, guard: float = _OVERFLOW_GUARD) -> float:
     return float(2.0 ** math.floor(math.log2(largest)))
 
 
-def _two_sided_p(z: np.ndarray) -> np.ndarray:
-    """Two-sided normal p-value 2 Φ(-|z|), accurate far in the tail."""
-    return special.erfc(np.abs(z) / math.sqrt(2.0))
-
-
 def _norm_ppf(q: float) -> float:
     return float(special.ndtri(q))
 
 
+@dataclass(frozen=True)
+class MeanTestOptions:
+    """How :func:`compare_means` measures (the defaults are the test's own).
+
+    Attributes
+    ----------
+    tile : int
+        Tile edge (pixels); edge tiles may be partial.
+    ci_level : float
+        Level of the relative-bias confidence interval.
+    rel_floor : float
+        Relative numerical floor on standard errors (float32 resolution headroom).
+    pixel_correlation : PixelCorrelation, optional
+        How the film's reconstruction filter correlates neighbouring pixels
+        (:func:`mitsuba_refs.stats.correlation.pixel_correlation`); None: independent
+        pixels (box filter).  With a tent or gaussian filter ``var / n`` is each pixel's
+        covariance row sum, and a tile's variance is the share of it inside the tile.
+    same_estimator : bool
+        The test side runs the reference's estimator: its image-mean variance is taken as the
+        larger of its own and the pooled one (module notes, "Heavy tails").
+    """
+
+    tile: int = 8
+    ci_level: float = 0.95
+    rel_floor: float = 1e-5
+    pixel_correlation: PixelCorrelation | None = None
+    same_estimator: bool = False
+
+
 @dataclass(frozen=True, eq=False)
 class MeanAgreement:
-    """Result of :func:`compare_means` (side a = test, side b = reference).
+    """Result of :func:`compare_means` (side a = test, side b = reference): numbers only
+    (the words: :func:`mitsuba_refs.report.wording.mean_verdict`).
 
     Attributes
     ----------
@@ -180,28 +205,32 @@ class MeanAgreement:
         Informative tiles (some channel carries evidence).
     n_significant : int
         Tiles whose largest-channel |z| exceeds the per-tile critical value.
-    critical_z : float
-        The per-tile critical |z| of the family at level ``alpha`` (nan when the test
-        agrees: then no tile can exceed it, and it is not computed).
-    significant : ndarray of bool, shape like ``z_tiles``
-        Tile-channels whose |z| exceeds ``critical_z`` (the tiles ``n_significant`` counts).
     worst_tile : tuple (row, col, channel) or None
         Tile-channel with the largest |z| (tile indices).
     worst_z : float
         Its z.
-    worst_region : str
-        Where the worst evidence sits in words (e.g. "top-left", "center", "whole image").
     scale_p_values : dict
         Component p-values: "<tile>px" (Šidák over tiles), "image" and, with
-        ``max_var_ratio``, "image, bounded variance".
+        ``max_var_ratio``, "image, bounded variance" (tiles only: "<tile>px, bounded variance").
     image_z : ndarray, shape (C,)
         Per-channel z of the whole-image means.
     rel_bias, rel_bias_ci : float, (float, float)
         Luminance relative bias mean_a/mean_b - 1 and its CI (level ``ci_level``).
     rel_bias_channels : ndarray, shape (C,)
         Per-channel relative bias.
-    verdict : str
-        One-line human verdict.
+    critical_z : float
+        The per-tile critical |z| of the family at level ``alpha`` (nan when the test
+        agrees: then no tile can exceed it, and it is not computed).
+    significant : ndarray of bool, shape like ``z_tiles``
+        Tile-channels whose |z| exceeds ``critical_z`` (the tiles ``n_significant`` counts).
+    shape : (int, int)
+        The image's height and width in pixels.
+    max_var_ratio : float or None
+        The bound of the bounded-variance component (None: none ran).
+    bounded_z : ndarray, shape (C,), or None
+        Per-channel z of the whole-image means with the bounded variance (None: not run).
+    bounded_only : bool
+        Only the tiles' bounded-variance component rejects: ``z_tiles`` are its z.
     """
 
     agree: bool
@@ -213,16 +242,19 @@ class MeanAgreement:
     n_significant: int
     worst_tile: tuple | None
     worst_z: float
-    worst_region: str
     scale_p_values: dict = field(default_factory=dict)
     image_z: np.ndarray = None
     rel_bias: float = 0.0
     rel_bias_ci: tuple = (0.0, 0.0)
     rel_bias_channels: np.ndarray = None
     ci_level: float = 0.95
-    verdict: str = ""
     critical_z: float = math.nan
     significant: np.ndarray = None
+    # Not in the repr, which stays what it was before these fields (test logs print it).
+    shape: tuple = field(default=(0, 0), repr=False)
+    max_var_ratio: float | None = field(default=None, repr=False)
+    bounded_z: np.ndarray | None = field(default=None, repr=False)
+    bounded_only: bool = field(default=False, repr=False)
 
     def __bool__(self) -> bool:  # ``if compare_means(...):`` reads naturally
         return bool(self.agree)
@@ -302,80 +334,8 @@ def _solve_crit(level: float, R: np.ndarray) -> float:
     return hi
 
 
-def _fmt_p(p: float) -> str:
-    if p >= 0.01:
-        return f"{p:.2f}"
-    if p > 0:
-        return f"{p:.1e}"
-    return "<1e-300"
-
-
-def _fmt_pct(x: float) -> str:
-    return f"{100 * x:+.1f}%".replace("-", "\u2212")
-
-
-def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alpha: float,
-                  ci_level: float = 0.95, rel_floor: float = 1e-5,
-                  max_var_ratio: float | None = None,
-                  pixel_correlation: PixelCorrelation | None = None,
-                  image_components: bool = True, same_estimator: bool = False) -> MeanAgreement:
-    r"""Test whether two renders (a = test, b = reference) have the same expected image.
-
-    Parameters
-    ----------
-    mean_a, mean_b : array (H, W, C) or (H, W)
-        Per-pixel mean radiance.
-    var_a, var_b : array like the means
-        Per-pixel unbiased per-sample variance :math:`s^2 = \frac{1}{n-1}\sum (x_i-\bar x)^2`.
-    n_a, n_b : int or array (H, W)
-        Samples per pixel (>= 2).
-    tile : int, keyword
-        Tile edge (pixels); edge tiles may be partial.
-    alpha : float, keyword (required)
-        Family false-rejection level for this comparison (take it from
-        :func:`mitsuba_refs.stats.budget.per_test_alpha`).
-    ci_level : float
-        Level of the relative-bias confidence interval.
-    rel_floor : float
-        Relative numerical floor on standard errors (float32 resolution headroom).
-    max_var_ratio : float, optional
-        Adds the bounded-variance image component: the whole-image means are also tested with
-        the test side's variance taken as ``max_var_ratio`` times the reference's instead of
-        its own estimate, so that a test-side variance far above the reference's cannot hide
-        a bias (e.g. :data:`VARIANCE_BOUND` for two renders of the same estimator).  Valid
-        when the test estimator's per-sample variance, summed over the image, is at most
-        that many times the reference's.  With ``image_components=False`` the bound applies
-        to each tile instead ("8px, bounded variance"; valid when it holds per tile).
-        None (default): tiles and image only.
-
-    pixel_correlation : PixelCorrelation, optional
-        How the film's reconstruction filter correlates neighbouring pixels
-        (:func:`mitsuba_refs.stats.correlation.pixel_correlation`); None: independent
-        pixels (box filter).  With a tent or gaussian filter ``var / n`` is each pixel's
-        covariance row sum, and a tile's variance is the share of it inside the tile.
-    image_components : bool
-        False leaves out the whole-image components (own and bounded variance): for
-        renders whose pixels are correlated across the image, where summed pixel variances
-        misjudge the image mean's (a light path splats into every pixel its vertices
-        project to; docs/statistics.md section 8). The tiles then decide alone, with
-        their own variance and, if ``max_var_ratio`` is given, with the bounded one.
-    same_estimator : bool
-        The test side runs the reference's estimator: its image-mean variance is taken as the
-        larger of its own and the pooled one (module notes, "Heavy tails").
-
-    Returns
-    -------
-    MeanAgreement
-        See its docstring.  The test is calibrated for skewed radiance when tiles hold
-        >= ~4000 samples of the test side (e.g. 8x8 tiles at 64 spp); see docs/statistics.md.
-        ``var_a`` may hold ``+inf`` (a variance that overflowed float64): the components using
-        it then carry no evidence, the bounded one still does.
-
-    Notes
-    -----
-    Pixels must be independent (box reconstruction filter) unless ``pixel_correlation``
-    describes the filter.  Pure function: no I/O.
-    """
+def _checked_inputs(mean_a, var_a, mean_b, var_b, alpha, max_var_ratio, tile):
+    """The four images as (H, W, C) float arrays, divided by a common scale when huge."""
     if not (0.0 < alpha < 1.0):
         raise ValueError("alpha must be in (0, 1)")
     ma, va, mb, vb = (as_image(x, nm) for x, nm in
@@ -394,73 +354,41 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
     scale = overflow_scale(ma, mb, np.sqrt(np.abs(va)), np.sqrt(np.abs(vb)))
     if scale != 1.0:
         ma, mb, va, vb = ma / scale, mb / scale, va / scale / scale, vb / scale / scale
-    h, w, C = ma.shape
-    tile = int(tile)
-    if tile < 1:
+    if int(tile) < 1:
         raise ValueError("tile must be >= 1")
+    return ma, va, mb, vb
 
-    # ---- per-tile z at the base scale -----------------------------------------------
-    # A filtered pixel's var / n is its covariance row sum; a tile keeps the share inside it.
-    share = (pixel_correlation or INDEPENDENT).within_tile_share(tile)
-    z0, inf0 = tile_z(ma, va * share, n_a, mb, vb * share, n_b, tile, rel_floor=rel_floor)
-    tile_inf = inf0.any(axis=2)
-    m0 = int(tile_inf.sum())                               # informative tiles
-    R = correlation_from_differences((ma - mb).reshape(-1, C))
-    zmax_t = float(np.max(np.abs(np.where(inf0, z0, 0.0)))) if m0 else 0.0
-    p_tile_min = p_max_abs(zmax_t, R) if m0 else 1.0     # smallest per-tile p (max over channels)
-    scale_p: dict[str, float] = {f"{tile}px": sidak(p_tile_min, m0)}
 
-    # ---- whole image, per channel (max over channels, correlation-aware) ------------
-    na = as_count(n_a, (h, w), "n_a")[..., None]
-    nb = as_count(n_b, (h, w), "n_b")[..., None]
-    npx = h * w
+def _difference_z(A, B, se_test, se_ref, rel_floor):
+    """Per-channel z of the image means ``A - B`` (numerical floor added; a deterministic
+    difference is +-inf, an equal one 0)."""
+    se = np.sqrt(se_test ** 2 + se_ref ** 2 + (rel_floor * np.maximum(np.abs(A), np.abs(B))) ** 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(se > 0, (A - B) / se, np.where(A == B, 0.0, np.sign(A - B) * np.inf))
+
+
+def _channel_p(z, R) -> float:
+    """p-value of the largest |z| over correlated channels (1 when every z is 0)."""
+    return p_max_abs(float(np.max(np.abs(z))), R) if np.any(z != 0) else 1.0
+
+
+def _image_means(ma, va, na, mb, vb, nb, options):
+    """Whole-image channel means ``A, B``, their standard errors ``sa, sb`` and z."""
+    npx = ma.shape[0] * ma.shape[1]
     A = ma.mean(axis=(0, 1))
     B = mb.mean(axis=(0, 1))
     own = (np.maximum(va, 0) / na).sum(axis=(0, 1))                  # own variances: CLT-safe here
-    if same_estimator:      # a render that missed heavy-tailed samples: module notes
+    if options.same_estimator:      # a render that missed heavy-tailed samples: module notes
         pooled = (na * np.maximum(va, 0) + nb * np.maximum(vb, 0)) / (na + nb)
         own = np.maximum(own, (pooled / na).sum(axis=(0, 1)))
     sa = np.sqrt(own) / npx
     sb = np.sqrt((np.maximum(vb, 0) / nb).sum(axis=(0, 1))) / npx
-    se = np.sqrt(sa ** 2 + sb ** 2 + (rel_floor * np.maximum(np.abs(A), np.abs(B))) ** 2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        image_z = np.where(se > 0, (A - B) / se, np.where(A == B, 0.0, np.sign(A - B) * np.inf))
-    if image_components:
-        scale_p["image"] = (p_max_abs(float(np.max(np.abs(image_z))), R)
-                            if np.any(image_z != 0) else 1.0)
+    return A, B, sa, sb, _difference_z(A, B, sa, sb, options.rel_floor)
 
-    # ---- whole image, the test's variance bounded by max_var_ratio x the reference's ------
-    # The components above divide by the test side's own variance, so a heavy-tailed wrong
-    # estimator (a few enormous samples) inflates its standard error as fast as its bias and
-    # passes.  Here the test side's image-mean variance is what it would be with
-    # max_var_ratio times the reference's per-sample variances (16.7M samples at 4096 spp:
-    # a precise estimate), so the z grows with the bias whatever the test's variance.
-    bounded_z = None
-    if max_var_ratio is not None and image_components:
-        sab = np.sqrt(max_var_ratio * (np.maximum(vb, 0) / na).sum(axis=(0, 1))) / npx
-        seb = np.sqrt(sab ** 2 + sb ** 2 + (rel_floor * np.maximum(np.abs(A), np.abs(B))) ** 2)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            bounded_z = np.where(seb > 0, (A - B) / seb,
-                                 np.where(A == B, 0.0, np.sign(A - B) * np.inf))
-        scale_p["image, bounded variance"] = (p_max_abs(float(np.max(np.abs(bounded_z))), R)
-                                              if np.any(bounded_z != 0) else 1.0)
 
-    # ---- tiles, the test's variance bounded (renders without image components) --------
-    # Splatting correlates pixels across the image but hardly within a tile (docs/statistics.md
-    # section 8), so there the bound applies tile by tile: the test side's tile variance is
-    # max_var_ratio times the reference's, whatever the test's own.
-    bounded_tiles_z = None
-    if max_var_ratio is not None and not image_components:
-        bounded_tiles_z, inf_b = tile_z(ma, max_var_ratio * vb * share, n_a, mb, vb * share, n_b,
-                                        tile, rel_floor=rel_floor)
-        m_b = int(inf_b.any(axis=2).sum())
-        zmax_b = float(np.max(np.abs(np.where(inf_b, bounded_tiles_z, 0.0)))) if m_b else 0.0
-        scale_p[f"{tile}px, bounded variance"] = sidak(p_max_abs(zmax_b, R), m_b) if m_b else 1.0
-
-    p_family = sidak(min(scale_p.values()), len(scale_p))
-    agree = not (p_family <= alpha)
-
-    # ---- relative bias (luminance, CS-bounded se) -----------------------------------
+def _relative_bias(A, B, sa, sb, ci_level):
+    """Luminance relative bias, its CI (CS-bounded se) and the per-channel relative bias."""
+    C = A.shape[0]
     wts = LUMINANCE if C == 3 else np.full(C, 1.0 / C)
     YA, YB = float(wts @ A), float(wts @ B)
     sYA, sYB = float(wts @ sa), float(wts @ sb)
@@ -476,83 +404,138 @@ def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tile: int = 8, alph
         rel, rel_ci = (math.inf if YB == 0 else -1.0), (math.nan, math.nan)
     with np.errstate(divide="ignore", invalid="ignore"):
         rel_ch = np.where(B != 0, A / B - 1.0, np.where(A == B, 0.0, np.inf))
+    return float(rel), (float(rel_ci[0]), float(rel_ci[1])), rel_ch
+
+
+def _significant_tiles(agree, alpha, components, z0, inf0, R, bounded_tiles_z):
+    """Per-tile critical |z|, the significant tile-channels, the z they refer to and whether
+    only the tiles' bounded component rejects."""
+    m0 = int(inf0.any(axis=2).sum())
+    # per-tile critical |z|: solve p_max_abs(crit, R) = Šidák per-tile level
+    lvl = sidak_per_test(sidak_per_test(alpha, components), max(m0, 1))
+    if agree:          # then no tile can exceed the critical value
+        return math.nan, np.zeros(z0.shape, dtype=bool), z0, False
+    crit = _solve_crit(lvl, R)
+    sig = inf0 & (np.abs(z0) > crit)
+    if bounded_tiles_z is not None and not sig.any():
+        # only the bound rejects (a heavy-tailed test side): report the tiles it rejects
+        return crit, inf0 & (np.abs(bounded_tiles_z) > crit), bounded_tiles_z, True
+    return crit, sig, z0, False
+
+
+def compare_means(mean_a, var_a, n_a, mean_b, var_b, n_b, *, alpha: float,
+                  max_var_ratio: float | None = None, image_components: bool = True,
+                  options: MeanTestOptions = MeanTestOptions()) -> MeanAgreement:
+    r"""Test whether two renders (a = test, b = reference) have the same expected image.
+
+    Parameters
+    ----------
+    mean_a, mean_b : array (H, W, C) or (H, W)
+        Per-pixel mean radiance.
+    var_a, var_b : array like the means
+        Per-pixel unbiased per-sample variance :math:`s^2 = \frac{1}{n-1}\sum (x_i-\bar x)^2`.
+    n_a, n_b : int or array (H, W)
+        Samples per pixel (>= 2).
+    alpha : float, keyword (required)
+        Family false-rejection level for this comparison (take it from
+        :func:`mitsuba_refs.stats.budget.per_test_alpha`).
+    max_var_ratio : float, optional
+        Adds the bounded-variance image component: the whole-image means are also tested with
+        the test side's variance taken as ``max_var_ratio`` times the reference's instead of
+        its own estimate, so that a test-side variance far above the reference's cannot hide
+        a bias (e.g. :data:`VARIANCE_BOUND` for two renders of the same estimator).  Valid
+        when the test estimator's per-sample variance, summed over the image, is at most
+        that many times the reference's.  With ``image_components=False`` the bound applies
+        to each tile instead ("8px, bounded variance"; valid when it holds per tile).
+        None (default): tiles and image only.
+    image_components : bool
+        False leaves out the whole-image components (own and bounded variance): for
+        renders whose pixels are correlated across the image, where summed pixel variances
+        misjudge the image mean's (a light path splats into every pixel its vertices
+        project to; docs/statistics.md section 8). The tiles then decide alone, with
+        their own variance and, if ``max_var_ratio`` is given, with the bounded one.
+    options : MeanTestOptions
+        Tile size, CI level, numerical floor, the film's pixel correlation and the heavy-tail
+        guard (``same_estimator``); see :class:`MeanTestOptions`.
+
+    Returns
+    -------
+    MeanAgreement
+        See its docstring.  The test is calibrated for skewed radiance when tiles hold
+        >= ~4000 samples of the test side (e.g. 8x8 tiles at 64 spp); see docs/statistics.md.
+        ``var_a`` may hold ``+inf`` (a variance that overflowed float64): the components using
+        it then carry no evidence, the bounded one still does.
+
+    Notes
+    -----
+    Pixels must be independent (box reconstruction filter) unless ``options.pixel_correlation``
+    describes the filter.  Pure function: no I/O.
+    """
+    tile, rel_floor = int(options.tile), options.rel_floor
+    ma, va, mb, vb = _checked_inputs(mean_a, var_a, mean_b, var_b, alpha, max_var_ratio, tile)
+    h, w, C = ma.shape
+
+    # ---- per-tile z at the base scale -----------------------------------------------
+    # A filtered pixel's var / n is its covariance row sum; a tile keeps the share inside it.
+    share = (options.pixel_correlation or INDEPENDENT).within_tile_share(tile)
+    z0, inf0 = tile_z(ma, va * share, n_a, mb, vb * share, n_b, tile, rel_floor=rel_floor)
+    m0 = int(inf0.any(axis=2).sum())                       # informative tiles
+    R = correlation_from_differences((ma - mb).reshape(-1, C))
+    zmax_t = float(np.max(np.abs(np.where(inf0, z0, 0.0)))) if m0 else 0.0
+    p_tile_min = p_max_abs(zmax_t, R) if m0 else 1.0     # smallest per-tile p (max over channels)
+    scale_p: dict[str, float] = {f"{tile}px": sidak(p_tile_min, m0)}
+
+    # ---- whole image, per channel (max over channels, correlation-aware) ------------
+    na = as_count(n_a, (h, w), "n_a")[..., None]
+    nb = as_count(n_b, (h, w), "n_b")[..., None]
+    A, B, sa, sb, image_z = _image_means(ma, va, na, mb, vb, nb, options)
+    if image_components:
+        scale_p["image"] = _channel_p(image_z, R)
+
+    # ---- whole image, the test's variance bounded by max_var_ratio x the reference's ------
+    # The components above divide by the test side's own variance, so a heavy-tailed wrong
+    # estimator (a few enormous samples) inflates its standard error as fast as its bias and
+    # passes.  Here the test side's image-mean variance is what it would be with
+    # max_var_ratio times the reference's per-sample variances (16.7M samples at 4096 spp:
+    # a precise estimate), so the z grows with the bias whatever the test's variance.
+    bounded_z = None
+    if max_var_ratio is not None and image_components:
+        sab = np.sqrt(max_var_ratio * (np.maximum(vb, 0) / na).sum(axis=(0, 1))) / (h * w)
+        bounded_z = _difference_z(A, B, sab, sb, rel_floor)
+        scale_p["image, bounded variance"] = _channel_p(bounded_z, R)
+
+    # ---- tiles, the test's variance bounded (renders without image components) --------
+    # Splatting correlates pixels across the image but hardly within a tile (docs/statistics.md
+    # section 8), so there the bound applies tile by tile: the test side's tile variance is
+    # max_var_ratio times the reference's, whatever the test's own.
+    bounded_tiles_z = None
+    if max_var_ratio is not None and not image_components:
+        bounded_tiles_z, inf_b = tile_z(ma, max_var_ratio * vb * share, n_a, mb, vb * share, n_b,
+                                        tile, rel_floor=rel_floor)
+        m_b = int(inf_b.any(axis=2).sum())
+        zmax_b = float(np.max(np.abs(np.where(inf_b, bounded_tiles_z, 0.0)))) if m_b else 0.0
+        scale_p[f"{tile}px, bounded variance"] = sidak(p_max_abs(zmax_b, R), m_b) if m_b else 1.0
+
+    p_family = sidak(min(scale_p.values()), len(scale_p))
+    agree = not (p_family <= alpha)
+    rel, rel_ci, rel_ch = _relative_bias(A, B, sa, sb, options.ci_level)
 
     # ---- where is it worst (base scale) ------------------------------------------
-    # per-tile critical |z|: solve p_max_abs(crit, R) = Šidák per-tile level
-    lvl = sidak_per_test(sidak_per_test(alpha, len(scale_p)), max(m0, 1))
-    bounded_only = False
-    crit = math.nan
-    if agree:          # then no tile can exceed the critical value
-        sig = np.zeros(z0.shape, dtype=bool)
-    else:
-        crit = _solve_crit(lvl, R)
-        sig = inf0 & (np.abs(z0) > crit)
-        if bounded_tiles_z is not None and not sig.any():
-            # only the bound rejects (a heavy-tailed test side): report the tiles it rejects
-            z0, bounded_only = bounded_tiles_z, True
-            sig = inf0 & (np.abs(z0) > crit)
-    n_sig = int(sig.any(axis=2).sum())
+    crit, sig, z0, bounded_only = _significant_tiles(agree, alpha, len(scale_p), z0, inf0, R,
+                                                     bounded_tiles_z)
+    worst_tile, worst_z = None, 0.0
     if m0:
         absz = np.where(inf0, np.abs(z0), -1.0)
         idx = np.unravel_index(int(np.argmax(absz)), absz.shape)
-        worst_tile = tuple(int(i) for i in idx)
-        worst_z = float(z0[idx])
-        region = region_name((idx[0] + 0.5) * tile, (idx[1] + 0.5) * tile, h, w)
-    else:
-        worst_tile, worst_z, region = None, 0.0, "nowhere"
+        worst_tile, worst_z = tuple(int(i) for i in idx), float(z0[idx])
 
-    # ---- verdict -------------------------------------------------------------------
-    bias_txt = f"relative bias {_fmt_pct(rel)} [{_fmt_pct(rel_ci[0])}, {_fmt_pct(rel_ci[1])}]"
-    if agree:
-        verdict = f"agree (p={_fmt_p(p_family)}); {bias_txt}"
-    else:
-        parts = []
-        any_sig = sig.any(axis=2) if n_sig else None
-        if n_sig:
-            rows = np.flatnonzero(any_sig.any(axis=1))
-            cols = np.flatnonzero(any_sig.any(axis=0))
-            spread = (rows[-1] - rows[0] + 1) * tile >= h / 2 and (cols[-1] - cols[0] + 1) * tile >= w / 2
-            if spread and int(any_sig.sum()) >= max(4, any_sig.size // 4):
-                where = "whole image"
-            else:
-                where = f"{region} region"
-            rs = f"{rows[0]}" if rows[0] == rows[-1] else f"{rows[0]}-{rows[-1]}"
-            cs = f"{cols[0]}" if cols[0] == cols[-1] else f"{cols[0]}-{cols[-1]}"
-            parts.append(f"{int(any_sig.sum())} of {any_sig.size} {tile}px tiles, largest |z|={abs(worst_z):.1f} "
-                         f"at tile rows {rs}, cols {cs} ({where})")
-            if bounded_only:
-                parts.append(f"with at most {max_var_ratio:g}x the reference's variance (your own "
-                             f"variance is so large that it hides the difference)")
-            region = where if where == "whole image" else region
-        elif bounded_z is not None and scale_p["image, bounded variance"] < scale_p["image"]:
-            parts.append(f"the whole-image means differ by far more than the noise of an estimator with "
-                         f"at most {max_var_ratio:g}x the reference's variance "
-                         f"(max |z|={np.max(np.abs(bounded_z)):.1f}; "
-                         f"with the image's own variance {np.max(np.abs(image_z)):.1f})")
-            region = "whole image"
-        else:
-            parts.append(f"no single tile stands out (largest |z|={abs(worst_z):.1f}); whole-image means differ "
-                         f"(max |z|={np.max(np.abs(image_z)):.1f})")
-            region = "whole image"
-        sig_img = (rel_ci[0] > 0 or rel_ci[1] < 0) and math.isfinite(rel)
-        if math.isfinite(rel) and rel > 1.0:
-            # a factor reads better than thousands of percent (e.g. a render 930x too bright)
-            parts.append(f"image {1 + rel:.3g}x too bright")
-        elif sig_img:
-            word = "too dark" if rel < 0 else "too bright"
-            parts.append(f"image {100 * abs(rel):.1f}% {word} [{100 * abs(rel_ci[0] if rel > 0 else rel_ci[1]):.1f}%, "
-                         f"{100 * abs(rel_ci[1] if rel > 0 else rel_ci[0]):.1f}%]")
-        elif rel == math.inf:
-            parts.append("image bright where the reference is black")
-        else:
-            parts.append(f"image-level {bias_txt} (not significant)")
-        verdict = f"disagree (p={_fmt_p(p_family)}): " + ", ".join(parts)
-
-    for arr in (z0, image_z, rel_ch, sig):
+    for arr in (z0, image_z, rel_ch, sig) + (() if bounded_z is None else (bounded_z,)):
         arr.flags.writeable = False
     return MeanAgreement(
         agree=agree, p_value=float(p_family), alpha=float(alpha), tile=tile, z_tiles=z0,
-        n_tests=m0, n_significant=n_sig, worst_tile=worst_tile, worst_z=worst_z,
-        worst_region=region, scale_p_values=scale_p, image_z=image_z, rel_bias=float(rel),
-        rel_bias_ci=(float(rel_ci[0]), float(rel_ci[1])), rel_bias_channels=rel_ch,
-        ci_level=float(ci_level), verdict=verdict, critical_z=float(crit), significant=sig)
+        n_tests=m0, n_significant=int(sig.any(axis=2).sum()), worst_tile=worst_tile,
+        worst_z=worst_z, scale_p_values=scale_p, image_z=image_z, rel_bias=rel,
+        rel_bias_ci=rel_ci, rel_bias_channels=rel_ch, ci_level=float(options.ci_level),
+        critical_z=float(crit), significant=sig, shape=(int(h), int(w)),
+        max_var_ratio=None if max_var_ratio is None else float(max_var_ratio),
+        bounded_z=bounded_z, bounded_only=bounded_only)

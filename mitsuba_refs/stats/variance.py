@@ -106,7 +106,6 @@ from ._tiles import (
     as_count,
     as_image,
     noiseless_pixels,
-    region_name,
     sidak,
     sidak_per_test,
     tile_counts,
@@ -115,7 +114,7 @@ from ._tiles import (
 from .correlation import INDEPENDENT, PixelCorrelation
 from .mean import overflow_scale
 
-__all__ = ["VarianceAgreement", "TooFewTiles", "compare_variances", "MAX_VARIANCE_RATIO",
+__all__ = ["VarianceAgreement", "VarianceTestOptions", "TooFewTiles", "compare_variances", "MAX_VARIANCE_RATIO",
            "REL_NOISE_FLOOR"]
 
 #: The variance policy of the grader: a submission's per-sample variance may be at most this
@@ -125,9 +124,36 @@ __all__ = ["VarianceAgreement", "TooFewTiles", "compare_variances", "MAX_VARIANC
 MAX_VARIANCE_RATIO = 1.5
 
 
+@dataclass(frozen=True)
+class VarianceTestOptions:
+    """How :func:`compare_variances` measures (the defaults are the test's own).
+
+    Attributes
+    ----------
+    tile : int
+        Tile edge in pixels (edge tiles may be partial).  Needs >= 8 non-black tiles.
+    ci_level : float
+        Level of the ratio CI.
+    pixel_correlation : PixelCorrelation, optional
+        How the film's reconstruction filter correlates neighbouring pixels; None:
+        independent pixels (box filter).  Neighbouring tiles then share a little
+        information (the global t is divided by ``1 + 2 c_T``) and a tile holds
+        ``T^2 / k_T`` effectively independent pixels (the per-tile t).
+    rel_floor : float
+        Relative floor on the channel-summed per-sample variance below which a pixel counts
+        as noiseless when both means are given (module notes).
+    """
+
+    tile: int = 8
+    ci_level: float = 0.95
+    pixel_correlation: PixelCorrelation | None = None
+    rel_floor: float = REL_NOISE_FLOOR
+
+
 @dataclass(frozen=True, eq=False)
 class VarianceAgreement:
-    """Result of :func:`compare_variances` (a = test, b = reference).
+    """Result of :func:`compare_variances` (a = test, b = reference): numbers only (the words:
+    :func:`mitsuba_refs.report.wording.variance_verdict` and ``variance_policy_verdict``).
 
     Attributes
     ----------
@@ -139,6 +165,8 @@ class VarianceAgreement:
         Pooled-weight per-sample variance ratio test/reference and its CI (``ci_level``).
     global_t, global_df, global_p : float, int, float
         One-sample t test of the relative tile differences.
+    global_significant : bool
+        The global component alone rejects at its share of alpha.
     tile_p : float
         Šidák-adjusted smallest one-sided tile p-value (excess variance).
     tile_log_ratio : ndarray (Ht, Wt)
@@ -149,18 +177,16 @@ class VarianceAgreement:
         Tiles with non-zero variance.
     n_outliers : int
         Tiles over the per-tile critical value.
-    worst_tile, worst_region : tuple or None, str
-        Tile with the largest t and where it is in words.
-    verdict : str
-        One line, e.g. "variance 3.1x the reference [2.8, 3.4] (p=1e-20)".
+    worst_tile : tuple or None
+        Tile (row, col) with the largest t.
+    shape : (int, int)
+        The image's height and width in pixels.
     max_ratio : float
         X of the one-sided policy "variance not more than X times the reference's".
     policy_agree : bool
         False if the data show a ratio above ``max_ratio`` (globally or in a tile) at level alpha.
     policy_p : float
         Its p-value (Šidák over the global and per-tile one-sided components).
-    policy_verdict : str
-        One line, e.g. "variance within 1.5x the reference (p=1.00): 1.13x [1.10, 1.16]".
     """
 
     agree: bool
@@ -178,79 +204,30 @@ class VarianceAgreement:
     n_tiles: int
     n_outliers: int
     worst_tile: tuple | None
-    worst_region: str
     ci_level: float
-    verdict: str
+    global_significant: bool = False
+    shape: tuple = (0, 0)
     max_ratio: float = MAX_VARIANCE_RATIO
     policy_agree: bool = True
     policy_p: float = 1.0
-    policy_verdict: str = ""
 
     def __bool__(self) -> bool:
         return bool(self.agree)
-
-
-def _fmt_p(p: float) -> str:
-    return f"{p:.2f}" if p >= 0.01 else (f"{p:.1e}" if p > 0 else "<1e-300")
 
 
 class TooFewTiles(ValueError):
     """Fewer than 8 tiles carry variance: a nearly noiseless image has no variance to test."""
 
 
-def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
-                      ci_level: float = 0.95,
-                      max_ratio: float = MAX_VARIANCE_RATIO,
-                      pixel_correlation: PixelCorrelation | None = None,
-                      mean_a=None, mean_b=None,
-                      rel_floor: float = REL_NOISE_FLOOR) -> VarianceAgreement:
-    r"""Test equality of per-sample variance of two renders using the same estimator.
-
-    Parameters
-    ----------
-    var_a, var_b : array (H, W, C) or (H, W)
-        Per-pixel unbiased per-sample variances (test, reference).
-    n_a, n_b : int or array (H, W)
-        Samples per pixel (>= 2).
-    tile : int
-        Tile edge in pixels (edge tiles may be partial).  Needs >= 8 non-black tiles.
-    alpha : float, keyword (required)
-        Family false-rejection level.
-    ci_level : float
-        Level of the ratio CI.
-    max_ratio : float
-        X of the one-sided policy test "not more than X times the reference's"
-        (``policy_*`` fields; ``agree`` stays the two-sided equality test).
-    pixel_correlation : PixelCorrelation, optional
-        How the film's reconstruction filter correlates neighbouring pixels; None:
-        independent pixels (box filter).  Neighbouring tiles then share a little
-        information (the global t is divided by ``1 + 2 c_T``) and a tile holds
-        ``T^2 / k_T`` effectively independent pixels (the per-tile t).
-    mean_a, mean_b : array (H, W, C) or (H, W), optional
-        Per-pixel means (test, reference).  Given both, a pixel whose variance is below
-        ``rel_floor`` times its squared mean on both sides counts as noiseless (module notes).
-    rel_floor : float
-        That relative floor on the channel-summed per-sample variance.
-
-    Returns
-    -------
-    VarianceAgreement
-
-    Raises
-    ------
-    TooFewTiles
-        Fewer than 8 tiles have variance on either side (a nearly noiseless image).
-    """
-    if not (0.0 < alpha < 1.0):
-        raise ValueError("alpha must be in (0, 1)")
+def _tile_variances(var_a, n_a, var_b, n_b, options, mean_a, mean_b):
+    """Channel-summed per-pixel variances (noiseless pixels zeroed), counts and the tile sums
+    ``A, B, nha, nhb`` of :func:`compare_variances` (module notes)."""
     va = as_image(var_a, "var_a")
     vb = as_image(var_b, "var_b")
     if va.shape != vb.shape:
         raise ValueError(f"shape mismatch: {va.shape} vs {vb.shape}")
     if not (np.all(np.isfinite(va)) and np.all(np.isfinite(vb))):
         raise ValueError("variances contain NaN or inf")
-    if not max_ratio > 0:
-        raise ValueError("max_ratio must be > 0")
     # Squares of the variances appear below; the test is invariant to their common scale.
     scale = overflow_scale(va, vb, guard=1e100)
     va, vb = va / scale, vb / scale
@@ -260,24 +237,22 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
     va = np.maximum(va, 0.0).sum(axis=2)                  # trace over channels, (H, W)
     vb = np.maximum(vb, 0.0).sum(axis=2)
     if mean_a is not None and mean_b is not None:
-        noiseless = noiseless_pixels(va, vb, mean_a, mean_b, rel_floor=rel_floor, scale=scale)
+        noiseless = noiseless_pixels(va, vb, mean_a, mean_b, rel_floor=options.rel_floor,
+                                     scale=scale)
         va, vb = np.where(noiseless, 0.0, va), np.where(noiseless, 0.0, vb)
+    tile = options.tile
     cnt = tile_counts(h, w, tile)
     A = tile_sums(va, tile) / cnt
     B = tile_sums(vb, tile) / cnt
     nha = cnt / tile_sums(1.0 / na, tile)
     nhb = cnt / tile_sums(1.0 / nb, tile)
-    Vp = (nha * A + nhb * B) / (nha + nhb)
-    ok = Vp > 0
-    m = int(ok.sum())
-    if m < 8:
-        raise TooFewTiles(f"need >= 8 tiles with non-zero variance, got {m}; use a smaller tile")
+    return va, vb, cnt, A, B, nha, nhb
 
-    # ---- global: one-sample t test of e_T ------------------------------------------
-    # With a wide filter, side-by-side tiles are slightly correlated: the spread of the e_T
-    # understates the variance of their mean by (1 + 2c)^2.
-    corr = pixel_correlation or INDEPENDENT
-    inflation = 1.0 + 2.0 * corr.neighbour_correlation(tile)
+
+def _global_ratio(A, B, Vp, ok, inflation, ci_level):
+    """One-sample t test of the relative tile differences, and the pooled-weight ratio with
+    its CI: ``(t, df, p, ratio, ratio_ci)``."""
+    m = int(ok.sum())
     e = (A[ok] - B[ok]) / Vp[ok]
     sd = float(e.std(ddof=1))
     df = m - 1
@@ -299,8 +274,12 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
     else:
         ratio = math.inf if den == 0 else 0.0
         ratio_ci = (math.nan, math.nan)
+    return t_glob, df, p_glob, ratio, ratio_ci
 
-    # ---- per-tile excess variance (self-normalised t over pixels) ----------------------
+
+def _tile_excess(va, vb, cnt, tile, corr):
+    """Per-tile one-sided excess-variance t (self-normalised over pixels), its p-values and
+    the informative tiles."""
     d = va - vb
     S1 = tile_sums(d, tile)
     S2 = tile_sums(d * d, tile)
@@ -314,6 +293,63 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
     tt = np.where((S2 > 0) & (n_eff >= 2), tt, 0.0)
     p_tiles = sps.t.sf(tt, np.maximum(n_eff - 1, 1))        # one-sided: excess variance
     informative = (S2 > 0) & (n_eff >= 2)
+    return tt, p_tiles, informative
+
+
+def compare_variances(var_a, n_a, var_b, n_b, *, alpha: float,
+                      max_ratio: float = MAX_VARIANCE_RATIO, mean_a=None, mean_b=None,
+                      options: VarianceTestOptions = VarianceTestOptions()) -> VarianceAgreement:
+    r"""Test equality of per-sample variance of two renders using the same estimator.
+
+    Parameters
+    ----------
+    var_a, var_b : array (H, W, C) or (H, W)
+        Per-pixel unbiased per-sample variances (test, reference).
+    n_a, n_b : int or array (H, W)
+        Samples per pixel (>= 2).
+    alpha : float, keyword (required)
+        Family false-rejection level.
+    max_ratio : float
+        X of the one-sided policy test "not more than X times the reference's"
+        (``policy_*`` fields; ``agree`` stays the two-sided equality test).
+    mean_a, mean_b : array (H, W, C) or (H, W), optional
+        Per-pixel means (test, reference).  Given both, a pixel whose variance is below
+        ``options.rel_floor`` times its squared mean on both sides counts as noiseless
+        (module notes).
+    options : VarianceTestOptions
+        Tile size, CI level, the film's pixel correlation and the noiseless floor.
+
+    Returns
+    -------
+    VarianceAgreement
+
+    Raises
+    ------
+    TooFewTiles
+        Fewer than 8 tiles have variance on either side (a nearly noiseless image).
+    """
+    if not (0.0 < alpha < 1.0):
+        raise ValueError("alpha must be in (0, 1)")
+    if not max_ratio > 0:
+        raise ValueError("max_ratio must be > 0")
+    tile = options.tile
+    va, vb, cnt, A, B, nha, nhb = _tile_variances(var_a, n_a, var_b, n_b, options, mean_a, mean_b)
+    h, w = va.shape
+    Vp = (nha * A + nhb * B) / (nha + nhb)
+    ok = Vp > 0
+    m = int(ok.sum())
+    if m < 8:
+        raise TooFewTiles(f"need >= 8 tiles with non-zero variance, got {m}; use a smaller tile")
+
+    # ---- global: one-sample t test of e_T ------------------------------------------
+    # With a wide filter, side-by-side tiles are slightly correlated: the spread of the e_T
+    # understates the variance of their mean by (1 + 2c)^2.
+    corr = options.pixel_correlation or INDEPENDENT
+    inflation = 1.0 + 2.0 * corr.neighbour_correlation(tile)
+    t_glob, df, p_glob, ratio, ratio_ci = _global_ratio(A, B, Vp, ok, inflation, options.ci_level)
+
+    # ---- per-tile excess variance (self-normalised t over pixels) ----------------------
+    tt, p_tiles, informative = _tile_excess(va, vb, cnt, tile, corr)
     mt = int(informative.sum())
     tile_p = sidak(float(p_tiles[informative].min()) if mt else 1.0, mt)
 
@@ -322,45 +358,23 @@ def compare_variances(var_a, n_a, var_b, n_b, *, tile: int = 8, alpha: float,
     p_family = sidak(min(p_glob, tile_p), 2)
     agree = not (p_family <= alpha)
     lvl = sidak_per_test(sidak_per_test(alpha, 2), max(mt, 1))
-    outl = informative & (p_tiles <= lvl)
-    n_out = int(outl.sum())
+    n_out = int((informative & (p_tiles <= lvl)).sum())
+    worst = None
     if mt:
         idx = np.unravel_index(int(np.argmax(np.where(informative, tt, -np.inf))), tt.shape)
         worst = (int(idx[0]), int(idx[1]))
-        region = region_name((idx[0] + 0.5) * tile, (idx[1] + 0.5) * tile, h, w)
-    else:
-        worst, region = None, "nowhere"
     with np.errstate(divide="ignore", invalid="ignore"):
         tlr = np.where((A > 0) & (B > 0), np.log(A / B), np.nan)
-
-    # ---- verdict ----------------------------------------------------------------------
-    rtxt = f"{ratio:.2f}\u00d7 the reference [{ratio_ci[0]:.2f}, {ratio_ci[1]:.2f}]"
-    if agree:
-        verdict = f"variance agrees (p={_fmt_p(p_family)}): {rtxt}"
-    else:
-        parts = []
-        if p_glob <= sidak_per_test(alpha, 2):
-            parts.append(f"variance {rtxt}")
-        else:
-            parts.append(f"global variance {rtxt} (not significant)")
-        if n_out:
-            parts.append(f"{n_out} tile(s) with excess variance, worst at tile row {worst[0]}, col {worst[1]} "
-                         f"({region} region)")
-        verdict = f"variance disagrees (p={_fmt_p(p_family)}): " + "; ".join(parts)
-    policy_agree = not (policy_p <= alpha)
-    if policy_agree:
-        policy_verdict = f"variance within {max_ratio:g}x the reference (p={_fmt_p(policy_p)}): {rtxt}"
-    else:
-        policy_verdict = f"variance above {max_ratio:g}x the reference (p={_fmt_p(policy_p)}): {rtxt}"
     for arr in (tlr, tt):
         arr.flags.writeable = False
     return VarianceAgreement(
         agree=agree, p_value=float(p_family), alpha=float(alpha), tile=int(tile), ratio=float(ratio),
         ratio_ci=(float(ratio_ci[0]), float(ratio_ci[1])), global_t=t_glob, global_df=int(df),
         global_p=p_glob, tile_p=float(tile_p), tile_log_ratio=tlr, tile_t=tt, n_tiles=m,
-        n_outliers=n_out, worst_tile=worst, worst_region=region, ci_level=float(ci_level), verdict=verdict,
-        max_ratio=float(max_ratio), policy_agree=bool(policy_agree), policy_p=float(policy_p),
-        policy_verdict=policy_verdict)
+        n_outliers=n_out, worst_tile=worst, ci_level=float(options.ci_level),
+        global_significant=bool(p_glob <= sidak_per_test(alpha, 2)), shape=(int(h), int(w)),
+        max_ratio=float(max_ratio), policy_agree=bool(not (policy_p <= alpha)),
+        policy_p=float(policy_p))
 
 
 def _policy_p(A, B, nha, nhb, ok, max_ratio, inflation=1.0) -> float:

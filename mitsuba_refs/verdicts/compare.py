@@ -32,8 +32,9 @@ from ..reference.cache import get_reference
 from ..reference.render import bounce_reference
 from ..reference.rfilter import reference_correlation
 from ..report.text import comparison_report, rendered_settings
+from ..report.wording import bounce_verdict
 from ..settings import Settings, settings_of
-from ..stats import compare_means, compare_variances, first_diverging_bounce
+from ..stats import MeanTestOptions, VarianceTestOptions, compare_means, compare_variances
 from ..stats.convergence import ConvergenceResult
 from ..stats.detectable import DetectableBias
 from ..stats.mean import VARIANCE_BOUND, MeanAgreement
@@ -95,8 +96,7 @@ class FaultyImages:
     p_value = 0.0
 
     def __init__(self, lines, alpha):
-        self.faults, self.alpha = list(lines), alpha
-        self.verdict = "disagree: the renderer's images hold impossible values: " + "; ".join(lines)
+        self.faults, self.alpha = list(lines), alpha    # the line: report.wording.mean_verdict
 
 
 @dataclass(frozen=True)
@@ -246,17 +246,17 @@ def compare(scene: str, integrator="path", params: dict | None = None,
     correlation = reference_correlation(reference)
     mean_test = compare_means(mean, variance, spp, reference.mean, reference.var, reference.n,
                               alpha=alpha, max_var_ratio=VARIANCE_BOUND if same else None,
-                              pixel_correlation=correlation,
                               image_components=not settings.splatting,
-                              same_estimator=settings.heavy_tail_guard)
+                              options=MeanTestOptions(pixel_correlation=correlation,
+                                                      same_estimator=settings.heavy_tail_guard))
     detectable = comparison_bound(reference, variance, spp, alpha=alpha, same=same,
                                   splats=settings.splatting, guard=settings.heavy_tail_guard)
     variance_test, skipped = None, ""
     if same and (np.any(variance) or np.any(reference.var)):    # else both noiseless
         try:
             variance_test = compare_variances(variance, spp, reference.var, reference.n,
-                                              alpha=alpha, pixel_correlation=correlation,
-                                              mean_a=mean, mean_b=reference.mean)
+                                              alpha=alpha, mean_a=mean, mean_b=reference.mean,
+                                              options=VarianceTestOptions(pixel_correlation=correlation))
         except TooFewTiles as few:    # e.g. max_depth 1: noisy at a few edges only
             skipped = f"not tested: {str(few).split(';')[0]} (a nearly " \
                       "noiseless image; the mean test decides)"
@@ -271,7 +271,7 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         bounce_results = localise_bounce(scene, integrator, params, settings,
                                          RecordingRuns(render, runs, "bounces"), log=log,
                                          reference_name=bounce_reference(settings.reference))
-        bounce = first_diverging_bounce(bounce_results)
+        bounce = bounce_verdict(bounce_results)
     result = Comparison(
         scene, name, params, spp, mean_test, variance=variance_test, convergence=law,
         convergence_mse=mse, ladder=ladder, bounce=bounce, bounce_results=bounce_results,
@@ -340,6 +340,6 @@ def localise_bounce(scene, integrator, params, settings: Settings, render, *,
                                 processes=settings.processes, max_depth=depth)
         results[depth] = compare_means(mean, variance, settings.spp, reference.mean, reference.var,
                                        reference.n, alpha=settings.alpha,
-                                       pixel_correlation=reference_correlation(reference),
-                                       image_components=not splats)
+                                       image_components=not splats,
+                                       options=MeanTestOptions(pixel_correlation=reference_correlation(reference)))
     return results

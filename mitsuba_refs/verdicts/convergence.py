@@ -184,11 +184,8 @@ class ConvergenceParts:
         whole_floor = self.whole[1][0]    # the reference's share of the whole image's MSE
         law = convergence_law(np.array(self.ladder), mse, ref_mse_floor=whole_floor,
                               alpha=alpha, image_mean=float(reference.mean.mean()))
-        if rare:
-            note = (f"rare bright paths carry the error even with {top} replicas at the top "
-                    "level: this verdict is less reliable")
-            law = dataclasses.replace(law, warnings=law.warnings + (note,),
-                                      verdict=f"{law.verdict} [{note}]")
+        if rare:    # the verdict says it is less reliable (report.wording)
+            law = dataclasses.replace(law, rare_replicas=top)
         return law, mse
 
 

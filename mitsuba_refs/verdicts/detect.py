@@ -35,18 +35,16 @@ import numpy as np
 from ..errors import RefsInputError
 from ..reference import config
 from ..reference.rfilter import reference_correlation
+from ..report.wording import percent
 from ..settings import DEFAULT_MAX_TIME, PILOT_SPP, Detect, Settings
-from ..stats.detectable import DetectableBias, MeanTestPower
-from ..stats.mean import VARIANCE_BOUND
+from ..stats.detectable import WEAK_BIAS, DetectableBias, MeanTestPower, weak_agreement
+from ..stats.mean import VARIANCE_BOUND, MeanTestOptions
 
-__all__ = ["POWER", "WEAK_BIAS", "Detect", "DEFAULT_MAX_TIME", "PILOT_SPP", "percent", "SppChoice",
-           "parse_bias", "mean_test_power", "comparison_bound", "is_weak", "status_text", "mean_line",
-           "plan", "choose_spp"]
+__all__ = ["POWER", "WEAK_BIAS", "Detect", "DEFAULT_MAX_TIME", "PILOT_SPP", "SppChoice", "parse_bias",
+           "mean_test_power", "comparison_bound", "is_weak", "plan", "choose_spp"]
 
 #: The detection probability every printed bound is for.
 POWER = 0.95
-#: An agreement whose detectable global bias exceeds this is marked weak.
-WEAK_BIAS = 0.05
 #: The pilot render of ``--detect``: its seed (below the comparison's TEST_SEED = 1000 and its
 #: bounce seeds, far from the convergence seeds from 2000); its sample count ``PILOT_SPP`` and
 #: ``--max-time``'s default ``DEFAULT_MAX_TIME`` are those of :class:`mitsuba_refs.settings.Detect`.
@@ -58,16 +56,6 @@ SPP_MARGIN = 1.1
 FLOOR_SLACK = 1.1
 #: The largest sample count either side is searched up to.
 _MOST_SPP = 1 << 40
-
-
-def percent(x: float) -> str:
-    """A bias in percent, as the verdicts write it (``2.4%``, ``13%``, ``0.02%``)."""
-    if not math.isfinite(x):
-        return "any"
-    value = 100.0 * x
-    if value >= 10:
-        return f"{value:.0f}%"
-    return f"{value:.1f}%" if value >= 0.1 else f"{value:.2g}%"
 
 
 def parse_bias(text: str, option: str = "--detect") -> float:
@@ -96,8 +84,8 @@ def mean_test_power(reference, test_var, *, alpha: float, same: bool, splats: bo
     return MeanTestPower(reference.mean, reference.var, test_var, alpha=alpha,
                          max_var_ratio=VARIANCE_BOUND if same else None,
                          image_components=not splats,
-                         pixel_correlation=reference_correlation(reference),
-                         same_estimator=same if guard is None else guard)
+                         options=MeanTestOptions(pixel_correlation=reference_correlation(reference),
+                                                 same_estimator=same if guard is None else guard))
 
 
 def comparison_bound(reference, test_var, spp, *, alpha, same, splats,
@@ -109,42 +97,7 @@ def comparison_bound(reference, test_var, spp, *, alpha, same, splats,
 
 def is_weak(result) -> bool:
     """An agreement that could not see a global bias of :data:`WEAK_BIAS`."""
-    bound = getattr(result, "detectable", None)
-    return bool(result.agree and bound is not None and bound.bias > WEAK_BIAS)
-
-
-def _sees(bound: DetectableBias) -> str:
-    if not math.isfinite(bound.bias):
-        return "a global bias is invisible to it (the reference image is black)"
-    where = ", tiles only" if bound.component == "tiles" else ""
-    return (f"detects a global bias of +{percent(bound.brighter)} / \u2212{percent(bound.darker)} "
-            f"with probability {bound.power:g} (alpha {bound.alpha:.2g}{where})")
-
-
-def status_text(result) -> str:
-    """The headline's verdict: AGREES (weakly, with what it could not see) or DISAGREES."""
-    if not result.agree:
-        return "DISAGREES with Mitsuba"
-    if is_weak(result):
-        return f"AGREES with Mitsuba, weakly (could not see less than {percent(result.detectable.bias)})"
-    return "AGREES with Mitsuba"
-
-
-def mean_line(result) -> str:
-    """The mean verdict line, with what the test could see."""
-    verdict = result.mean.verdict
-    bound = getattr(result, "detectable", None)
-    if bound is None:
-        return verdict
-    if is_weak(result):
-        verdict = verdict.replace("agree", f"agrees, but could not see less than "
-                                  f"{percent(bound.bias)}", 1)
-        if bound.floor <= 0.02:
-            hint = "--detect 2% picks the spp that would see 2%"
-        else:
-            hint = f"the reference's own noise alone hides less than {percent(bound.floor)}"
-        return f"{verdict}; {_sees(bound)}; {hint}"
-    return f"{verdict}; {_sees(bound)}"
+    return weak_agreement(result.agree, getattr(result, "detectable", None))
 
 
 # ---- --detect -----------------------------------------------------------------------------

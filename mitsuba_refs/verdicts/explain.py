@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import math
 
+from ..report.wording import mean_region
+
 
 class Hint(str):
     """A hint's text (it *is* the string) and ``causes``, the ids of the causes it names."""
@@ -117,9 +119,10 @@ def hints(comparison) -> list[Hint]:
         missing = missing_noise(comparison, ratio)
         if missing:
             out.append(missing)
-        if mean.worst_region and mean.worst_region != "whole image":
+        region = mean_region(mean)
+        if region and region != "whole image":
             out.append(Hint(f"the largest difference (|z| = {abs(mean.worst_z):.1f}) is in the "
-                            f"{mean.worst_region} of the image: look at what is there (see the "
+                            f"{region} of the image: look at what is there (see the "
                             "z-map)"))
     variance = comparison.variance
     if variance is not None and not variance.agree and mean.agree:

@@ -1,0 +1,393 @@
+"""The words of the verdicts: every sentence the reports print about a statistical result.
+
+The tests of :mod:`mitsuba_refs.stats` return frozen results of numbers (p-values,
+intervals, flags, counts, tile indices); this module says them: the verdict lines of the
+mean, variance and convergence tests and of the bounce sweep, where in the image the
+evidence sits, what a mean test could see (:mod:`mitsuba_refs.stats.detectable`) and the
+headline. The command line, the JSON records, JUnit, HTML, the pictures' titles, the hints
+and the grader all take their words from here, so that a sentence is written in one place.
+
+One formatter each for a p-value (:func:`format_p`) and a percentage (:func:`percent`).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..stats.bounce import depth_order
+from ..stats.detectable import DetectableBias, weak_agreement
+from .encoding import to_float
+
+__all__ = ["format_p", "percent", "region_name", "mean_verdict", "mean_region",
+           "variance_verdict", "variance_policy_verdict", "variance_region",
+           "convergence_verdict", "convergence_warnings", "depth_name", "bounce_verdict",
+           "verdict_line", "sees", "status_text", "mean_line"]
+
+#: How a verdict line writes a p-value that is not a number (the reports' tables write "–").
+NO_P = "<1e-300"
+
+
+# ---- numbers ---------------------------------------------------------------------------------
+def format_p(value, *, missing: str = "–", digits: int | None = None) -> str:
+    """A p-value as the reports write it: ``0.53``, ``2.2e-26``, ``<1e-300`` for 0.
+
+    ``missing`` is written for None or NaN (the verdict lines pass :data:`NO_P`, which they
+    always wrote there); ``digits`` significant digits throughout (the bounce line's
+    ``3e-09``, ``0.5``) instead of two decimals from 0.01 and two significant digits below.
+    """
+    if value is None:
+        return missing
+    p = to_float(value)
+    if math.isnan(p):
+        return missing
+    if digits is not None:
+        return f"{p:.{digits}g}" if p > 0 else "<1e-300"
+    if p >= 0.01:
+        return f"{p:.2f}"
+    return f"{p:.1e}" if p > 0 else "<1e-300"
+
+
+def percent(x: float, *, signed: bool = False, minus: str = "\u2212") -> str:
+    """A fraction in percent.
+
+    Unsigned (the detectable bias, ``--detect``): ``2.4%``, ``13%``, ``0.02%``; ``any`` when not
+    finite. ``signed`` (a relative bias): ``+1.0%``, one decimal, the minus sign ``minus`` (the
+    verdict lines' U+2212; the reports' interval texts pass ``"-"``).
+    """
+    if signed:
+        return f"{100 * x:+.1f}%".replace("-", minus)
+    if not math.isfinite(x):
+        return "any"
+    value = 100.0 * x
+    if value >= 10:
+        return f"{value:.0f}%"
+    return f"{value:.1f}%" if value >= 0.1 else f"{value:.2g}%"
+
+
+def region_name(row_center: float, col_center: float, h: float, w: float) -> str:
+    """Name the 3x3 region of an image (top-left, top, ..., center, ..., bottom-right)."""
+    r = min(2, max(0, int(3 * row_center / h)))
+    c = min(2, max(0, int(3 * col_center / w)))
+    vert = ["top", "", "bottom"][r]
+    horz = ["left", "", "right"][c]
+    if not vert and not horz:
+        return "center"
+    if vert and horz:
+        return f"{vert}-{horz}"
+    return vert or horz
+
+
+def _recorded(result, name: str) -> str | None:
+    """The words a result recorded in words carries under ``name`` (the compact evidence of
+    :mod:`autograder.hint_evidence` keeps a verdict's line and region as it was printed), or
+    None for a result of numbers."""
+    value = getattr(result, name, None)
+    return value if isinstance(value, str) else None
+
+
+def _tile_region(worst_tile, tile: int, shape) -> str:
+    """The region of a tile (row, col, ...) of an image of ``shape``; "nowhere" for None."""
+    if worst_tile is None:
+        return "nowhere"
+    h, w = shape
+    return region_name((worst_tile[0] + 0.5) * tile, (worst_tile[1] + 0.5) * tile, h, w)
+
+
+# ---- the mean test ---------------------------------------------------------------------------
+def _span(indices) -> str:
+    return f"{indices[0]}" if indices[0] == indices[-1] else f"{indices[0]}-{indices[-1]}"
+
+
+def _significant_where(mean) -> tuple:
+    """Where a disagreeing mean test's significant tiles are: (tiles, rows, cols, where)."""
+    any_sig = np.asarray(mean.significant).any(axis=2)
+    rows = np.flatnonzero(any_sig.any(axis=1))
+    cols = np.flatnonzero(any_sig.any(axis=0))
+    h, w = mean.shape
+    tile = mean.tile
+    spread = (rows[-1] - rows[0] + 1) * tile >= h / 2 and (cols[-1] - cols[0] + 1) * tile >= w / 2
+    if spread and int(any_sig.sum()) >= max(4, any_sig.size // 4):
+        where = "whole image"
+    else:
+        where = f"{_tile_region(mean.worst_tile, tile, mean.shape)} region"
+    return any_sig, rows, cols, where
+
+
+def mean_region(mean) -> str:
+    """Where the mean test's worst evidence sits in words ("top-left", "center", "whole image",
+    "nowhere" when no tile carries evidence)."""
+    recorded = _recorded(mean, "worst_region")
+    if recorded is not None:
+        return recorded
+    region = _tile_region(mean.worst_tile, mean.tile, mean.shape)
+    if mean.agree:
+        return region
+    if mean.n_significant:
+        where = _significant_where(mean)[3]
+        return where if where == "whole image" else region
+    return "whole image"
+
+
+def _bias_text(mean) -> str:
+    low, high = mean.rel_bias_ci
+    return (f"relative bias {percent(mean.rel_bias, signed=True)} "
+            f"[{percent(low, signed=True)}, {percent(high, signed=True)}]")
+
+
+def _mean_evidence(mean) -> list:
+    """What a disagreeing mean test saw: significant tiles, or the whole-image means."""
+    if mean.n_significant:
+        any_sig, rows, cols, where = _significant_where(mean)
+        parts = [f"{int(any_sig.sum())} of {any_sig.size} {mean.tile}px tiles, largest "
+                 f"|z|={abs(mean.worst_z):.1f} at tile rows {_span(rows)}, cols {_span(cols)} "
+                 f"({where})"]
+        if mean.bounded_only:
+            parts.append(f"with at most {mean.max_var_ratio:g}x the reference's variance (your own "
+                         f"variance is so large that it hides the difference)")
+        return parts
+    components = mean.scale_p_values
+    if (mean.bounded_z is not None
+            and components["image, bounded variance"] < components["image"]):
+        return [f"the whole-image means differ by far more than the noise of an estimator with "
+                f"at most {mean.max_var_ratio:g}x the reference's variance "
+                f"(max |z|={np.max(np.abs(mean.bounded_z)):.1f}; "
+                f"with the image's own variance {np.max(np.abs(mean.image_z)):.1f})"]
+    return [f"no single tile stands out (largest |z|={abs(mean.worst_z):.1f}); whole-image means "
+            f"differ (max |z|={np.max(np.abs(mean.image_z)):.1f})"]
+
+
+def _brightness(mean) -> str:
+    """The image-level bias of a disagreeing mean test."""
+    rel, (low, high) = mean.rel_bias, mean.rel_bias_ci
+    if math.isfinite(rel) and rel > 1.0:
+        # a factor reads better than thousands of percent (e.g. a render 930x too bright)
+        return f"image {1 + rel:.3g}x too bright"
+    if (low > 0 or high < 0) and math.isfinite(rel):
+        word = "too dark" if rel < 0 else "too bright"
+        return (f"image {100 * abs(rel):.1f}% {word} [{100 * abs(low if rel > 0 else high):.1f}%, "
+                f"{100 * abs(high if rel > 0 else low):.1f}%]")
+    if rel == math.inf:
+        return "image bright where the reference is black"
+    return f"image-level {_bias_text(mean)} (not significant)"
+
+
+def mean_verdict(mean) -> str:
+    """The mean test's line, e.g. ``agree (p=0.53); relative bias +0.1% [−0.4%, +0.6%]``.
+
+    ``mean`` is a :class:`~mitsuba_refs.stats.mean.MeanAgreement`, or a result with ``faults``
+    (an external renderer's impossible values, :mod:`mitsuba_refs.external.check`).
+    """
+    recorded = _recorded(mean, "verdict")
+    if recorded is not None:
+        return recorded
+    faults = getattr(mean, "faults", None)
+    if faults:
+        return "disagree: the renderer's images hold impossible values: " + "; ".join(faults)
+    p = format_p(mean.p_value, missing=NO_P)
+    if mean.agree:
+        return f"agree (p={p}); {_bias_text(mean)}"
+    return f"disagree (p={p}): " + ", ".join(_mean_evidence(mean) + [_brightness(mean)])
+
+
+# ---- the variance test -----------------------------------------------------------------------
+def _ratio_text(variance) -> str:
+    low, high = variance.ratio_ci
+    return f"{variance.ratio:.2f}\u00d7 the reference [{low:.2f}, {high:.2f}]"
+
+
+def variance_region(variance) -> str:
+    """Where the variance test's worst tile is in words ("nowhere" when no tile carries any)."""
+    return _tile_region(variance.worst_tile, variance.tile, variance.shape)
+
+
+def variance_verdict(variance) -> str:
+    """The variance test's line, e.g. ``variance 3.1× the reference [2.8, 3.4] (p=1e-20)``."""
+    p = format_p(variance.p_value, missing=NO_P)
+    ratio = _ratio_text(variance)
+    if variance.agree:
+        return f"variance agrees (p={p}): {ratio}"
+    parts = [f"variance {ratio}" if variance.global_significant
+             else f"global variance {ratio} (not significant)"]
+    if variance.n_outliers:
+        row, col = variance.worst_tile
+        parts.append(f"{variance.n_outliers} tile(s) with excess variance, worst at tile row {row}, "
+                     f"col {col} ({variance_region(variance)} region)")
+    return f"variance disagrees (p={p}): " + "; ".join(parts)
+
+
+def variance_policy_verdict(variance) -> str:
+    """The one-sided policy's line, e.g. ``variance within 1.5x the reference (p=1.00): ...``."""
+    recorded = _recorded(variance, "policy_verdict")
+    if recorded is not None:
+        return recorded
+    side = "within" if variance.policy_agree else "above"
+    return (f"variance {side} {variance.max_ratio:g}x the reference "
+            f"(p={format_p(variance.policy_p, missing=NO_P)}): {_ratio_text(variance)}")
+
+
+# ---- the convergence test --------------------------------------------------------------------
+_OVERFLOWED = ("the error is too large to compute: the squared error overflows float64 (pixel "
+               "values beyond ~1e154) (the image is astronomically far from the reference, e.g. "
+               "a weight that grows without bound)")
+
+
+def _rare_note(law) -> list:
+    if law.rare_replicas is None:
+        return []
+    return [f"rare bright paths carry the error even with {law.rare_replicas} replicas at the top "
+            "level: this verdict is less reliable"]
+
+
+def _fit_warnings(law) -> list:
+    """The convergence fit's own warnings (not the caller's rare-paths note)."""
+    if law.overflowed:
+        return [_OVERFLOWED]
+    out = []
+    if law.dropped_levels:
+        out.append(f"dropped levels with non-positive mean MSE: {list(law.dropped_levels)}")
+    if law.noisy_reference_levels:
+        out.append("reference noise comparable to the test error at spp "
+                   f"{list(law.noisy_reference_levels)}: use a longer reference")
+    if law.rough_slope:
+        out.append(f"one level's error rests on ~{law.effective_rows:.0f} of {law.rows} "
+                   "rows (e.g. a light smaller than a pixel in one image block): the slope "
+                   "is known only roughly and the test has little power")
+    return out
+
+
+def convergence_warnings(law) -> list:
+    """The convergence verdict's warnings, one line each."""
+    return _fit_warnings(law) + _rare_note(law)
+
+
+def _law_text(law) -> str:
+    (s0, s1), (r0, r1) = law.slope_ci, law.ratio_ci
+    return (f"slope {law.slope:.3f} [{s0:.3f}, {s1:.3f}], "
+            f"RMSE(N)/RMSE(4N) = {law.ratio:.2f} [{r0:.2f}, {r1:.2f}]")
+
+
+def _convergence_outcome(law) -> str:
+    p, fit = format_p(law.p_value, missing=NO_P), _law_text(law)
+    if law.passed:
+        return f"converges as N^-1/2 (p={p}): {fit}"
+    if law.correlated:
+        return f"error does not fall: samples are correlated / random numbers reused (p={p}): {fit}"
+    if law.floor_detected:
+        btxt = (f"{100 * law.bias_rel:.2g}% of the mean" if math.isfinite(law.bias_rel)
+                else f"RMS {law.bias_rms:.3g}")
+        where = f"~{law.floor_spp:.0f} spp" if law.floor_spp > 0 else "the first level"
+        return f"bias floor: error stops falling at {where} (bias \u2248 {btxt}) (p={p}): {fit}"
+    if law.slope < law.expected_slope:
+        return (f"error falls faster than N^-1/2 (stratified or correlated across levels?) "
+                f"(p={p}): {fit}")
+    return f"error falls slower than N^-1/2 (p={p}): {fit}"
+
+
+def convergence_verdict(law) -> str:
+    """The convergence test's line, its warnings in brackets."""
+    if law.overflowed:
+        text = _OVERFLOWED
+    else:
+        text = _convergence_outcome(law)
+        warnings = _fit_warnings(law)
+        if warnings:
+            text += " [" + "; ".join(warnings) + "]"
+    return text + "".join(f" [{note}]" for note in _rare_note(law))
+
+
+# ---- the bounce sweep ------------------------------------------------------------------------
+def depth_name(depth: int) -> str:
+    """Human name of a Mitsuba max_depth."""
+    if depth < 0:
+        return "full paths (unbounded depth)"
+    if depth == 0:
+        return "nothing (depth 0)"
+    if depth == 1:
+        return "directly visible emitters (bounce 1)"
+    if depth == 2:
+        return "direct light (bounce 2)"
+    if depth == 3:
+        return "one indirect bounce (bounce 3)"
+    return f"{depth - 2} indirect bounces (bounce {depth})"
+
+
+def bounce_verdict(results, line=None) -> tuple:
+    """The first diverging depth of a max_depth sweep and the sweep in words: ``(depth, text)``.
+
+    ``results`` maps a depth to its mean result (:func:`mitsuba_refs.stats.first_diverging_bounce`
+    reads it); ``line`` gives a result's own line (default :func:`mean_verdict`). The text is
+    e.g. "direct light (bounce 2) already disagrees (p=3e-09): ...; directly visible emitters
+    (bounce 1) agree".
+    """
+    line = mean_verdict if line is None else line
+    if not results:
+        return None, "no depths compared"
+    order = depth_order(results)
+    bad = [d for d in order if not results[d].agree]
+    if not bad:
+        return None, f"all depths agree ({', '.join(str(d) for d in order)})"
+    first = bad[0]
+    result = results[first]
+    ok_below = order[:order.index(first)]
+    p = format_p(result.p_value, missing=NO_P, digits=2)
+    text = (f"{depth_name(first)} {'already ' if first == order[0] else ''}disagrees (p={p}): "
+            f"{line(result)}")
+    if ok_below:
+        text += ("; " + ", ".join(depth_name(d) for d in ok_below)
+                 + (" agrees" if len(ok_below) == 1 else " agree"))
+        text += f" -> look at what depth {first} adds"
+    later_ok = [d for d in order[order.index(first) + 1:] if results[d].agree]
+    if later_ok:
+        text += (f"; note: deeper depths {later_ok} agree again (a small error at depth {first} "
+                 "can drown in more noise deeper, not a contradiction)")
+    return first, text
+
+
+def verdict_line(result) -> str:
+    """The line of any statistical result: mean, variance (its equality test) or convergence."""
+    if hasattr(result, "policy_p"):
+        return variance_verdict(result)
+    if hasattr(result, "slope"):
+        return convergence_verdict(result)
+    return mean_verdict(result)
+
+
+# ---- what a comparison could see, and the headline -------------------------------------------
+def sees(bound: DetectableBias) -> str:
+    """What a mean test could see: "detects a global bias of +2.4% / −2.3% with probability ..."."""
+    if not math.isfinite(bound.bias):
+        return "a global bias is invisible to it (the reference image is black)"
+    where = ", tiles only" if bound.component == "tiles" else ""
+    return (f"detects a global bias of +{percent(bound.brighter)} / \u2212{percent(bound.darker)} "
+            f"with probability {bound.power:g} (alpha {bound.alpha:.2g}{where})")
+
+
+def _is_weak(result) -> bool:
+    return weak_agreement(result.agree, getattr(result, "detectable", None))
+
+
+def status_text(result) -> str:
+    """The headline's verdict: AGREES (weakly, with what it could not see) or DISAGREES."""
+    if not result.agree:
+        return "DISAGREES with Mitsuba"
+    if _is_weak(result):
+        return f"AGREES with Mitsuba, weakly (could not see less than {percent(result.detectable.bias)})"
+    return "AGREES with Mitsuba"
+
+
+def mean_line(result) -> str:
+    """The mean verdict line of a comparison, with what the test could see."""
+    verdict = mean_verdict(result.mean)
+    bound = getattr(result, "detectable", None)
+    if bound is None:
+        return verdict
+    if _is_weak(result):
+        verdict = verdict.replace("agree", f"agrees, but could not see less than "
+                                  f"{percent(bound.bias)}", 1)
+        if bound.floor <= 0.02:
+            hint = "--detect 2% picks the spp that would see 2%"
+        else:
+            hint = f"the reference's own noise alone hides less than {percent(bound.floor)}"
+        return f"{verdict}; {sees(bound)}; {hint}"
+    return f"{verdict}; {sees(bound)}"
