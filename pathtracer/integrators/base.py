@@ -23,7 +23,7 @@ of :mod:`autograder.contract`) and writes ``radiance``, or sets ``splats = True`
 writes ``splat``: the renderer reads only ``splats`` to know which, so both kinds work on
 the shared base as they do on the two subclasses.
 
-``rays`` is a :class:`pathtracer.sensors.perspective.Rays` batch of camera rays and ``rng``
+``rays`` is a :class:`pathtracer.core.rays.Rays` batch of camera rays and ``rng``
 a :class:`pathtracer.core.rng.RandomStream` with one independent stream per ray.
 The result is one Monte Carlo sample of the radiance arriving along each ray;
 the renderer averages the samples of a pixel and estimates their variance.
@@ -44,10 +44,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs.shading import eval_bsdf, has_smooth
+from ..core.rays import Rays
 from ..core.vec import any_row, max_component, scale, select, unscale
 from ..emitters.scene_emitters import emitted_radiance, hit_emitter, sample_emitter, shadowed
 from ..scene.types import Scene
-from ..sensors.perspective import Rays
 
 # trace, spawn, subset_hit and replace_hits lived here first: submissions import them from here.
 from .wavefront import Paths, marked_refills, replace_hits, spawn, subset_hit, trace

@@ -32,9 +32,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ..core.rays import Rays
 from ..core.rng import RandomStream
 from ..core.vec import put_rows
-from ..sensors.perspective import Rays
 from ..shapes import intersect
 
 

@@ -17,10 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.rays import Rays
 from ..core.vec import normalize
 from ..scene.properties import Props, children
 from ..scene.registry import register
-from .perspective import Rays
 from .perspective_sensor import SENSOR_CHILDREN, Camera, film_and_sampler, read_clip
 
 

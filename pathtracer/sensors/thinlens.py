@@ -22,11 +22,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.rays import Rays
 from ..core.sampling import square_to_uniform_disk_concentric
 from ..core.vec import normalize
 from ..scene.properties import Props
 from ..scene.registry import register
-from .perspective import Rays
 from .perspective_sensor import Camera, read_perspective
 
 #: Mitsuba replaces a zero aperture by float32's epsilon (with a warning).
