@@ -184,10 +184,6 @@ class BSDF:
         """
         raise NotImplementedError
 
-    def eval_pdf(self, wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`eval` and :meth:`pdf` together (convenience for NEE + MIS)."""
-        return self.eval(wi, wo), self.pdf(wi, wo)
-
 
 class DeltaBSDF(BSDF):
     """A BSDF whose every lobe is a Dirac delta (mirror, smooth glass): ``eval`` and ``pdf``

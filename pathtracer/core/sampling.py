@@ -81,11 +81,6 @@ def square_to_uniform_disk_concentric(u: np.ndarray) -> np.ndarray:
     return out
 
 
-def square_to_uniform_disk_concentric_pdf(p: np.ndarray) -> np.ndarray:
-    r"""Density of :func:`square_to_uniform_disk_concentric` per unit area: :math:`1/\pi`."""
-    return np.full(p.shape[0], INV_PI)
-
-
 # --------------------------------------------------------------------------
 # Hemisphere and sphere
 # --------------------------------------------------------------------------

@@ -112,11 +112,6 @@ def apply_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
     return p @ m[:3, :3].T + m[:3, 3]
 
 
-def apply_vectors(m: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Transform (n, 3) direction vectors (no translation)."""
-    return v @ m[:3, :3].T
-
-
 def apply_normal_matrix(normal_m: np.ndarray, n: np.ndarray) -> np.ndarray:
     """Transform (n, 3) normals by ``normal_m`` (an inverse transpose given
     explicitly) and renormalise."""

@@ -223,21 +223,6 @@ def lag_correlations(rfilter: ReconstructionFilter, steps: int = 512) -> np.ndar
     return rho / rho[2 * k]
 
 
-def tile_design_effect(rfilter: ReconstructionFilter, tile: int) -> float:
-    """``Var(sum of a tile's pixels) / sum of their variances`` for a ``tile`` x ``tile`` tile.
-
-    With a box filter the pixels are independent and this is 1; a wider filter makes
-    neighbours positively correlated (:func:`lag_correlations`), so a tile of correlated
-    pixels holds fewer independent ones: ``tile^2 / design_effect``.
-    """
-    rho = lag_correlations(rfilter)
-    k2 = len(rho) // 2
-    lags = np.arange(-k2, k2 + 1)
-    pairs = np.maximum(tile - np.abs(lags), 0)        # pixel pairs at each lag along an axis
-    per_axis = float(np.sum(rho * pairs)) / tile
-    return per_axis * per_axis
-
-
 def build_rfilter(plugin: Plugin | None) -> ReconstructionFilter:
     """The film's ``<rfilter>``: box, tent or gaussian (Mitsuba's default when absent)."""
     if plugin is None:
