@@ -49,7 +49,8 @@ from ..core.vec import any_row, max_component, scale, select, unscale
 from ..emitters.scene_emitters import emitted_radiance, hit_emitter, sample_emitter, shadowed
 from ..scene.types import Scene
 
-# trace, spawn, subset_hit and replace_hits lived here first: submissions import them from here.
+# trace, spawn, subset_hit and replace_hits are names of this module too: submissions and the
+# bug zoo import them from here.
 from .wavefront import Paths, replace_hits, spawn, subset_hit, trace
 
 #: Hard cap on the number of bounces when ``max_depth`` is infinite, so that a

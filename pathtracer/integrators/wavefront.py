@@ -171,8 +171,9 @@ class Paths:
 
     @L.setter
     def L(self, value) -> None:
-        # Code written when L was a plain attribute may assign it; what the live paths
-        # gathered so far is in the value read before (the getter delivered it).
+        # An integrator (a submission, say) may assign L whole (``paths.L = paths.L + x``):
+        # the value it read holds what the live paths gathered (the getter delivered it), so
+        # the gathered sums restart from zero.
         self.gathered[...] = 0.0
         self._L = np.asarray(value, dtype=np.float64)
 

@@ -10,8 +10,8 @@ An integrator whose ``radiance`` refills its paths (``refills = True``,
 :attr:`pathtracer.integrators.base.Integrator.refills`) receives ``POOL_UNITS`` units at
 once and keeps ``batch_size`` paths alive among them
 (:meth:`pathtracer.integrators.wavefront.Paths.pool`); the blocks it returns are merged
-unit by unit as before, and since a path's numbers and arithmetic do not depend on the
-other paths in flight, the image is bit-identical to one unit at a time.
+unit by unit, as for any integrator, and since a path's numbers and arithmetic do not
+depend on the other paths in flight, the image is bit-identical to one unit at a time.
 
 An integrator that *splats* (the light tracer, :mod:`pathtracer.integrators.light`)
 has no camera samples: it is rendered as independent replicas (:mod:`.splats`).
