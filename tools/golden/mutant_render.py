@@ -13,6 +13,7 @@ ZOO = Path(__file__).resolve().parents[2] / "tests" / "bugzoo"
 
 
 def main():
+    """Run ``pathtracer render ARGS`` with the mutant ``argv[1]``'s integrators registered."""
     mutant_name, args = sys.argv[1], sys.argv[2:]
     sys.path.insert(0, str(ZOO))
     mutant = __import__(mutant_name)

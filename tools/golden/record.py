@@ -67,6 +67,7 @@ def runs() -> dict[str, list[str]]:
 
 
 def record(out: Path, root: Path, only: list[str]) -> None:
+    """Run the commands of :func:`runs` (those named in ``only``, or all) into ``out``."""
     env = dict(os.environ, PATH=f"{root / '.venv' / 'bin'}{os.pathsep}{os.environ['PATH']}",
                PYTHONHASHSEED="0", COLUMNS="100")
     env.pop("VIRTUAL_ENV", None)
@@ -126,6 +127,7 @@ def _same_pixels(a, b) -> bool:
 
 
 def diff(before: Path, after: Path) -> int:
+    """Print how two recordings differ, clocks aside; 1 if they do, else 0."""
     problems = []
     files_a = {p.relative_to(before) for p in before.rglob("*") if p.is_file()}
     files_b = {p.relative_to(after) for p in after.rglob("*") if p.is_file()}
@@ -156,6 +158,7 @@ def diff(before: Path, after: Path) -> int:
 
 
 def main(argv=None) -> int:
+    """The command line: ``record OUT`` or ``diff BEFORE AFTER``; exit code."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="action", required=True)
     rec = sub.add_parser("record")
