@@ -10,7 +10,10 @@ smallpt, direct lighting), so that each can be checked against Mitsuba 3.
 >>> result.mean.shape, result.variance.shape
 ((64, 64, 3), (64, 64, 3))
 """
-from . import _console  # noqa: F401  (first: a Ctrl-C while the commands start)
+from . import (
+    _console,  # noqa: F401  (first: a Ctrl-C while the commands start)
+    legacy_names,  # noqa: F401  (the student contract's old module names)
+)
 from .integrators import INTEGRATORS, Integrator, make_integrator
 from .render.driver import RenderResult, render
 from .scene.errors import SceneError

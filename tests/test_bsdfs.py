@@ -20,6 +20,7 @@ from pathtracer.bsdfs import (
     reflect,
     refract,
 )
+from pathtracer.bsdfs.diffuse import hemisphere_sampling
 from pathtracer.bsdfs.fresnel import fresnel_conductor, schlick_f0
 from pathtracer.core import sampling
 
@@ -50,10 +51,10 @@ def random_directions(n: int, seed: int, upper: bool | None = None) -> np.ndarra
     return v
 
 
-def sampler(bsdf, wi, **kwargs):
+def sampler(bsdf, wi):
     """chi2 callback: (n, 3) uniforms -> (wo, valid) for a fixed wi."""
     def sample(u):
-        bs = bsdf.sample(tile(wi, u.shape[0]), u[:, 0], u[:, 1:], **kwargs)
+        bs = bsdf.sample(tile(wi, u.shape[0]), u[:, 0], u[:, 1:])
         return bs.wo, bs.valid
     return sample
 
@@ -77,8 +78,8 @@ DISTRIBUTIONS = ["beckmann", "ggx"]
 def test_chi2_diffuse(hemisphere, theta):
     bsdf = Diffuse([0.2, 0.5, 0.8])
     wi = direction(theta)
-    result = chi2_sphere(sampler(bsdf, wi, hemisphere=hemisphere),
-                         lambda wo: bsdf.pdf(tile(wi, wo.shape[0]), wo, hemisphere=hemisphere), seed=21)
+    with hemisphere_sampling(hemisphere):
+        result = chi2_sphere(sampler(bsdf, wi), density(bsdf.pdf, wi), seed=21)
     assert result.passed, result.message
 
 
@@ -226,14 +227,15 @@ def test_diffuse_albedo_and_integral():
     wi = tile(direction(30.0), n)
     bs = bsdf.sample(wi, rng.random(n), rng.random((n, 2)))
     np.testing.assert_array_equal(bs.weight, np.broadcast_to([0.2, 0.5, 0.8], (n, 3)))  # zero variance
-    bs_u = bsdf.sample(wi, rng.random(n), rng.random((n, 2)), hemisphere="uniform")
+    with hemisphere_sampling("uniform"):
+        bs_u = bsdf.sample(wi, rng.random(n), rng.random((n, 2)))
     sd = bs_u.weight.std(axis=0) / np.sqrt(n)
     assert np.all(np.abs(bs_u.weight.mean(axis=0) - [0.2, 0.5, 0.8]) < 5 * sd)
     assert np.all(bs_u.weight.std(axis=0) > 0.1 * np.array([0.2, 0.5, 0.8]))
     # Both densities integrate to one over the sphere (quadrature in z, phi).
     for hemisphere in ("cosine", "uniform"):
-        assert abs(_integrate(lambda wo: bsdf.pdf(tile(direction(30.0), wo.shape[0]), wo,
-                                                  hemisphere=hemisphere)) - 1.0) < 1e-4
+        with hemisphere_sampling(hemisphere):
+            assert abs(_integrate(density(bsdf.pdf, direction(30.0))) - 1.0) < 1e-4
 
 
 def test_diffuse_one_sided():

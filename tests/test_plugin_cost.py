@@ -102,9 +102,10 @@ def test_a_new_shape_is_one_module(tmp_path):
         from pathtracer.shapes.normals import flip_winding
 
         @register("shape", "square")
-        def create(shape, geometry):
+        def create(props):
             # The rectangle's square [-1, 1]^2, given by its half side instead of a scale.
-            half = shape.props.float("half_side", 1.0)
+            shape = props.shape
+            half = props.float("half_side", 1.0)
             corners = half * np.array([[[-1, -1, 0], [1, -1, 0], [1, 1, 0]],
                                        [[-1, -1, 0], [1, 1, 0], [-1, 1, 0]]], dtype=float)
             p = transform.apply_points(shape.to_world, corners.reshape(-1, 3)).reshape(-1, 3, 3)
@@ -113,7 +114,7 @@ def test_a_new_shape_is_one_module(tmp_path):
             uv = 0.5 * (corners[:, :, :2] / half + 1.0)
             if shape.flip:
                 p, n, uv = flip_winding(p, n, uv)
-            geometry.add_mesh(shape.shape_id, p, n, uv)
+            shape.geometry.add_mesh(props.shape_id, p, n, uv)
     """
     extra = """<shape type="square"><float name="half_side" value="0.25"/>
         <transform name="to_world"><translate x="1.2" z="0.5"/></transform>
@@ -139,7 +140,7 @@ def test_a_new_emitter_is_one_module(tmp_path):
         from pathtracer.scene.registry import register
 
         @register("emitter", "bulb")
-        def create(props, folders, shape):
+        def create(props):
             # A point light given by its power [W] instead of its intensity [W/sr].
             children(props.plugin, {})
             power = props.color("power", 4.0 * np.pi)

@@ -2,8 +2,8 @@
 
 A pool (``Paths.pool``) keeps ``batch_size`` paths alive over several units of camera
 rays, starting new camera paths whenever roulette has halved it. The renderer pools the
-integrators whose ``radiance`` is marked with ``refills``; these tests compare such a
-render, bit for bit, with the same integrator run unit by unit (an unmarked subclass),
+integrators whose class says ``refills = True``; these tests compare such a render, bit
+for bit, with the same integrator run unit by unit (a subclass with its own ``radiance``),
 and check the random streams and the bookkeeping pooling relies on.
 """
 from types import SimpleNamespace
@@ -14,7 +14,7 @@ import pytest
 from pathtracer import load_scene, render
 from pathtracer.core.rng import RandomStream, sample_keys
 from pathtracer.integrators import INTEGRATORS
-from pathtracer.integrators.wavefront import Paths, pooled
+from pathtracer.integrators.wavefront import Paths
 from pathtracer.render.scheduling import group_units, plan_units
 from pathtracer.sensors.perspective import Rays
 
@@ -22,7 +22,7 @@ POOLED = ["path", "path_nee", "path_bsdf", "smallpt"]
 
 
 def unpooled(name: str):
-    """The integrator ``name`` with an unmarked ``radiance``: rendered one unit at a time."""
+    """The integrator ``name`` with a ``radiance`` of its own: rendered one unit at a time."""
     cls = INTEGRATORS[name]
 
     class Unpooled(cls):
@@ -97,15 +97,14 @@ def _counting(radiance, calls):
     def counted(self, scene, rays, rng):
         calls.append(len(rays))
         return radiance(self, scene, rays, rng)
-    counted.refills = True
     return counted
 
 
-def test_only_marked_radiance_is_pooled():
-    assert all(pooled(INTEGRATORS[name]()) for name in POOLED)
+def test_only_integrators_that_say_so_are_pooled():
+    assert all(INTEGRATORS[name]().refills for name in POOLED)
     # recursive branches per depth and bdpt / light splat: never pooled
-    assert not any(pooled(INTEGRATORS[name]()) for name in ("recursive", "direct", "light"))
-    assert not pooled(unpooled("path")())          # a subclass (a student's) is not
+    assert not any(INTEGRATORS[name]().refills for name in ("recursive", "direct", "light"))
+    assert not unpooled("path")().refills          # a subclass (a student's) is not
     integrator = INTEGRATORS["path"]()
     render(load_scene("cornell-box", width=8, height=8), integrator, spp=2, processes=1)
     assert integrator.pool_size is None             # the renderer pooled its own copy

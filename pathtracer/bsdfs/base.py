@@ -166,12 +166,11 @@ class BSDF:
         r"""BSDF times foreshortening, :math:`f(w_i, w_o)\,|\cos\theta_o|` -> (n, 3)."""
         raise NotImplementedError
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Solid-angle density with which :meth:`sample` picks ``wo`` -> (n,) (0 for delta lobes)."""
         raise NotImplementedError
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Sample ``wo`` given ``wi``.
 
         Parameters
@@ -182,16 +181,8 @@ class BSDF:
             Uniform sample for the choice of lobe.
         u2 : (n, 2) ndarray
             Uniform sample for the direction within the lobe.
-        hemisphere : {"cosine", "uniform"}
-            Only :class:`~pathtracer.bsdfs.diffuse.Diffuse` uses it; the
-            others accept and ignore it.
         """
         raise NotImplementedError
-
-    def eval_pdf(self, wi: np.ndarray, wo: np.ndarray,
-                 hemisphere: str = "cosine") -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`eval` and :meth:`pdf` together (convenience for NEE + MIS)."""
-        return self.eval(wi, wo), self.pdf(wi, wo, hemisphere=hemisphere)
 
 
 class DeltaBSDF(BSDF):
@@ -205,6 +196,6 @@ class DeltaBSDF(BSDF):
         """0 -> (n, 3): a delta lobe has no finite value."""
         return np.zeros((wi.shape[0], 3))
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """0 -> (n,): a delta lobe has no finite density."""
         return np.zeros(wi.shape[0])

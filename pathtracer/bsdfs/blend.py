@@ -74,14 +74,12 @@ class BlendBSDF(BSDF):
         w = self._weight(len(wi))[:, None]
         return (1.0 - w) * self.bsdfs[0].eval(wi, wo) + w * self.bsdfs[1].eval(wi, wo)
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """:math:`(1 - w) p_0 + w p_1` -> (n,)."""
         w = self._weight(len(wi))
-        return ((1.0 - w) * self.bsdfs[0].pdf(wi, wo, hemisphere)
-                + w * self.bsdfs[1].pdf(wi, wo, hemisphere))
+        return (1.0 - w) * self.bsdfs[0].pdf(wi, wo) + w * self.bsdfs[1].pdf(wi, wo)
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Sample one BSDF by ``u1``; weight and pdf of the mixture (see the module docstring)."""
         w = self._weight(len(wi))
         first = u1 > w
@@ -89,7 +87,7 @@ class BlendBSDF(BSDF):
             reused = np.where(first, (u1 - w) / (1.0 - w), u1 / w)
         reused = np.where(np.isfinite(reused), np.clip(reused, 0.0, 1.0), 0.0)
         # Both BSDFs are sampled for every row: a bound BSDF needs all of its rows.
-        samples = [b.sample(wi, reused, u2, hemisphere) for b in self.bsdfs]
+        samples = [b.sample(wi, reused, u2) for b in self.bsdfs]
 
         def pick(a, b):
             return np.where(first.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)
@@ -98,8 +96,8 @@ class BlendBSDF(BSDF):
         bs_pdf = pick(samples[0].pdf, samples[1].pdf)
         bs_weight = pick(samples[0].weight, samples[1].weight)
         # The other BSDF at the chosen direction.
-        other_0 = self.bsdfs[1].eval(wi, wo), self.bsdfs[1].pdf(wi, wo, hemisphere)
-        other_1 = self.bsdfs[0].eval(wi, wo), self.bsdfs[0].pdf(wi, wo, hemisphere)
+        other_0 = self.bsdfs[1].eval(wi, wo), self.bsdfs[1].pdf(wi, wo)
+        other_1 = self.bsdfs[0].eval(wi, wo), self.bsdfs[0].pdf(wi, wo)
         other_value = pick(other_0[0], other_1[0])
         other_pdf = pick(other_0[1], other_1[1])
         w_chosen = np.where(first, 1.0 - w, w)

@@ -55,8 +55,7 @@ class Conductor(DeltaBSDF):
         """Conductor Fresnel factor times ``specular_reflectance`` -> (n, 3)."""
         return conductor_reflectance(cos_theta, self.eta_complex, self.specular_reflectance)
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """The mirror direction with weight :math:`F R_s` (pdf 1, delta); invalid from below."""
         n = wi.shape[0]
         valid = wi[:, 2] > 0.0

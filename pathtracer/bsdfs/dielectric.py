@@ -54,8 +54,7 @@ class Dielectric(DeltaBSDF):
         self.specular_reflectance = as_colour_or_texture(specular_reflectance)
         self.specular_transmittance = as_colour_or_texture(specular_transmittance)
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Choose reflection if ``u1 <= F``, else refraction (see the module docstring)."""
         F, cos_theta_t, eta_it, eta_ti = fresnel_dielectric(wi[:, 2], self.eta)
         selected_r = u1 <= F

@@ -5,8 +5,16 @@ r"""Smooth diffuse (Lambertian) BRDF, Mitsuba's ``diffuse`` plugin.
 
 The surface is one-sided: seen from below it is black (wrap it in
 :class:`~pathtracer.bsdfs.twosided.TwoSided` for a two-sided material).
+
+How it samples its directions is the lecture's ``hemisphere`` option of the integrators,
+which only this BSDF reads: :func:`pathtracer.bsdfs.shading.eval_bsdf` and ``sample_bsdf``
+take it and set it for the BSDF queries they make (:func:`hemisphere_sampling`), so that
+the BSDFs that nest a diffuse one (two-sided, blends, masks, bump maps) need not pass it on.
 """
 from __future__ import annotations
+
+import contextlib
+import contextvars
 
 import numpy as np
 
@@ -17,13 +25,28 @@ from ..scene.registry import register
 from .base import BSDF, BSDFSample, as_colour_or_texture, make_sample
 from .parameters import colour_or_texture, textures_only
 
+#: How diffuse lobes draw their directions: ``"cosine"`` or ``"uniform"`` (see
+#: :class:`Diffuse`), for the BSDF queries of the current :func:`hemisphere_sampling` block.
+HEMISPHERE = contextvars.ContextVar("hemisphere", default="cosine")
+
+
+@contextlib.contextmanager
+def hemisphere_sampling(hemisphere: str):
+    """Diffuse BSDFs sample (and give the density of) ``hemisphere`` directions,
+    ``"cosine"`` or ``"uniform"``, inside the ``with`` block."""
+    token = HEMISPHERE.set(hemisphere)
+    try:
+        yield
+    finally:
+        HEMISPHERE.reset(token)
+
 
 class Diffuse(BSDF):
     r"""Lambertian reflector with RGB albedo ``reflectance`` (:math:`\rho`).
 
     Sampling is cosine-weighted by default (:math:`p = \cos\theta_o/\pi`,
-    weight :math:`= \rho`, Mitsuba's choice); ``hemisphere="uniform"``
-    samples the hemisphere uniformly instead (:math:`p = 1/(2\pi)`,
+    weight :math:`= \rho`, Mitsuba's choice); inside ``hemisphere_sampling("uniform")``
+    it samples the hemisphere uniformly instead (:math:`p = 1/(2\pi)`,
     weight :math:`= 2\rho\cos\theta_o`): same mean, larger variance, as in
     the lecture's comparison.
     """
@@ -44,14 +67,14 @@ class Diffuse(BSDF):
         cos_theta_o = np.where(self._active(wi, wo), wo[:, 2], 0.0)
         return scale(self.reflectance, sampling.INV_PI * cos_theta_o)
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         r"""Density of :meth:`sample`: :math:`\cos\theta_o/\pi` (cosine) or :math:`1/(2\pi)` (uniform)."""
-        density = _hemisphere_pdf(wo, hemisphere)
+        density = _hemisphere_pdf(wo, HEMISPHERE.get())
         return np.where(self._active(wi, wo), density, 0.0)
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Sample ``wo`` on the upper hemisphere; invalid where ``wi`` is below the surface."""
+        hemisphere = HEMISPHERE.get()
         wo = _hemisphere_sample(u2, hemisphere)
         pdf = _hemisphere_pdf(wo, hemisphere)
         valid = (wi[:, 2] > 0.0) & (pdf > 0.0)

@@ -72,18 +72,17 @@ class MaskBSDF(BSDF):
         """Opacity times the nested value -> (n, 3)."""
         return self._opacity(len(wi))[:, None] * self.nested.eval(wi, wo)
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Opacity times the nested density -> (n,)."""
-        return self._opacity(len(wi)) * self.nested.pdf(wi, wo, hemisphere)
+        return self._opacity(len(wi)) * self.nested.pdf(wi, wo)
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """The nested BSDF with probability ``opacity``, else the pass-through."""
         opacity = self._opacity(len(wi))
         surface = u1 < opacity
         with np.errstate(divide="ignore", invalid="ignore"):
             reused = np.where(surface, u1 / opacity, 0.0)
-        bs = self.nested.sample(wi, np.clip(reused, 0.0, 1.0), u2, hemisphere)
+        bs = self.nested.sample(wi, np.clip(reused, 0.0, 1.0), u2)
         wo = np.where(surface[:, None], bs.wo, -wi)
         weight = np.where(surface[:, None], bs.weight, 1.0)
         pdf = np.where(surface, bs.pdf * opacity, 1.0 - opacity)

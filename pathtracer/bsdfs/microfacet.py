@@ -135,17 +135,6 @@ class MicrofacetDistribution:
         self.alpha_v = _clamp_alpha(alpha_u if alpha_v is None else alpha_v)
         self.sample_visible = bool(sample_visible)
 
-    def scaled(self, factor: np.ndarray) -> "MicrofacetDistribution":
-        """A copy with both roughnesses multiplied by ``factor`` (one value per query row).
-
-        For Walter et al.'s widening of the sampling lobe, which Mitsuba's
-        ``roughdielectric`` applies when visible normals are not sampled.
-        """
-        copy = MicrofacetDistribution(self.distribution, 1.0, 1.0, self.sample_visible)
-        copy.alpha_u = self.alpha_u * np.asarray(factor, dtype=np.float64)
-        copy.alpha_v = self.alpha_v * np.asarray(factor, dtype=np.float64)
-        return copy
-
     @property
     def is_beckmann(self) -> bool:
         return self.distribution == "beckmann"

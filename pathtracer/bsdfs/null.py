@@ -30,8 +30,7 @@ class NullBSDF(DeltaBSDF):
         """A shadow ray crossing it keeps everything -> (n, 3) ones."""
         return np.ones((len(cos_theta_i), 3))
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine"):
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray):
         """``wo = -wi`` with weight 1 and probability 1 (a Dirac event)."""
         n = wi.shape[0]
         return make_sample(-wi, np.ones((n, 3)), np.ones(n), True, 1.0, np.ones(n, dtype=bool))

@@ -51,8 +51,7 @@ def build_bsdf(plugin: Plugin, folders: list[str] = (".",), textures: dict | Non
         read the image once).
     """
     textures = {} if textures is None else textures
-    props = Props(plugin)
-    props.folders, props.texture_cache = folders, textures
+    props = Props(plugin, folders=folders, texture_cache=textures)
     create = factory("bsdf", plugin.type)
     if create is None:
         textures_only(props)
@@ -72,7 +71,7 @@ def textures_only(props: Props) -> None:
 def colour_or_texture(props: Props, name: str, default: float):
     """A reflectance (a colour in [0, 1]) or a nested texture (see
     :meth:`~pathtracer.scene.properties.Props.reflectance_or_texture`)."""
-    return props.reflectance_or_texture(name, default, props.folders, props.texture_cache)
+    return props.reflectance_or_texture(name, default)
 
 
 def ior(props: Props, name: str, default: str) -> float:

@@ -135,18 +135,17 @@ class PerturbedNormal(BSDF):
         value = self.nested.eval(self._into(wi, frame), wo_p) * self._terminator(frame[2], wo)[:, None]
         return np.where(active[:, None], value, 0.0)
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Nested density in the perturbed frame -> (n,)."""
         frame = self._frame(wi)
         wo_p = self._into(wo, frame)
         active = wo[:, 2] * wo_p[:, 2] > 0.0
-        return np.where(active, self.nested.pdf(self._into(wi, frame), wo_p, hemisphere), 0.0)
+        return np.where(active, self.nested.pdf(self._into(wi, frame), wo_p), 0.0)
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Sample the nested BSDF in the perturbed frame and map the direction back."""
         frame = self._frame(wi)
-        bs = self.nested.sample(self._into(wi, frame), u1, u2, hemisphere)
+        bs = self.nested.sample(self._into(wi, frame), u1, u2)
         wo = self._out_of(bs.wo, frame)
         valid = bs.valid & np.any(bs.weight != 0.0, axis=1) & (bs.wo[:, 2] * wo[:, 2] > 0.0)
         weight = bs.weight * self._terminator(frame[2], wo)[:, None]

@@ -123,14 +123,13 @@ class Plastic(BSDF):
         value = self._diffuse_value(self._fresnel(wi[:, 2]), wo)
         return np.where(active[:, None], value, 0.0)
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         r"""Density of the diffuse lobe, :math:`(1 - P_s)\cos\theta_o/\pi` -> (n,)."""
         active = (wi[:, 2] > 0.0) & (wo[:, 2] > 0.0)
         p_diffuse = 1.0 - specular_probability(self._fresnel(wi[:, 2]), self.specular_weight)
         return np.where(active, p_diffuse * sampling.INV_PI * np.maximum(wo[:, 2], 0.0), 0.0)
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Specular reflection if ``u1 < P_s``, else a cosine-weighted diffuse direction."""
         active = wi[:, 2] > 0.0
         F_i = self._fresnel(wi[:, 2])

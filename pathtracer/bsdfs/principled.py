@@ -222,7 +222,7 @@ class Principled(BSDF):
         ok = active & np.all(np.isfinite(value), axis=1)
         return np.where(ok[:, None], value, 0.0)
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Mixture density of :meth:`sample` -> (n,)."""
         n = wi.shape[0]
         reflect, refract, eta_path, h, active = self._half_vector(wi, wo)
@@ -250,8 +250,7 @@ class Principled(BSDF):
             pdf += np.where(agree_r, p_c * lobes.gtr1_pdf(h, alpha) * jacobian, 0.0)
         return np.where(active & np.isfinite(pdf), pdf, 0.0)
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Pick a lobe by ``u1`` (diffuse, clearcoat, transmission, reflection, in that order
         along [0, 1)), draw its direction with ``u2``; weight = eval / pdf."""
         n = wi.shape[0]

@@ -172,7 +172,7 @@ class PrincipledThin(BSDF):
         ok = active & np.all(np.isfinite(value), axis=1)
         return np.where(ok[:, None], value, 0.0)
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Mixture density of :meth:`sample` -> (n,)."""
         n = wi.shape[0]
         active = wi[:, 2] != 0.0
@@ -196,8 +196,7 @@ class PrincipledThin(BSDF):
             pdf += spec
         return np.where(active & np.isfinite(pdf), pdf, 0.0)
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Pick a lobe by ``u1`` (specular reflection, specular transmission, cosine
         reflection, cosine transmission along [0, 1)), draw its direction with ``u2`` on the
         front side, mirror back to ``wi``'s side; weight = eval / pdf."""

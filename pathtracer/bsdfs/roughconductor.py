@@ -82,7 +82,7 @@ class RoughConductor(RoughSurface, BSDF):
         value = np.where(active & (D != 0.0), value, 0.0)
         return value[:, None] * self.fresnel(dot_einsum(wi, h))
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         r""":math:`D(h)\,G_1(w_i, h)/(4\cos\theta_i)` (Mitsuba's :math:`G_1`) -> (n,)."""
         return self._pdf(wi, wo, self.distr.smith_g1)
 
@@ -101,8 +101,7 @@ class RoughConductor(RoughSurface, BSDF):
                 result = self.distr.pdf(wi, h) / (4.0 * dot_einsum(wo, h))
         return np.where(active, result, 0.0)
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Reflect ``wi`` about a sampled visible normal; invalid if ``wi`` or ``wo`` is below the surface."""
         up = wi[:, 2] > 0.0
         wi_up = np.where(up[:, None], wi, np.array([0.0, 0.0, 1.0]))

@@ -98,7 +98,7 @@ class RoughDielectric(RoughSurface, BSDF):
         ok = active & np.all(np.isfinite(value), axis=1)
         return np.where(ok[:, None], value, 0.0)
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Density of :meth:`sample` as Mitsuba reports it (its Beckmann G1) -> (n,)."""
         return self._pdf(wi, wo, self.distr.smith_g1)
 
@@ -120,8 +120,7 @@ class RoughDielectric(RoughSurface, BSDF):
         result = visible * np.where(reflect, F, 1.0 - F) * np.abs(jacobian)
         return np.where(active & np.isfinite(result), result, 0.0)
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Visible normal for ``wi`` mirrored up; reflect with probability F, else refract."""
         cos_i = wi[:, 2]
         active = cos_i != 0.0

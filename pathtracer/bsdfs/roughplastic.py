@@ -108,7 +108,7 @@ class RoughPlastic(BSDF):
         value = specular[:, None] * self.specular_reflectance + diffuse[:, None] * self._diffuse
         return np.where(active[:, None], value, 0.0)
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Mixture density of the two lobes, as Mitsuba reports it -> (n,)."""
         return self._pdf(wi, wo, self.distr.smith_g1)
 
@@ -127,8 +127,7 @@ class RoughPlastic(BSDF):
         diffuse = sampling.INV_PI * np.maximum(wo[:, 2], 0.0)
         return np.where(active, p_specular * glossy + (1.0 - p_specular) * diffuse, 0.0)
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Reflect about a visible normal if ``u1 < P_s``, else cosine-sample; weight = eval / pdf."""
         up = wi[:, 2] > 0.0
         wi_up = np.where(up[:, None], wi, np.array([0.0, 0.0, 1.0]))

@@ -33,6 +33,7 @@ from ..core.vec import frame, put_rows, scale, select, take_rows, to_local, to_w
 from ..scene.types import Scene
 from ..shapes.intersect import texture_uv
 from ..shapes.tangents import local_geometry
+from .diffuse import hemisphere_sampling
 from .tangent_frame import InTangentFrame
 
 
@@ -185,12 +186,19 @@ def eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray,
     wi : (n, 3) unit direction towards the previous vertex (the camera side).
     wo : (n, 3) unit direction towards the next vertex (e.g. the light).
     hemisphere : {'cosine', 'uniform'}
-        Diffuse sampling strategy whose pdf is returned.
+        Diffuse sampling strategy whose pdf is returned
+        (:func:`~pathtracer.bsdfs.diffuse.hemisphere_sampling`).
     adjoint : bool
         Importance transport (paths from the lights: ``wi`` towards the light side,
         ``wo`` towards the camera side), Mitsuba's ``TransportMode::Importance``: a
         refraction carries no ``1/eta'^2`` radiance scaling (:func:`importance_scale`).
     """
+    with hemisphere_sampling(hemisphere):
+        return _eval_bsdf(scene, hit, wi, wo, adjoint)
+
+
+def _eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray, adjoint: bool):
+    """:func:`eval_bsdf` inside its ``hemisphere_sampling`` block."""
     groups = _groups(scene, hit)
     if len(groups) == 1 and isinstance(groups[0][1], slice):   # one group: no scatters
         bsdf, _ = groups[0]
@@ -198,7 +206,7 @@ def eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray,
         value = _own(bsdf.eval(wi_local, wo_local), np.float64)
         if adjoint and bsdf.refracts:
             value *= importance_scale(bsdf, wi_local, wo_local)[:, None]
-        return value, _own(bsdf.pdf(wi_local, wo_local, hemisphere=hemisphere), np.float64)
+        return value, _own(bsdf.pdf(wi_local, wo_local), np.float64)
     value = np.zeros((len(wi), 3))
     pdf = np.zeros(len(wi))
     for bsdf, rows in groups:
@@ -207,7 +215,7 @@ def eval_bsdf(scene: Scene, hit, wi: np.ndarray, wo: np.ndarray,
         if adjoint and bsdf.refracts:
             f = f * importance_scale(bsdf, wi_local, wo_local)[:, None]
         put_rows(value, rows, f)
-        pdf[rows] = bsdf.pdf(wi_local, wo_local, hemisphere=hemisphere)
+        pdf[rows] = bsdf.pdf(wi_local, wo_local)
     return value, pdf
 
 
@@ -240,15 +248,23 @@ def sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarra
                 hemisphere: str = "cosine", adjoint: bool = False) -> ScatterSample:
     """Sample a continuation direction at every hit (see :class:`ScatterSample`).
 
-    ``adjoint``: importance transport (see :func:`eval_bsdf`); the weight of a refraction
-    is multiplied by ``bs.eta^2`` = ``eta'^2``, which undoes the radiance scaling.
+    ``hemisphere``: how diffuse lobes are sampled (see :func:`eval_bsdf`). ``adjoint``:
+    importance transport (see :func:`eval_bsdf`); the weight of a refraction is multiplied
+    by ``bs.eta^2`` = ``eta'^2``, which undoes the radiance scaling.
     """
+    with hemisphere_sampling(hemisphere):
+        return _sample_bsdf(scene, hit, wi, u1, u2, adjoint)
+
+
+def _sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
+                 adjoint: bool) -> ScatterSample:
+    """:func:`sample_bsdf` inside its ``hemisphere_sampling`` block."""
     groups = _groups(scene, hit)
     if len(groups) == 1 and isinstance(groups[0][1], slice):   # one group: no scatters
         bsdf, _ = groups[0]
         n = hit.sh_n
         columns = frame(n)
-        bs = bsdf.sample(to_local(wi, n, columns), u1, u2, hemisphere=hemisphere)
+        bs = bsdf.sample(to_local(wi, n, columns), u1, u2)
         out = ScatterSample(to_world(bs.wo, n, columns),
                             select(bs.valid, bs.weight),
                             np.where(bs.valid, bs.pdf, 0.0).astype(np.float64, copy=False),
@@ -261,7 +277,7 @@ def sample_bsdf(scene: Scene, hit, wi: np.ndarray, u1: np.ndarray, u2: np.ndarra
             n = take_rows(hit.sh_n, rows)
             columns = frame(n)
             bs = bsdf.sample(to_local(take_rows(wi, rows), n, columns), take_rows(u1, rows),
-                             take_rows(u2, rows), hemisphere=hemisphere)
+                             take_rows(u2, rows))
             put_rows(out.wo, rows, to_world(bs.wo, n, columns))
             put_rows(out.weight, rows, select(bs.valid, bs.weight))
             out.pdf[rows] = np.where(bs.valid, bs.pdf, 0.0)

@@ -43,14 +43,13 @@ class InTangentFrame(BSDF):
         """The BSDF's value for the turned directions -> (n, 3)."""
         return self.bsdf.eval(self._into(wi), self._into(wo))
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """The BSDF's density for the turned directions -> (n,)."""
-        return self.bsdf.pdf(self._into(wi), self._into(wo), hemisphere)
+        return self.bsdf.pdf(self._into(wi), self._into(wo))
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Sample in the tangent frame; the direction is turned back."""
-        bs = self.bsdf.sample(self._into(wi), u1, u2, hemisphere)
+        bs = self.bsdf.sample(self._into(wi), u1, u2)
         bs.wo = _rotate(bs.wo, self.cos, self.sin)
         return bs
 

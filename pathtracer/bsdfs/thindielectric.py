@@ -53,8 +53,7 @@ class ThinDielectric(DeltaBSDF):
         """What a shadow ray keeps crossing the pane, ``(1 - r) specular_transmittance`` -> (n, 3)."""
         return (1.0 - self.reflectance(cos_theta_i))[:, None] * self.specular_transmittance
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Reflect if ``u1 <= r``, else pass straight through (``wo = -wi``)."""
         r = self.reflectance(wi[:, 2])
         selected_r = u1 <= r

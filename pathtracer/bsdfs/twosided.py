@@ -73,13 +73,12 @@ class TwoSided(BSDF):
             return self._per_side(wi, lambda b, side: b.eval(_flip_z(wi, side), _flip_z(wo, side)))
         return self.nested.eval(_flip_z(wi, back), _flip_z(wo, back))
 
-    def pdf(self, wi: np.ndarray, wo: np.ndarray, hemisphere: str = "cosine") -> np.ndarray:
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Nested ``pdf`` with both directions mirrored where ``wi`` is on the back side."""
         back = np.signbit(wi[:, 2])
         if self.back is not None:
-            return self._per_side(wi, lambda b, side: b.pdf(_flip_z(wi, side), _flip_z(wo, side),
-                                                           hemisphere=hemisphere))
-        return self.nested.pdf(_flip_z(wi, back), _flip_z(wo, back), hemisphere=hemisphere)
+            return self._per_side(wi, lambda b, side: b.pdf(_flip_z(wi, side), _flip_z(wo, side)))
+        return self.nested.pdf(_flip_z(wi, back), _flip_z(wo, back))
 
     def _per_side(self, wi: np.ndarray, query):
         """``query(bsdf, flip)`` of the front BSDF where cos > 0, of the back one (mirrored)
@@ -91,21 +90,20 @@ class TwoSided(BSDF):
         return np.where(front.reshape(shape), value_front,
                         np.where(back.reshape(shape), value_back, 0.0))
 
-    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray,
-               hemisphere: str = "cosine") -> BSDFSample:
+    def sample(self, wi: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> BSDFSample:
         """Sample the nested BSDF from the mirrored ``wi``; mirror the sampled ``wo`` back."""
         back = np.signbit(wi[:, 2])
         if self.back is not None:
-            return self._sample_two(wi, u1, u2, hemisphere)
-        bs = self.nested.sample(_flip_z(wi, back), u1, u2, hemisphere=hemisphere)
+            return self._sample_two(wi, u1, u2)
+        bs = self.nested.sample(_flip_z(wi, back), u1, u2)
         bs.wo = _flip_z(bs.wo, back)
         return bs
 
-    def _sample_two(self, wi, u1, u2, hemisphere) -> BSDFSample:
+    def _sample_two(self, wi, u1, u2) -> BSDFSample:
         """The front BSDF's sample where cos > 0, the back one's (mirrored) where cos < 0."""
         everywhere = np.ones(len(wi), dtype=bool)
-        bs_front = self.nested.sample(wi, u1, u2, hemisphere=hemisphere)
-        bs_back = self.back.sample(_flip_z(wi, everywhere), u1, u2, hemisphere=hemisphere)
+        bs_front = self.nested.sample(wi, u1, u2)
+        bs_back = self.back.sample(_flip_z(wi, everywhere), u1, u2)
         bs_back.wo = _flip_z(bs_back.wo, everywhere)
         front = wi[:, 2] > 0.0
         fields = {}

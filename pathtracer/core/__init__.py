@@ -1,2 +1,2 @@
-"""Foundations every other folder builds on: vectors, random numbers, sampling warps and MIS,
+"""Foundations every other folder builds on: vectors, batches of rays, random numbers, sampling warps and MIS,
 colour and tonemapping, and Heckbert's path grammar. Nothing here imports the rest of the tracer."""

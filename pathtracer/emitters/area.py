@@ -23,7 +23,7 @@ from ..core.sampling import (
     square_to_uniform_triangle,
 )
 from ..core.vec import dot, norm, normalize, scale, select, to_local, to_world, unscale
-from ..scene.properties import children
+from ..scene.properties import Props, children
 from ..scene.registry import register
 from ..scene.types import Scene
 from ..shapes import intersect
@@ -144,18 +144,18 @@ class AreaEmitter(Emitter):
 
 
 @register("emitter", "area")
-def create(props, folders, shape):
-    """An ``<emitter type="area">`` nested in (or referenced by) the shape of index ``shape``."""
+def create(props: Props):
+    """An ``<emitter type="area">`` nested in (or referenced by) the shape of index
+    ``props.shape_id``."""
     plugin = props.plugin
-    if shape is None:
+    if props.shape_id is None:
         raise plugin.error("an area emitter emits from a shape: nest it in a <shape> or "
                            "reference it there with <ref id=\"...\"/>")
     children(plugin, {"texture": 1})
-    props.folders = list(folders)
-    radiance = props.emission_or_texture("radiance", 1.0, folders)
+    radiance = props.emission_or_texture("radiance", 1.0)
     if isinstance(radiance, ConstantTexture):   # the same everywhere: a plain colour
         radiance = radiance.value.copy()
-    return AreaEmitter(shape=shape, radiance=radiance)
+    return AreaEmitter(shape=props.shape_id, radiance=radiance)
 
 
 def _sphere_pdf(scene, shape, ref_p, dist2, cos_light):

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.sampling import INV_FOUR_PI, square_to_uniform_sphere
-from ..scene.properties import children
+from ..scene.properties import Props, children
 from ..scene.registry import register
 from .base import EnvironmentEmitter
 
@@ -34,7 +34,7 @@ class ConstantEmitter(EnvironmentEmitter):
 
 
 @register("emitter", "constant")
-def create(props, folders, shape):
+def create(props: Props):
     """``radiance``."""
     children(props.plugin, {})
     return ConstantEmitter(radiance=props.color("radiance", 1.0))

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.properties import children
+from ..scene.properties import Props, children
 from ..scene.registry import register
 from .base import Emitter, EmitterSample, rotation_only
 
@@ -33,7 +33,7 @@ class DirectionalEmitter(Emitter):
 
 
 @register("emitter", "directional")
-def create(props, folders, shape):
+def create(props: Props):
     """``direction`` or the local +z of ``to_world`` (not both), ``irradiance``."""
     plugin = props.plugin
     children(plugin, {})

@@ -26,7 +26,7 @@ import numpy as np
 from ..core.color import LUMINANCE
 from ..core.sampling import Distribution2D
 from ..io.bitmap import BitmapError, read_bitmap
-from ..scene.properties import children, find_file
+from ..scene.properties import Props, children, find_file
 from ..scene.registry import register
 from .base import EnvironmentEmitter, rotation_only
 
@@ -142,8 +142,8 @@ def _compensation_offset(luminance: np.ndarray) -> float:
 
 
 @register("emitter", "envmap")
-def create(props, folders, shape):
-    """``filename`` (looked up in ``folders``), ``scale``, ``to_world`` (a rotation) and
+def create(props: Props):
+    """``filename`` (looked up in ``props.folders``), ``scale``, ``to_world`` (a rotation) and
     ``mis_compensation``."""
     plugin = props.plugin
     children(plugin, {})
@@ -153,7 +153,7 @@ def create(props, folders, shape):
     if not props.has("filename"):
         raise plugin.error("missing <string name=\"filename\"> (the latitude-longitude image)")
     filename = props.string("filename", None)
-    path = find_file(plugin, props, "filename", folders)
+    path = find_file(plugin, props, "filename", props.folders)
     try:
         image = read_bitmap(path)
     except BitmapError as error:

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..core.sampling import square_to_uniform_sphere
 from ..core.vec import norm, unscale
-from ..scene.properties import children
+from ..scene.properties import Props, children
 from ..scene.registry import register
 from .base import Emitter, EmitterSample
 
@@ -64,7 +64,7 @@ def at_point(position: np.ndarray, count: int):
 
 
 @register("emitter", "point")
-def create(props, folders, shape):
+def create(props: Props):
     """``position`` or the origin of ``to_world`` (not both), ``intensity``."""
     plugin = props.plugin
     children(plugin, {})

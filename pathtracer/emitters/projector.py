@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.vec import dot, norm, unscale
-from ..scene.properties import children
+from ..scene.properties import Props, children
 from ..scene.registry import register
 from ..sensors.perspective_sensor import read_x_fov
 from ..textures.base import Texture
@@ -180,13 +180,12 @@ def texture_aspect(irradiance) -> float:
 
 
 @register("emitter", "projector")
-def create(props, folders, shape):
+def create(props: Props):
     """``irradiance`` (a colour or texture, 1), ``scale`` (1), ``to_world``, ``fov`` with
     ``fov_axis`` or ``focal_length`` (50mm), read against the texture's aspect."""
     plugin = props.plugin
     children(plugin, {"texture": 1})
-    props.folders = list(folders)
-    irradiance = props.emission_or_texture("irradiance", 1.0, folders)
+    irradiance = props.emission_or_texture("irradiance", 1.0)
     scale = props.float("scale", 1.0)
     aspect = texture_aspect(irradiance)
     x_fov = read_x_fov(plugin, props, aspect)

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..core.sampling import square_to_uniform_cone, square_to_uniform_cone_pdf
 from ..core.vec import normalize
-from ..scene.properties import build_texture, children
+from ..scene.properties import Props, build_texture, children
 from ..scene.registry import register
 from ..textures.base import Texture
 from .base import Emitter, EmitterSample
@@ -105,7 +105,7 @@ class SpotEmitter(Emitter):
 
 
 @register("emitter", "spot")
-def create(props, folders, shape):
+def create(props: Props):
     """``to_world``, ``intensity``, ``cutoff_angle`` (20 degrees), ``beam_width``
     (3/4 of the cutoff) and an optional projected ``texture``, which must vary (Mitsuba
     refuses a constant there: that is ``intensity``'s job)."""
@@ -114,7 +114,7 @@ def create(props, folders, shape):
     texture = None
     if "texture" in props.textures:
         props.used.add("texture")
-        texture = build_texture(props.textures["texture"], folders, props.texture_cache)
+        texture = build_texture(props.textures["texture"], props.folders, props.texture_cache)
         if not texture.spatially_varying:
             raise props.textures["texture"].error(
                 "a spot light's \"texture\" must vary over the image (e.g. a bitmap), as "

@@ -23,7 +23,7 @@ of :mod:`autograder.contract`) and writes ``radiance``, or sets ``splats = True`
 writes ``splat``: the renderer reads only ``splats`` to know which, so both kinds work on
 the shared base as they do on the two subclasses.
 
-``rays`` is a :class:`pathtracer.sensors.perspective.Rays` batch of camera rays and ``rng``
+``rays`` is a :class:`pathtracer.core.rays.Rays` batch of camera rays and ``rng``
 a :class:`pathtracer.core.rng.RandomStream` with one independent stream per ray.
 The result is one Monte Carlo sample of the radiance arriving along each ray;
 the renderer averages the samples of a pixel and estimates their variance.
@@ -44,13 +44,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs.shading import eval_bsdf, has_smooth
+from ..core.rays import Rays
 from ..core.vec import any_row, max_component, scale, select, unscale
 from ..emitters.scene_emitters import emitted_radiance, hit_emitter, sample_emitter, shadowed
 from ..scene.types import Scene
-from ..sensors.perspective import Rays
 
-# trace, spawn, subset_hit and replace_hits lived here first: submissions import them from here.
-from .wavefront import Paths, marked_refills, replace_hits, spawn, subset_hit, trace
+# trace, spawn, subset_hit and replace_hits are names of this module too: submissions and the
+# bug zoo import them from here.
+from .wavefront import Paths, replace_hits, spawn, subset_hit, trace
 
 #: Hard cap on the number of bounces when ``max_depth`` is infinite, so that a
 #: path inside a closed, white furnace without roulette still ends. Its bias is
@@ -96,11 +97,16 @@ class Integrator:
     #: Renders ``null`` BSDFs in a scene without media (a Dirac pass-through event, as
     #: Mitsuba's ``path`` does); media scenes still need :attr:`handles_media`.
     handles_null = False
-    #: ``radiance`` may run on a refilled pool of paths (set from :func:`~.wavefront.refills`).
+    #: ``radiance`` may run on a refilled pool of paths (:meth:`Paths.pool
+    #: <.wavefront.Paths.pool>`): the renderer then hands it several units of camera rays at
+    #: once. Safe when per-path arrays live in the :class:`Paths` (or are recomputed after
+    #: ``next_hit``) and ``depth`` is used as an array (masks, not ``if depth > ...``). Set
+    #: in the class that writes that ``radiance``; a subclass that writes its own does not
+    #: inherit it (:meth:`__init_subclass__`).
     refills = False
     #: Live paths at once when ``radiance`` runs on more camera rays than that (a
     #: :meth:`Paths.pool`); None: all of them. The renderer sets it on its own copy of an
-    #: integrator whose ``radiance`` is marked :func:`~.wavefront.refills`.
+    #: integrator that :attr:`refills`.
     pool_size: int | None = None
 
     def __init__(self, max_depth: int = -1, rr_depth: int = 5, roulette: str = "mitsuba",
@@ -131,12 +137,12 @@ class Integrator:
                     rr_q=self.rr_q, hemisphere=self.hemisphere, hide_emitters=self.hide_emitters)
 
     def __init_subclass__(cls, **kwargs):
-        """A class that writes its own ``radiance`` refills exactly when that ``radiance`` is
-        marked with :func:`~.wavefront.refills` (or the class sets ``refills`` itself): an
-        unmarked override of a marked ``radiance`` (a student's subclass) is not pooled."""
+        """A class that writes its own ``radiance`` refills only where it sets :attr:`refills`
+        itself: an override of a pooled ``radiance`` (a student's subclass) runs batch by
+        batch, since nothing says it is safe in a pool."""
         super().__init_subclass__(**kwargs)
         if "radiance" in vars(cls) and "refills" not in vars(cls):
-            cls.refills = marked_refills(vars(cls)["radiance"])
+            cls.refills = False
 
     # -- shared steps ---------------------------------------------------------
 
@@ -144,8 +150,8 @@ class Integrator:
         """The paths of a batch of camera rays, at their first hits.
 
         With ``max_depth`` = 0 (no segment allowed) no ray is traced and no path is
-        alive: the radiance is zero. With :attr:`pool_size` set (by the renderer, for a
-        ``radiance`` marked :func:`~.wavefront.refills`) and more rays than that, a
+        alive: the radiance is zero. With :attr:`pool_size` set (by the renderer, for an
+        integrator that :attr:`refills`) and more rays than that, a
         :meth:`Paths.pool` that starts the rays ``pool_size`` at a time.
         """
         if self.max_depth == 0:

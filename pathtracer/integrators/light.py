@@ -33,11 +33,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..bsdfs.shading import eval_bsdf, sample_bsdf
+from ..core.rays import Rays
 from ..core.vec import dot
 from ..emitters.scene_emitters import emitted_towards, sample_emitter_position, sample_emitter_ray, shadowed
 from ..scene.registry import register
 from ..sensors.importance import connect_to_camera
-from ..sensors.perspective import Rays
 from ..shapes.intersect import spawn_ray
 from .base import SplattingIntegrator
 from .class_selection import ClassSelection

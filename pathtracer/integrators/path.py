@@ -30,7 +30,6 @@ from ..core.sampling import power_heuristic
 from ..emitters.scene_emitters import pdf_emitter_direction
 from ..scene.registry import register
 from .base import CameraIntegrator
-from .wavefront import refills
 
 
 @register("integrator", "path")
@@ -39,8 +38,8 @@ class PathIntegrator(CameraIntegrator):
 
     name = "path"
     handles_null = True
+    refills = True
 
-    @refills
     def radiance(self, scene, rays, rng):
         paths = self.camera_paths(scene, rays, rng)
         paths.declare(prev_p=rays.o,       # the previous vertex (for the light pdf of a hit)

@@ -15,7 +15,6 @@ from __future__ import annotations
 from ..bsdfs.shading import sample_bsdf
 from ..scene.registry import register
 from .base import CameraIntegrator
-from .wavefront import refills
 
 
 @register("integrator", "path_bsdf")
@@ -23,8 +22,8 @@ class PathBSDFIntegrator(CameraIntegrator):
     """Path tracing that only samples the BSDF."""
 
     name = "path_bsdf"
+    refills = True
 
-    @refills
     def radiance(self, scene, rays, rng):
         paths = self.camera_paths(scene, rays, rng)
         while paths:

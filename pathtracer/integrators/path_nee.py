@@ -28,7 +28,6 @@ import numpy as np
 from ..bsdfs.shading import sample_bsdf
 from ..scene.registry import register
 from .base import CameraIntegrator
-from .wavefront import refills
 
 
 @register("integrator", "path_nee")
@@ -36,8 +35,8 @@ class PathNEEIntegrator(CameraIntegrator):
     """Path tracing with shadow rays and the "last bounce not specular" rule."""
 
     name = "path_nee"
+    refills = True
 
-    @refills
     def radiance(self, scene, rays, rng):
         paths = self.camera_paths(scene, rays, rng)
         paths.declare(last_specular=True)     # was the last bounce Dirac? (the camera counts)

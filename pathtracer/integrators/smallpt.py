@@ -30,7 +30,6 @@ from ..core.vec import max_component
 from ..scene.registry import register
 from ..textures.base import Texture
 from .base import CameraIntegrator, subset_hit
-from .wavefront import refills
 
 
 def surface_colour(bsdf) -> np.ndarray:
@@ -61,6 +60,7 @@ class SmallptIntegrator(CameraIntegrator):
     """
 
     name = "smallpt"
+    refills = True
 
     def __init__(self, split_depth: int = 2, **options):
         super().__init__(**options)
@@ -69,7 +69,6 @@ class SmallptIntegrator(CameraIntegrator):
     def options(self):
         return dict(super().options(), split_depth=self.split_depth)
 
-    @refills
     def radiance(self, scene, rays, rng):
         colour = np.array([surface_colour(b) for b in scene.bsdfs])
         glass = np.array([isinstance(getattr(b, "nested", b), Dielectric) for b in scene.bsdfs])

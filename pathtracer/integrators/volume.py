@@ -31,9 +31,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.rays import Rays
 from ..core.vec import any_row, put_rows
 from ..media.homogeneous import camera_medium, choose_channel
-from ..sensors.perspective import Rays
 from ..shapes.intersect import offset_p
 from .base import CameraIntegrator, replace_hits, skip_emitters, subset_hit, trace
 from .wavefront import Paths

@@ -23,8 +23,8 @@ with new camera paths at their first hits. Every iteration then works on thousan
 paths instead of a batch's last few dozen (a batch's roulette tail had taken a third of
 a render's time), and each path still sees the numbers and the arithmetic it would see
 alone, so the image is bit-identical. The estimator's code must treat ``depth`` as a
-per-path array for that: integrators that do mark their ``radiance`` with
-:func:`refills`.
+per-path array for that: integrators that do say so with ``refills = True``
+(:attr:`~pathtracer.integrators.base.Integrator.refills`).
 """
 from __future__ import annotations
 
@@ -32,9 +32,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ..core.rays import Rays
 from ..core.rng import RandomStream
 from ..core.vec import put_rows
-from ..sensors.perspective import Rays
 from ..shapes import intersect
 
 
@@ -171,8 +171,9 @@ class Paths:
 
     @L.setter
     def L(self, value) -> None:
-        # Code written when L was a plain attribute may assign it; what the live paths
-        # gathered so far is in the value read before (the getter delivered it).
+        # An integrator (a submission, say) may assign L whole (``paths.L = paths.L + x``):
+        # the value it read holds what the live paths gathered (the getter delivered it), so
+        # the gathered sums restart from zero.
         self.gathered[...] = 0.0
         self._L = np.asarray(value, dtype=np.float64)
 
@@ -316,32 +317,6 @@ class _Waiting:
         rows = np.arange(self.begin, min(len(self.rays), self.begin + count))
         self.begin += len(rows)
         return rows
-
-
-def refills(radiance):
-    """Mark an integrator's ``radiance`` as safe to run on a refilled pool.
-
-    The class that defines the marked ``radiance`` gets ``refills = True`` when it is created
-    (:meth:`Integrator.__init_subclass__`); the renderer then hands it several batches of
-    camera rays at once, and :meth:`Integrator.camera_paths` returns a :meth:`Paths.pool`.
-    Safe means: per-path arrays live in the :class:`Paths` (or are recomputed after
-    :meth:`Paths.next_hit`), and ``depth`` is used as an array (masks, not ``if depth >
-    ...``). A subclass that overrides ``radiance`` is not marked.
-    """
-    radiance.refills = True
-    return radiance
-
-
-def marked_refills(radiance) -> bool:
-    """Whether the function ``radiance`` is marked with :func:`refills`."""
-    return getattr(radiance, "refills", False) is True
-
-
-def pooled(integrator) -> bool:
-    """Does ``integrator`` refill a pool of paths (its class's ``refills``, set where its
-    ``radiance`` is marked with :func:`refills`)? A subclass that overrides ``radiance``
-    (a student's integrator, say) does not, unless it marks its own."""
-    return integrator.refills
 
 
 def trace(scene, rays: Rays):

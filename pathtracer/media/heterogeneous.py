@@ -162,14 +162,14 @@ def track_heterogeneous(scene, flight, medium: np.ndarray, o: np.ndarray, d: np.
         put_rows(flight.weight, rows, weight)
 
 
-def _volume_parameter(plugin: Plugin, props: Props, volumes: dict, name: str, default: float,
-                      folders: list[str]) -> Volume:
+def _volume_parameter(plugin: Plugin, props: Props, volumes: dict, name: str,
+                      default: float) -> Volume:
     """A volume parameter: a nested or referenced ``<volume name=..>``, else a ``<float>``,
     ``<rgb>`` or ``<spectrum>`` made a ``constvolume`` (Mitsuba's ``get_volume``)."""
     if name in volumes:
         if props.has(name):
             raise volumes[name].error(f"parameter \"{name}\" given twice")
-        return build_volume(volumes[name], folders)
+        return build_volume(volumes[name], props.folders)
     if props.has(name) and plugin.props[name].tag not in COLOR_TAGS:
         raise plugin.error(f"property \"{name}\" must be a <volume>, <float>, <rgb> or "
                            f"<spectrum>, not <{plugin.props[name].tag}>", props.line(name))
@@ -183,7 +183,7 @@ def _volume_parameter(plugin: Plugin, props: Props, volumes: dict, name: str, de
 
 
 @register("medium", "heterogeneous")
-def create(plugin: Plugin, folders: list[str]) -> HeterogeneousMedium:
+def create(props: Props) -> HeterogeneousMedium:
     """The :class:`HeterogeneousMedium` of a ``<medium type="heterogeneous">`` element.
 
     ``sigma_t`` (1) and ``albedo`` (0.75): each a nested or referenced ``<volume>``
@@ -192,7 +192,7 @@ def create(plugin: Plugin, folders: list[str]) -> HeterogeneousMedium:
     ``sample_emitters`` (true); ``has_spectral_extinction`` (true; false only with a grey
     ``sigma_t``); one nested ``<phase>`` (isotropic).
     """
-    props = Props(plugin)
+    plugin = props.plugin
     kids = children(plugin, {"phase": 1, "volume": 2})
     volumes = {}
     for name, child in plugin.named_children():
@@ -204,8 +204,8 @@ def create(plugin: Plugin, folders: list[str]) -> HeterogeneousMedium:
         if name in volumes:
             raise child.error(f"parameter \"{name}\" given twice")
         volumes[name] = child
-    sigma_t = _volume_parameter(plugin, props, volumes, "sigma_t", 1.0, folders)
-    albedo = _volume_parameter(plugin, props, volumes, "albedo", 0.75, folders)
+    sigma_t = _volume_parameter(plugin, props, volumes, "sigma_t", 1.0)
+    albedo = _volume_parameter(plugin, props, volumes, "albedo", 0.75)
     scale = props.float("scale", 1.0)
     if not (np.isfinite(scale) and scale >= 0):
         raise plugin.error(f"scale must be a finite number >= 0, got {scale}", props.line("scale"))

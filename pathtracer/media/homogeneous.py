@@ -445,7 +445,7 @@ def _put(hit, rows, new) -> None:
 
 
 @register("medium", "homogeneous")
-def create(plugin: Plugin, folders: list[str] | None = None) -> HomogeneousMedium:
+def create(props: Props) -> HomogeneousMedium:
     """The :class:`HomogeneousMedium` of a ``<medium type="homogeneous">`` element.
 
     Mitsuba 3's ``homogeneous`` medium takes ``sigma_t`` (extinction) and
@@ -455,7 +455,7 @@ def create(plugin: Plugin, folders: list[str] | None = None) -> HomogeneousMediu
     written with ``scale``. ``sigma_a`` / ``sigma_s`` are Mitsuba 0.6's parameters,
     which Mitsuba 3 refuses; the error says the equivalent ``sigma_t`` and ``albedo``.
     """
-    props = Props(plugin)
+    plugin = props.plugin
     albedo_volume = None
     for name, child in plugin.named_children():
         if child.kind != "volume":
@@ -487,7 +487,7 @@ def create(plugin: Plugin, folders: list[str] | None = None) -> HomogeneousMediu
     props.finish()
     phase = build_phase(kids["phase"][0]) if kids["phase"] else IsotropicPhase()
     if albedo_volume is not None:
-        albedo_volume = build_volume(albedo_volume, folders or ["."])
+        albedo_volume = build_volume(albedo_volume, props.folders)
     return HomogeneousMedium(sigma_t * scale, albedo, phase, sample_emitters,
                              name=f"homogeneous ({plugin.file}:{plugin.line})",
                              albedo_volume=albedo_volume)

@@ -82,22 +82,22 @@ class HenyeyGreensteinPhase:
 
 def build_phase(plugin: Plugin):
     """The phase function of a ``<phase>`` element (a medium's)."""
-    return registered(plugin, "phase function")(plugin)
+    create = registered(plugin, "phase function")
+    return create(Props(plugin))
 
 
 @register("phase", "isotropic")
-def create_isotropic(plugin: Plugin) -> IsotropicPhase:
+def create_isotropic(props: Props) -> IsotropicPhase:
     """No parameters."""
-    props = Props(plugin)
-    children(plugin, {})
+    children(props.plugin, {})
     props.finish()
     return IsotropicPhase()
 
 
 @register("phase", "hg")
-def create_hg(plugin: Plugin) -> HenyeyGreensteinPhase:
+def create_hg(props: Props) -> HenyeyGreensteinPhase:
     """``g`` (0.8), in (-1, 1)."""
-    props = Props(plugin)
+    plugin = props.plugin
     children(plugin, {})
     g = props.float("g", 0.8)
     if not -1.0 < g < 1.0:

@@ -6,12 +6,12 @@ Random numbers depend only on (seed, pixel, sample index), and a pixel's samples
 reduced in a fixed order, so the image is bit-identical whatever the batch size and the
 number of processes.
 
-An integrator whose ``radiance`` refills its paths (marked with
-:func:`pathtracer.integrators.wavefront.refills`) receives ``POOL_UNITS`` units at
+An integrator whose ``radiance`` refills its paths (``refills = True``,
+:attr:`pathtracer.integrators.base.Integrator.refills`) receives ``POOL_UNITS`` units at
 once and keeps ``batch_size`` paths alive among them
 (:meth:`pathtracer.integrators.wavefront.Paths.pool`); the blocks it returns are merged
-unit by unit as before, and since a path's numbers and arithmetic do not depend on the
-other paths in flight, the image is bit-identical to one unit at a time.
+unit by unit, as for any integrator, and since a path's numbers and arithmetic do not
+depend on the other paths in flight, the image is bit-identical to one unit at a time.
 
 An integrator that *splats* (the light tracer, :mod:`pathtracer.integrators.light`)
 has no camera samples: it is rendered as independent replicas (:mod:`.splats`).
@@ -25,7 +25,6 @@ import sys
 import time
 
 from ..integrators import Integrator, make_integrator
-from ..integrators.wavefront import pooled
 from ..media.homogeneous import has_media
 from ..scene.errors import SceneError
 from ..scene.load import load_scene
@@ -44,7 +43,7 @@ from .splats import render_splats
 
 #: POOL_UNITS (defined with the memory estimate that counts it, in resources): units
 #: handed at once to an integrator whose ``radiance`` refills its pool of paths
-#: (:func:`pathtracer.integrators.wavefront.refills`); it keeps ``batch_size`` paths
+#: (:attr:`pathtracer.integrators.base.Integrator.refills`); it keeps ``batch_size`` paths
 #: alive and pays a batch's roulette tail once per group. The group's camera rays, their
 #: random streams and results cost ~200 bytes per camera sample (measured: 274 against
 #: 221 MB for a 1024 x 1024, 64 spp render on two processes; docs/performance.md).
@@ -175,7 +174,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
 
     start = time.perf_counter()
     groups = [(unit,) for unit in units]
-    if pooled(integrator):
+    if integrator.refills:
         integrator = copy.copy(integrator)      # the caller's integrator stays as it was
         integrator.pool_size = batch_size
         groups = group_units(units, POOL_UNITS, processes)

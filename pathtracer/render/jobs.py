@@ -10,7 +10,8 @@ changes only the float64 rounding).
 Units count pixels of the *sample grid*: the image, or with the film's ``sample_border`` the
 image and a border of ``b`` pixels around it (:attr:`~pathtracer.sensors.film.ReconstructionFilter.border`),
 flat index ``(row + b) * (W + 2b) + column + b``. The random numbers of a sample are keyed
-by that index, so a film without a border renders as before.
+by that index, which for a film without a border (b = 0) is the pixel's own: a border
+changes nothing of the images rendered without one.
 """
 
 from __future__ import annotations

@@ -16,8 +16,8 @@ A pixel's samples are summarised in one of three ways, each where its samples co
 
 Where two users compute the same statistic in different arithmetic (a block's sums
 shifted by its first sample or taken around its mean; the order of the additions in
-Chan's merge), both versions are kept as they are: every image and every reference
-stays bit-identical to the one it was before they shared this module.
+Chan's merge), both versions are kept: each user's images and references (the committed
+ones included, compared bit for bit) depend on the rounding of its own arithmetic.
 """
 
 from __future__ import annotations

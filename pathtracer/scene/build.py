@@ -2,12 +2,14 @@
 
 It imports every plugin package, so that each plugin has registered its factory
 (:mod:`pathtracer.scene.registry`), then builds each element with the factory of its kind
-and type (:func:`~pathtracer.scene.properties.registered`): the factories read their
-properties through :class:`~pathtracer.scene.properties.Props`, which makes a property
-nobody read an error. What is left here is what no single plugin owns: the order in which
-elements are built, default BSDFs, area lights attached to their shapes, the media table,
-the ``<integrator>`` element (whose class is the integrator registry's), and the arrays of
-the assembled scene.
+and type (:func:`~pathtracer.scene.properties.registered`). Every factory is called as
+``create(props)``: the element's :class:`~pathtracer.scene.properties.Props`, through
+which it reads its properties (a property nobody read is an error), and on which the
+builder of its kind sets what else the factory needs (where files are looked up, the
+textures built so far, the shape it belongs to, ...). What is left here is what no single
+plugin owns: the order in which elements are built, default BSDFs, area lights attached to
+their shapes, the media table, the ``<integrator>`` element (whose class is the integrator
+registry's), and the arrays of the assembled scene.
 """
 from __future__ import annotations
 
@@ -64,20 +66,22 @@ def build_shape(plugin: Plugin, geo: GeometryAccumulator, shape_id: int, folders
     """Add one shape's primitives to ``geo``; returns its nested bsdf and emitter plugins.
 
     The shape kind's factory, from the registry, reads the kind's own properties and
-    adds the primitives (:mod:`pathtracer.shapes.accumulator`). ``folders`` are where
-    mesh files are looked up (:func:`search_folders`). ``parent`` is the ``to_world`` of
-    the ``instance`` the shape is drawn by, applied after the shape's own
+    adds the primitives (:mod:`pathtracer.shapes.accumulator`); its :class:`Props` carry
+    ``folders`` (where mesh files are looked up, :func:`search_folders`), ``shape_id`` and,
+    as ``shape``, a :class:`ShapeParams`. ``parent`` is the ``to_world`` of the
+    ``instance`` the shape is drawn by, applied after the shape's own
     (:mod:`pathtracer.shapes.instances`).
     """
     create = registered(plugin, "shape")
-    props = Props(plugin)
+    props = Props(plugin, folders=folders, shape_id=shape_id)
     kids = children(plugin, {"bsdf": 1, "emitter": 1, "medium": 2})
     m = props.transform("to_world")
     if parent is not None:
         m = parent @ m
     flip = props.bool("flip_normals", False)
     emitter = kids["emitter"][0] if kids["emitter"] else None
-    create(ShapeParams(plugin, props, m, flip, emitter, shape_id, folders), geo)
+    props.shape = ShapeParams(m, flip, emitter, geo)
+    create(props)
     props.finish()
     geo.name.append(shape_label(plugin))
     return kids["bsdf"][0] if kids["bsdf"] else None, emitter
@@ -89,15 +93,14 @@ def build_emitter(plugin: Plugin, folders: list[str] = (".",), shape: int | None
     """The emitter of an ``<emitter>`` element: a top-level one, or (``shape`` given) the area
     emitter of the shape of that index.
 
-    An emitter's factory is called as ``create(props, folders, shape)``: its :class:`Props`
-    (read by the factory, checked here when it returns), where files are looked up, and the
-    shape index (None at the top level).
+    The factory's :class:`Props` (checked here when it returns) carry ``folders``, where
+    files are looked up, and ``shape_id``, the shape index (None at the top level).
     """
     if shape is not None and plugin.type != "area":
         raise plugin.error("only an area emitter can be nested in a shape")
-    props = Props(plugin)
+    props = Props(plugin, folders=list(folders), shape_id=shape)
     create = registered(plugin, "emitter")
-    result = create(props, folders, shape)
+    result = create(props)
     props.finish()
     return result
 
@@ -105,9 +108,10 @@ def build_emitter(plugin: Plugin, folders: list[str] = (".",), shape: int | None
 def build_sensor(plugin: Plugin, resolution: tuple[int, int] | None = None,
                  spp: int | None = None) -> tuple[Camera, int, int]:
     """The camera of the ``<sensor>``, with the film resolution and the sampler's sample count
-    and seed: its factory is called as ``create(plugin, resolution, spp)``, ``resolution``
-    (width, height) and ``spp`` replacing the file's when given."""
-    return registered(plugin, "sensor")(plugin, resolution, spp)
+    and seed: its factory's :class:`Props` carry ``resolution`` (width, height) and ``spp``,
+    which replace the file's when given."""
+    create = registered(plugin, "sensor")
+    return create(Props(plugin, resolution=resolution, spp=spp))
 
 
 def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
@@ -339,8 +343,8 @@ class MediaTable:
 
     A shape takes the media on its two sides as ``<medium name="interior">`` /
     ``name="exterior"`` (nested or ``<ref id=".." name=".."/>``); the sensor takes one
-    medium, the one the camera sits in. A medium's factory is called as
-    ``create(plugin, folders)`` (``folders``: where the files of its volumes are looked up).
+    medium, the one the camera sits in. A medium's factory reads ``props.folders``: where
+    the files of its volumes are looked up.
     """
 
     def __init__(self, folders: list[str]):
@@ -382,7 +386,8 @@ class MediaTable:
 def build_medium(plugin: Plugin, folders: list[str]):
     """The participating medium of a ``<medium>`` element (its volumes' files looked up in
     ``folders``)."""
-    return registered(plugin, "medium")(plugin, folders)
+    create = registered(plugin, "medium")
+    return create(Props(plugin, folders=folders))
 
 
 def _media_fields(media, shape_media: list, camera_medium: int) -> dict:

@@ -60,18 +60,47 @@ FLOAT_TAGS = ("float", "integer")
 
 
 class Props:
-    """Typed, checked access to a plugin's properties.
+    """Typed, checked access to a plugin's properties, and what its factory needs besides.
 
-    Call :meth:`finish` after reading: any property not read is reported.
+    Every factory is called as ``create(props)``: the element is ``props.plugin``, and what
+    the loader knows of where it stands travels here too (each kind's builder in
+    :mod:`pathtracer.scene.build` and beside its plugins sets what that kind reads). Call
+    :meth:`finish` after reading: any property not read is reported.
+
+    Parameters
+    ----------
+    plugin : Plugin
+        The element.
+    folders : list of str, optional
+        Where the files it names are looked up (:func:`search_folders`; default: the
+        working directory).
+    texture_cache : dict, optional
+        Textures built so far, by ``id`` of their element, so that a texture shared by
+        ``<ref>`` is built once (default: a new, empty one).
+    shape_id : int, optional
+        A shape's index in the scene's per-shape tables; for an area emitter, the index of
+        the shape it lights (None at the top level).
+    shape : ShapeParams, optional
+        For a shape: what the loader reads of every shape (its ``to_world`` after an
+        instance's, ``flip_normals``, the nested emitter) and the accumulator it adds its
+        primitives to (:class:`pathtracer.shapes.accumulator.ShapeParams`).
+    resolution : (int, int), optional
+        For a sensor: the film's (width, height) replacing the file's.
+    spp : int, optional
+        For a sensor: the sample count replacing the file's.
     """
 
-    def __init__(self, plugin: Plugin):
+    def __init__(self, plugin: Plugin, *, folders: list[str] | None = None,
+                 texture_cache: dict | None = None, shape_id: int | None = None, shape=None,
+                 resolution: tuple[int, int] | None = None, spp: int | None = None):
         self.plugin = plugin
         self.used: set[str] = set()
-        # Where texture files are looked up and the textures built so far (set by the
-        # BSDF builder, for parameters that take textures).
-        self.folders: list[str] = ["."]
-        self.texture_cache: dict = {}
+        self.folders: list[str] = ["."] if folders is None else folders
+        self.texture_cache: dict = {} if texture_cache is None else texture_cache
+        self.shape_id = shape_id
+        self.shape = shape
+        self.resolution = resolution
+        self.spp = spp
         # Nested <texture> children by parameter name (read by reflectance_or_texture).
         self.textures: dict[str, Plugin] = {}
         for name, child in plugin.named_children():
@@ -138,8 +167,7 @@ class Props:
                                     self.line(name))
         return value
 
-    def reflectance_or_texture(self, name: str, default: float, folders: list[str],
-                               cache: dict):
+    def reflectance_or_texture(self, name: str, default: float):
         """A :meth:`reflectance` that may also be a nested ``<texture>``.
 
         Returns a (3,) array for an ``<rgb>``/``<float>`` value (or the
@@ -150,9 +178,9 @@ class Props:
         self.used.add(name)
         if child is None:
             return self.reflectance(name, default)
-        return build_texture(child, folders, cache)
+        return build_texture(child, self.folders, self.texture_cache)
 
-    def texture_value(self, name: str, default: float, folders: list[str], cache: dict):
+    def texture_value(self, name: str, default: float):
         """A colour a texture yields (a checkerboard's), or a nested ``<texture>``.
 
         A texture's values are checked by what reads them, not here: Mitsuba refuses an
@@ -161,10 +189,10 @@ class Props:
         """
         if name in self.textures or self.plugin.props.get(name) is None or \
                 self.plugin.props[name].tag == "rgb":
-            return self.reflectance_or_texture(name, default, folders, cache)
+            return self.reflectance_or_texture(name, default)
         return self.color(name, default)
 
-    def emission_or_texture(self, name: str, default: float, folders: list[str]):
+    def emission_or_texture(self, name: str, default: float):
         """An emitted colour (:meth:`color`, not range-checked) that may also be a nested
         ``<texture>`` (Mitsuba's ``get_emissive_texture``): a (3,) array or the built
         :class:`~pathtracer.textures.Texture`."""
@@ -172,7 +200,7 @@ class Props:
         self.used.add(name)
         if child is None:
             return self.color(name, default, "emission")
-        return build_texture(child, folders, self.texture_cache)
+        return build_texture(child, self.folders, self.texture_cache)
 
     def float(self, name: str, default):
         v = self._get(name, FLOAT_TAGS, "a <float>")
@@ -289,7 +317,8 @@ def build_texture(plugin: Plugin, folders: list[str], cache: dict):
     """The :mod:`pathtracer.textures` object of a ``<texture>`` (built once per plugin)."""
     key = id(plugin)
     if key not in cache:
-        cache[key] = registered(plugin, "texture")(plugin, folders, cache)
+        create = registered(plugin, "texture")
+        cache[key] = create(Props(plugin, folders=folders, texture_cache=cache))
     return cache[key]
 
 

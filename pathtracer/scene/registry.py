@@ -4,15 +4,18 @@ A plugin registers the function that builds it from its element beside its class
 ``Create``, Mitsuba's constructor from ``Properties``)::
 
     @register("bsdf", "diffuse")
-    def create(props, loader):
-        return Diffuse(props.reflectance_or_texture("reflectance", 0.5, loader))
+    def create(props):
+        return Diffuse(props.reflectance_or_texture("reflectance", 0.5))
 
 The loader (:mod:`pathtracer.scene.build`) imports every plugin package, so that each
 module has registered itself, and looks the element's type up here; the list of
 supported plugins in its error messages, ``pathtracer.INTEGRATORS``, the harness's
 splatting integrators and the command lines' choices are all read from these tables.
-A factory's arguments are those of its kind, documented at the kind's ``create``
-call in the loader.
+Every factory takes one argument, the element's :class:`~pathtracer.scene.properties.Props`:
+the element is ``props.plugin``, and what a kind needs besides (where files are looked up,
+the textures built so far, the shape's index and transform, a sensor's film size) is set
+there by the loader. An integrator registers its class instead, which the renderer
+instantiates with its options.
 """
 from __future__ import annotations
 

@@ -232,13 +232,13 @@ def build_rfilter(plugin: Plugin | None) -> ReconstructionFilter:
         raise plugin.error(f"unsupported reconstruction filter \"{plugin.type}\" (supported: "
                            f"{', '.join(names('rfilter'))}; Mitsuba's lanczos and mitchell have "
                            "negative lobes, not implemented here)")
-    return create(plugin)
+    return create(Props(plugin))
 
 
 @register("rfilter", *FILTER_PARAMS)
-def create_rfilter(plugin: Plugin) -> ReconstructionFilter:
+def create_rfilter(props: Props) -> ReconstructionFilter:
     """A filter of :data:`FILTER_PARAMS` with its parameter (the box's radius must be 0.5)."""
-    props = Props(plugin)
+    plugin = props.plugin
     children(plugin, {})
     name, default = FILTER_PARAMS[plugin.type]
     value = props.float(name, default)
@@ -253,14 +253,15 @@ def create_rfilter(plugin: Plugin) -> ReconstructionFilter:
 
 def build_film(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
     """``(width, height, rfilter)`` of a sensor's ``<film>``."""
-    return registered(plugin, "film")(plugin)
+    create = registered(plugin, "film")
+    return create(Props(plugin))
 
 
 @register("film", "hdrfilm")
-def create_hdrfilm(plugin: Plugin) -> tuple[int, int, ReconstructionFilter]:
+def create_hdrfilm(props: Props) -> tuple[int, int, ReconstructionFilter]:
     """``width`` (768), ``height`` (576) and the ``<rfilter>`` (with the film's
     ``sample_border``); crops are refused, storage formats accepted."""
-    props = Props(plugin)
+    plugin = props.plugin
     filters = children(plugin, {"rfilter": 1})["rfilter"]
     rfilter = build_rfilter(filters[0] if filters else None)
     width, height = props.int("width", 768), props.int("height", 576)

@@ -17,11 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.rays import Rays
 from ..core.vec import normalize
 from ..scene.properties import Props, children
 from ..scene.registry import register
-from ..scene.xml import Plugin
-from .perspective import Rays
 from .perspective_sensor import SENSOR_CHILDREN, Camera, film_and_sampler, read_clip
 
 
@@ -50,13 +49,12 @@ class OrthographicCamera(Camera):
 
 
 @register("sensor", "orthographic")
-def create(plugin: Plugin, resolution: tuple[int, int] | None = None,
-           spp: int | None = None) -> tuple[Camera, int, int]:
+def create(props: Props) -> tuple[Camera, int, int]:
     """``to_world`` (scaling allowed), ``near_clip``, ``far_clip``; film and sampler as for
     the perspective sensor."""
-    props = Props(plugin)
+    plugin = props.plugin
     kids = children(plugin, SENSOR_CHILDREN)
-    width, height, rfilter, spp, seed = film_and_sampler(plugin, kids, resolution, spp)
+    width, height, rfilter, spp, seed = film_and_sampler(plugin, kids, props.resolution, props.spp)
     to_world = props.transform("to_world")
     if abs(np.linalg.det(to_world[:3, :3])) < 1e-300:
         raise plugin.error("the orthographic camera's to_world is singular", props.line("to_world"))

@@ -147,32 +147,31 @@ SENSOR_CHILDREN = {"film": 1, "sampler": 1, "medium": 1}
 
 
 @register("sensor", "perspective")
-def create(plugin: Plugin, resolution: tuple[int, int] | None = None,
-           spp: int | None = None) -> tuple[Camera, int, int]:
+def create(props: Props) -> tuple[Camera, int, int]:
     """The perspective camera, with the film resolution and sampler settings.
 
-    ``resolution`` (width, height) and ``spp`` replace the file's film size and
+    ``props.resolution`` (width, height) and ``props.spp`` replace the file's film size and
     sample count whatever it says; the field of view is then converted with the new
     aspect, as Mitsuba does for a film of that size (``fov_axis`` keeps its meaning).
     """
-    props, frame, spp, seed = read_perspective(plugin, resolution, spp)
+    frame, spp, seed = read_perspective(props)
     # A pinhole ignores the focus distance; without motion the shutter is irrelevant.
     props.ignore("focus_distance", "shutter_open", "shutter_close")
     props.finish()
     return Camera(**frame), spp, seed
 
 
-def read_perspective(plugin: Plugin, resolution, spp):
-    """What every perspective sensor reads (the pinhole's and the thin lens's): ``(props,
-    frame, spp, seed)``, ``frame`` the :class:`Camera` keywords (film, field of view,
-    ``to_world``, clip planes); ``props`` is left open for the sensor's own parameters."""
-    props = Props(plugin)
+def read_perspective(props: Props):
+    """What every perspective sensor reads (the pinhole's and the thin lens's): ``(frame,
+    spp, seed)``, ``frame`` the :class:`Camera` keywords (film, field of view, ``to_world``,
+    clip planes); ``props`` is left open for the sensor's own parameters."""
+    plugin = props.plugin
     kids = children(plugin, SENSOR_CHILDREN)
-    width, height, rfilter, spp, seed = film_and_sampler(plugin, kids, resolution, spp)
+    width, height, rfilter, spp, seed = film_and_sampler(plugin, kids, props.resolution, props.spp)
     x_fov = read_x_fov(plugin, props, width / height)
     to_world = unscaled_to_world(plugin, props)
     near, far = read_clip(plugin, props)
     no_principal_point_offset(plugin, props)
     frame = dict(to_world=to_world, x_fov=x_fov, near_clip=near, far_clip=far, width=width,
                  height=height, rfilter=rfilter)
-    return props, frame, spp, seed
+    return frame, spp, seed

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .perspective import Rays, camera_rays
+from ..core.rays import Rays
+from .perspective import camera_rays
 
 
 def sample_camera_rays(camera, pixel: np.ndarray, u_film: np.ndarray, rng,

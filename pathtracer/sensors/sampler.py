@@ -21,13 +21,14 @@ _warned_samplers: set = set()
 
 def build_sampler(plugin: Plugin) -> tuple[int, int]:
     """``(sample_count, seed)`` of a ``<sampler>`` (a sensor's or a top-level one)."""
-    return registered(plugin, "sampler")(plugin)
+    create = registered(plugin, "sampler")
+    return create(Props(plugin))
 
 
 @register("sampler", *SAMPLER_PARAMS)
-def create(plugin: Plugin) -> tuple[int, int]:
+def create(props: Props) -> tuple[int, int]:
     """``sample_count`` (4) and ``seed`` (0); the type's own parameters are accepted and unused."""
-    props = Props(plugin)
+    plugin = props.plugin
     children(plugin, {})
     props.ignore(*SAMPLER_PARAMS[plugin.type])
     _warn_sampler(plugin)

@@ -22,11 +22,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.rays import Rays
 from ..core.sampling import square_to_uniform_disk_concentric
 from ..core.vec import normalize
+from ..scene.properties import Props
 from ..scene.registry import register
-from ..scene.xml import Plugin
-from .perspective import Rays
 from .perspective_sensor import Camera, read_perspective
 
 #: Mitsuba replaces a zero aperture by float32's epsilon (with a warning).
@@ -74,11 +74,11 @@ class ThinLensCamera(Camera):
 
 
 @register("sensor", "thinlens")
-def create(plugin: Plugin, resolution: tuple[int, int] | None = None,
-           spp: int | None = None) -> tuple[Camera, int, int]:
+def create(props: Props) -> tuple[Camera, int, int]:
     """The perspective sensor's parameters, ``aperture_radius`` (required) and
     ``focus_distance`` (default ``far_clip``)."""
-    props, frame, spp, seed = read_perspective(plugin, resolution, spp)
+    plugin = props.plugin
+    frame, spp, seed = read_perspective(props)
     far = frame["far_clip"]
     if not props.has("aperture_radius"):
         raise plugin.error("a thinlens sensor needs aperture_radius (as in Mitsuba)")

@@ -1,12 +1,12 @@
 """What a shape's factory is given, and the primitives of every shape gathered while a
 scene loads, before they become the scene's arrays.
 
-Each shape kind's module registers a factory, ``create(shape, geometry)``, with
+Each shape kind's module registers a factory, ``create(props)``, with
 ``@register("shape", "<mitsuba name>")`` (:mod:`pathtracer.scene.registry`). The
 loader reads what every shape has (``to_world``, ``flip_normals``, the nested BSDF,
-emitter and media) into a :class:`ShapeParams`; the factory reads the kind's own
-properties from ``shape.props`` and adds its primitives to the
-:class:`GeometryAccumulator`.
+emitter and media) into the :class:`ShapeParams` at ``props.shape``; the factory reads
+the kind's own properties from ``props`` and adds its primitives to
+``props.shape.geometry``, a :class:`GeometryAccumulator`, under ``props.shape_id``.
 """
 from __future__ import annotations
 
@@ -14,40 +14,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.properties import Props
 from ..scene.xml import Plugin
 
 
 @dataclass
 class ShapeParams:
-    """What the loader reads of every shape before the kind's own properties.
+    """What the loader reads of every shape before the kind's own properties, and where the
+    shape's primitives go (``props.shape`` of a shape's factory).
 
     Attributes
     ----------
-    plugin : Plugin
-        The ``<shape>`` element (its errors are located there).
-    props : Props
-        Its properties; the loader calls ``finish`` after the factory.
     to_world : (4, 4) ndarray
         The shape's ``to_world``, after the ``instance``'s that draws it (if any).
     flip : bool
         ``flip_normals``.
     emitter : Plugin or None
         The nested area emitter (the kinds that cannot be sampled refuse one).
-    shape_id : int
-        The shape's index in the scene's per-shape tables.
-    folders : list of str
-        Where files (meshes, control points) are looked up
-        (:func:`pathtracer.scene.properties.search_folders`).
+    geometry : GeometryAccumulator
+        The primitives of the scene's shapes, which the factory adds to.
     """
 
-    plugin: Plugin
-    props: Props
     to_world: np.ndarray
     flip: bool
     emitter: Plugin | None
-    shape_id: int
-    folders: list[str]
+    geometry: GeometryAccumulator
 
 
 class GeometryAccumulator:

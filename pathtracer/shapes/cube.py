@@ -5,8 +5,8 @@ import numpy as np
 
 from ..core.vec import unit
 from ..scene import transform
+from ..scene.properties import Props
 from ..scene.registry import register
-from .accumulator import GeometryAccumulator, ShapeParams
 from .normals import flip_winding, world_normals
 
 # Texture coordinates of Mitsuba's cube, per face (axis, sign): u and v as
@@ -38,10 +38,11 @@ def _cube_local():
 
 
 @register("shape", "cube")
-def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+def create(props: Props) -> None:
     """A ``cube``: its twelve triangles; ``face_normals`` (false) shades each face flat
     with its geometric normal."""
-    m, props = shape.to_world, shape.props
+    shape = props.shape
+    m = shape.to_world
     local_p, local_n, uv = _cube_local()
     p = transform.apply_points(m, local_p.reshape(-1, 3)).reshape(-1, 3, 3)
     if props.bool("face_normals", False):
@@ -51,4 +52,4 @@ def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
         n = world_normals(props, m, local_n.reshape(-1, 3)).reshape(-1, 3, 3)
     if shape.flip:
         p, n, uv = flip_winding(p, n, uv)
-    geometry.add_mesh(shape.shape_id, p, n, uv)
+    shape.geometry.add_mesh(props.shape_id, p, n, uv)

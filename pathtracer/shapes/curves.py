@@ -46,9 +46,8 @@ import numpy as np
 from ..accel.bvh import BVH
 from ..core.vec import unit
 from ..scene import transform
-from ..scene.properties import find_file
+from ..scene.properties import Props, find_file
 from ..scene.registry import register
-from .accumulator import GeometryAccumulator, ShapeParams
 
 #: Largest allowed distance between the pieces and the true B-spline tube, relative to
 #: the diagonal of the curve's bounding box.
@@ -375,10 +374,11 @@ def fill_curve(curve, hit, sel, o, d, piece, s):
 
 
 @register("shape", "bsplinecurve", "linearcurve")
-def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+def create(props: Props) -> None:
     """A ``bsplinecurve`` or ``linearcurve``: control points read from ``filename`` and
     moved to world space."""
-    plugin, props, m = shape.plugin, shape.props, shape.to_world
+    plugin, shape = props.plugin, props.shape
+    m = shape.to_world
     if shape.flip:
         raise plugin.error("flip_normals is not supported on curves (Mitsuba only ever "
                            "hits their outside)", props.line("flip_normals"))
@@ -386,7 +386,7 @@ def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
         raise shape.emitter.error("an area emitter on a curve is not supported (this "
                                   "tracer cannot sample points on curves)")
     transform.check_affine(m)
-    path = find_file(plugin, props, "filename", shape.folders)
+    path = find_file(plugin, props, "filename", props.folders)
     bspline = plugin.type == "bsplinecurve"
     try:
         curves = read_control_points(path, 4 if bspline else 2)
@@ -399,5 +399,5 @@ def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
     if any(np.any(c[:, 3] < 0) for c in world):
         raise plugin.error(f"{os.path.basename(path)}: a control point has a negative radius",
                            props.line("filename"))
-    curve = CurveShape(world, "bspline" if bspline else "linear", shape.shape_id)
-    geometry.add_analytic("curve", geometry.curves, curve, curve.area())
+    curve = CurveShape(world, "bspline" if bspline else "linear", props.shape_id)
+    shape.geometry.add_analytic("curve", shape.geometry.curves, curve, curve.area())

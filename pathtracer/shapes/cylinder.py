@@ -20,8 +20,8 @@ import numpy as np
 
 from ..core.vec import coordinate_system, normalize
 from ..scene import transform
+from ..scene.properties import Props
 from ..scene.registry import register
-from .accumulator import GeometryAccumulator, ShapeParams
 
 
 def local_rays(to_local: np.ndarray, o: np.ndarray, d: np.ndarray):
@@ -108,10 +108,11 @@ def fill_cylinders(scene, hit, sel, o, d):
 
 
 @register("shape", "cylinder")
-def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+def create(props: Props) -> None:
     """Mitsuba's analytic ``cylinder``: ``p0`` (0, 0, 0), ``p1`` (0, 0, 1), ``radius`` (1),
     open at both ends."""
-    plugin, props, m = shape.plugin, shape.props, shape.to_world
+    plugin, shape = props.plugin, props.shape
+    m = shape.to_world
     if shape.emitter is not None:
         raise shape.emitter.error("an area emitter on a cylinder is not supported (this tracer "
                                   "samples area lights on meshes, spheres and disks only)")
@@ -126,5 +127,5 @@ def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
                            "its normals by a rule this tracer does not reproduce)",
                            props.line("to_world"))
     # Mitsuba: 2 pi r l, r and l the lengths of the images of local x and z.
-    geometry.add_analytic("cylinder", geometry.cylinders, (full, shape.flip, shape.shape_id),
-                          2.0 * np.pi * np.linalg.norm(full[:3, 0]) * np.linalg.norm(full[:3, 2]))
+    shape.geometry.add_analytic("cylinder", shape.geometry.cylinders, (full, shape.flip, props.shape_id),
+                                2.0 * np.pi * np.linalg.norm(full[:3, 0]) * np.linalg.norm(full[:3, 2]))

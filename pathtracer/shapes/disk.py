@@ -6,22 +6,23 @@ import numpy as np
 
 from ..core.vec import dot, normalize, put_rows, scale
 from ..scene import transform
+from ..scene.properties import Props
 from ..scene.registry import register
-from .accumulator import GeometryAccumulator, ShapeParams
 
 
 @register("shape", "disk")
-def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+def create(props: Props) -> None:
     """A ``disk`` (no properties of its own): the unit disk moved by an affine ``to_world``."""
-    plugin, props, m = shape.plugin, shape.props, shape.to_world
+    plugin, shape = props.plugin, props.shape
+    m = shape.to_world
     transform.check_affine(m)
     if props.normal_matrix("to_world") is not None:
         raise plugin.error("a disk rotated about a non-unit axis is not supported (Mitsuba "
                            "then transforms its normal inconsistently with its surface)",
                            props.line("to_world"))
     # The unit disk maps to an ellipse of area pi |u x v| (u, v = images of x, y).
-    geometry.add_analytic("disk", geometry.disks, (m, shape.flip, shape.shape_id),
-                          np.pi * np.linalg.norm(np.cross(m[:3, 0], m[:3, 1])))
+    shape.geometry.add_analytic("disk", shape.geometry.disks, (m, shape.flip, props.shape_id),
+                                np.pi * np.linalg.norm(np.cross(m[:3, 0], m[:3, 1])))
 
 
 def disk_t(to_local, o, d, tmax):

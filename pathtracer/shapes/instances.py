@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..scene.properties import Props
 from ..scene.registry import register
 from ..scene.xml import Plugin
-from .accumulator import GeometryAccumulator, ShapeParams
 
 
 def flatten(shapes: list[Plugin]):
@@ -32,10 +32,10 @@ def flatten(shapes: list[Plugin]):
 
 
 @register("shape", "shapegroup", "instance")
-def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+def create(props: Props) -> None:
     """Groups and instances have no primitives of their own: :func:`flatten` replaces them
     by the shapes they draw before any shape is built, so none should reach here."""
-    raise shape.plugin.error(f"a {shape.plugin.type} is allowed only at the top level of the "
+    raise props.plugin.error(f"a {props.plugin.type} is allowed only at the top level of the "
                              "scene, where it is expanded into the shapes it draws")
 
 

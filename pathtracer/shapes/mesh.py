@@ -11,24 +11,23 @@ from ..scene import transform
 from ..scene.properties import Props, find_file
 from ..scene.registry import register
 from ..scene.xml import Plugin
-from .accumulator import GeometryAccumulator, ShapeParams
 from .normals import flip_winding, world_normals
 
 _BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
 
 
 @register("shape", "obj", "ply", "serialized")
-def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+def create(props: Props) -> None:
     """An ``obj``, ``ply`` or ``serialized`` mesh: ``filename``, ``face_normals`` (false),
     ``flip_tex_coords`` (true for obj files, false for ply; not for serialized) and the
     serialized file's ``shape_index`` (0)."""
-    p, n, uv, attributes = _mesh_triangles(shape.plugin, shape.props, shape.folders,
-                                           shape.to_world)
+    shape = props.shape
+    p, n, uv, attributes = _mesh_triangles(props.plugin, props, props.folders, shape.to_world)
     if shape.flip:
         p, n, uv = flip_winding(p, n, uv)
         # Vertex attributes follow their corners, as the texture coordinates do.
         attributes = {k: (v[:, ::-1].copy() if v.ndim == 3 else v) for k, v in attributes.items()}
-    geometry.add_mesh(shape.shape_id, p, n, uv, attributes)
+    shape.geometry.add_mesh(props.shape_id, p, n, uv, attributes)
 
 
 def _load_mesh(plugin: Plugin, props: Props, folders: list[str]) -> meshes.MeshData:

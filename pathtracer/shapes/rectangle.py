@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import transform
+from ..scene.properties import Props
 from ..scene.registry import register
-from .accumulator import GeometryAccumulator, ShapeParams
 from .normals import flip_winding, world_normals
 
 _RECT_LOCAL = np.array([[[-1, -1, 0], [1, -1, 0], [1, 1, 0]],
@@ -13,11 +13,12 @@ _RECT_LOCAL = np.array([[[-1, -1, 0], [1, -1, 0], [1, 1, 0]],
 
 
 @register("shape", "rectangle")
-def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+def create(props: Props) -> None:
     """A ``rectangle`` (no properties of its own): its two triangles."""
+    shape = props.shape
     p, n, uv = _planar_mesh(_RECT_LOCAL, np.array([0.0, 0.0, 1.0]), shape.to_world, shape.flip,
-                            shape.props)
-    geometry.add_mesh(shape.shape_id, p, n, uv)
+                            props)
+    shape.geometry.add_mesh(props.shape_id, p, n, uv)
 
 
 def _planar_mesh(corners_local, normal_local, m, flip, props):

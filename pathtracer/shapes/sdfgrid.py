@@ -83,9 +83,8 @@ from ..accel.bvh import BVH
 from ..core.vec import normalize
 from ..io.vol import VolFormatError, read_vol
 from ..scene import transform
-from ..scene.properties import find_file
+from ..scene.properties import Props, find_file
 from ..scene.registry import register
-from .accumulator import GeometryAccumulator, ShapeParams
 
 #: Regula falsi stops when its bracket is narrower than this (ray parameter), as Mitsuba's.
 SOLVE_EPSILON = 1e-5
@@ -409,10 +408,10 @@ def check_scale_translate(m: np.ndarray) -> bool:
 
 
 @register("shape", "sdfgrid")
-def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+def create(props: Props) -> None:
     """An ``sdfgrid``: ``filename`` (a one-channel ``.vol`` file), ``normals`` (``smooth``),
     ``to_world`` (scale and translate only; rotate through an instance)."""
-    plugin, props = shape.plugin, shape.props
+    plugin, shape = props.plugin, props.shape
     if "flip_normals" in plugin.props:
         raise plugin.error("flip_normals is not a parameter of sdfgrid (Mitsuba refuses it as "
                            "an unreferenced property)", props.line("flip_normals"))
@@ -432,7 +431,7 @@ def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
         transform.check_affine(shape.to_world)
     except ValueError as e:
         raise plugin.error(f"to_world: {e}") from None
-    path = find_file(plugin, props, "filename", shape.folders)
+    path = find_file(plugin, props, "filename", props.folders)
     name = os.path.basename(path)
     try:
         grid = read_vol(path)
@@ -453,7 +452,7 @@ def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
         raise plugin.error(f"{name}: resolution {' x '.join(map(str, grid.resolution))}; an SDF "
                            "grid needs at least 2 values along each axis", props.line("filename"))
     try:
-        sdf = SDFGridShape(grid.data[..., 0], shape.to_world, normals, shape.shape_id)
+        sdf = SDFGridShape(grid.data[..., 0], shape.to_world, normals, props.shape_id)
     except SDFGridError as e:
         raise plugin.error(f"{name}: {e}", props.line("filename")) from None
-    geometry.add_analytic("sdfgrid", geometry.sdfgrids, sdf, 0.0)
+    shape.geometry.add_analytic("sdfgrid", shape.geometry.sdfgrids, sdf, 0.0)

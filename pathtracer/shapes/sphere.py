@@ -10,15 +10,16 @@ import numpy as np
 
 from ..core.vec import normalize, put_rows, scale, unscale
 from ..scene import transform
+from ..scene.properties import Props
 from ..scene.registry import register
-from .accumulator import GeometryAccumulator, ShapeParams
 
 
 @register("shape", "sphere")
-def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
+def create(props: Props) -> None:
     """A ``sphere``: ``center`` (0, 0, 0) and ``radius`` (1), moved by a ``to_world`` that
     may only translate, rotate and scale uniformly."""
-    plugin, props, m, flip = shape.plugin, shape.props, shape.to_world, shape.flip
+    plugin, shape = props.plugin, props.shape
+    m, flip = shape.to_world, shape.flip
     center = props.point("center", np.zeros(3))
     radius = props.float("radius", 1.0)
     full = m @ transform.translate(center) @ transform.scale([radius] * 3)
@@ -32,9 +33,9 @@ def create(shape: ShapeParams, geometry: GeometryAccumulator) -> None:
     # Object frame for texture coordinates: the inverse of the rotation (a
     # mirror included) left after dividing out the radius.
     to_local = (lin / np.sqrt(s2)).T
-    geometry.add_analytic("sphere", geometry.spheres,
-                          (full[:3, 3].copy(), float(np.sqrt(s2)), flip, shape.shape_id, to_local),
-                          4.0 * np.pi * s2)
+    shape.geometry.add_analytic("sphere", shape.geometry.spheres,
+                                (full[:3, 3].copy(), float(np.sqrt(s2)), flip, props.shape_id, to_local),
+                                4.0 * np.pi * s2)
 
 
 def sphere_t(center, radius, o, d, tmax):

@@ -22,7 +22,6 @@ from ..core.sampling import sample_discrete
 from ..io.bitmap import read_bitmap
 from ..scene.properties import Props, children, find_file
 from ..scene.registry import register
-from ..scene.xml import Plugin
 from .base import Texture, finite_uv
 
 FILTER_TYPES = ("bilinear", "nearest")
@@ -198,10 +197,10 @@ def _square_to_tent(u: np.ndarray) -> np.ndarray:
 
 
 @register("texture", "bitmap")
-def create(plugin: Plugin, folders: list[str], cache: dict) -> BitmapTexture:
-    """``filename`` (looked up in ``folders``), ``filter_type``, ``wrap_mode``, ``raw``
+def create(props: Props) -> BitmapTexture:
+    """``filename`` (looked up in ``props.folders``), ``filter_type``, ``wrap_mode``, ``raw``
     (false), ``to_uv``."""
-    props = Props(plugin)
+    plugin = props.plugin
     children(plugin, {"texture": 2})
     to_uv = props.transform("to_uv")
     filter_type = props.string("filter_type", "bilinear").strip().lower()
@@ -215,7 +214,7 @@ def create(plugin: Plugin, folders: list[str], cache: dict) -> BitmapTexture:
     # accel only picks hardware texture units on GPUs, format the storage precision
     # (half or the variant's float): the values are the same up to rounding.
     props.ignore("accel", "format")
-    path = find_file(plugin, props, "filename", folders)
+    path = find_file(plugin, props, "filename", props.folders)
     try:
         data = read_bitmap(path, raw=raw)
     except ValueError as e:

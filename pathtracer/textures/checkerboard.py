@@ -5,7 +5,6 @@ import numpy as np
 
 from ..scene.properties import Props, children
 from ..scene.registry import register
-from ..scene.xml import Plugin
 from .base import ConstantTexture, Texture, finite_uv
 
 
@@ -74,12 +73,11 @@ class Checkerboard(Texture):
 
 
 @register("texture", "checkerboard")
-def create(plugin: Plugin, folders: list[str], cache: dict) -> Checkerboard:
+def create(props: Props) -> Checkerboard:
     """``color0`` (0.4), ``color1`` (0.2), each a colour or a nested texture; ``to_uv``."""
-    props = Props(plugin)
-    children(plugin, {"texture": 2})
+    children(props.plugin, {"texture": 2})
     to_uv = props.transform("to_uv")
-    texture = Checkerboard(props.texture_value("color0", 0.4, folders, cache),
-                           props.texture_value("color1", 0.2, folders, cache), to_uv)
+    texture = Checkerboard(props.texture_value("color0", 0.4),
+                           props.texture_value("color1", 0.2), to_uv)
     props.finish()
     return texture

@@ -5,14 +5,13 @@ import numpy as np
 
 from ..scene.properties import Props, children
 from ..scene.registry import register
-from ..scene.xml import Plugin
 from .base import ConstantTexture
 
 
 @register("texture", "rawconstant")
-def create(plugin: Plugin, folders: list[str], cache: dict) -> ConstantTexture:
+def create(props: Props) -> ConstantTexture:
     """``value``: used as given (no colour conversion, no range check), a float or a vector."""
-    props = Props(plugin)
+    plugin = props.plugin
     children(plugin, {"texture": 2})
     props.transform("to_uv")   # accepted: a constant is the same under any transform
     value = props._get("value", ("float", "integer", "vector", "point", "rgb"),

@@ -109,9 +109,9 @@ class MeshAttribute(Texture):
 
 
 @register("texture", "mesh_attribute")
-def create(plugin: Plugin, folders: list[str], cache: dict) -> MeshAttribute:
+def create(props: Props) -> MeshAttribute:
     """``name`` (required, containing ``vertex_`` or ``face_``), ``scale`` (1)."""
-    props = Props(plugin)
+    plugin = props.plugin
     children(plugin, {})
     if not props.has("name"):
         raise plugin.error("a mesh_attribute texture needs a \"name\" (e.g. vertex_color)")

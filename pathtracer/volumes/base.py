@@ -52,7 +52,8 @@ class Volume:
 
 def build_volume(plugin: Plugin, folders: list[str]) -> Volume:
     """The :class:`Volume` of a ``<volume>`` element (files looked up in ``folders``)."""
-    return registered(plugin, "volume")(plugin, folders)
+    create = registered(plugin, "volume")
+    return create(Props(plugin, folders=folders))
 
 
 def box_interval(bbox: np.ndarray, o: np.ndarray, d: np.ndarray):

@@ -5,7 +5,6 @@ import numpy as np
 
 from ..scene.properties import Props, children
 from ..scene.registry import register
-from ..scene.xml import Plugin
 from .base import Volume, invert
 
 
@@ -27,10 +26,10 @@ class ConstVolume(Volume):
 
 
 @register("volume", "constvolume")
-def create(plugin: Plugin, folders: list[str]) -> ConstVolume:
+def create(props: Props) -> ConstVolume:
     """``value`` (1): a ``<float>``, ``<rgb>`` or ``<spectrum>``, any magnitude (Mitsuba reads
     it as an unbounded texture); ``to_world`` (identity) places its unit cube."""
-    props = Props(plugin)
+    plugin = props.plugin
     children(plugin, {})
     value = props.color("value", 1.0, "unbounded")
     to_world = props.transform("to_world")

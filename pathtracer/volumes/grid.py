@@ -28,7 +28,6 @@ import numpy as np
 from ..io.vol import VolFormatError, read_vol
 from ..scene.properties import Props, children, find_file
 from ..scene.registry import register
-from ..scene.xml import Plugin
 from .base import Volume, invert
 
 FILTERS = ("trilinear", "nearest")
@@ -97,14 +96,14 @@ class GridVolume(Volume):
 
 
 @register("volume", "gridvolume")
-def create(plugin: Plugin, folders: list[str]) -> GridVolume:
+def create(props: Props) -> GridVolume:
     """``filename`` (a ``.vol`` file), ``filter_type`` (``trilinear``), ``wrap_mode``
     (``clamp``), ``to_world``, ``use_grid_bbox`` (false: the grid fills the unit cube;
     true: the file's box, in ``to_world``'s space), ``max_value`` (the file's maximum),
     ``raw`` (no effect in RGB) and ``accel`` (CUDA texture hardware, no effect here)."""
-    props = Props(plugin)
+    plugin = props.plugin
     children(plugin, {})
-    path = find_file(plugin, props, "filename", folders)
+    path = find_file(plugin, props, "filename", props.folders)
     filter_type = props.string("filter_type", "trilinear")
     if filter_type not in FILTERS:
         raise plugin.error(f"filter_type must be one of {', '.join(FILTERS)}, got "

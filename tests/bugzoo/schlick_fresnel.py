@@ -29,7 +29,7 @@ class SchlickDielectric(Dielectric):
     def __init__(self, original):
         self.__dict__.update(original.__dict__)
 
-    def sample(self, wi, u1, u2, hemisphere="cosine"):
+    def sample(self, wi, u1, u2):
         _, cos_theta_t, eta_it, eta_ti = fresnel_dielectric(wi[:, 2], self.eta)
         f0 = ((self.eta - 1) / (self.eta + 1)) ** 2
         F = f0 + (1 - f0) * (1 - np.abs(wi[:, 2])) ** 5
