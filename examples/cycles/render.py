@@ -168,7 +168,12 @@ def configure(bpy, scene, desc: SceneDesc, threads: int, factory: bool) -> None:
         # spp of them (no adaptive stopping), no denoiser, no clamping, no light threshold.
         cycles.pixel_filter_type = "BOX"
         cycles.filter_width = 1.0
-        cycles.sample_offset = 1            # Cycles puts sample 0 at the pixel centre
+        # Cycles puts sample 0 of every pixel at its centre: render samples 1 to spp instead
+        # (the "sample subset" of spp + 1 samples that starts at 1).
+        cycles.samples = desc.spp + 1
+        cycles.use_sample_subset = True
+        cycles.sample_offset = 1
+        cycles.sample_subset_length = desc.spp
         bpy.context.preferences.experimental.use_cycles_debug = True
         bpy.context.preferences.view.show_developer_ui = True
         cycles.sampling_pattern = SAMPLING_PATTERN
