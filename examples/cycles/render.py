@@ -34,6 +34,26 @@ from pathtracer.scene.errors import SceneError
 #: one sequence shared by all pixels.
 SAMPLING_PATTERN = "SOBOL_BURLEY"
 
+#: One convention undone at a time (``--deviate NAME``), to measure what each costs with the
+#: harness (README.md, "Conventions"): each is what Cycles does by default or what a first
+#: translation easily does.
+DEVIATIONS = {
+    "centre-sample": "Cycles' sample 0 at every pixel's centre (no sample subset)",
+    "two-sided-lights": "emission from both sides of the light (Cycles' default)",
+    "two-sided-diffuse": "diffuse surfaces reflect on both sides (Cycles' default)",
+    "filter": "Cycles' default pixel filter, Blackman-Harris 1.5 pixels wide",
+    "diffuse-bounces": "Cycles' default of 4 diffuse bounces",
+    "max-bounces": "bounces = max_depth - 1 instead of max_depth - 2",
+    "denoiser": "Cycles' default denoiser (OpenImageDenoise)",
+    "clamp": "Cycles' default indirect clamp of 10",
+    "light-threshold": "Cycles' default light threshold of 0.01",
+    "adaptive": "Cycles' default adaptive sampling (noise threshold 0.01)",
+    "fov-axis": "Mitsuba's fov given to Blender's camera angle with sensor_fit AUTO (the larger axis)",
+    "blue-noise": "Cycles' default 'Automatic' (blue-noise) sampling pattern",
+}
+#: What ``--factory`` undoes: every default of Cycles (and its bounce counts, 12 and 4 diffuse).
+FACTORY = frozenset(DEVIATIONS) - {"max-bounces", "fov-axis", "diffuse-bounces"}
+
 
 def parse_args(argv=None) -> argparse.Namespace:
     """The command line (argparse exits with 2 and one usage line on stderr when it is wrong)."""
@@ -50,6 +70,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--threads", type=int, default=1, help="Cycles CPU threads (default 1)")
     parser.add_argument("--factory", action="store_true",
                         help="keep Cycles' default settings and two-sided materials and lights")
+    parser.add_argument("--deviate", choices=sorted(DEVIATIONS), action="append", default=[],
+                        help="undo one convention, to measure its cost (repeatable)")
     args = parser.parse_args(argv)
     if args.spp < 1 or args.threads < 1 or not 0 <= args.seed < 2 ** 32:
         parser.error("--spp and --threads must be >= 1 and --seed in [0, 2^32)")
@@ -69,50 +91,68 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 # ---- Blender ----------------------------------------------------------------------------
 
-def build_material(bpy, name: str, mesh, max_depth: int, factory: bool):
+def build_material(bpy, name: str, mesh, max_depth: int, deviate: frozenset):
     """A node material: Mitsuba's one-sided diffuse (black behind), plus a front-only emission.
 
     Emission is an Emission shader of Strength 1 and Color = Mitsuba's radiance: Cycles'
-    surface emission is radiance, so no power or area factor enters. ``max_depth`` 1 shows
+    surface emission is radiance (W m^-2 sr^-1 per unit of Strength), so no power, area or pi
+    factor enters, unlike a Blender area light, whose Power is in watts. ``max_depth`` 1 shows
     emission only (the BSDF becomes black), 0 nothing.
     """
     material = bpy.data.materials.new(name)
-    material.use_nodes = True
     nodes, links = material.node_tree.nodes, material.node_tree.links
     nodes.clear()
     output = nodes.new("ShaderNodeOutputMaterial")
     reflectance = mesh.reflectance if max_depth != 1 else np.zeros(3)
     radiance = mesh.radiance if max_depth != 0 else None
-    front = diffuse = nodes.new("ShaderNodeBsdfDiffuse")
-    diffuse.inputs["Color"].default_value = (*reflectance, 1.0)
-    diffuse.inputs["Roughness"].default_value = 0.0          # Lambert, not Oren-Nayar
+    two_sided_diffuse = mesh.twosided or "two-sided-diffuse" in deviate
+    diffuse = _diffuse(nodes, reflectance)
+    emission = None
     if radiance is not None:
         emission = nodes.new("ShaderNodeEmission")
         emission.inputs["Color"].default_value = (*radiance, 1.0)
         emission.inputs["Strength"].default_value = 1.0
-        front = nodes.new("ShaderNodeAddShader")
-        links.new(diffuse.outputs[0], front.inputs[0])
-        links.new(emission.outputs[0], front.inputs[1])
-    if factory:
-        links.new(front.outputs[0], output.inputs["Surface"])
-        return material
-    # Behind: the same diffuse for twosided, else black (no closure: the path ends there).
-    back = nodes.new("ShaderNodeBsdfDiffuse")
-    back.inputs["Color"].default_value = (*(reflectance if mesh.twosided else np.zeros(3)), 1.0)
-    back.inputs["Roughness"].default_value = 0.0
-    geometry = nodes.new("ShaderNodeNewGeometry")
-    mix = nodes.new("ShaderNodeMixShader")
-    links.new(geometry.outputs["Backfacing"], mix.inputs["Fac"])
-    links.new(front.outputs[0], mix.inputs[1])
-    links.new(back.outputs[0], mix.inputs[2])
-    links.new(mix.outputs[0], output.inputs["Surface"])
-    # Light sampling picks points on the front only: the back emits nothing.
-    material.cycles.emission_sampling = "FRONT" if radiance is not None else "NONE"
+    # Cycles' surfaces are two-sided; the Backfacing output (the geometric normal's side)
+    # picks what the back of a one-sided surface does: nothing (no closure ends the path).
+    backfacing = nodes.new("ShaderNodeNewGeometry").outputs["Backfacing"]
+    surface = diffuse.outputs[0]
+    if not two_sided_diffuse:
+        surface = _mix(nodes, links, backfacing, surface, _diffuse(nodes, np.zeros(3)).outputs[0])
+    if emission is not None:
+        light = emission.outputs[0]
+        if "two-sided-lights" not in deviate:
+            light = _mix(nodes, links, backfacing, light, _diffuse(nodes, np.zeros(3)).outputs[0])
+        add = nodes.new("ShaderNodeAddShader")
+        links.new(surface, add.inputs[0])
+        links.new(light, add.inputs[1])
+        surface = add.outputs[0]
+    links.new(surface, output.inputs["Surface"])
+    # Light sampling picks points on the emitting side only.
+    if radiance is None:
+        material.cycles.emission_sampling = "NONE"
+    elif "two-sided-lights" not in deviate:
+        material.cycles.emission_sampling = "FRONT"
     return material
 
 
-def build_scene(bpy, desc: SceneDesc, factory: bool):
-    """The Blender scene of ``desc`` in a fresh, empty file."""
+def _diffuse(nodes, reflectance):
+    node = nodes.new("ShaderNodeBsdfDiffuse")
+    node.inputs["Color"].default_value = (*reflectance, 1.0)
+    node.inputs["Roughness"].default_value = 0.0            # Lambert, not Oren-Nayar
+    return node
+
+
+def _mix(nodes, links, fac, first, second):
+    node = nodes.new("ShaderNodeMixShader")
+    links.new(fac, node.inputs["Fac"])
+    links.new(first, node.inputs[1])
+    links.new(second, node.inputs[2])
+    return node.outputs[0]
+
+
+def build_scene(bpy, desc: SceneDesc, deviate: frozenset):
+    """The Blender scene of ``desc`` in a fresh, empty file (Mitsuba's world coordinates as
+    they are: which axis is up does not matter to a renderer, only the camera's frame)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     for mesh in desc.meshes:
@@ -123,13 +163,11 @@ def build_scene(bpy, desc: SceneDesc, factory: bool):
             data.normals_split_custom_set_from_vertices(mesh.normals.tolist())
         else:
             data.shade_flat()
-        data.materials.append(build_material(bpy, mesh.name, mesh, desc.max_depth, factory))
+        data.materials.append(build_material(bpy, mesh.name, mesh, desc.max_depth, deviate))
         obj = bpy.data.objects.new(mesh.name, data)
-        if not factory:
-            obj.cycles.shadow_terminator_geometry_offset = 0.0
+        obj.cycles.shadow_terminator_geometry_offset = 0.0  # no shadow-ray offset for smooth normals
         scene.collection.objects.link(obj)
     world = bpy.data.worlds.new("world")
-    world.use_nodes = True
     background = world.node_tree.nodes["Background"]
     radiance = desc.background if desc.background is not None and desc.max_depth != 0 else np.zeros(3)
     background.inputs["Color"].default_value = (*radiance, 1.0)
@@ -137,9 +175,12 @@ def build_scene(bpy, desc: SceneDesc, factory: bool):
     scene.world = world
     camera = bpy.data.cameras.new("camera")
     camera.type = "PERSP"
-    camera.sensor_fit = "HORIZONTAL"                        # Mitsuba's fov is converted to x
     camera.sensor_width = 36.0
-    camera.lens = lens_for_fov(desc.camera.x_fov, camera.sensor_width)
+    if "fov-axis" in deviate:
+        camera.sensor_fit, camera.angle = "AUTO", np.deg2rad(desc.camera.file_fov)
+    else:
+        camera.sensor_fit = "HORIZONTAL"                    # Mitsuba's fov is converted to x
+        camera.lens = lens_for_fov(desc.camera.x_fov, camera.sensor_width)
     camera.clip_start, camera.clip_end = desc.camera.near_clip, desc.camera.far_clip
     obj = bpy.data.objects.new("camera", camera)
     obj.matrix_world = desc.camera.matrix.T.tolist()        # mathutils takes rows
@@ -148,53 +189,61 @@ def build_scene(bpy, desc: SceneDesc, factory: bool):
     return scene
 
 
-def configure(bpy, scene, desc: SceneDesc, threads: int, factory: bool) -> None:
-    """Film, sampling and output settings; Mitsuba's conventions unless ``factory``."""
+def configure(bpy, scene, desc: SceneDesc, threads: int, deviate: frozenset) -> None:
+    """Film, sampling and output settings: Mitsuba's conventions, less those in ``deviate``."""
     render = scene.render
     render.engine = "CYCLES"
     render.resolution_x, render.resolution_y = desc.width, desc.height
     render.resolution_percentage = 100
     render.pixel_aspect_x = render.pixel_aspect_y = 1.0
     render.threads_mode, render.threads = "FIXED", threads
-    render.use_persistent_data = False
     render.film_transparent = False
     cycles = scene.cycles
     cycles.device = "CPU"
     cycles.samples = desc.spp
     cycles.seed = cycles_seed(desc.seed)
     cycles.use_animated_seed = False
-    if not factory:
-        # Sampling: every sample spread uniformly over its pixel (a box of one pixel), all
-        # spp of them (no adaptive stopping), no denoiser, no clamping, no light threshold.
-        cycles.pixel_filter_type = "BOX"
-        cycles.filter_width = 1.0
+    # The EXR holds scene-linear radiance whatever the view transform (measured: AgX and
+    # Standard give bit-identical files); Standard and no dithering all the same.
+    view = scene.view_settings
+    view.view_transform, view.look, view.exposure, view.gamma = "Standard", "None", 0.0, 1.0
+    render.dither_intensity = 0.0
+    if "centre-sample" not in deviate:
         # Cycles puts sample 0 of every pixel at its centre: render samples 1 to spp instead
         # (the "sample subset" of spp + 1 samples that starts at 1).
         cycles.samples = desc.spp + 1
         cycles.use_sample_subset = True
         cycles.sample_offset = 1
         cycles.sample_subset_length = desc.spp
+    if "filter" not in deviate:
+        cycles.pixel_filter_type, cycles.filter_width = "BOX", 1.0
+    if "blue-noise" not in deviate:
         bpy.context.preferences.experimental.use_cycles_debug = True
         bpy.context.preferences.view.show_developer_ui = True
         cycles.sampling_pattern = SAMPLING_PATTERN
         cycles.scrambling_distance = 1.0
+    if "adaptive" not in deviate:
         cycles.use_adaptive_sampling = False
+    if "denoiser" not in deviate:
         cycles.use_denoising = False
+    if "clamp" not in deviate:
         cycles.sample_clamp_direct = cycles.sample_clamp_indirect = 0.0
+    if "light-threshold" not in deviate:
         cycles.light_sampling_threshold = 0.0
-        cycles.use_light_tree = True        # unbiased; the threshold above is what biases
-        cycles.use_guiding = False
-        cycles.blur_glossy = 0.0
-        cycles.caustics_reflective = cycles.caustics_refractive = True
-        cycles.film_exposure = 1.0
+    cycles.use_guiding = False
+    cycles.blur_glossy = 0.0                            # "filter glossy": no blur of caustics
+    cycles.caustics_reflective = cycles.caustics_refractive = True
+    cycles.film_exposure = 1.0
+    if "factory" not in deviate:
         bounces = 0 if desc.max_depth in (0, 1) else cycles_bounces(desc.max_depth)
+        if "max-bounces" in deviate:
+            bounces += 1
         cycles.max_bounces = bounces
         cycles.diffuse_bounces = cycles.glossy_bounces = cycles.transmission_bounces = bounces
         cycles.volume_bounces = cycles.transparent_max_bounces = bounces
         cycles.min_light_bounces = cycles.min_transparent_bounces = 0
-        view = scene.view_settings
-        view.view_transform, view.look, view.exposure, view.gamma = "Standard", "None", 0.0, 1.0
-        render.dither_intensity = 0.0
+        if "diffuse-bounces" in deviate:
+            cycles.diffuse_bounces = min(bounces, 4)
     settings = render.image_settings
     settings.file_format = "OPEN_EXR"
     settings.color_mode = "RGB"
@@ -214,12 +263,19 @@ def write_flipped(path: str) -> None:
     OpenEXR.File(header, channels).write(path)
 
 
-def render(desc: SceneDesc, out: str, threads: int = 1, factory: bool = False) -> None:
-    """Build, render and write ``out`` (``bpy`` is imported here, the translation needs none)."""
+def render(desc: SceneDesc, out: str, threads: int = 1, deviate=()) -> None:
+    """Build, render and write ``out`` (``bpy`` is imported here, the translation needs none).
+
+    ``deviate``: names of :data:`DEVIATIONS` to undo, or ``"factory"`` for all of Cycles'
+    defaults (also its bounce counts: 12 in all, 4 diffuse).
+    """
     import bpy
 
-    scene = build_scene(bpy, desc, factory)
-    configure(bpy, scene, desc, threads, factory)
+    deviate = frozenset(deviate)
+    if "factory" in deviate:
+        deviate |= FACTORY
+    scene = build_scene(bpy, desc, deviate)
+    configure(bpy, scene, desc, threads, deviate)
     with tempfile.TemporaryDirectory() as tmp:
         target = os.path.join(tmp, "render.exr")
         scene.render.filepath = target
@@ -251,7 +307,7 @@ def main(argv=None) -> int:
         print(f"render.py: cannot write {args.out}: no such folder", file=sys.stderr)
         return 1
     try:
-        render(desc, args.out, args.threads, args.factory)
+        render(desc, args.out, args.threads, set(args.deviate) | ({"factory"} if args.factory else set()))
     except (RuntimeError, OSError) as e:
         print(f"render.py: {e}", file=sys.stderr)
         return 1

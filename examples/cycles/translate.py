@@ -87,6 +87,8 @@ class Camera:
     mirrored : bool
         Mitsuba's ``to_world`` mirrors (determinant < 0): the image must be flipped left to
         right after rendering with ``matrix``, whose x column was negated.
+    file_fov : float
+        The file's ``fov`` as written, along its ``fov_axis`` (for ``--deviate fov-axis``).
     """
 
     matrix: np.ndarray
@@ -94,6 +96,7 @@ class Camera:
     near_clip: float = 1e-2
     far_clip: float = 1e4
     mirrored: bool = False
+    file_fov: float = 0.0
 
 
 @dataclass
@@ -408,7 +411,7 @@ def _sensor(plugin: Plugin, width: int | None, height: int | None, spp: int | No
         matrix, mirrored = blender_camera(to_world)
     except ValueError as e:
         raise props.error(str(e)) from None
-    camera = Camera(matrix, x_fov, float(near), float(far), mirrored)
+    camera = Camera(matrix, x_fov, float(near), float(far), mirrored, float(fov))
     return camera, width, height, spp or file_spp, file_seed if seed is None else seed
 
 
