@@ -6,11 +6,15 @@ the reason, so the README's ``pytest -q`` passes on a machine without Mitsuba (t
 scenes' references are committed). ``PATHTRACER_REQUIRE_MITSUBA=1`` turns those skips into
 failures: CI's second pass (``pytest -m mitsuba``) sets it, so a broken install cannot
 pass by skipping everything.
+
+Tests marked ``@pytest.mark.cycles`` need Blender's ``bpy`` (examples/cycles) and skip the same
+way without it; ``PATHTRACER_REQUIRE_CYCLES=1`` turns those skips into failures.
 """
 from __future__ import annotations
 
 import functools
 import os
+import subprocess
 import sys
 
 import pytest
@@ -27,6 +31,24 @@ def _mitsuba_import_error() -> str | None:
     return None
 
 
+@functools.cache
+def _bpy_import_error() -> str | None:
+    """Why Blender's ``bpy`` cannot be imported here, or None when it can.
+
+    Tried in a child process: importing ``bpy`` loads all of Blender into the process, which
+    only the renders (each a process of its own) need.
+    """
+    try:
+        result = subprocess.run([sys.executable, "-c", "import bpy"], capture_output=True,
+                                text=True, timeout=120)
+    except (OSError, subprocess.TimeoutExpired) as error:
+        return f"{type(error).__name__}: {error}"
+    if result.returncode == 0:
+        return None
+    lines = result.stderr.strip().splitlines()
+    return lines[-1] if lines else f"import bpy exited with {result.returncode}"
+
+
 def pytest_collection_modifyitems(config, items):
     # Taking `mi` is needing Mitsuba: mark it, so `pytest -m mitsuba` selects the test.
     for item in items:
@@ -35,6 +57,13 @@ def pytest_collection_modifyitems(config, items):
 
 
 def pytest_runtest_setup(item):
+    if item.get_closest_marker("cycles") is not None:
+        error = _bpy_import_error()
+        if error is not None:
+            message = f"needs Blender's bpy for Cycles, pip install bpy==5.0.1 ({error})"
+            if os.environ.get("PATHTRACER_REQUIRE_CYCLES") == "1":
+                pytest.fail(f"{message}; PATHTRACER_REQUIRE_CYCLES=1 forbids skipping", pytrace=False)
+            pytest.skip(message)
     if item.get_closest_marker("mitsuba") is None:
         return
     error = _mitsuba_import_error()
