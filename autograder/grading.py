@@ -39,10 +39,12 @@ from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.report.wording import convergence_verdict, mean_verdict, variance_policy_verdict
 from mitsuba_refs.settings import Settings
 from mitsuba_refs.stats import MAX_VARIANCE_RATIO, ErrorBudget, compare_means
+from mitsuba_refs.stats.mean import MeanAgreement
 from mitsuba_refs.verdicts.compare import (
     BOUNCE_REFERENCE,
     SPLATTING,
     TEST_SEED,
+    Comparison,
     compare,
     default_params,
     reference_integrator,
@@ -300,15 +302,15 @@ class CheckResult:
     """What a check found: scored parts, hints (with numbers), pictures, the report."""
 
     check: Check
-    parts: list = field(default_factory=list)
-    hints: list = field(default_factory=list)
-    pictures: dict = field(default_factory=dict)
+    parts: list[Part] = field(default_factory=list)
+    hints: list[str] = field(default_factory=list)
+    pictures: dict[str, str] = field(default_factory=dict)
     failure: str = ""
     failure_kind: str = ""
-    comparison: object = None
-    bounce: dict = None
+    comparison: Comparison | None = None
+    bounce: dict[int, MeanAgreement] | None = None
     seconds: float = 0.0
-    findings: list = field(default_factory=list)    # measured on every run (camera geometry)
+    findings: list[str] = field(default_factory=list)    # measured on every run (camera geometry)
 
     @property
     def score(self) -> float:

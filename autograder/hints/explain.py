@@ -53,6 +53,8 @@ GLASS_CAUSES = ("glass_fresnel", "glass_eta", "backface_normals", "glass_radianc
 class Evidence:
     """Everything the rules may look at (filled by :func:`autograder.grading.run_check`)."""
 
+    # Duck-typed: a grading.Check and a Comparison when grading, their stored fields
+    # (SimpleNamespace) when hints.evidence_io replays a recorded case.
     check: object
     comparison: object
     history: dict = field(default_factory=dict)

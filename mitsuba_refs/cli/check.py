@@ -18,7 +18,7 @@ from ..reference import config
 from ..reference.config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 from ..report.outputs import add_output_options, check_output_options, write_outputs
 from ..settings import Settings
-from .compare import _positive_ints, _resolution, add_detect_options, detect_of
+from .options import add_detect_options, check_alpha, detect_of, positive_ints, resolution
 
 PLACEHOLDER_HELP = "placeholders: " + "; ".join(f"{{{name}}} {text}" for name, text in PLACEHOLDERS.items())
 
@@ -48,7 +48,7 @@ def add_check(subparsers):
                    help=f"--command: samples per pixel of the mean/variance render (default "
                         f"{config.TEST_MAX_SPP}); --images: the sample count of images whose header "
                         "and sidecar give none")
-    p.add_argument("--resolution", type=_resolution, default=None, metavar="WxH",
+    p.add_argument("--resolution", type=resolution, default=None, metavar="WxH",
                    help="film size for both sides, replacing the file's")
     p.add_argument("--max-depth", type=int, default=None,
                    help="longest path for both sides ({max_depth}), replacing the file's")
@@ -71,7 +71,7 @@ def add_check(subparsers):
     p.add_argument("--output-suffix", default=".exr",
                    help="file name suffix of {out} (.exr, .pfm, .hdr; default .exr)")
     p.add_argument("--alpha", type=float, default=1e-3, help="level of each verdict (default 1e-3)")
-    p.add_argument("--ladder", type=_positive_ints, default=CONVERGENCE_LADDER,
+    p.add_argument("--ladder", type=positive_ints, default=CONVERGENCE_LADDER,
                    help=f"spp ladder of the convergence test (default "
                         f"{','.join(map(str, CONVERGENCE_LADDER))})")
     p.add_argument("--replicas", type=int, default=CONVERGENCE_REPLICAS,
@@ -120,8 +120,7 @@ def _check_options(args) -> None:
     """Refuse out-of-range options in one line saying what to change."""
     if args.spp is not None:
         check_spp(args.spp)
-    if not 0 < args.alpha < 1:
-        raise RefsInputError(f"--alpha must be between 0 and 1 (e.g. 1e-3), got {args.alpha}")
+    check_alpha(args.alpha)
     if args.command is not None and not args.no_convergence:
         check_ladder(args.ladder)
     for name in ("jobs", "variance_replicas", "replicas"):

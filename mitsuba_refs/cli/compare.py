@@ -9,66 +9,19 @@ input fails in about a second, with the tracer's own message.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import warnings
 
 from pathtracer import INTEGRATORS
 from pathtracer.scene.defines import parse_defines
-from pathtracer.scene.load import parse_resolution
 
 from ..errors import RefsInputError
 from ..preflight import check_image_size, check_ladder, check_output_folder, check_scene, check_spp, scene_path
 from ..reference import config
 from ..reference.config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 from ..report.outputs import add_output_options, check_output_options, write_outputs
-from ..settings import DEFAULT_MAX_TIME, Detect, Settings
-
-
-def _positive_ints(text: str) -> tuple[int, ...]:
-    try:
-        values = tuple(int(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if not values or min(values) < 1:
-        raise argparse.ArgumentTypeError(
-            f"expected comma-separated sample counts >= 1 (e.g. 1,4,16,64), got {text!r}")
-    return values
-
-
-def _resolution(text: str) -> tuple[int, int]:
-    try:
-        return parse_resolution(text)
-    except ValueError as error:
-        raise argparse.ArgumentTypeError(str(error)) from None
-
-
-def add_detect_options(p) -> None:
-    """``--detect BIAS`` and ``--max-time SECONDS`` (compare and check)."""
-    p.add_argument("--detect", default=None, metavar="BIAS",
-                   help="choose the spp (instead of --spp) from a short pilot render so that the "
-                        "mean test detects a global bias of BIAS (e.g. 2%%) with probability 0.95, "
-                        "or say why it cannot (the reference's own noise)")
-    p.add_argument("--max-time", type=float, default=None, metavar="SECONDS",
-                   help="with --detect: the most seconds the mean-and-variance render may take, "
-                        "at the pilot's pace (default 300)")
-
-
-def detect_of(args):
-    """The :class:`mitsuba_refs.settings.Detect` of ``--detect`` / ``--max-time`` (None without
-    --detect); one-line errors for a bad value or a conflicting option."""
-    if args.detect is None:
-        if args.max_time is not None:
-            raise RefsInputError("--max-time goes with --detect (it caps the spp --detect chooses)")
-        return None
-    from ..verdicts.detect import parse_bias
-    target = parse_bias(args.detect)
-    if args.spp is not None:
-        raise RefsInputError("--spp and --detect both set the sample count: give one of them")
-    max_time = DEFAULT_MAX_TIME if args.max_time is None else args.max_time
-    if not (max_time > 0 and max_time < float("inf")):
-        raise RefsInputError(f"--max-time must be a number of seconds > 0, got {args.max_time}")
-    return Detect(target, max_time)
+from ..settings import Settings
+from .options import add_detect_options, check_alpha, detect_of, positive_ints, resolution
 
 
 def add_compare(subparsers):
@@ -91,7 +44,7 @@ def add_compare(subparsers):
     p.add_argument("--spp", type=int, default=None,
                    help="samples per pixel of the mean/variance render, whatever the file's sampler "
                         f"says (default {config.TEST_MAX_SPP}; the reference has {config.REF_SPP})")
-    p.add_argument("--resolution", type=_resolution, default=None, metavar="WxH",
+    p.add_argument("--resolution", type=resolution, default=None, metavar="WxH",
                    help="film size for both renderers, replacing the file's (literal or $param), "
                         "e.g. 64x48")
     p.add_argument("--max-depth", type=int, default=None,
@@ -100,7 +53,7 @@ def add_compare(subparsers):
                    help="roulette start for both renderers, replacing the file's <integrator> value")
     p.add_argument("--alpha", type=float, default=1e-3,
                    help="significance level of each test (default 1e-3)")
-    p.add_argument("--ladder", type=_positive_ints, default=CONVERGENCE_LADDER,
+    p.add_argument("--ladder", type=positive_ints, default=CONVERGENCE_LADDER,
                    help="spp ladder of the convergence test, comma-separated "
                         f"(default {','.join(map(str, CONVERGENCE_LADDER))})")
     p.add_argument("--replicas", type=int, default=CONVERGENCE_REPLICAS,
@@ -145,8 +98,7 @@ def check_options(args) -> None:
     """Refuse out-of-range options in one line saying what to change."""
     if args.spp is not None:
         check_spp(args.spp)
-    if not 0 < args.alpha < 1:
-        raise RefsInputError(f"--alpha must be between 0 and 1 (e.g. 1e-3), got {args.alpha}")
+    check_alpha(args.alpha)
     if not args.no_convergence:
         check_ladder(args.ladder)
     if args.replicas < 1:

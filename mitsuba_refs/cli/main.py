@@ -20,7 +20,6 @@ import time
 
 from pathtracer.core import interrupts
 from pathtracer.scene.defines import parse_defines
-from pathtracer.scene.load import parse_resolution
 
 from ..errors import RefsInputError, one_line
 from ..preflight import check_scene, check_spp, scene_path
@@ -38,6 +37,7 @@ from ..reference.render import INTEGRATOR_MAP, xml_defaults
 from ..reference.variant import choose_variant
 from .check import add_check
 from .compare import add_compare
+from .options import resolution
 from .report import add_report
 
 #: Exit status -> meaning, for every subcommand.
@@ -87,13 +87,6 @@ def _default_integrators(scene):
     return config.REF_INTEGRATORS
 
 
-def _resolution(text):
-    try:
-        return parse_resolution(text)
-    except ValueError as error:
-        raise argparse.ArgumentTypeError(str(error)) from None
-
-
 def _add_build(subparsers):
     p = subparsers.add_parser(
         "build", help="render missing/stale references",
@@ -115,7 +108,7 @@ def _add_build(subparsers):
     p.add_argument("--variant", default=None,
                    help="Mitsuba variant (default: llvm_ad_rgb if it works, "
                         "else scalar_rgb; env MITSUBA_REFS_VARIANT)")
-    p.add_argument("--resolution", type=_resolution, default=None, metavar="WxH",
+    p.add_argument("--resolution", type=resolution, default=None, metavar="WxH",
                    help="film size replacing the file's (default: the built-in scenes' test size, "
                         "a file's own)")
     p.add_argument("--force", action="store_true", help="re-render valid references too")
@@ -180,11 +173,7 @@ def _usable_variant(requested):
 
 
 #: name -> function(subparsers) returning the handler; extend to add commands.
-def _add_compare(subparsers):
-    return add_compare(subparsers)
-
-
-SUBCOMMANDS = {"build": _add_build, "compare": _add_compare, "check": add_check,
+SUBCOMMANDS = {"build": _add_build, "compare": add_compare, "check": add_check,
                "report": add_report}
 
 

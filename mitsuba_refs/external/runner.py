@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import RefsInputError
+from .images import ExternalImage
 
 #: How often the waiting main thread wakes (a Ctrl-C is seen within this time).
 POLL_SECONDS = 0.1
@@ -54,8 +55,8 @@ class Run:
     seconds: float = 0.0
     cpu_seconds: float = 0.0
     exit_code: int | None = None
-    #: The image it wrote, once read (:class:`~mitsuba_refs.external.images.ExternalImage`).
-    image: object = field(default=None, repr=False)
+    #: The image it wrote, once read.
+    image: ExternalImage | None = field(default=None, repr=False)
 
     def record(self) -> dict:
         """What the reports keep of this run."""

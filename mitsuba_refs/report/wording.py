@@ -80,7 +80,7 @@ def region_name(row_center: float, col_center: float, h: float, w: float) -> str
 
 def _recorded(result, name: str) -> str | None:
     """The words a result recorded in words carries under ``name`` (the compact evidence of
-    :mod:`autograder.hint_evidence` keeps a verdict's line and region as it was printed), or
+    :mod:`autograder.hints.evidence_io` keeps a verdict's line and region as it was printed), or
     None for a result of numbers."""
     value = getattr(result, name, None)
     return value if isinstance(value, str) else None

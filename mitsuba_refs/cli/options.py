@@ -1,0 +1,67 @@
+"""Option readers that several ``mitsuba-refs`` commands share: argparse types for sample-count
+lists and film sizes, ``--detect`` / ``--max-time``, and ``--alpha``'s range."""
+from __future__ import annotations
+
+import argparse
+
+from pathtracer.scene.load import parse_resolution
+
+from ..errors import RefsInputError
+from ..settings import DEFAULT_MAX_TIME, Detect
+
+__all__ = ["positive_ints", "resolution", "add_detect_options", "detect_of", "check_alpha"]
+
+
+def positive_ints(text: str) -> tuple[int, ...]:
+    """argparse type: comma-separated sample counts, each at least 1 (``--ladder``)."""
+    try:
+        values = tuple(int(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if not values or min(values) < 1:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated sample counts >= 1 (e.g. 1,4,16,64), got {text!r}")
+    return values
+
+
+def resolution(text: str) -> tuple[int, int]:
+    """argparse type: a film size ``WxH`` (``--resolution``)."""
+    try:
+        return parse_resolution(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def add_detect_options(parser) -> None:
+    """``--detect BIAS`` and ``--max-time SECONDS`` (compare and check)."""
+    parser.add_argument("--detect", default=None, metavar="BIAS",
+                        help="choose the spp (instead of --spp) from a short pilot render so that the "
+                             "mean test detects a global bias of BIAS (e.g. 2%%) with probability 0.95, "
+                             "or say why it cannot (the reference's own noise)")
+    parser.add_argument("--max-time", type=float, default=None, metavar="SECONDS",
+                        help="with --detect: the most seconds the mean-and-variance render may take, "
+                             "at the pilot's pace (default 300)")
+
+
+def detect_of(args):
+    """The :class:`mitsuba_refs.settings.Detect` of ``--detect`` / ``--max-time`` (None without
+    --detect); one-line errors for a bad value or a conflicting option."""
+    if args.detect is None:
+        if args.max_time is not None:
+            raise RefsInputError("--max-time goes with --detect (it caps the spp --detect chooses)")
+        return None
+    # The verdicts load SciPy's statistics: inside the command, where Ctrl-C is one line.
+    from ..verdicts.detect import parse_bias
+    target = parse_bias(args.detect)
+    if args.spp is not None:
+        raise RefsInputError("--spp and --detect both set the sample count: give one of them")
+    max_time = DEFAULT_MAX_TIME if args.max_time is None else args.max_time
+    if not (max_time > 0 and max_time < float("inf")):
+        raise RefsInputError(f"--max-time must be a number of seconds > 0, got {args.max_time}")
+    return Detect(target, max_time)
+
+
+def check_alpha(alpha: float) -> None:
+    """Refuse a significance level outside (0, 1) in one line."""
+    if not 0 < alpha < 1:
+        raise RefsInputError(f"--alpha must be between 0 and 1 (e.g. 1e-3), got {alpha}")
