@@ -40,16 +40,9 @@ from mitsuba_refs.report.wording import convergence_verdict, mean_verdict, varia
 from mitsuba_refs.settings import Settings
 from mitsuba_refs.stats import MAX_VARIANCE_RATIO, ErrorBudget, compare_means
 from mitsuba_refs.stats.mean import MeanAgreement
-from mitsuba_refs.verdicts.compare import (
-    BOUNCE_REFERENCE,
-    SPLATTING,
-    TEST_SEED,
-    Comparison,
-    compare,
-    default_params,
-    reference_integrator,
-    write_pictures,
-)
+from mitsuba_refs.verdicts.compare import TEST_SEED, Comparison, compare, write_pictures
+from mitsuba_refs.verdicts.estimators import BOUNCE_REFERENCE, SPLATTING, reference_integrator
+from mitsuba_refs.verdicts.scenes import default_params
 from pathtracer.render.splats import replica_count
 
 from .contract import refusal
@@ -78,7 +71,7 @@ BOUNCE_DEPTHS = refs_config.PER_BOUNCE_DEPTHS
 #: inside its time limit with its explanations).
 BOUNCE_SPP = SPP
 #: Convergence test of a graded check: ladder, renders at its top level, most growth while
-#: rare paths dominate (mitsuba_refs.verdicts.compare.convergence_test). Equal work per level: 256
+#: rare paths dominate (mitsuba_refs.verdicts.convergence.convergence_test). Equal work per level: 256
 #: image-spp (64 renders at 1 spp ... 1 at 64), at most 512, inside the time limits.
 CONVERGENCE = dict(ladder=(1, 4, 16, 64), replicas=1, max_growth=2)
 

@@ -16,7 +16,7 @@
 4. optionally (``--renders K``) on real renders of the reference solution at ``check.spp``,
    scaled by ``1+b`` and compared with the committed reference (K seeds; slow).
 
-A light tracer's check (``mitsuba_refs.verdicts.compare.SPLATTING``) has no whole-image components:
+A light tracer's check (``mitsuba_refs.verdicts.estimators.SPLATTING``) has no whole-image components:
 its pixels are correlated across the image (docs/statistics.md, section 8), so the tiles
 decide alone, with their own variance and with the bounded one. Its analytic bound is
 :func:`mitsuba_refs.stats.detectable.tile_detectable_bias` (each tile's best channel,
@@ -44,7 +44,8 @@ from mitsuba_refs.stats.detectable import (
     tile_gross_error_bound,
 )
 from mitsuba_refs.stats.replicas import replica_moments
-from mitsuba_refs.verdicts.compare import SPLATTING, reference_integrator, render_ours
+from mitsuba_refs.verdicts.estimators import SPLATTING, reference_integrator
+from mitsuba_refs.verdicts.scenes import render_ours
 
 from . import grading
 from .replicas import scored_render

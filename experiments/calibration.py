@@ -17,14 +17,9 @@ from tqdm import tqdm
 
 from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.stats import clopper_pearson, compare_means, compare_variances
-from mitsuba_refs.verdicts.compare import (
-    CONVERGENCE_REPLICAS,
-    SAME_ESTIMATOR,
-    check_convergence,
-    default_params,
-    reference_integrator,
-    render_ours,
-)
+from mitsuba_refs.verdicts.convergence import CONVERGENCE_REPLICAS, check_convergence
+from mitsuba_refs.verdicts.estimators import SAME_ESTIMATOR, reference_integrator
+from mitsuba_refs.verdicts.scenes import default_params, render_ours
 
 
 def main(argv=None) -> int:

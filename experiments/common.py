@@ -29,7 +29,8 @@ from tqdm import tqdm
 from mitsuba_refs.errors import ReferenceUnavailable
 from mitsuba_refs.reference.cache import get_reference as lookup
 from mitsuba_refs.stats import image_mse
-from mitsuba_refs.verdicts.compare import default_params, loaded_scene, reference_integrator
+from mitsuba_refs.verdicts.estimators import reference_integrator
+from mitsuba_refs.verdicts.scenes import default_params, loaded_scene
 from pathtracer import render
 from pathtracer.core.color import LUMINANCE
 from pathtracer.scene.defines import parse_define

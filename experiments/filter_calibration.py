@@ -7,7 +7,7 @@ correct renderer is rejected, at alpha 0.05 and 0.2, with 95 % Clopper-Pearson i
 
 * ``tests``: mean and variance tests (``compare_means(max_var_ratio=4)``, ``compare_variances``)
   with the filter's pixel correlation, and with pixels taken as independent;
-* ``convergence``: :func:`mitsuba_refs.verdicts.compare.convergence_test` (ladder, blocks, equal work)
+* ``convergence``: :func:`mitsuba_refs.verdicts.convergence.convergence_test` (ladder, blocks, equal work)
   with one reference shared by all seeds.
 
     python -m experiments.filter_calibration tests --seeds 400          # ~5 min per filter
@@ -25,7 +25,7 @@ from mitsuba_refs.stats import MeanTestOptions, VarianceTestOptions, clopper_pea
 from mitsuba_refs.stats.correlation import pixel_correlation
 from mitsuba_refs.stats.simulate import make_scene
 from mitsuba_refs.stats.simulate_filtered import render_filtered
-from mitsuba_refs.verdicts import compare
+from mitsuba_refs.verdicts.convergence import convergence_ladder, convergence_test
 from pathtracer.sensors.film import ReconstructionFilter
 
 LEVELS = (0.05, 0.2)
@@ -66,7 +66,7 @@ def tests(kind: str, seeds: int, size: int, n_test: int, n_ref: int) -> None:
 
 
 def convergence(kind: str, seeds: int, size: int, n_ref: int) -> None:
-    """False rejections of the convergence law through compare.convergence_test."""
+    """False rejections of the convergence law through the harness's convergence_test."""
     rfilter = ReconstructionFilter.make(kind)
     scene = make_scene(size, size, seed=3, p_range=(0.1, 0.6))
     ref_mean, ref_var = render_filtered(scene, rfilter, n_ref, np.random.default_rng(99))
@@ -77,11 +77,11 @@ def convergence(kind: str, seeds: int, size: int, n_ref: int) -> None:
         def render(_scene, _integrator, _params, spp, render_seed, processes=None, seed=seed):
             rng = np.random.default_rng([seed, render_seed])
             return render_filtered(scene, rfilter, spp, rng)[0], None
-        law, _ = compare.convergence_test("sim", "sim", {}, reference, 0.05, None, render,
-                                          (1, 4, 16, 64), 2)
+        law, _ = convergence_test("sim", "sim", {}, reference, 0.05, None, render,
+                                  (1, 4, 16, 64), 2)
         p_values.append(law.p_value)
         slopes.append(law.slope)
-    print(f"{kind}: convergence, ladder {compare.convergence_ladder(reference, (1, 4, 16, 64))},"
+    print(f"{kind}: convergence, ladder {convergence_ladder(reference, (1, 4, 16, 64))},"
           f" rejections {_rate(p_values)}, median slope {np.median(slopes):.4f}")
 
 

@@ -38,7 +38,7 @@ import numpy as np
 from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.reference.config import BUILTIN_SCENES
 from mitsuba_refs.report.wording import verdict_line
-from mitsuba_refs.verdicts.compare import CLOSEST_ESTIMATOR
+from mitsuba_refs.verdicts.estimators import CLOSEST_ESTIMATOR
 from pathtracer import load_scene
 
 from . import caustics, common
@@ -68,7 +68,8 @@ def compare_one(scene, name, reference, test_reference, args, seed) -> dict:
     """One integrator on one scene at equal time: the row of the table, or why it cannot run.
 
     ``reference`` gives the errors; ``test_reference`` the mean test's verdict (the Mitsuba
-    estimator the harness compares a mean-only ``name`` with, :data:`mitsuba_refs.verdicts.compare.CLOSEST_ESTIMATOR`).
+    estimator the harness compares a mean-only ``name`` with,
+    :data:`mitsuba_refs.verdicts.estimators.CLOSEST_ESTIMATOR`).
     """
     try:
         pool, points = caustics.equal_time_render(scene, name, args.seconds, seed)

@@ -22,7 +22,7 @@ import argparse
 import sys
 import time
 
-from mitsuba_refs.verdicts.compare import default_params
+from mitsuba_refs.verdicts.scenes import default_params
 from pathtracer import load_scene, render
 from pathtracer.core.tonemap import auto_scale, tonemap
 

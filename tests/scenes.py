@@ -10,7 +10,7 @@ that a test of its own documents:
   checked against the closed form Le / (1 - rho) instead (test_analytic.py) and
   the reference's bias is asserted in test_mitsuba_known_bias.py (``recursive``
   and ``smallpt`` are compared with Mitsuba's unbiased path_nee / path_bsdf
-  twins there, see mitsuba_refs.verdicts.compare.CLOSEST_ESTIMATOR);
+  twins there, see mitsuba_refs.verdicts.estimators.CLOSEST_ESTIMATOR);
 * ``point-light`` with ``smallpt``: BSDF sampling alone can never reach a Dirac
   light, so the image is black by construction (test_analytic.py asserts it).
 """

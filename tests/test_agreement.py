@@ -9,7 +9,8 @@ run without Mitsuba.
 """
 import pytest
 
-from mitsuba_refs.verdicts.compare import SAME_ESTIMATOR, compare
+from mitsuba_refs.verdicts.compare import compare
+from mitsuba_refs.verdicts.estimators import SAME_ESTIMATOR
 from pathtracer import INTEGRATORS
 from tests.budget import ALPHA
 from tests.scenes import AGREEMENT_CASES, FEATURE_CASES, NOISELESS, SURFACE_INTEGRATORS, integrator_options, spp_for

@@ -282,7 +282,7 @@ def test_misstated_variance_scores_zero_on_the_part_it_attacks(path):
     names the ratio; with the reported variance believed, the attack would have worked."""
     from mitsuba_refs.reference.cache import get_reference
     from mitsuba_refs.stats import compare_means, compare_variances
-    from mitsuba_refs.verdicts.compare import reference_integrator
+    from mitsuba_refs.verdicts.estimators import reference_integrator
     expect = constants(path).EXPECT
     check, trusted = grading.CHECKS_BY_ID[expect["check"]], expect.get("trusted", False)
     result = grading.run_check(check, str(path), limits=_limits(check), trusted=trusted)

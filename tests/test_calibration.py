@@ -19,7 +19,7 @@ from scipy import stats
 from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.report.wording import verdict_line
 from mitsuba_refs.stats import VARIANCE_BOUND, compare_means, compare_variances
-from mitsuba_refs.verdicts.compare import default_params, render_ours
+from mitsuba_refs.verdicts.scenes import default_params, render_ours
 from tests.budget import ALPHA
 
 pytestmark = pytest.mark.statistical(assertions=1)

@@ -2,7 +2,7 @@
 
 For each (scene, integrator) pair (tests/scenes.py, CONVERGENCE_CASES): the same number of samples at every spp of
 ``LADDER`` (``REPLICAS`` renders at the top, 4x as many per 4x fewer spp, all
-doubled while rare bright paths carry the error: mitsuba_refs.verdicts.compare.convergence_test);
+doubled while rare bright paths carry the error: mitsuba_refs.verdicts.convergence.convergence_test);
 MSE against the committed Mitsuba reference, minus the reference's own variance
 contribution; the fitted log-log slope of MSE must be compatible with -1,
 RMSE(N)/RMSE(4N) with 2, and the MSE must show no bias floor
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from mitsuba_refs.report.wording import verdict_line
-from mitsuba_refs.verdicts.compare import CONVERGENCE_LADDER, check_convergence
+from mitsuba_refs.verdicts.convergence import CONVERGENCE_LADDER, check_convergence
 from pathtracer.integrators.path import PathIntegrator
 from tests.budget import ALPHA
 from tests.scenes import CONVERGENCE_CASES, NOISELESS, integrator_options
@@ -36,7 +36,7 @@ def test_convergence_law(scene, integrator):
 def test_convergence_noiseless_pairs_have_zero_error(scene, integrator):
     """Black on both sides (tests/scenes.py): no error to fall, and none at any spp."""
     from mitsuba_refs.reference.cache import get_reference
-    from mitsuba_refs.verdicts.compare import default_params, render_ours
+    from mitsuba_refs.verdicts.scenes import default_params, render_ours
     reference = get_reference(scene, default_params(scene), integrator, render=False)
     for spp in LADDER:
         mean, variance = render_ours(scene, integrator, default_params(scene), spp, 7, processes=2)

@@ -27,8 +27,9 @@ from mitsuba_refs.stats import VARIANCE_BOUND, MeanTestOptions, compare_means, d
 from mitsuba_refs.stats._tiles import noiseless_pixels
 from mitsuba_refs.stats.correlation import PixelCorrelation
 from mitsuba_refs.stats.detectable import MeanTestPower, detectable_global_bias, tile_detectable_bias
-from mitsuba_refs.verdicts.compare import compare, default_params
+from mitsuba_refs.verdicts.compare import compare
 from mitsuba_refs.verdicts.detect import WEAK_BIAS, Detect, is_weak, mean_test_power, parse_bias, plan
+from mitsuba_refs.verdicts.scenes import default_params
 from tests.budget import ALPHA
 
 LEVEL = 1e-3          # the comparison's alpha (compare's default)

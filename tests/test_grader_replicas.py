@@ -14,7 +14,8 @@ from autograder.replicas import (
     reported_variance_finding,
     scored_render,
 )
-from mitsuba_refs.verdicts.compare import CONVERGENCE_SEED, TEST_SEED
+from mitsuba_refs.verdicts.compare import TEST_SEED
+from mitsuba_refs.verdicts.convergence import CONVERGENCE_SEED
 
 SHAPE = (16, 12, 3)
 

@@ -18,7 +18,8 @@ import pytest
 
 from mitsuba_refs.report.wording import verdict_line
 from mitsuba_refs.stats import MeanTestOptions, VarianceTestOptions
-from mitsuba_refs.verdicts.compare import check_convergence, compare
+from mitsuba_refs.verdicts.compare import compare
+from mitsuba_refs.verdicts.convergence import check_convergence
 from pathtracer import load_scene, render
 from pathtracer.core.rng import RandomStream, sample_keys
 from pathtracer.media.homogeneous import shadow_transmittance
@@ -294,7 +295,7 @@ def test_a_volpathmis_file_renders_with_volpathmis_compared_by_its_mean(tmp_path
     kept, and is compared with Mitsuba's volpathmis, mean only (weighted per path there, per
     flight here)."""
     from mitsuba_refs.reference.render import MEAN_ONLY, integrator_dict
-    from mitsuba_refs.verdicts.compare import SAME_ESTIMATOR, reference_integrator
+    from mitsuba_refs.verdicts.estimators import SAME_ESTIMATOR, reference_integrator
     scene = write_scene(tmp_path, VOLPATHMIS_BODY)
     assert scene.integrator.name == "volpathmis" and scene.integrator.params == {"max_depth": 8}
     assert reference_integrator("volpathmis") == "volpathmis"

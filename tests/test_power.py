@@ -100,7 +100,8 @@ def test_every_check_has_its_committed_references():
     ``volpath`` for the media checks; none for the camera and the splatting light tracer) are
     committed (a missing one would make the grader call Mitsuba on Gradescope)."""
     from mitsuba_refs.reference.cache import get_reference
-    from mitsuba_refs.verdicts.compare import BOUNCE_REFERENCE, SPLATTING, default_params
+    from mitsuba_refs.verdicts.estimators import BOUNCE_REFERENCE, SPLATTING
+    from mitsuba_refs.verdicts.scenes import default_params
     for check in grading.ALL_CHECKS:
         assert power.reference_of(check).n == 4096, check.id
         estimator = BOUNCE_REFERENCE.get(check.integrator, "path")

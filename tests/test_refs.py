@@ -224,6 +224,7 @@ def test_per_bounce_localisation_finds_the_committed_references_with_rr_depth(mo
     roulette acts at max_depth 3 only, and only that reference keeps rr_depth in its key."""
     import mitsuba_refs.verdicts.compare as compare
     from mitsuba_refs.settings import Settings
+    from mitsuba_refs.verdicts.scenes import default_params, render_ours
     seen = []
 
     def committed_only(scene, params, *args, strip=False, **kwargs):
@@ -232,16 +233,15 @@ def test_per_bounce_localisation_finds_the_committed_references_with_rr_depth(mo
             params = {k: v for k, v in params.items() if k != "rr_depth"}
         return get_reference(scene, params, *args, render=False, **kwargs)
 
-    params = {**compare.default_params("glass-cube"), "rr_depth": 8}
+    params = {**default_params("glass-cube"), "rr_depth": 8}
     monkeypatch.setattr(compare, "get_reference", committed_only)
     quick = Settings(spp=4, alpha=1e-3, processes=1)
-    found = compare.localise_bounce("glass-cube", "path", params, quick, compare.render_ours)
+    found = compare.localise_bounce("glass-cube", "path", params, quick, render_ours)
     assert sorted(found) == [1, 2, 3] and seen == [None, None, None]
     seen.clear()
     monkeypatch.setattr(compare, "get_reference",
                         lambda *a, **k: committed_only(*a, strip=True, **k))
-    compare.localise_bounce("glass-cube", "path", {**params, "rr_depth": 2}, quick,
-                            compare.render_ours)
+    compare.localise_bounce("glass-cube", "path", {**params, "rr_depth": 2}, quick, render_ours)
     assert seen == [None, None, 2]
 
 

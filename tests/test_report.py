@@ -30,7 +30,8 @@ from mitsuba_refs.report.junit import write_junit
 from mitsuba_refs.report.outputs import write_outputs
 from mitsuba_refs.report.results import RESULTS_SCHEMA, SCHEMA, comparison_record, load_results, write_json
 from mitsuba_refs.report.wording import mean_line, mean_region, verdict_line
-from mitsuba_refs.verdicts.compare import compare, render_ours
+from mitsuba_refs.verdicts.compare import compare
+from mitsuba_refs.verdicts.scenes import render_ours
 from pathtracer.io.exr import read_mean_variance
 
 SETTINGS = {"spp": 64, "convergence": True, "ladder": (1, 4, 16), "replicas": 2, "processes": 1}

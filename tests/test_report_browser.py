@@ -21,7 +21,8 @@ from PIL import Image
 
 from mitsuba_refs.report.html import write_html
 from mitsuba_refs.report.results import write_json
-from mitsuba_refs.verdicts.compare import compare, render_ours
+from mitsuba_refs.verdicts.compare import compare
+from mitsuba_refs.verdicts.scenes import render_ours
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
 #: Seconds a browser run may take before it is killed (a cold start takes a few).

@@ -236,7 +236,7 @@ def test_mse_law_detects_bias_floor(conv_scene):
 
 
 # ------------------------------------------------- convergence test with rare bright paths
-# Rendered through mitsuba_refs.verdicts.compare.convergence_test itself (equal work per level,
+# Rendered through mitsuba_refs.verdicts.convergence.convergence_test itself (equal work per level,
 # renders doubled while rare errors dominate), with simulated images in place of renders.
 
 RARE_LADDER = (1, 4, 16)
@@ -248,7 +248,7 @@ def _simulated_convergence(sc, seed, *, replicas=2, equal_work=True):
     drawn from generators keyed by ``seed`` and the render seed."""
     from types import SimpleNamespace
 
-    from mitsuba_refs.verdicts import compare
+    from mitsuba_refs.verdicts.convergence import convergence_test
     rm, rv = render_stats(sc, RARE_REF_SPP, 1, np.random.default_rng([seed, 0]))
     reference = SimpleNamespace(mean=rm[0], var=rv[0], n=RARE_REF_SPP)
 
@@ -256,8 +256,8 @@ def _simulated_convergence(sc, seed, *, replicas=2, equal_work=True):
         return render_means(sc, spp, 1, np.random.default_rng([seed, 1, render_seed]))[0], None
 
     if equal_work:
-        law, _ = compare.convergence_test("sim", "sim", {}, reference, 0.05, None, render,
-                                          RARE_LADDER, replicas)
+        law, _ = convergence_test("sim", "sim", {}, reference, 0.05, None, render,
+                                  RARE_LADDER, replicas)
         return law
     levels = []
     for j, n in enumerate(RARE_LADDER):

@@ -32,8 +32,10 @@ from mitsuba_refs.stats.correlation import PixelCorrelation
 from mitsuba_refs.stats.detectable import DetectableBias
 from mitsuba_refs.stats.mean import MeanAgreement
 from mitsuba_refs.stats.variance import VarianceAgreement
-from mitsuba_refs.verdicts.compare import Comparison, ConvergenceParts, default_params
+from mitsuba_refs.verdicts.compare import Comparison
+from mitsuba_refs.verdicts.convergence import ConvergenceParts
 from mitsuba_refs.verdicts.explain import Hint
+from mitsuba_refs.verdicts.scenes import default_params
 from pathtracer.core.color import LUMINANCE
 
 from .. import grading

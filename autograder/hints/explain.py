@@ -32,8 +32,8 @@ import numpy as np
 
 from mitsuba_refs.report.wording import mean_region, variance_policy_verdict
 from mitsuba_refs.verdicts import explain as base
-from mitsuba_refs.verdicts.compare import default_params
 from mitsuba_refs.verdicts.explain import Hint
+from mitsuba_refs.verdicts.scenes import default_params
 from pathtracer import load_scene
 from pathtracer.core.color import LUMINANCE
 from pathtracer.sensors.perspective import camera_rays

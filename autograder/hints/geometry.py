@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mitsuba_refs.verdicts.compare import default_params
+from mitsuba_refs.verdicts.scenes import default_params
 from pathtracer import load_scene
 from pathtracer.core.color import LUMINANCE
 from pathtracer.emitters.scene_emitters import sample_emitter

@@ -28,8 +28,8 @@ import math
 
 import numpy as np
 
-from mitsuba_refs.verdicts.compare import default_params
 from mitsuba_refs.verdicts.explain import Hint
+from mitsuba_refs.verdicts.scenes import default_params
 from pathtracer import load_scene
 from pathtracer.core.color import LUMINANCE
 from pathtracer.sensors.perspective import camera_rays

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mitsuba_refs.verdicts.compare import loaded_scene
+from mitsuba_refs.verdicts.scenes import loaded_scene
 from pathtracer import render
 from pathtracer.core.rng import RandomStream, sample_keys
 from pathtracer.integrators import make_integrator

@@ -113,14 +113,14 @@ def preload(scene, params, resolution=None):
     """Load ``scene`` in our tracer first (its messages name file and line), then check
     what Mitsuba will be given, all before any reference is looked up or rendered.
 
-    The loaded scene is kept by :func:`mitsuba_refs.verdicts.compare.loaded_scene` for the renders,
+    The loaded scene is kept by :func:`mitsuba_refs.verdicts.scenes.loaded_scene` for the renders,
     and returned (its ``integrator`` is the file's own, the default of ``--integrator``).
     Warnings of the loader (e.g. a parameter the file does not use) are printed as one
     line each once the input is known to be good.
     """
     scene_path(scene)
     # SciPy's statistics (~0.3 s) load inside mitsuba-refs' main, where a Ctrl-C is caught.
-    from ..verdicts.compare import default_params, loaded_scene
+    from ..verdicts.scenes import default_params, loaded_scene
     params = {**default_params(scene), **params}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -35,16 +35,9 @@ from ..reference import config
 from ..reference.cache import get_reference
 from ..reference.render import reference_settings
 from ..settings import Settings, settings_of
-from ..verdicts.compare import (
-    TEST_SEED,
-    Comparison,
-    FaultyImages,
-    compare,
-    concluded,
-    default_params,
-    reference_options,
-)
+from ..verdicts.compare import TEST_SEED, Comparison, FaultyImages, compare, concluded
 from ..verdicts.convergence import CONVERGENCE_SEED, ConvergenceParts, convergence_requests
+from ..verdicts.scenes import default_params, reference_options
 from .images import ImageError, image_faults, read_image
 from .renders import ExternalRenders, RendererFault, replica_moments
 from .runner import Runner

@@ -106,7 +106,7 @@ PER_BOUNCE_DEPTHS = (1, 2, 3)
 
 #: spp ladder of ``compare``'s convergence test (4x steps: RMSE should halve) and the
 #: independent replicas at its top level; lower levels get more
-#: (:func:`mitsuba_refs.verdicts.compare.level_replicas`).
+#: (:func:`mitsuba_refs.verdicts.convergence.level_replicas`).
 CONVERGENCE_LADDER = (1, 4, 16, 64)
 CONVERGENCE_REPLICAS = 2
 #: The convergence test's replicas double (at every level) while rare bright paths carry the

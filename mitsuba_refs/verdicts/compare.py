@@ -39,46 +39,15 @@ from ..stats.convergence import ConvergenceResult
 from ..stats.detectable import DetectableBias
 from ..stats.mean import VARIANCE_BOUND, MeanAgreement
 from ..stats.variance import TooFewTiles, VarianceAgreement
-from .convergence import (
-    BLOCKS,
-    CONVERGENCE_LADDER,
-    CONVERGENCE_MAX_GROWTH,
-    CONVERGENCE_REPLICAS,
-    CONVERGENCE_SEED,
-    FILTERED_MIN_SPP,
-    INTERLEAVE,
-    ConvergenceParts,
-    check_convergence,
-    convergence_ladder,
-    convergence_requests,
-    convergence_seed,
-    convergence_test,
-    level_replicas,
-)
+from .convergence import CONVERGENCE_LADDER, convergence_ladder, convergence_test
 from .detect import SppChoice, choose_spp, comparison_bound
-from .estimators import (
-    BOUNCE_REFERENCE,
-    CLOSEST_ESTIMATOR,
-    SAME_ESTIMATOR,
-    SPLATTING,
-    reference_integrator,
-    resolved,
-)
+from .estimators import BOUNCE_REFERENCE, SAME_ESTIMATOR, SPLATTING, resolved
 from .explain import hints
 from .hooks import RecordingRuns, WithOptions
-from .scenes import default_params, loaded_scene, reference_options, render_ours, scene_defaults
+from .scenes import default_params, reference_options, render_ours, scene_defaults
 
-__all__ = [
-    "Comparison", "FaultyImages", "compare", "localise_bounce", "write_pictures",
-    "TEST_SEED", "BOUNCE_DEPTHS", "COMPARE_ALIASES",
-    # moved to .convergence, .estimators and .scenes; importable from here as before
-    "BLOCKS", "CONVERGENCE_LADDER", "CONVERGENCE_MAX_GROWTH", "CONVERGENCE_REPLICAS",
-    "CONVERGENCE_SEED", "FILTERED_MIN_SPP", "INTERLEAVE", "ConvergenceParts", "check_convergence",
-    "convergence_ladder", "convergence_requests", "convergence_seed", "convergence_test",
-    "level_replicas", "BOUNCE_REFERENCE", "CLOSEST_ESTIMATOR", "SAME_ESTIMATOR", "SPLATTING",
-    "reference_integrator", "default_params", "loaded_scene", "reference_options", "render_ours",
-    "scene_defaults", "rendered_settings",
-]
+__all__ = ["Comparison", "FaultyImages", "compare", "localise_bounce", "write_pictures",
+           "TEST_SEED", "BOUNCE_DEPTHS", "COMPARE_ALIASES"]
 
 #: Seed of our mean-and-variance render (the bounce renders: TEST_SEED + depth): far from the
 #: convergence seeds (CONVERGENCE_SEED) and from the references' seeds.
