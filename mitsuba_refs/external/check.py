@@ -83,8 +83,7 @@ def check_settings(settings: Settings | None, keywords: dict) -> Settings:
     if "max_depth" in keywords:
         depth = keywords.pop("max_depth")
         keywords["options"] = {"max_depth": int(depth)} if depth is not None else None
-    keywords = {CHECK_ALIASES.get(name, name): value for name, value in keywords.items()}
-    return settings_of(settings, keywords, "check")
+    return settings_of(settings, keywords, "check", CHECK_ALIASES)
 
 
 class CommandSetup(NamedTuple):
