@@ -186,6 +186,26 @@ def test_images_scaled_by_5_percent_raise_a_disagreement(rendered, tmp_path):
     assert raised.value.result.mean.rel_bias_ci[0] > 0.03, text
 
 
+def test_name_heads_the_verdicts_records_and_pictures(rendered, tmp_path, capsys):
+    """``--name``: the report, the JSON and JUnit records and the picture files speak of the
+    renderer by it, and the record keeps what was judged (power, as above: +5 %)."""
+    _, files = rendered
+    from pathtracer.io.output import read_exr
+    result = read_exr(files[-1])
+    result.mean = result.mean * 1.05
+    write_exr(tmp_path / "brighter.exr", result)
+    code = main(["check", SCENE, "--no-convergence", "--name", "my tracer", "--images",
+                 str(tmp_path / "brighter.exr"), "--out", str(tmp_path / "out"),
+                 "--json", str(tmp_path / "r.json"), "--junit", str(tmp_path / "j.xml")])
+    assert code == 1
+    assert "my tracer" in capsys.readouterr().out
+    record = json.loads((tmp_path / "r.json").read_text())["results"][0]
+    assert (record["renderer"], record["integrator"]) == ("my tracer", "my tracer")
+    assert record["command"] == f"images: {tmp_path / 'brighter.exr'}"
+    assert all("my_tracer" in Path(path).name for path in record["pictures"].values())
+    assert "::my tracer" in (tmp_path / "j.xml").read_text()
+
+
 def _pfm(path, image, spp):
     height, width, _ = image.shape
     with open(path, "wb") as out:

@@ -29,7 +29,7 @@ from mitsuba_refs.report.html import write_html
 from mitsuba_refs.report.junit import write_junit
 from mitsuba_refs.report.outputs import write_outputs
 from mitsuba_refs.report.results import RESULTS_SCHEMA, SCHEMA, comparison_record, load_results, write_json
-from mitsuba_refs.report.wording import mean_line, mean_region, verdict_line
+from mitsuba_refs.report.wording import mean_line, mean_region, percent, verdict_line
 from mitsuba_refs.verdicts.compare import compare
 from mitsuba_refs.verdicts.scenes import render_ours
 from pathtracer.io.exr import read_mean_variance
@@ -126,14 +126,17 @@ def test_record_of_an_external_renderer_without_images(agreeing, tmp_path):
     # what `check` gives: runs of a command with their CPU time, notes, no arrays kept
     runs = [{"seed": seed, "spp": 64, "seconds": 2.0, "cpu_seconds": 3.5, "command": "./smallpt --seed",
              "exit_code": 0} for seed in (1, 2)]
-    external = dataclasses.replace(agreeing, renderer="command: ./smallpt", runs=runs, arrays={},
-                                   notes=["the variance of one run was not given"], pictures={})
+    external = dataclasses.replace(agreeing, renderer="smallpt", command="./smallpt --seed {seed}",
+                                   runs=runs, arrays={}, pictures={},
+                                   notes=["the variance of one run was not given"])
     record = comparison_record(external, tmp_path)
-    assert record["images"] is None and record["renderer"] == "command: ./smallpt"
+    assert record["images"] is None and record["renderer"] == "smallpt"
+    assert record["command"] == "./smallpt --seed {seed}"
     assert (record["renders"], record["render_seconds"], record["cpu_seconds"]) == (2, 4.0, 7.0)
     assert record["runs"] == runs and record["notes"] == external.notes
     text = write_html([record], tmp_path / "html").read_text(encoding="utf-8")
-    assert "the comparison was written without them" in text and "smallpt" in text
+    assert "the comparison was written without them" in text
+    assert "renderer: smallpt (./smallpt --seed {seed})" in text
     ET.parse(write_junit([record], tmp_path / "junit.xml"))
 
 
@@ -400,3 +403,10 @@ def test_compare_writes_what_its_options_ask_for(disagreeing, tmp_path, capsys, 
     assert f"report: {tmp_path / 'html' / 'index.html'}" in out
     assert load_results(tmp_path / "r.json")[0]["agree"] is False
     assert ET.parse(tmp_path / "j.xml").getroot().find(".//failure") is not None
+
+
+@pytest.mark.parametrize("fraction, text", [(-0.013, "\u22121.3%"), (-0.0004, "\u22120.04%"),
+                                            (-0.0, "+0.0%"), (2e-5, "+0.002%"), (0.1234, "+12.3%")])
+def test_a_signed_percent_has_the_digits_it_needs(fraction, text):
+    """An interval bound near 0 keeps a significant digit: never "[-1.3 %, -0.0 %]"."""
+    assert percent(fraction, signed=True) == text

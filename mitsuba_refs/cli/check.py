@@ -61,6 +61,10 @@ def add_check(subparsers):
     p.add_argument("--splatting", action="store_true", default=None,
                    help="the renderer's paths splat into many pixels (light tracing, BDPT): the "
                         "whole-image components are left out (default with ptracer)")
+    p.add_argument("--name", default=None,
+                   help="the renderer's name in the verdicts, records and picture names (default: "
+                        "the program of --command, wrappers such as nice or env skipped; "
+                        "'images' with --images)")
     p.add_argument("--renderer-scene", default=None, metavar="FILE",
                    help="the file the renderer reads ({scene}) when it does not read Mitsuba XML")
     p.add_argument("--jobs", type=int, default=None, help="renderer runs at once (default: the cores)")
@@ -108,7 +112,7 @@ def run_check(args) -> int:
     result = check(args.scene, command=args.command, images=args.images, params=params,
                    settings=settings, renderer_scene=args.renderer_scene,
                    output_suffix=args.output_suffix,
-                   images_spp=None if command_mode else args.spp,
+                   images_spp=None if command_mode else args.spp, name=args.name,
                    log=lambda message: print(message, file=sys.stderr))
     print(result.report())
     for line in write_outputs(args, [result], alpha=args.alpha):

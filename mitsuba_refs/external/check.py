@@ -39,6 +39,7 @@ from ..verdicts.compare import TEST_SEED, Comparison, FaultyImages, compare, con
 from ..verdicts.convergence import CONVERGENCE_SEED, ConvergenceParts, convergence_requests
 from ..verdicts.scenes import default_params, reference_options
 from .images import ImageError, image_faults, read_image
+from .naming import checked_name, short_name
 from .renders import ExternalRenders, RendererFault, replica_moments
 from .runner import Runner
 from .template import CommandTemplate
@@ -93,10 +94,11 @@ class CommandSetup(NamedTuple):
     transport: dict
     renderer_scene: Path
     suffix: str
+    name: str
 
 
 def check(scene, *, command=None, images=None, params=None, settings: Settings | None = None,
-          renderer_scene=None, output_suffix=".exr", images_spp=None, log=None,
+          renderer_scene=None, output_suffix=".exr", images_spp=None, log=None, name=None,
           **keywords) -> Comparison:
     """Judge an external renderer (``command``) or its images (``images``) against Mitsuba.
 
@@ -126,6 +128,10 @@ def check(scene, *, command=None, images=None, params=None, settings: Settings |
         Sample count of images whose header and sidecar give none.
     log : callable, optional
         Called with progress lines.
+    name : str, optional
+        The renderer's name in the verdicts, records and picture names (``--name``); default
+        the short form of ``command`` (:func:`~mitsuba_refs.external.naming.short_name`), or
+        ``images``.
     **keywords
         Fields of ``Settings`` replacing those of ``settings``, as ``mitsuba-refs check``'s
         options read: ``check(scene, command=..., same_estimator=True, jobs=4)``. Older names:
@@ -154,13 +160,15 @@ def check(scene, *, command=None, images=None, params=None, settings: Settings |
                                    same_estimator=bool(settings.same_estimator))
     size = file_settings.resolution
     if command is not None:
-        setup = CommandSetup(size, transport, renderer_scene or path, output_suffix)
+        label = checked_name(name) if name is not None else short_name(command)
+        setup = CommandSetup(size, transport, renderer_scene or path, output_suffix, label)
         result = _check_command(scene, CommandTemplate.parse(command), params, settings, setup, log)
-        renderer = f"command: {command}"
+        source = command
     else:
+        label = checked_name(name) if name is not None else "images"
         result = _check_images(scene, image_files(images), params, settings, (size, images_spp),
-                               log)
-        renderer = f"images: {images if isinstance(images, str) else ' '.join(map(str, images))}"
+                               log, label)
+        source = f"images: {images if isinstance(images, str) else ' '.join(map(str, images))}"
     notes = list(result.notes)
     if renderer_scene is not None:
         notes.append(f"the renderer read {renderer_scene}; its film size ({size[0]}x{size[1]}) "
@@ -171,7 +179,7 @@ def check(scene, *, command=None, images=None, params=None, settings: Settings |
         longest = max(run["seconds"] for run in result.runs)
         notes.append(f"{len(result.runs)} renderer runs, {cpu:.1f} CPU-seconds "
                      f"({wall:.1f} s of runs, the longest {longest:.2f} s)")
-    return dataclasses.replace(result, renderer=renderer, notes=notes,
+    return dataclasses.replace(result, renderer=label, command=source, notes=notes,
                                seconds=time.perf_counter() - start)
 
 
@@ -197,11 +205,11 @@ def _check_command(scene, template, params, settings: Settings, setup: CommandSe
         renders.plan([renders.request(settings.spp, TEST_SEED + d, d)
                       for d in config.PER_BOUNCE_DEPTHS])
     try:
-        result = compare(scene, _label(template), params, dataclasses.replace(
+        result = compare(scene, setup.name, params, dataclasses.replace(
             settings, bounces=settings.bounces if template.takes_max_depth else False),
             render=renders, log=log)
     except RendererFault as fault:
-        result = faulty(scene, _label(template), params, settings.spp, fault.lines, settings.alpha)
+        result = faulty(scene, setup.name, params, settings.spp, fault.lines, settings.alpha)
     finally:
         renders.close()
     notes = list(result.notes)
@@ -225,12 +233,6 @@ class _GrowingLadder:
         batch = convergence_requests(self.reference, self.ladder, self.top, self.top)
         self.top *= 2
         return [self.renders.request(n, seed, request.max_depth, False) for n, seed in batch]
-
-
-def _label(template: CommandTemplate) -> str:
-    """The renderer's name in the verdict lines: its program's file name."""
-    first = template.text.split()[0] if template.text.split() else "renderer"
-    return os.path.basename(first) or "renderer"
 
 
 def faulty(scene, label, params, spp, lines, alpha) -> Comparison:
@@ -299,15 +301,15 @@ def mean_and_variance(images):
     return mean, variance * top, top * len(level)
 
 
-def _check_images(scene, files, params, settings: Settings, film, log):
+def _check_images(scene, files, params, settings: Settings, film, log, label="images"):
     """The verdicts of images rendered elsewhere; ``film`` = (the scene's film size, the sample
     count of images that give none)."""
     images, faults = read_images(files, *film)
     if faults:
-        return faulty(scene, "images", params, max(i.spp for i in images), faults, settings.alpha)
+        return faulty(scene, label, params, max(i.spp for i in images), faults, settings.alpha)
     mean, variance, samples = mean_and_variance(images)
     start = time.perf_counter()
-    result = compare(scene, "images", params, dataclasses.replace(
+    result = compare(scene, label, params, dataclasses.replace(
         settings, spp=samples, convergence=False, bounces=False, out_dir=None),
         render=lambda *args, **kwargs: (mean, variance), log=log)
     # compare() found or built the reference: this is the cached file, read once more.

@@ -19,6 +19,7 @@ from pathtracer.core.color import LUMINANCE
 from pathtracer.core.tonemap import auto_scale, tonemap
 
 from ..stats.convergence import mse_levels
+from .results import default_stem
 from .wording import convergence_verdict, mean_verdict, variance_verdict
 
 __all__ = ["plot_mean_comparison", "plot_convergence", "plot_variance_comparison", "write_pictures"]
@@ -167,7 +168,7 @@ def write_pictures(result, out_dir: Path, mean, variance, reference) -> dict:
     """Diagnostic PNGs of a :class:`~mitsuba_refs.verdicts.compare.Comparison` for its verdicts
     (mean always, variance and convergence where they ran); {name: path}."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    stem = f"{Path(str(result.scene)).stem}-{result.integrator}"
+    stem = default_stem(result)
     title = f"{result.integrator} vs Mitsuba on {result.scene}"
     pictures = {"mean": plot_mean_comparison(out_dir / f"{stem}-mean.png", mean, reference.mean,
                                              result.mean, title)}

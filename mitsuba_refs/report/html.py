@@ -220,7 +220,9 @@ def record_section(record: dict, anchor: str) -> str:
         word += f", weakly (could not see less than {percent(to_float(bound['bias']))})"
     reference = record.get("reference") or {}
     size = (f"{reference.get('width')}x{reference.get('height')}" if reference.get("width") else "size unknown")
-    meta = (f"renderer: {record['renderer']}; {record['spp']} spp; rendered: {record.get('rendered') or '–'}; "
+    command = f" ({record['command']})" if record.get("command") else ""
+    meta = (f"renderer: {record['renderer']}{command}; {record['spp']} spp; "
+            f"rendered: {record.get('rendered') or '–'}; "
             f"reference: Mitsuba {reference.get('integrator') or '–'}, {size}, key "
             f"{str(reference.get('key') or '–')[:16]}; results file: {record.get('source', '–')}")
     shown, missing = record_figures(record)

@@ -121,7 +121,8 @@ def comparison_record(result, out_dir, *, stem: str | None = None) -> dict:
     Returns
     -------
     dict
-        ``schema``, ``scene``, ``renderer``, ``integrator``, ``params``, ``spp``, ``agree``,
+        ``schema``, ``scene``, ``renderer``, ``integrator``, ``command`` (an external renderer's
+        template or images, else None), ``params``, ``spp``, ``agree``,
         ``weak`` (an agreement whose mean test could not see a 5 % global bias), ``detect``
         (what ``--detect`` chose and why, or None),
         ``rendered``, ``reference`` (``key``, ``integrator``, ``width``, ``height``), ``alpha``,
@@ -140,6 +141,7 @@ def comparison_record(result, out_dir, *, stem: str | None = None) -> dict:
         "scene": str(result.scene),
         "renderer": result.renderer or f"pathtracer {result.integrator}",
         "integrator": str(result.integrator),
+        "command": result.command or None,
         "params": plain(dict(result.params or {})),
         "spp": int(result.spp),
         "agree": bool(result.agree),

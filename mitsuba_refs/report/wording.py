@@ -52,17 +52,25 @@ def percent(x: float, *, signed: bool = False, minus: str = "\u2212") -> str:
     """A fraction in percent.
 
     Unsigned (the detectable bias, ``--detect``): ``2.4%``, ``13%``, ``0.02%``; ``any`` when not
-    finite. ``signed`` (a relative bias): ``+1.0%``, one decimal, the minus sign ``minus`` (the
-    verdict lines' U+2212; the reports' interval texts pass ``"-"``).
+    finite. ``signed`` (a relative bias): ``+1.0%``, one decimal, or one significant digit
+    below 0.05 % (``-0.04%``, never ``-0.0%``), the minus sign ``minus`` (the verdict lines'
+    U+2212; the reports' interval texts pass ``"-"``).
     """
     if signed:
-        return f"{100 * x:+.1f}%".replace("-", minus)
+        return f"{_one_decimal(100 * x, '+')}%".replace("-", minus)
     if not math.isfinite(x):
         return "any"
     value = 100.0 * x
     if value >= 10:
         return f"{value:.0f}%"
     return f"{value:.1f}%" if value >= 0.1 else f"{value:.2g}%"
+
+
+def _one_decimal(value: float, sign: str = "") -> str:
+    """``value`` with one decimal, or one significant digit when that decimal would be 0."""
+    if value == 0 or not math.isfinite(value) or abs(value) >= 0.05:
+        return f"{value + 0.0:{sign}.1f}"        # + 0.0: no "-0.0"
+    return f"{value:{sign}.1g}"
 
 
 def region_name(row_center: float, col_center: float, h: float, w: float) -> str:
@@ -165,8 +173,9 @@ def _brightness(mean) -> str:
         return f"image {1 + rel:.3g}x too bright"
     if (low > 0 or high < 0) and math.isfinite(rel):
         word = "too dark" if rel < 0 else "too bright"
-        return (f"image {100 * abs(rel):.1f}% {word} [{100 * abs(low if rel > 0 else high):.1f}%, "
-                f"{100 * abs(high if rel > 0 else low):.1f}%]")
+        near, far = (low, high) if rel > 0 else (high, low)
+        return (f"image {_one_decimal(100 * abs(rel))}% {word} "
+                f"[{_one_decimal(100 * abs(near))}%, {_one_decimal(100 * abs(far))}%]")
     if rel == math.inf:
         return "image bright where the reference is black"
     return f"image-level {_bias_text(mean)} (not significant)"

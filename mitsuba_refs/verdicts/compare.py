@@ -88,8 +88,10 @@ class Comparison:
         the report adds below the verdicts (e.g. what check could not verify).
     rendered, renderer, reference_key, reference_integrator
         What both sides rendered (film, light transport), who rendered the test side, in words
-        ("pathtracer path", "command: ./smallpt ..."), the reference's cache key and the Mitsuba
-        estimator that rendered it.
+        ("pathtracer path", an external renderer's name: ``--name`` or the short form of its
+        command), the reference's cache key and the Mitsuba estimator that rendered it.
+    command : str
+        An external renderer's command template, or the images it was judged from ("" for ours).
     same_estimator : bool or None
         Whether the test side runs the reference's estimator (the variance verdict applies).
     runs : list of dict
@@ -121,6 +123,7 @@ class Comparison:
     rendered: str = ""
     same_estimator: bool | None = None
     renderer: str = ""
+    command: str = ""
     reference_key: str = ""
     reference_integrator: str = ""
     runs: list[dict] = field(default_factory=list)
