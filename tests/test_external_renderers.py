@@ -3,6 +3,7 @@
 * ``pathtracer render`` itself: the verdicts of ``compare`` on the same scene and seeds;
 * Mitsuba's own command-line renderer (live-Mitsuba pass): it agrees with its reference, and
   the same renderer given a 3 % brighter light, or one bounce fewer, disagrees and says so;
+* a Mitsuba Python plugin through examples/mitsuba-plugin/render.py: it agrees;
 * the C++ smallpt of examples/smallpt-cpp, built here with the system compiler: it agrees in
   mean and convergence, and a classic smallpt mistake disagrees.
 """
@@ -102,6 +103,36 @@ def test_mitsuba_command_line_one_bounce_short_disagrees_at_the_first_bounce(mit
     assert not result.agree
     assert result.bounce is not None and result.bounce[0] == 1, result.report()
     assert any("max_depth=1" in hint for hint in result.hints), result.report()
+
+
+# ---- a Mitsuba plugin through examples/mitsuba-plugin -------------------------------------
+
+PLUGIN_COMMAND = (f"{sys.executable} {ROOT / 'examples/mitsuba-plugin/render.py'} {{scene}} "
+                  "--plugin mitsuba_refs.reference.integrators --integrator lecture_path_bsdf "
+                  "--max-depth {max_depth} --spp {spp} --seed {seed} {defines} -o {out}")
+
+
+@pytest.mark.statistical(assertions=2)
+def test_a_mitsuba_plugin_through_its_example_script_agrees(mi):
+    """The project's own BSDF-sampling plugin as a user's plugin: same estimator as the
+    ``path_bsdf`` reference, so mean and variance apply."""
+    result = check("cornell-box", command=PLUGIN_COMMAND, reference="path_bsdf",
+                   same_estimator=True, convergence=False, bounces=False, spp=32, alpha=ALPHA,
+                   jobs=2)
+    assert result.renderer == "mitsuba-plugin-render"
+    assert result.agree, result.report()
+    assert result.variance is not None and result.variance.agree, result.report()
+
+
+def test_a_plugin_that_does_not_load_is_one_line_and_exit_2(mi, tmp_path):
+    broken = tmp_path / "broken.py"
+    broken.write_text("raise ImportError('no module named drjit_extras')\n")
+    run = subprocess.run([sys.executable, str(ROOT / "examples/mitsuba-plugin/render.py"),
+                          str(scene_file("cornell-box")), "--plugin", str(broken), "--spp", "1",
+                          "--seed", "1", "-o", str(tmp_path / "x.exr")],
+                         capture_output=True, text=True)
+    assert run.returncode == 2
+    assert run.stderr.strip() == "render.py: no module named drjit_extras"
 
 
 # ---- the C++ smallpt of examples/ ---------------------------------------------------------
