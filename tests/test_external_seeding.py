@@ -12,8 +12,7 @@ import pytest
 
 from mitsuba_refs.errors import RefsInputError
 from mitsuba_refs.external.renders import check_independent, shared_noise_limit, shares_noise
-from mitsuba_refs.external.seeding import (SEED_LIMIT, WRAP, SeedSpaceError, padded_pixels,
-                                           seed_rule)
+from mitsuba_refs.external.seeding import SEED_LIMIT, WRAP, SeedSpaceError, padded_pixels, seed_rule
 from mitsuba_refs.stats.replicas import offset_shared_noise
 
 FILMS = [(1, 1), (1, 1024), (1024, 1), (17, 5), (48, 40), (64, 64), (100, 75), (333, 1024),
@@ -179,3 +178,24 @@ def test_images_sharing_noise_at_an_offset_are_refused_naming_it():
 def test_fewer_than_three_replicas_or_no_noise_give_no_answer():
     assert offset_shared_noise(np.ones((8, 16, 16, 3))) is None
     assert offset_shared_noise(np.random.default_rng(0).random((2, 16, 16, 3))) is None
+
+
+# ---- what the command line prints and what {defines} carries ---------------------------
+
+def test_seeds_for_prints_multiples_of_the_films_stride(capsys):
+    from mitsuba_refs.cli.main import main
+    assert main(["check", "cornell-box", "--seeds-for", "3", "--resolution", "48x40",
+                 "--spp", "64"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == "# seeds for 3 images of a 48x40 film up to 64 spp: multiples of 4096"
+    assert lines[1:] == ["4096", "8192", "12288"]
+    assert main(["check", "cornell-box", "--seeds-for", "0"]) == 2
+    assert "mitsuba-refs check: error: --seeds-for must be >= 1" in capsys.readouterr().err
+
+
+def test_defines_carry_the_requested_film_size():
+    from mitsuba_refs.external.check import film_defines
+    params = {"width": 64, "height": 64, "max_depth": 3}
+    assert film_defines("cornell-box", params, (48, 40)) == {"width": 48, "height": 40,
+                                                             "max_depth": 3}
+    assert film_defines("cornell-box", params, None) == params

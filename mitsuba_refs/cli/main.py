@@ -195,7 +195,8 @@ def make_parser():
     parser = OneLineParser(
         prog="mitsuba-refs",
         description="Mitsuba 3 references for validating the NumPy path tracer.")
-    subparsers = parser.add_subparsers(dest="command", required=True)
+    # dest "subcommand": check has an option --command, whose value would replace the name.
+    subparsers = parser.add_subparsers(dest="subcommand", required=True)
     for name, add in SUBCOMMANDS.items():
         handler = add(subparsers)
         subparsers.choices[name].set_defaults(handler=handler)
@@ -211,7 +212,7 @@ def main(argv=None):
     interrupts.install()        # a Ctrl-C inside a reader stays an interrupt
     try:
         args = make_parser().parse_args(argv)
-        prog = f"mitsuba-refs {args.command}"
+        prog = f"mitsuba-refs {args.subcommand}"
         try:
             return args.handler(args)
         except _user_errors() as error:

@@ -341,6 +341,19 @@ def mean_and_variance(images):
     return mean, variance * top, top * len(level)
 
 
+def film_seeds(scene, count: int, spp: int, params=None, resolution=None) -> SeedRule:
+    """The seed rule for ``count`` images of up to ``spp`` samples of ``scene``'s film (or
+    ``resolution``): what ``check --seeds-for`` prints, before anything is rendered."""
+    path = scene_path(scene)
+    params = {**default_params(scene), **(params or {})}
+    check_scene(scene, params)
+    size = reference_settings(path, params, None, resolution)[2].resolution
+    try:
+        return seed_rule(*size, spp, count, fit=True)
+    except SeedSpaceError as error:
+        raise RefsInputError(f"--seeds-for: {error}") from None
+
+
 def image_seeds(size, images) -> SeedRule:
     """The seed rule of images rendered elsewhere: the film, their largest spp and count."""
     return seed_rule(*size, max(image.spp for image in images), len(images), fit=True)
@@ -352,7 +365,8 @@ def seeds_advice(rule: SeedRule) -> str:
     return (f"render each image with its own multiple of {rule.stride} as seed ({first}, ...): "
             f"seeds that far apart share no random stream in a {rule.width}x{rule.height} film "
             f"up to {rule.max_spp} spp, whether the renderer adds {{seed}} to a pixel or "
-            "sample index, multiplies it by the pixel count (Mitsuba 3) or hashes it")
+            "sample index (Mitsuba 3's command line), multiplies it by the pixel count "
+            "(Mitsuba 3's render(seed=)) or hashes it")
 
 
 def check_images_independent(files, images, size) -> None:

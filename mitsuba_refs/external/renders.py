@@ -210,10 +210,10 @@ class ExternalRenders:
         max_depth)``: the one made already (the probe's), else a new one."""
         key = (spp, seed, replica, max_depth)
         if key not in self._runs_by_key:
-            self._runs_by_key[key] = self._new_run(spp, max_depth)
+            self._runs_by_key[key] = self._new_run(spp, max_depth, seed)
         return self._runs_by_key[key]
 
-    def _new_run(self, spp, max_depth) -> Run:
+    def _new_run(self, spp, max_depth, request_seed) -> Run:
         """A run with the next seed of the check's rule (the comparison's own seeds only name
         the renders it asks for: the renderer gets seeds no stream scheme can overlap)."""
         try:
@@ -230,7 +230,7 @@ class ExternalRenders:
                   "out_variance": out_variance, "width": width, "height": height,
                   "max_depth": max_depth, "defines": self.defines}
         return Run(spp, seed, max_depth if self.template.takes_max_depth else None,
-                   self.template.fill(values), out, out_variance)
+                   self.template.fill(values), out, out_variance, request_seed)
 
     # ---- images ---------------------------------------------------------------------------
     def _read(self, run: Run) -> ExternalImage:
