@@ -112,6 +112,11 @@ def test_a_check_too_large_for_its_film_is_refused_and_fit_shrinks_it():
     assert 1000 < rule.slots < 3000 and rule.stride * (rule.slots + 1) < SEED_LIMIT
     with pytest.raises(SeedSpaceError):
         rule.seed(rule.slots)
+    # A 4096 x 4096 film leaves room for 126 runs; fit takes them, apart under every scheme.
+    rule = seed_rule(4096, 4096, 64, 8, fit=True)
+    assert rule.slots == 126
+    for scheme in SCHEMES.values():
+        assert disjoint_on_circle(*scheme(rule.seeds(rule.slots, 3), 4096, 4096, 64))
 
 
 def test_a_check_of_the_default_settings_fits_its_runs():
@@ -199,3 +204,25 @@ def test_defines_carry_the_requested_film_size():
     assert film_defines("cornell-box", params, (48, 40)) == {"width": 48, "height": 40,
                                                              "max_depth": 3}
     assert film_defines("cornell-box", params, None) == params
+
+
+# ---- end to end: a renderer seeding pixel i with seed + i ---------------------------------
+
+def test_a_renderer_with_pixel_streams_gets_seeds_apart_and_consecutive_ones_are_refused(capsys):
+    """The stand-in renderer draws pixel i from stream seed + i. At the harness's seeds its
+    replicas are independent (the check goes on to its verdicts: a constant image disagrees,
+    exit 1); told consecutive seeds ({seed} / stride), they share noise one pixel apart."""
+    from mitsuba_refs.cli.main import main
+    from tests.test_external_check import FAKE
+
+    def run(seed):
+        command = (f"{FAKE} --width {{width}} --height {{height}} --seed {seed} --noise 1 "
+                   "--pixel-streams --out {out} # {spp}")
+        code = main(["check", "cornell-box", "--no-convergence", "--bounces", "never",
+                     "--out", "out/test-seeding", "--jobs", "2", "--command", command])
+        return code, capsys.readouterr().err
+    code, err = run("{seed}")
+    assert code == 1, err
+    code, err = run("$(( {seed} / 4096 ))")
+    assert code == 2, err
+    assert "are not independent" in err and "at pixel offset (dx, dy) = (" in err, err

@@ -187,8 +187,7 @@ def _check_command(scene, template, params, settings: Settings, setup: CommandSe
     renders = ExternalRenders(template, runner, setup.renderer_scene, setup.size,
                               film_defines(scene, params, settings.resolution),
                               depth, settings.variance_replicas or 8, setup.suffix, log,
-                              settings.seed_offset, run_seeds(settings, setup.size,
-                                                              template.takes_max_depth))
+                              run_seeds(settings, setup.size, template.takes_max_depth))
     reference = get_reference(scene, params, settings.reference, log=log,
                               options=reference_options(settings.options),
                               resolution=settings.resolution)
@@ -236,8 +235,9 @@ def film_defines(scene, params: dict, resolution) -> dict:
 
 def run_seeds(settings: Settings, size, per_bounce: bool) -> SeedRule:
     """The seed rule of a check's runs (:mod:`mitsuba_refs.external.seeding`): the film, the
-    largest spp of a run, and at most how many runs the check makes (mean and variance, the
-    ``--detect`` pilot, per-bounce renders, the convergence ladder grown to ``max_growth``)."""
+    largest spp of a run, at most how many runs the check makes (mean and variance, the
+    ``--detect`` pilot, per-bounce renders, the convergence ladder grown to ``max_growth``),
+    and ``seed_offset``."""
     replicas = settings.variance_replicas or 8
     variance_renders = 1 + (settings.detect is not None) + (len(config.PER_BOUNCE_DEPTHS)
                                                              if per_bounce else 0)
@@ -246,12 +246,15 @@ def run_seeds(settings: Settings, size, per_bounce: bool) -> SeedRule:
     if settings.detect is not None:
         largest = max(largest, DETECT_MAX_SPP)
     if settings.convergence:
-        runs += sum(level_replicas(tuple(settings.ladder), settings.replicas * settings.max_growth))
+        # The replicas double until they reach max_growth-fold: at most the next power of 2.
+        growth = 1 << (max(1, int(settings.max_growth)) - 1).bit_length()
+        runs += sum(level_replicas(tuple(settings.ladder), settings.replicas * growth))
         largest = max(largest, max(settings.ladder))
     try:
-        return seed_rule(*size, largest, runs, fit=True)
+        rule = seed_rule(*size, largest, runs, fit=True)
     except SeedSpaceError as error:
         raise RefsInputError(f"check: {error}") from None
+    return dataclasses.replace(rule, offset=int(settings.seed_offset))
 
 
 class _GrowingLadder:
@@ -373,7 +376,10 @@ def check_images_independent(files, images, size) -> None:
     """Refuse images of one sample count of which two share their noise at the same pixel or
     at a pixel offset (:func:`mitsuba_refs.external.renders.check_independent`), saying which
     seeds to use instead."""
-    advice = seeds_advice(image_seeds(size, images))
+    try:
+        advice = seeds_advice(image_seeds(size, images))
+    except SeedSpaceError:     # a film too large for seeds apart under every scheme
+        advice = "render each image with random streams hashed from its seed and the pixel"
     for spp in sorted({image.spp for image in images}):
         level = [(file, image) for file, image in zip(files, images) if image.spp == spp]
         if len(level) >= 3:

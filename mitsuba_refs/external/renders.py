@@ -103,22 +103,19 @@ class ExternalRenders:
         File name suffix of ``{out}`` (the renderer may choose its format by it).
     log : callable, optional
         Called with progress lines.
-    seed_offset : int
-        Which of the disjoint seed ranges of :class:`~mitsuba_refs.external.seeding.SeedRule`
-        this check takes (repeated checks: fresh randomness for each).
     seeds : SeedRule, optional
-        The seeds of the runs, one slot per run in the order they are made (default: the
-        rule of the film for :data:`DEFAULT_RUNS` runs of up to :data:`DEFAULT_MAX_SPP` spp).
+        The seeds of the runs, one slot per run in the order they are made, in the range of
+        its ``offset`` (repeated checks: fresh randomness for each). Default: the rule of the
+        film for :data:`DEFAULT_RUNS` runs of up to :data:`DEFAULT_MAX_SPP` spp, offset 0.
     """
 
     def __init__(self, template, runner: Runner, scene_file, size, defines=None, max_depth=-1,
-                 replicas=DEFAULT_REPLICAS, suffix=".exr", log=None, seed_offset=0,
+                 replicas=DEFAULT_REPLICAS, suffix=".exr", log=None,
                  seeds: SeedRule | None = None):
         self.template, self.runner = template, runner
         self.scene_file, self.size = Path(scene_file), tuple(size)
         self.defines, self.max_depth = dict(defines or {}), max_depth
         self.replicas, self.suffix, self.log = int(replicas), suffix, log
-        self.seed_offset = int(seed_offset)
         self.seeds = seeds or seed_rule(*self.size, DEFAULT_MAX_SPP, DEFAULT_RUNS, fit=True)
         #: None until the probe says whether the renderer writes per-pixel variance.
         self.has_variance = True if template.writes_variance else None
@@ -217,7 +214,7 @@ class ExternalRenders:
         """A run with the next seed of the check's rule (the comparison's own seeds only name
         the renders it asks for: the renderer gets seeds no stream scheme can overlap)."""
         try:
-            seed = self.seeds.seed(len(self._runs_by_key), self.seed_offset)
+            seed = self.seeds.seed(len(self._runs_by_key))
         except SeedSpaceError as error:
             raise RefsInputError(f"check: {error}; a {self.size[0]}x{self.size[1]} film leaves no "
                                  "room for more runs with disjoint random streams (fewer "

@@ -97,6 +97,8 @@ class SeedRule:
         ``M``: how many runs the seeds keep apart.
     stride : int
         ``T``: the distance between two seeds.
+    offset : int
+        The check's ``seed_offset`` (repeated checks), the default of the methods' ``offset``.
     """
 
     width: int
@@ -104,25 +106,26 @@ class SeedRule:
     max_spp: int
     slots: int
     stride: int
+    offset: int = 0
 
     @property
     def rounds(self) -> int:
         """``K``: checks with pairwise disjoint seed ranges before the ranges are reused."""
         return max(1, (SEED_LIMIT - self.stride) // (self.stride * self.slots))
 
-    def base(self, offset: int = 0) -> int:
+    def base(self, offset: int | None = None) -> int:
         """``b``: the seeds of the check with ``seed_offset`` ``offset`` are ``b + m T``."""
-        offset = int(offset)
+        offset = self.offset if offset is None else int(offset)
         round_, range_ = divmod(offset, self.rounds)
         return self.stride * self.slots * range_ + (round_ * ROUND_SHIFT) % self.stride
 
-    def seed(self, slot: int, offset: int = 0) -> int:
+    def seed(self, slot: int, offset: int | None = None) -> int:
         """The seed of run ``slot`` (0-based) of the check with ``seed_offset`` ``offset``."""
         if not 0 <= slot < self.slots:
             raise SeedSpaceError(f"run {slot + 1} of a check planned for {self.slots} runs")
         return self.base(offset) + self.stride * (slot + 1)
 
-    def seeds(self, count: int, offset: int = 0) -> list[int]:
+    def seeds(self, count: int, offset: int | None = None) -> list[int]:
         """The first ``count`` seeds."""
         return [self.seed(slot, offset) for slot in range(count)]
 
@@ -130,30 +133,30 @@ class SeedRule:
 def seed_rule(width: int, height: int, max_spp: int, runs: int = MIN_SLOTS, *,
               fit: bool = False) -> SeedRule:
     """The :class:`SeedRule` of a ``width`` x ``height`` film, runs of at most ``max_spp``
-    samples per pixel and at most ``runs`` runs (with ``fit``, as many of them as the film
-    leaves room for: a check that grows that far is refused then, not before).
+    samples per pixel and at most ``runs`` runs (at least :data:`MIN_SLOTS`; with ``fit``, as
+    many of them as the film leaves room for: a check that grows past them is refused then,
+    not before).
 
     Raises
     ------
     SeedSpaceError
-        When no stride keeps that many runs (``fit``: :data:`MIN_SLOTS` runs) apart below
-        :data:`SEED_LIMIT`.
+        When no stride keeps that many runs (``fit``: one run) apart below :data:`SEED_LIMIT`.
     """
     width, height, max_spp = int(width), int(height), max(1, int(max_spp))
     padded = padded_pixels(width, height)
     smallest = max(padded, max_spp)
     wanted = max(MIN_SLOTS, int(runs))
     most = (SEED_LIMIT - 1) // smallest - 1
-    slots = max(MIN_SLOTS, min(wanted, most)) if fit else wanted
+    slots = max(1, min(wanted, most)) if fit else wanted
     while True:
         stride = _stride(width * height, padded, smallest, slots)
         if stride is not None:
             return SeedRule(width, height, max_spp, slots, stride)
-        if not fit or slots <= MIN_SLOTS:
+        if not fit or slots <= 1:
             break
-        slots = max(MIN_SLOTS, slots * 7 // 8)
+        slots = max(1, slots * 7 // 8)
     raise SeedSpaceError(f"a {width}x{height} film at up to {max_spp} spp leaves room for at most "
-                         f"{most} runs with disjoint random streams below 2^31; {slots} were "
+                         f"{max(0, most)} runs with disjoint random streams below 2^31; {slots} were "
                          "needed")
 
 

@@ -23,6 +23,12 @@ average there, so that every other replica's deviation from it would carry the s
 value. Standardised: otherwise a few pixels of high variance (a light's edge) carry the whole
 correlation, which is then the noise of a handful of values (0.56 for 8 independent renders of
 ``direct`` on the Cornell box, against -0.04 standardised).
+
+Replicas can also share noise at a pixel offset: a renderer that seeds each pixel's stream with
+the seed plus a pixel index replays, at seed ``s + 1``, the streams of seed ``s`` one pixel
+further on, and the correlation at the same pixel stays near 0. :func:`offset_shared_noise`
+looks at every 2-D offset (the harness's check, :mod:`mitsuba_refs.external.renders`);
+:func:`shared_noise` at the same pixel only (the grader's, whose renders hash their seeds).
 """
 from __future__ import annotations
 
