@@ -195,11 +195,11 @@ def make_parser():
     parser = OneLineParser(
         prog="mitsuba-refs",
         description="Mitsuba 3 references for validating the NumPy path tracer.")
-    # dest "subcommand": check has an option --command, whose value would replace the name.
-    subparsers = parser.add_subparsers(dest="subcommand", required=True)
+    subparsers = parser.add_subparsers(dest="command", required=True)
     for name, add in SUBCOMMANDS.items():
         handler = add(subparsers)
-        subparsers.choices[name].set_defaults(handler=handler)
+        # "subcommand" too: check's option --command replaces args.command with its template.
+        subparsers.choices[name].set_defaults(handler=handler, subcommand=name)
     return parser
 
 
