@@ -383,8 +383,10 @@ def check_images_independent(files, images, size) -> None:
     for spp in sorted({image.spp for image in images}):
         level = [(file, image) for file, image in zip(files, images) if image.spp == spp]
         if len(level) >= 3:
-            check_independent(np.stack([image.mean for _, image in level]),
-                              names=[str(file) for file, _ in level], advice=advice)
+            names = [str(file) + (f" (seed {image.seed})" if image.seed is not None else "")
+                     for file, image in level]
+            check_independent(np.stack([image.mean for _, image in level]), names=names,
+                              advice=advice)
 
 
 def _check_images(scene, files, params, settings: Settings, film, log):

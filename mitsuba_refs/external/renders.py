@@ -123,7 +123,7 @@ class ExternalRenders:
         self._plans: list[list[Request]] = []
         self._extend = None
         self._seen: dict = {}              # sha256 of an image -> the run that made it
-        self._runs_by_key: dict = {}       # (spp, seed, replica, max_depth) asked for -> its Run
+        self._runs_by_key: dict = {}       # (spp, request seed, replica, depth) -> its Run
         self._workdir = Path(tempfile.mkdtemp(prefix="mitsuba-refs-check-"))
 
     @property
@@ -202,12 +202,12 @@ class ExternalRenders:
         return [self._reuse(request.spp // count, request.seed, r, request.max_depth)
                 for r in range(1 if probe else count)]
 
-    def _reuse(self, spp, seed, replica, max_depth) -> Run:
-        """The run of replica ``replica`` (None: the only run) of the request ``(spp, seed,
-        max_depth)``: the one made already (the probe's), else a new one."""
-        key = (spp, seed, replica, max_depth)
+    def _reuse(self, spp, request_seed, replica, max_depth) -> Run:
+        """The run of replica ``replica`` (None: the only run) of the request ``(spp,
+        request_seed, max_depth)``: the one made already (the probe's), else a new one."""
+        key = (spp, request_seed, replica, max_depth)
         if key not in self._runs_by_key:
-            self._runs_by_key[key] = self._new_run(spp, max_depth, seed)
+            self._runs_by_key[key] = self._new_run(spp, max_depth, request_seed)
         return self._runs_by_key[key]
 
     def _new_run(self, spp, max_depth, request_seed) -> Run:
