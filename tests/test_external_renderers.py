@@ -133,13 +133,13 @@ def test_documented_mitsuba_recipe_agrees_on_cornell_box(mitsuba_cli):
     assert min(b - a for a, b in zip(seeds, seeds[1:])) >= 4096      # 64 x 64 = 4 blocks
 
 
-@pytest.mark.statistical(assertions=2)
+@pytest.mark.statistical(assertions=3)
 def test_documented_mitsuba_recipe_renders_the_requested_resolution(mitsuba_cli):
     """{defines} carries --resolution's width and height (it carried the test size, 64x64)."""
     result = check("cornell-box", command=RECIPE.format(mitsuba=mitsuba_cli), same_estimator=True,
-                   resolution=(48, 40), convergence=False, alpha=ALPHA, jobs=2)
+                   resolution=(48, 40), alpha=ALPHA, jobs=2)
     assert result.agree, result.report()
-    assert result.variance.agree
+    assert result.variance.agree and result.convergence.passed
     assert all("-D width=48 -D height=40" in run["command"] for run in result.runs)
 
 
