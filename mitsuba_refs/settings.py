@@ -104,8 +104,8 @@ class Settings:
         check: ``K``, the replicas that give mean and variance when the renderer's images
         carry no variance (None: 8).
     seed_offset : int
-        check: 0 gives the renderer the comparison's own seeds; another value scrambles every
-        seed (one bijection per offset), for independent repetitions of one check.
+        check: which range of the renderer's seeds the runs take
+        (:mod:`mitsuba_refs.external.seeding`), for independent repetitions of one check.
     """
 
     spp: int = config.TEST_MAX_SPP

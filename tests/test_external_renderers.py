@@ -2,11 +2,14 @@
 
 * ``pathtracer render`` itself: the verdicts of ``compare`` on the same scene and seeds;
 * Mitsuba's own command-line renderer (live-Mitsuba pass): it agrees with its reference, and
-  the same renderer given a 3 % brighter light, or one bounce fewer, disagrees and says so;
+  the same renderer given a 3 % brighter light, or one bounce fewer, disagrees and says so; the
+  recipe of docs/external.md agrees at the test size and at --resolution 48x40, and images at
+  consecutive seeds (shared streams) are refused, those at the seeds it recommends agree;
 * a Mitsuba Python plugin through examples/mitsuba-plugin/render.py: it agrees;
 * the C++ smallpt of examples/smallpt-cpp, built here with the system compiler: it agrees in
   mean and convergence, and a classic smallpt mistake disagrees.
 """
+import re
 import shutil
 import subprocess
 import sys
@@ -16,6 +19,7 @@ import pytest
 
 from mitsuba_refs.external.check import check
 from mitsuba_refs.verdicts.compare import compare
+from mitsuba_refs.verdicts.scenes import render_ours
 from pathtracer.scene.load import scene_file
 from tests.budget import ALPHA
 
@@ -29,12 +33,19 @@ LADDER = (1, 4, 16)
 def test_pathtracer_render_through_a_command_gets_the_verdicts_of_compare():
     """Same scene, seeds and sample counts: the images differ only by the EXR's float32, so
     every verdict is the same and its p-value equal to ~1e-4 (no statistical risk of its own:
-    the two sides are the same renders)."""
+    the two sides are the same renders). The check's runs get seeds of its own rule; each run
+    records the comparison's seed it served, and compare renders with the run's seed."""
     command = (f"{PATHTRACER} render {{scene}} --resolution {{width}}x{{height}} --spp {{spp}} "
                f"--seed {{seed}} --max-depth {{max_depth}} -o {{out}}")
-    ours = compare("cornell-box", "path", ladder=LADDER, replicas=1, alpha=ALPHA)
     theirs = check("cornell-box", command=command, same_estimator=True, reference="path",
                    ladder=LADDER, ladder_replicas=1, alpha=ALPHA, jobs=2)
+    seeds = {(run["spp"], run["request_seed"]): run["seed"] for run in theirs.runs}
+
+    def with_the_runs_seeds(scene, integrator, params, spp, seed, **keywords):
+        return render_ours(scene, integrator, params, spp, seeds[(spp, seed)], **keywords)
+
+    ours = compare("cornell-box", "path", ladder=LADDER, replicas=1, alpha=ALPHA,
+                   render=with_the_runs_seeds)
     assert (theirs.renderer, theirs.command) == ("pathtracer", command)
     for part in ("mean", "variance", "convergence"):
         a, b = getattr(ours, part), getattr(theirs, part)
@@ -105,6 +116,62 @@ def test_mitsuba_command_line_one_bounce_short_disagrees_at_the_first_bounce(mit
     assert any("max_depth=1" in hint for hint in result.hints), result.report()
 
 
+@pytest.mark.statistical(assertions=3)
+def test_documented_mitsuba_recipe_agrees_on_cornell_box(mitsuba_cli):
+    """Consecutive seeds replayed each other's streams one pixel further on (mean p = 5e-7);
+    the harness's seeds are a stride of at least the padded pixel count apart."""
+    result = check("cornell-box", command=RECIPE.format(mitsuba=mitsuba_cli), same_estimator=True,
+                   alpha=ALPHA, jobs=2)
+    assert result.agree, result.report()
+    assert result.variance.agree and result.convergence.passed
+    seeds = sorted(run["seed"] for run in result.runs)
+    assert min(b - a for a, b in zip(seeds, seeds[1:])) >= 4096      # 64 x 64 = 4 blocks
+
+
+@pytest.mark.statistical(assertions=3)
+def test_documented_mitsuba_recipe_renders_the_requested_resolution(mitsuba_cli):
+    """{defines} carries --resolution's width and height (it carried the test size, 64x64)."""
+    result = check("cornell-box", command=RECIPE.format(mitsuba=mitsuba_cli), same_estimator=True,
+                   resolution=(48, 40), alpha=ALPHA, jobs=2)
+    assert result.agree, result.report()
+    assert result.variance.agree and result.convergence.passed
+    assert all("-D width=48 -D height=40" in run["command"] for run in result.runs)
+
+
+def _mitsuba_images(program, folder, seeds, spp=8):
+    """Renders of cornell-box at 64 x 64, one per seed, as a user would leave them."""
+    scene = scene_file("cornell-box")
+    files = []
+    for seed in seeds:
+        out = folder / f"cbox-{seed}.exr"
+        subprocess.run([program, "-m", "scalar_rgb", "-o", str(out), "-D", "width=64", "-D",
+                        "height=64", "-D", f"spp={spp}", "-D", f"seed={seed}", "-D", "max_depth=-1",
+                        scene], check=True, capture_output=True)
+        files.append(str(out))
+    return files
+
+
+@pytest.mark.statistical(assertions=2)
+def test_images_at_consecutive_seeds_are_refused_and_the_recommended_seeds_agree(
+        mitsuba_cli, tmp_path, capsys):
+    """Seeds 1..8 share streams shifted by one pixel (Morton order in 32 x 32 blocks): refused,
+    naming the pair, the offset and the seeds to use; those seeds give images that agree."""
+    from mitsuba_refs.cli.main import main
+    options = ["--spp", "8", "--same-estimator", "--no-convergence", "--out", str(tmp_path / "out")]
+    code = main(["check", "cornell-box", "--images",
+                 *_mitsuba_images(mitsuba_cli, tmp_path, range(1, 9)), *options])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "are not independent" in err and "at pixel offset (dx, dy) = (" in err, err
+    stride = int(re.search(r"its own multiple of (\d+) as seed", err).group(1))
+    assert stride == 4096
+    seeds = [stride * k for k in range(1, 9)]
+    code = main(["check", "cornell-box", "--images",
+                 *_mitsuba_images(mitsuba_cli, tmp_path, seeds), *options])
+    out = capsys.readouterr().out
+    assert code == 0, out
+
+
 # ---- a Mitsuba plugin through examples/mitsuba-plugin -------------------------------------
 
 PLUGIN_COMMAND = (f"{sys.executable} {ROOT / 'examples/mitsuba-plugin/render.py'} {{scene}} "
@@ -133,6 +200,10 @@ def test_a_plugin_that_does_not_load_is_one_line_and_exit_2(mi, tmp_path):
                          capture_output=True, text=True)
     assert run.returncode == 2
     assert run.stderr.strip() == "render.py: no module named drjit_extras"
+# The recipe of docs/external.md: {defines} gives the film size, -D seed= the sampler's seed,
+# from which Mitsuba's scalar renderer seeds pixel i of its padded 32 x 32 blocks with seed + i.
+RECIPE = ("{mitsuba} -m scalar_rgb -o {{out}} {{defines}} -D spp={{spp}} -D seed={{seed}} "
+          "-D max_depth={{max_depth}} {{scene}}")
 
 
 # ---- the C++ smallpt of examples/ ---------------------------------------------------------

@@ -58,8 +58,9 @@ def load_plugin(plugin: str) -> None:
 
 
 def main(argv=None) -> int:
+    """Render as the arguments say; the exit status (module docstring)."""
     args = arguments(argv)
-    import mitsuba as mi           # after the arguments: --help needs no Mitsuba
+    import mitsuba as mi  # after the arguments: --help needs no Mitsuba
     mi.set_variant(args.variant)
     try:
         load_plugin(args.plugin)

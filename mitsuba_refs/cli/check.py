@@ -23,6 +23,10 @@ from .options import add_detect_options, check_alpha, detect_of, positive_ints, 
 PLACEHOLDER_HELP = "placeholders: " + "; ".join(f"{{{name}}} {text}" for name, text in PLACEHOLDERS.items())
 
 
+#: ``--seeds-for``'s largest sample count when ``--spp`` gives none.
+SEEDS_FOR_SPP = 4096
+
+
 def add_check(subparsers):
     """Add the ``check`` subcommand to ``subparsers``; return its handler."""
     p = subparsers.add_parser(
@@ -42,6 +46,10 @@ def add_check(subparsers):
     source.add_argument("--images", nargs="+", metavar="FILE",
                         help="images rendered elsewhere (EXR, PFM, HDR; glob patterns allowed), "
                              "see docs/external.md")
+    source.add_argument("--seeds-for", type=int, metavar="N",
+                        help="print seeds for N images of the scene's film (--resolution) up to "
+                             "--spp samples (default 4096), far enough apart that no two share "
+                             "a random stream, and exit")
     p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
                    help="scene parameter for Mitsuba (and {defines}); repeatable")
     p.add_argument("--spp", type=int, default=None,
@@ -93,6 +101,8 @@ def add_check(subparsers):
 def run_check(args) -> int:
     """Handler of ``check``."""
     params = parse_defines(args.defines)
+    if args.seeds_for is not None:
+        return _print_seeds(args, params)
     _check_options(args)
     detect = detect_of(args)
     if detect is not None and args.command is None:
@@ -118,6 +128,22 @@ def run_check(args) -> int:
     for line in write_outputs(args, [result], alpha=args.alpha):
         print(line)
     return 0 if result.agree else 1
+
+
+def _print_seeds(args, params) -> int:
+    """``--seeds-for N``: the seeds of N images, one line of explanation, then one per line."""
+    from ..external.check import film_seeds
+    if args.seeds_for < 1:
+        raise RefsInputError(f"--seeds-for must be >= 1, got {args.seeds_for}")
+    if args.spp is not None:
+        check_spp(args.spp)
+    rule = film_seeds(args.scene, args.seeds_for, args.spp or SEEDS_FOR_SPP, params,
+                      args.resolution)
+    print(f"# seeds for {args.seeds_for} images of a {rule.width}x{rule.height} film up to "
+          f"{rule.max_spp} spp: multiples of {rule.stride}")
+    for seed in rule.seeds(args.seeds_for):
+        print(seed)
+    return 0
 
 
 def _check_options(args) -> None:

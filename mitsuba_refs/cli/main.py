@@ -198,7 +198,8 @@ def make_parser():
     subparsers = parser.add_subparsers(dest="command", required=True)
     for name, add in SUBCOMMANDS.items():
         handler = add(subparsers)
-        subparsers.choices[name].set_defaults(handler=handler)
+        # "subcommand" too: check's option --command replaces args.command with its template.
+        subparsers.choices[name].set_defaults(handler=handler, subcommand=name)
     return parser
 
 
@@ -211,7 +212,7 @@ def main(argv=None):
     interrupts.install()        # a Ctrl-C inside a reader stays an interrupt
     try:
         args = make_parser().parse_args(argv)
-        prog = f"mitsuba-refs {args.command}"
+        prog = f"mitsuba-refs {args.subcommand}"
         try:
             return args.handler(args)
         except _user_errors() as error:

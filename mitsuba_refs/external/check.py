@@ -34,14 +34,15 @@ from ..preflight import check_scene, scene_path
 from ..reference import config
 from ..reference.cache import get_reference
 from ..reference.render import reference_settings
-from ..settings import Settings, settings_of
+from ..settings import PILOT_SPP, Settings, settings_of
 from ..verdicts.compare import TEST_SEED, Comparison, FaultyImages, compare, concluded
-from ..verdicts.convergence import CONVERGENCE_SEED, ConvergenceParts, convergence_requests
-from ..verdicts.scenes import default_params, reference_options
+from ..verdicts.convergence import CONVERGENCE_SEED, ConvergenceParts, convergence_requests, level_replicas
+from ..verdicts.scenes import default_params, reference_options, scene_defaults
 from .images import ImageError, image_faults, read_image
 from .naming import checked_name, short_name
-from .renders import ExternalRenders, RendererFault, replica_moments
+from .renders import ExternalRenders, RendererFault, check_independent, replica_moments
 from .runner import Runner
+from .seeding import SeedRule, SeedSpaceError, seed_rule
 from .template import CommandTemplate
 
 #: Mitsuba's integrator type (or our name for its estimator) -> the reference's name here.
@@ -56,6 +57,8 @@ MIN_IMAGE_REPLICAS = 8
 MIN_IMAGE_LEVELS = 3
 #: The harness's default timeout of one renderer run, in seconds (``Settings.timeout``).
 DEFAULT_TIMEOUT = config.DEFAULT_TIMEOUT
+#: The largest spp a run is assumed to take with ``--detect``, whose spp the pilot chooses.
+DETECT_MAX_SPP = 1 << 16
 #: check's older keyword names -> the Settings fields they set (``max_depth`` sets ``options``;
 #: ``replicas`` was the variance replicas and is refused: say ``variance_replicas``).
 CHECK_ALIASES = {"ladder_replicas": "replicas"}
@@ -189,9 +192,10 @@ def _check_command(scene, template, params, settings: Settings, setup: CommandSe
                              "be told the path length to localise a bounce")
     runner = Runner(settings.jobs or os.cpu_count() or 1, float(settings.timeout))
     depth = int(setup.transport.get("max_depth", -1))
-    renders = ExternalRenders(template, runner, setup.renderer_scene, setup.size, params, depth,
-                              settings.variance_replicas or 8, setup.suffix, log,
-                              settings.seed_offset)
+    renders = ExternalRenders(template, runner, setup.renderer_scene, setup.size,
+                              film_defines(scene, params, settings.resolution),
+                              depth, settings.variance_replicas or 8, setup.suffix, log,
+                              run_seeds(settings, setup.size, template.takes_max_depth))
     reference = get_reference(scene, params, settings.reference, log=log,
                               options=reference_options(settings.options),
                               resolution=settings.resolution)
@@ -218,6 +222,47 @@ def _check_command(scene, template, params, settings: Settings, setup: CommandSe
         notes.append(f"its images carry no variance: mean and variance from {count} "
                      "independent replicas with seeds of their own")
     return dataclasses.replace(result, runs=[run.record() for run in renders.runs], notes=notes)
+
+
+def film_defines(scene, params: dict, resolution) -> dict:
+    """``{defines}``: the scene parameters, with ``width`` and ``height`` set to ``resolution``
+    (``--resolution``) where the scene takes them as parameters (the built-in scenes do), so
+    that a renderer given ``{defines}`` renders the film the reference has."""
+    if resolution is None:
+        return dict(params)
+    try:
+        declared = scene_defaults(scene)
+    except (OSError, ValueError):
+        declared = {}
+    defines = dict(params)
+    for name, value in zip(("width", "height"), resolution):
+        if name in params or name in declared:
+            defines[name] = int(value)
+    return defines
+
+
+def run_seeds(settings: Settings, size, per_bounce: bool) -> SeedRule:
+    """The seed rule of a check's runs (:mod:`mitsuba_refs.external.seeding`): the film, the
+    largest spp of a run, at most how many runs the check makes (mean and variance, the
+    ``--detect`` pilot, per-bounce renders, the convergence ladder grown to ``max_growth``),
+    and ``seed_offset``."""
+    replicas = settings.variance_replicas or 8
+    variance_renders = 1 + (settings.detect is not None) + (len(config.PER_BOUNCE_DEPTHS)
+                                                             if per_bounce else 0)
+    runs = replicas * variance_renders
+    largest = max(int(settings.spp), PILOT_SPP if settings.detect is not None else 1)
+    if settings.detect is not None:
+        largest = max(largest, DETECT_MAX_SPP)
+    if settings.convergence:
+        # The replicas double until they reach max_growth-fold: at most the next power of 2.
+        growth = 1 << (max(1, int(settings.max_growth)) - 1).bit_length()
+        runs += sum(level_replicas(tuple(settings.ladder), settings.replicas * growth))
+        largest = max(largest, max(settings.ladder))
+    try:
+        rule = seed_rule(*size, largest, runs, fit=True)
+    except SeedSpaceError as error:
+        raise RefsInputError(f"check: {error}") from None
+    return dataclasses.replace(rule, offset=int(settings.seed_offset))
 
 
 class _GrowingLadder:
@@ -297,8 +342,53 @@ def mean_and_variance(images):
             f"{len(level)} image(s) at {top} spp without var.R var.G var.B channels: the mean and "
             f"variance verdicts need the variance channels or >= {MIN_IMAGE_REPLICAS} independent "
             f"replicas at one sample count (docs/external.md)")
-    mean, variance = replica_moments([image.mean for image in level])
+    mean, variance = replica_moments([image.mean for image in level], check=False)
     return mean, variance * top, top * len(level)
+
+
+def film_seeds(scene, count: int, spp: int, params=None, resolution=None) -> SeedRule:
+    """The seed rule for ``count`` images of up to ``spp`` samples of ``scene``'s film (or
+    ``resolution``): what ``check --seeds-for`` prints, before anything is rendered."""
+    path = scene_path(scene)
+    params = {**default_params(scene), **(params or {})}
+    check_scene(scene, params)
+    size = reference_settings(path, params, None, resolution)[2].resolution
+    try:
+        return seed_rule(*size, spp, count, fit=True)
+    except SeedSpaceError as error:
+        raise RefsInputError(f"--seeds-for: {error}") from None
+
+
+def image_seeds(size, images) -> SeedRule:
+    """The seed rule of images rendered elsewhere: the film, their largest spp and count."""
+    return seed_rule(*size, max(image.spp for image in images), len(images), fit=True)
+
+
+def seeds_advice(rule: SeedRule) -> str:
+    """What seeds to render images with, by ``rule``: multiples of its stride."""
+    first = ", ".join(str(seed) for seed in rule.seeds(3))
+    return (f"render each image with its own multiple of {rule.stride} as seed ({first}, ...): "
+            f"seeds that far apart share no random stream in a {rule.width}x{rule.height} film "
+            f"up to {rule.max_spp} spp, whether the renderer adds {{seed}} to a pixel or "
+            "sample index (Mitsuba 3's command line), multiplies it by the pixel count "
+            "(Mitsuba 3's render(seed=)) or hashes it")
+
+
+def check_images_independent(files, images, size) -> None:
+    """Refuse images of one sample count of which two share their noise at the same pixel or
+    at a pixel offset (:func:`mitsuba_refs.external.renders.check_independent`), saying which
+    seeds to use instead."""
+    try:
+        advice = seeds_advice(image_seeds(size, images))
+    except SeedSpaceError:     # a film too large for seeds apart under every scheme
+        advice = "render each image with random streams hashed from its seed and the pixel"
+    for spp in sorted({image.spp for image in images}):
+        level = [(file, image) for file, image in zip(files, images) if image.spp == spp]
+        if len(level) >= 3:
+            names = [str(file) + (f" (seed {image.seed})" if image.seed is not None else "")
+                     for file, image in level]
+            check_independent(np.stack([image.mean for _, image in level]), names=names,
+                              advice=advice)
 
 
 def _check_images(scene, files, params, settings: Settings, film, log, label="images"):
@@ -307,6 +397,7 @@ def _check_images(scene, files, params, settings: Settings, film, log, label="im
     images, faults = read_images(files, *film)
     if faults:
         return faulty(scene, label, params, max(i.spp for i in images), faults, settings.alpha)
+    check_images_independent(files, images, film[0])
     mean, variance, samples = mean_and_variance(images)
     start = time.perf_counter()
     result = compare(scene, label, params, dataclasses.replace(

@@ -14,11 +14,13 @@ for the mean and variance verdicts, a mean alone for each render of the converge
 
 Requests the comparison will make are *planned* ahead (:meth:`ExternalRenders.plan`), so that
 the first one asked for runs together with the rest of its group, ``--jobs`` at a time.
-Every image is checked before it is used: its size is the film's, a sample count in its header
-is the one asked for, no two runs gave the same non-constant image (a renderer that ignores
-``{seed}``), and
-replicas do not share their noise. Non-finite or negative radiance is not bad input but a wrong
-renderer: :class:`RendererFault`, which the check reports as a disagreement.
+Every run gets a seed of :mod:`.seeding`'s rule, far enough from every other that no known
+scheme of deriving random streams from a seed makes two runs share one. Every image is checked
+before it is used: its size is the film's, a sample count in its header is the one asked for,
+no two runs gave the same non-constant image (a renderer that ignores ``{seed}``), and replicas
+do not share their noise at the same pixel or at a pixel offset (streams replayed shifted).
+Non-finite or negative radiance is not bad input but a wrong renderer: :class:`RendererFault`,
+which the check reports as a disagreement.
 """
 from __future__ import annotations
 
@@ -30,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.stats import norm
 
 from pathtracer.render.splats import replica_count
 
@@ -37,21 +40,25 @@ from ..errors import RefsInputError
 from ..stats import replicas as stats_replicas
 from .images import ExternalImage, ImageError, image_faults, read_image
 from .runner import Run, Runner, quoted
+from .seeding import SeedRule, SeedSpaceError, seed_rule
 
 #: Replicas of a mean-and-variance request when the renderer writes no variance.
 DEFAULT_REPLICAS = 8
-#: Seeds of replicas: REPLICA_SEED_BASE + REPLICA_STRIDE * request seed + replica, far above the
-#: comparison's own seeds (< 10^6), so no two runs of a check share one.
-REPLICA_SEED_BASE = 10_000_000
-REPLICA_STRIDE = 64
-#: Replicas whose deviations from their median correlate above this share one source of noise
-#: (independent ones correlate near 0, :func:`mitsuba_refs.stats.replicas.shared_noise`): refused.
-MAX_SHARED_NOISE = 0.5
-#: Seeds are 32-bit (Mitsuba's sampler seed). With a ``seed_offset`` (repeated checks, e.g. a
-#: calibration), every seed goes through ``seed * SEED_MULTIPLIER + offset * SEED_INCREMENT``
-#: modulo 2^32: one bijection per offset, so the seeds of one check stay distinct.
-SEED_MULTIPLIER = 0x9E3779B1
-SEED_INCREMENT = 0x7F4A7C15
+#: Two replicas share their noise when the significance ``z`` of their most correlated pixel
+#: offset (:func:`mitsuba_refs.stats.replicas.offset_shared_noise`, about a standard normal for
+#: independent ones) exceeds the largest of its ``tests`` standard normals with probability
+#: FALSE_REFUSAL (Bonferroni; calibration in docs/external.md) ...
+FALSE_REFUSAL = 1e-6
+#: ... and their correlation exceeds this (a tiny correlation is harmless on a large film).
+MIN_SHARED_CORRELATION = 0.1
+#: What a renderer whose runs share noise at the harness's seeds should change.
+RUN_STREAMS_ADVICE = ("the harness's seeds are far enough apart for streams seeded from {seed} plus "
+                      "a pixel or sample index, or {seed} times the pixel count: derive the "
+                      "renderer's random streams from a hash of {seed} and the pixel")
+#: The largest sample count a run of a check is assumed to take when nothing larger is known.
+DEFAULT_MAX_SPP = 4096
+#: The runs a check is assumed to make when nothing else is known.
+DEFAULT_RUNS = 4096
 
 
 class RendererFault(Exception):
@@ -94,22 +101,29 @@ class ExternalRenders:
         ``K`` of variance from replicas.
     suffix : str
         File name suffix of ``{out}`` (the renderer may choose its format by it).
+    log : callable, optional
+        Called with progress lines.
+    seeds : SeedRule, optional
+        The seeds of the runs, one slot per run in the order they are made, in the range of
+        its ``offset`` (repeated checks: fresh randomness for each). Default: the rule of the
+        film for :data:`DEFAULT_RUNS` runs of up to :data:`DEFAULT_MAX_SPP` spp, offset 0.
     """
 
     def __init__(self, template, runner: Runner, scene_file, size, defines=None, max_depth=-1,
-                 replicas=DEFAULT_REPLICAS, suffix=".exr", log=None, seed_offset=0):
+                 replicas=DEFAULT_REPLICAS, suffix=".exr", log=None,
+                 seeds: SeedRule | None = None):
         self.template, self.runner = template, runner
         self.scene_file, self.size = Path(scene_file), tuple(size)
         self.defines, self.max_depth = dict(defines or {}), max_depth
         self.replicas, self.suffix, self.log = int(replicas), suffix, log
-        self.seed_offset = int(seed_offset)
+        self.seeds = seeds or seed_rule(*self.size, DEFAULT_MAX_SPP, DEFAULT_RUNS, fit=True)
         #: None until the probe says whether the renderer writes per-pixel variance.
         self.has_variance = True if template.writes_variance else None
         self._results: dict = {}           # Request -> (mean, variance or None)
         self._plans: list[list[Request]] = []
         self._extend = None
         self._seen: dict = {}              # sha256 of an image -> the run that made it
-        self._runs_by_key: dict = {}       # (spp, seed, max_depth) asked for -> its Run
+        self._runs_by_key: dict = {}       # (spp, request seed, replica, depth) -> its Run
         self._workdir = Path(tempfile.mkdtemp(prefix="mitsuba-refs-check-"))
 
     @property
@@ -183,31 +197,37 @@ class ExternalRenders:
 
     def _runs_of(self, request: Request, probe=False) -> list[Run]:
         if not request.variance or self.has_variance:
-            return [self._reuse(request.spp, request.seed, request.max_depth)]
+            return [self._reuse(request.spp, request.seed, None, request.max_depth)]
         count = replica_count(request.spp, self.replicas)
-        seeds = [REPLICA_SEED_BASE + REPLICA_STRIDE * request.seed + r for r in range(count)]
-        return [self._reuse(request.spp // count, seed, request.max_depth)
-                for seed in (seeds[:1] if probe else seeds)]
+        return [self._reuse(request.spp // count, request.seed, r, request.max_depth)
+                for r in range(1 if probe else count)]
 
-    def _reuse(self, spp, seed, max_depth) -> Run:
-        """The run of (spp, seed, max_depth): the one made already (the probe's), else a new one."""
-        key = (spp, seed, max_depth)
+    def _reuse(self, spp, request_seed, replica, max_depth) -> Run:
+        """The run of replica ``replica`` (None: the only run) of the request ``(spp,
+        request_seed, max_depth)``: the one made already (the probe's), else a new one."""
+        key = (spp, request_seed, replica, max_depth)
         if key not in self._runs_by_key:
-            self._runs_by_key[key] = self._new_run(spp, seed, max_depth)
+            self._runs_by_key[key] = self._new_run(spp, max_depth, request_seed)
         return self._runs_by_key[key]
 
-    def _new_run(self, spp, seed, max_depth) -> Run:
+    def _new_run(self, spp, max_depth, request_seed) -> Run:
+        """A run with the next seed of the check's rule (the comparison's own seeds only name
+        the renders it asks for: the renderer gets seeds no stream scheme can overlap)."""
+        try:
+            seed = self.seeds.seed(len(self._runs_by_key))
+        except SeedSpaceError as error:
+            raise RefsInputError(f"check: {error}; a {self.size[0]}x{self.size[1]} film leaves no "
+                                 "room for more runs with disjoint random streams (fewer "
+                                 "--replicas, or a smaller --resolution)") from None
         folder = Path(tempfile.mkdtemp(prefix=f"run-{seed}-", dir=self._workdir))
         out = folder / f"image{self.suffix}"
         out_variance = folder / f"variance{self.suffix}" if self.template.writes_variance else None
         width, height = self.size
-        if self.seed_offset:
-            seed = (seed * SEED_MULTIPLIER + self.seed_offset * SEED_INCREMENT) % 2 ** 32
         values = {"scene": self.scene_file, "spp": spp, "seed": seed, "out": out,
                   "out_variance": out_variance, "width": width, "height": height,
                   "max_depth": max_depth, "defines": self.defines}
         return Run(spp, seed, max_depth if self.template.takes_max_depth else None,
-                   self.template.fill(values), out, out_variance)
+                   self.template.fill(values), out, out_variance, request_seed)
 
     # ---- images ---------------------------------------------------------------------------
     def _read(self, run: Run) -> ExternalImage:
@@ -251,30 +271,61 @@ class ExternalRenders:
         return replica_moments([image.mean for image in images], runs)
 
 
-def replica_moments(means, runs=None):
+def replica_moments(means, runs=None, check=True):
     """Mean and per-sample variance of ``K`` independent replica images of ``spp / K`` samples
-    each (:func:`mitsuba_refs.stats.replicas.replica_moments`).
+    each (:func:`mitsuba_refs.stats.replicas.replica_moments`); ``check`` False: their
+    independence was checked already.
 
     Raises
     ------
     RefsInputError
-        When two replicas share most of their noise (they are not independent).
+        When two replicas share their noise (they are not independent).
     """
     stack = np.stack([np.asarray(m, dtype=np.float64) for m in means])
-    check_independent(stack, runs)
+    if check:
+        check_independent(stack, runs, advice=RUN_STREAMS_ADVICE if runs else None)
     return stats_replicas.replica_moments(stack, runs[0].spp if runs else 1)
 
 
-def check_independent(stack: np.ndarray, runs=None) -> None:
-    """Refuse replicas (K, H, W, C) of which two correlate above :data:`MAX_SHARED_NOISE`
-    (:func:`mitsuba_refs.stats.replicas.shared_noise`)."""
-    pair = stats_replicas.shared_noise(stack)
-    if pair is None:
-        return                                 # too few, or a noiseless image
-    k, l, correlation = pair
-    if correlation > MAX_SHARED_NOISE:
-        which = (f"seeds {runs[k].seed} and {runs[l].seed}" if runs
-                 else f"images {k + 1} and {l + 1}")
-        raise RefsInputError(f"replicas with {which} are not independent: their noise correlates "
-                             f"at {correlation:.2f} (independent ones: near 0); "
-                             "each render needs random numbers of its own")
+def check_independent(stack: np.ndarray, runs=None, names=None, advice=None) -> None:
+    """Refuse replicas (K, H, W, C) of which two share their noise at the same pixel or at a
+    pixel offset (:func:`mitsuba_refs.stats.replicas.offset_shared_noise`, thresholds
+    :data:`MIN_SHARED_CORRELATION` and :func:`shared_noise_limit`).
+
+    Parameters
+    ----------
+    runs : list of Run, optional
+        The runs that made the replicas (the message names their seeds).
+    names : list of str, optional
+        Otherwise the images' names (default "images 1, 2, ...").
+    advice : str, optional
+        What to do instead (default: give each render random numbers of its own).
+    """
+    found = stats_replicas.offset_shared_noise(stack)
+    if not shares_noise(found):
+        return
+    k, l = found.first, found.second
+    if runs:
+        which = f"replicas with seeds {runs[k].seed} and {runs[l].seed}"
+    elif names:
+        which = f"{names[k]} and {names[l]}"
+    else:
+        which = f"replicas with images {k + 1} and {l + 1}"
+    where = ("at the same pixel" if (found.dx, found.dy) == (0, 0)
+             else f"at pixel offset (dx, dy) = ({found.dx}, {found.dy})")
+    raise RefsInputError(
+        f"{which} are not independent: their noise correlates at {found.correlation:.2f} "
+        f"{where} over {found.pixels} pixels (independent ones: near 0); "
+        + (advice or "each render needs random numbers of its own"))
+
+
+def shares_noise(found) -> bool:
+    """Whether an :func:`~mitsuba_refs.stats.replicas.offset_shared_noise` result is shared
+    noise by the thresholds."""
+    return (found is not None and found.correlation > MIN_SHARED_CORRELATION
+            and found.z > shared_noise_limit(found.tests))
+
+
+def shared_noise_limit(tests: int) -> float:
+    """The ``z`` above which shared noise is refused, for ``tests`` (pair, offset) compared."""
+    return float(norm.isf(FALSE_REFUSAL / max(1, tests)))

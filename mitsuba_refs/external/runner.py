@@ -44,6 +44,9 @@ class Run:
         The filled shell command.
     out, out_variance : Path, Path or None
         The image (and variance image) it must write.
+    request_seed : int or None
+        The comparison's seed of the render this run serves (the render's name there; the
+        renderer got ``seed``, :mod:`mitsuba_refs.external.seeding`).
     """
 
     spp: int
@@ -52,6 +55,7 @@ class Run:
     command: str
     out: Path
     out_variance: Path | None = None
+    request_seed: int | None = None
     seconds: float = 0.0
     cpu_seconds: float = 0.0
     exit_code: int | None = None
@@ -60,7 +64,8 @@ class Run:
 
     def record(self) -> dict:
         """What the reports keep of this run."""
-        return {"spp": self.spp, "seed": self.seed, "max_depth": self.max_depth,
+        return {"spp": self.spp, "seed": self.seed, "request_seed": self.request_seed,
+                "max_depth": self.max_depth,
                 "seconds": round(self.seconds, 4), "cpu_seconds": round(self.cpu_seconds, 4),
                 "exit_code": self.exit_code, "command": self.command}
 

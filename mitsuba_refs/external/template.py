@@ -6,7 +6,8 @@ render, each value shell-quoted. The placeholders (:data:`PLACEHOLDERS`):
 ================  ============================================================================
 ``{scene}``       the scene file the renderer reads (``--renderer-scene``, else SCENE itself)
 ``{spp}``         samples per pixel of this render
-``{seed}``        its seed: every render of a check has its own, so independent images
+``{seed}``        its seed, below 2^31: every run of a check has its own, far enough from
+                  every other that no seeding scheme shares a stream (:mod:`.seeding`)
 ``{out}``         where to write the image (a fresh temporary file, ``--output-suffix``)
 ``{out_variance}`` optional: where to write a second image of per-sample variances
 ``{width}``       film width in pixels
@@ -29,7 +30,7 @@ from ..errors import RefsInputError
 PLACEHOLDERS = {
     "scene": "the scene file the renderer reads",
     "spp": "samples per pixel",
-    "seed": "seed of this render (distinct for every render)",
+    "seed": "seed of this render (< 2^31; runs' seeds are far enough apart to share no stream)",
     "out": "image file to write",
     "out_variance": "optional second image: per-sample variance",
     "width": "film width",
