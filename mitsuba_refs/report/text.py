@@ -88,12 +88,10 @@ def comparison_report(result) -> str:
         lines.insert(1, f"  rendered:    {result.rendered}")
     if result.variance is not None:
         lines.append(f"  variance:    {variance_verdict(result.variance)}")
-    elif result.variance_skipped:
-        lines.append(f"  variance:    {result.variance_skipped}")
-    elif result.compares_variance:
-        lines.append("  variance:    not compared (both images are noiseless)")
-    else:
+    elif result.variance_skipped or not result.compares_variance:
         lines.append(f"  variance:    {result.variance_not_applicable()}")
+    else:
+        lines.append("  variance:    not compared (both images are noiseless)")
     if result.convergence is not None:
         lines.append(f"  convergence: {convergence_verdict(result.convergence)}")
     if result.bounce is not None:
