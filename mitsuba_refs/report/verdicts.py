@@ -144,6 +144,7 @@ def convergence_entry(result) -> dict:
         "p_value": law.p_value, "alpha": law.alpha, "line": convergence_verdict(law),
         "slope": law.slope, "slope_ci": law.slope_ci, "ratio": law.ratio, "ratio_ci": law.ratio_ci,
         "slope_p": law.slope_p, "floor_p": law.floor_p, "floor_detected": law.floor_detected,
+        "rmse_exponent": law.slope / 2, "faster_p": law.faster_p, "faster": law.faster,
         "floor_spp": law.floor_spp, "bias_rel": law.bias_rel, "correlated": law.correlated,
         "ladder": ladder, "levels_used": list(law.levels_used), **levels,
         "warnings": convergence_warnings(law),

@@ -317,7 +317,9 @@ def _convergence_outcome(law) -> str:
         where = f"~{law.floor_spp:.0f} spp" if law.floor_spp > 0 else "the first level"
         return f"bias floor: error stops falling at {where} (bias \u2248 {btxt}) (p={p}): {fit}"
     return (f"error falls slower than N^-1/2 (p={p}): {fit}: slower than independent samples "
-            "(a bias that fades only slowly, or samples positively correlated inside a render)")
+            "(a bias that fades only slowly, samples positively correlated inside a render, or "
+            "a renderer that renders more samples than asked at the lowest levels, as Mitsuba's "
+            "ldsampler rounds 1 spp up to 4)")
 
 
 def convergence_verdict(law) -> str:
