@@ -5,11 +5,14 @@ Four verdicts, each from :mod:`mitsuba_refs.stats`:
 * mean: our image at ``TEST_MAX_SPP`` against the reference (4096 spp),
   tile-aggregated z test;
 * variance: only where Mitsuba runs the same estimator (``path``,
-  ``path_bsdf``, ``path_nee``, ``direct``), per-sample variance ratio;
+  ``path_bsdf``, ``path_nee``, ``direct``), per-sample variance ratio; not applicable,
+  saying why, for an external renderer whose error falls faster than N^-1/2 (its samples
+  are not independent within a pixel: ``Settings.judge_independence``);
 * convergence: MSE against the reference over the spp ladder
   ``CONVERGENCE_LADDER``, every level rendering the same number of samples
   (``CONVERGENCE_REPLICAS`` independent replicas at the top level, 4x as many
-  per 4x fewer spp; slope -1 in log-log, RMSE(N)/RMSE(4N) = 2, no bias floor);
+  per 4x fewer spp; the error must fall at least as N^-1/2, MSE slope -1 in log-log,
+  RMSE(N)/RMSE(4N) = 2, with no bias floor: one-sided, as stratified samples fall faster);
 * first diverging bounce: the mean test at max_depth = 1, 2, 3 against the
   per-bounce references, naming the first depth that disagrees.
 
