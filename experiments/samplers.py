@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mitsuba_refs.external.check import check
 from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.stats import compare_means, convergence_law, image_mse
 from mitsuba_refs.verdicts.scenes import default_params
@@ -149,7 +150,6 @@ def check_sampler(scene: str, sampler: str, folder: Path, *, alpha=1e-3, replica
                   seed_offset=0, spp=None, params=None, ladder=None):
     """``mitsuba-refs check`` of Mitsuba's command line with ``sampler`` on ``scene``
     (the reference: the scene file's own ``independent`` sampler)."""
-    from mitsuba_refs.external.check import check
     mean_spp, variance_replicas, planned = CHECK_PLANS[sampler]
     ladder = ladder or planned
     return check(scene, command=MITSUBA_COMMAND, renderer_scene=sampler_file(scene, sampler, folder),
