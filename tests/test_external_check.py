@@ -226,6 +226,10 @@ def test_stratified_images_pass_convergence_and_lose_only_the_variance_verdict(r
     assert "not applicable: the renderer's samples are not independent within a pixel" in report
     assert "error (RMSE) falls as N^-" in report and "faster than independent samples" in report
     assert any("overstates the noise of stratified samples" in note for note in result.notes)
+    from mitsuba_refs.report.verdicts import verdict_entries
+    entries = verdict_entries(result)
+    assert entries["variance"]["status"] == "not compared" and not entries["variance"]["applicable"]
+    assert entries["convergence"]["faster"] and entries["convergence"]["agree"]
 
 
 def _pfm(path, image, spp):
