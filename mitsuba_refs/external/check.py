@@ -13,7 +13,10 @@ Two ways in, one pipeline out (:func:`mitsuba_refs.verdicts.compare.compare` and
 The reference is Mitsuba's rendering of the same scene file with the file's own
 ``<integrator>`` (or ``reference``). The variance verdict needs the user's word that the
 renderer runs the reference's estimator (``same_estimator``); otherwise it is reported as not
-applicable, with the ratio.
+applicable, with the ratio and that reason. It is not applicable either when the convergence
+verdict finds the error falling faster than N^-1/2: the renderer's samples are then not
+independent within a pixel (stratified, low-discrepancy), and no per-sample variance describes
+its noise (``Settings.judge_independence``, docs/external.md "Samplers").
 """
 from __future__ import annotations
 
