@@ -19,12 +19,15 @@ committed 4096-spp reference of the ``independent`` sampler:
 
 ``python -m experiments.samplers --scenes cornell-caustics --samplers independent ldsampler``
 writes ``docs/data/samplers_<scene>.json``. It renders through Mitsuba's Python API in
-``scalar_rgb`` (the code the command line runs), one process.
+``scalar_rgb`` (the code the command line runs), one process. ``--dimensions SPP`` measures
+how correlated a sampler's dimensions are (:func:`dimension_pairs`), ``--bias SPP`` its image
+mean against the independent sampler's (:func:`paired_bias`), ``--check`` runs the harness.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import re
 import tempfile
 import time
@@ -192,6 +195,55 @@ def checks(args) -> None:
         Path(args.json).write_text(json.dumps(rows, indent=1))
 
 
+def dimension_pairs(mi, sampler: str, spp: int, pixels: int, dimensions: int = 64) -> dict:
+    """How far apart two of a sampler's 1-D dimensions must be to be independent.
+
+    ``pixels`` sequences (seeds far apart) of ``spp`` samples each, ``dimensions`` values
+    ``next_1d`` per sample: for every pair of dimensions E[x_a x_b] - 1/4, which is 0 for
+    independent uniform numbers (standard error sqrt(7/144 / draws)). Returns the count of
+    pairs beyond 5 standard errors and the mean excess at each lag, as a correlation
+    (12 x the excess).
+    """
+    generator = mi.load_dict({"type": sampler, "sample_count": spp})
+    spp = generator.sample_count()
+    products = np.zeros((dimensions, dimensions))
+    for pixel in range(pixels):
+        generator.seed((pixel + 1) * SEED_SPREAD * 12_289 % SEED_MODULUS)
+        values = np.empty((spp, dimensions))
+        for sample in range(spp):
+            for dimension in range(dimensions):
+                values[sample, dimension] = generator.next_1d()
+            generator.advance()
+        products += values.T @ values
+    excess = products / (pixels * spp) - 0.25
+    se = math.sqrt(7 / 144 / (pixels * spp))
+    upper = np.triu_indices(dimensions, 1)
+    lags = {lag: 12 * float(np.mean(np.diagonal(excess, lag))) for lag in range(1, dimensions // 2)}
+    return {"sampler": sampler, "spp": spp, "pixels": pixels, "dimensions": dimensions,
+            "pairs_beyond_5_se": int(np.sum(np.abs(excess[upper]) > 5 * se)),
+            "pairs": len(upper[0]), "standard_error": se, "correlation_by_lag": lags}
+
+
+def paired_bias(mi, scene: str, sampler: str, spp: int, renders: int, folder: Path,
+                **params) -> dict:
+    """The image mean of ``sampler`` over the ``independent`` sampler's, minus 1, per channel,
+    from ``renders`` renders of each at ``spp`` with the scene parameters ``params`` (e.g.
+    ``max_depth``, ``rr_depth``), and its z from the renders' spread."""
+    defines = {**{k: str(v) for k, v in default_params(scene).items()},
+               **{k: str(v) for k, v in params.items()}}
+    means = {}
+    for offset, name in ((1000, sampler), (5000, "independent")):
+        loaded = mi.load_file(str(sampler_file(scene, name, folder)), **defines)
+        means[name] = np.array([
+            np.asarray(mi.render(loaded, spp=spp, seed=(k + offset) * SEED_SPREAD % SEED_MODULUS),
+                       dtype=np.float64)[..., :3].mean(axis=(0, 1)) for k in range(renders)])
+    a, b = means[sampler], means["independent"]
+    se = np.sqrt(a.var(axis=0, ddof=1) / renders + b.var(axis=0, ddof=1) / renders)
+    return {"scene": scene, "sampler": sampler, "spp": spp, "renders": renders, "params": params,
+            "relative": (a.mean(axis=0) / b.mean(axis=0) - 1).tolist(),
+            "z": ((a.mean(axis=0) - b.mean(axis=0)) / se).tolist()}
+
+
 def main(argv=None) -> None:
     """Measure every sampler (module notes), or with ``--check`` judge each with the harness."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -200,7 +252,16 @@ def main(argv=None) -> None:
     parser.add_argument("--replicas", type=int, default=4, help="--check: ladder replicas")
     parser.add_argument("--spp", type=int, default=None, help="--check: the mean render's spp")
     parser.add_argument("--json", default=None, help="--check: write the rows here")
-    parser.add_argument("--max-depth", type=int, default=None, help="--check: -D max_depth")
+    parser.add_argument("--max-depth", type=int, default=None,
+                        help="--check, --bias: -D max_depth")
+    parser.add_argument("--rr-depth", type=int, default=None, help="--bias: -D rr_depth")
+    parser.add_argument("--dimensions", type=int, default=0, metavar="SPP",
+                        help="measure the correlation of 1-D dimensions at this spp instead")
+    parser.add_argument("--bias", type=int, default=0, metavar="SPP",
+                        help="measure the image mean against the independent sampler's at this "
+                             "spp instead (--pixels renders each)")
+    parser.add_argument("--pixels", type=int, default=200,
+                        help="--dimensions: sequences; --bias: renders per sampler")
     parser.add_argument("--alpha", type=float, default=1e-3, help="--check: the verdicts' level")
     parser.add_argument("--scenes", nargs="+", default=["cornell-box", "cornell-caustics"])
     parser.add_argument("--samplers", nargs="+", default=list(SAMPLERS), choices=SAMPLERS)
@@ -212,6 +273,21 @@ def main(argv=None) -> None:
         return
     import mitsuba as mi  # heavy: only when the experiment runs
     mi.set_variant("scalar_rgb")
+    if args.dimensions:
+        for sampler in args.samplers:
+            result = dimension_pairs(mi, sampler, args.dimensions, args.pixels)
+            print(json.dumps(result))
+        return
+    if args.bias:
+        with tempfile.TemporaryDirectory() as folder:
+            for scene in args.scenes:
+                for sampler in args.samplers:
+                    params = {} if args.max_depth is None else {"max_depth": args.max_depth}
+                    if args.rr_depth is not None:
+                        params["rr_depth"] = args.rr_depth
+                    print(json.dumps(paired_bias(mi, scene, sampler, args.bias, args.pixels,
+                                                 Path(folder), **params)))
+        return
     with tempfile.TemporaryDirectory() as folder:
         for scene in args.scenes:
             target = Path(args.out) / f"samplers_{scene}.json"
