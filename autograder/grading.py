@@ -7,7 +7,8 @@ A *check* is one scene x one integrator. It runs :func:`mitsuba_refs.verdicts.co
 ``mean``         the image agrees with Mitsuba's (tile + whole-image z test);
 ``variance``     the per-sample variance is at most 1.5x that of Mitsuba's run of the *same*
                  estimator (one-sided; the same rule for every check, see score_parts);
-``convergence``  the error falls as N^-1/2 (no bias floor, independent samples).
+``convergence``  the error falls at least as fast as N^-1/2 and shows no bias floor (one-sided:
+                 only an error that falls too slowly, as reused random numbers make it, fails).
 
 Variance and convergence points are awarded only when the mean is right: they grade the
 quality of a correct estimator. When anything fails, the check also renders the student's

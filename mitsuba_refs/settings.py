@@ -106,6 +106,12 @@ class Settings:
     seed_offset : int
         check: which range of the renderer's seeds the runs take
         (:mod:`mitsuba_refs.external.seeding`), for independent repetitions of one check.
+    judge_independence : bool
+        Judge from the data whether the test side's samples are independent within a pixel
+        (check: True; our integrators' are by construction, and the grader scores their
+        variance): when the convergence verdict finds the error falling significantly faster
+        than N^-1/2 (stratified or low-discrepancy samples), the variance verdict is not
+        applicable (docs/statistics.md, section 3).
     """
 
     spp: int = config.TEST_MAX_SPP
@@ -128,6 +134,7 @@ class Settings:
     timeout: float = config.DEFAULT_TIMEOUT
     variance_replicas: int | None = None
     seed_offset: int = 0
+    judge_independence: bool = False
 
 
 FIELDS = frozenset(field.name for field in dataclasses.fields(Settings))

@@ -4,8 +4,8 @@ For each (scene, integrator) pair (tests/scenes.py, CONVERGENCE_CASES): the same
 ``LADDER`` (``REPLICAS`` renders at the top, 4x as many per 4x fewer spp, all
 doubled while rare bright paths carry the error: mitsuba_refs.verdicts.convergence.convergence_test);
 MSE against the committed Mitsuba reference, minus the reference's own variance
-contribution; the fitted log-log slope of MSE must be compatible with -1,
-RMSE(N)/RMSE(4N) with 2, and the MSE must show no bias floor
+contribution; the fitted log-log slope of MSE must not lie significantly above -1
+(one-sided: RMSE(N)/RMSE(4N) at least 2), and the MSE must show no bias floor
 (mitsuba_refs.stats.convergence_law). Select these with
 ``pytest -k convergence``. A tracer that reuses its random numbers fails here
 (test_convergence_catches_reused_random_numbers).

@@ -14,14 +14,15 @@ from experiments import (
     integrators,
     pathclasses,
     progression,
+    samplers,
     sweep,
 )
 
 
 @pytest.mark.parametrize("module", [convergence, progression, estimators, pathclasses, sweep,
-                                    bdpt_strategies, caustics, integrators],
+                                    bdpt_strategies, caustics, integrators, samplers],
                          ids=["error-vs-spp", "progression", "estimators", "pathclasses", "sweep",
-                              "bdpt-strategies", "caustics", "integrators"])
+                              "bdpt-strategies", "caustics", "integrators", "samplers"])
 def test_help(module, capsys):
     with pytest.raises(SystemExit) as stop:
         module.main(["--help"])

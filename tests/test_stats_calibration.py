@@ -203,14 +203,36 @@ def conv_scene():
 def test_mse_law_false_rejection(conv_scene):
     """A correct estimator, K=8 replicas, ladder 1..256 spp, 16384-spp reference, 400
     seeds: rejections at alpha = 0.05 and 0.2 within Binomial(400, alpha) 1-1e-5
-    intervals.  False-failure <= 2e-5."""
+    intervals (measured 16 and 56: the one-sided slope and floor components both look for
+    an error that falls too slowly, so Šidák over them is conservative); each one-sided
+    component and the "samples not independent" detection (slope below -1) are calibrated
+    at 0.05 (measured: slope 17, faster 21).  False-failure <= 5e-5."""
     M, floor, mean = _ladders(conv_scene, np.random.default_rng(7), 400, 8)
     res = [convergence_law(LADDER, M[i], floor[i], alpha=0.05, image_mean=mean[i]) for i in range(400)]
     p = np.array([r.p_value for r in res])
     for a in (0.05, 0.2):
         _check_rate(int((p <= a).sum()), 400, a)
+    _check_rate(sum(r.slope_p <= 0.05 for r in res), 400, 0.05)
+    _check_rate(sum(r.faster for r in res), 400, 0.05)
     cover = sum(r.slope_ci[0] <= -1 <= r.slope_ci[1] for r in res)
     _check_rate(400 - cover, 400, 0.05)
+
+
+def test_mse_law_passes_stratified_samples_and_says_so(conv_scene):
+    """A renderer whose MSE falls as N^-1.5 (stratified samples: the correct estimator's
+    level MSEs times N^-1/2): never fails (100 seeds, alpha = 0.05: its one-sided components
+    see no error falling too slowly) and is flagged "faster" at alpha = 2e-5 in all 100 (slope
+    -1.5 with se ~0.03: t ~ 16), its verdict giving the RMSE exponent, -0.75.  A miss of either
+    needs a t beyond 10 standard errors: P << 1e-5."""
+    M, floor, mean = _ladders(conv_scene, np.random.default_rng(10), 100, 8)
+    M = M * np.asarray(LADDER, dtype=float) ** -0.5
+    res = [convergence_law(LADDER, M[i], None, alpha=2e-5, image_mean=mean[i])
+           for i in range(100)]
+    assert all(r.passed and r.faster for r in res)
+    assert all(r.p_value > 0.05 for r in res)
+    line = verdict_line(res[0])
+    assert line.startswith("converges, faster than N^-1/2") and "N^-0.7" in line, line
+    assert "stratified" in line and f"{res[0].slope:.3f}" not in line, line
 
 
 def test_mse_law_detects_correlated_samples(conv_scene):

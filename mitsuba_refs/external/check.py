@@ -13,7 +13,10 @@ Two ways in, one pipeline out (:func:`mitsuba_refs.verdicts.compare.compare` and
 The reference is Mitsuba's rendering of the same scene file with the file's own
 ``<integrator>`` (or ``reference``). The variance verdict needs the user's word that the
 renderer runs the reference's estimator (``same_estimator``); otherwise it is reported as not
-applicable, with the ratio.
+applicable, with the ratio and that reason. It is not applicable either when the convergence
+verdict finds the error falling faster than N^-1/2: the renderer's samples are then not
+independent within a pixel (stratified, low-discrepancy), and no per-sample variance describes
+its noise (``Settings.judge_independence``, docs/external.md "Samplers").
 """
 from __future__ import annotations
 
@@ -34,7 +37,9 @@ from ..preflight import check_scene, scene_path
 from ..reference import config
 from ..reference.cache import get_reference
 from ..reference.render import reference_settings
+from ..report.wording import MEAN_WITH_STRATIFIED_VARIANCE, VARIANCE_NOT_STATED, variance_not_independent
 from ..settings import PILOT_SPP, Settings, settings_of
+from ..stats.mean import MeanAgreement
 from ..verdicts.compare import TEST_SEED, Comparison, FaultyImages, compare, concluded
 from ..verdicts.convergence import CONVERGENCE_SEED, ConvergenceParts, convergence_requests, level_replicas
 from ..verdicts.scenes import default_params, reference_options, scene_defaults
@@ -159,8 +164,10 @@ def check(scene, *, command=None, images=None, params=None, settings: Settings |
     ref_name = reference_name(path, file_settings.integrator.name, settings.reference)
     splats = (ref_name in SPLATTING_REFERENCES if settings.splatting is None
               else bool(settings.splatting))
+    # A renderer not ours may stratify its samples: judged from its convergence (Settings).
     settings = dataclasses.replace(settings, reference=ref_name, splatting=splats,
-                                   same_estimator=bool(settings.same_estimator))
+                                   same_estimator=bool(settings.same_estimator),
+                                   judge_independence=True)
     size = file_settings.resolution
     if command is not None:
         label = checked_name(name) if name is not None else short_name(command)
@@ -221,7 +228,21 @@ def _check_command(scene, template, params, settings: Settings, setup: CommandSe
         count = replica_count(result.spp, settings.variance_replicas or 8)
         notes.append(f"its images carry no variance: mean and variance from {count} "
                      "independent replicas with seeds of their own")
-    return dataclasses.replace(result, runs=[run.record() for run in renders.runs], notes=notes)
+    result = dataclasses.replace(result, runs=[run.record() for run in renders.runs], notes=notes)
+    return variance_reasons(result, settings, bool(renders.has_variance))
+
+
+def variance_reasons(result: Comparison, settings: Settings, own_variance: bool) -> Comparison:
+    """``result`` whose missing variance verdict says its real reason, with a note when the mean
+    test took the renderer's own per-sample variance (``own_variance``) although its samples
+    are not independent within a pixel (docs/external.md, "Samplers")."""
+    law, notes = result.convergence, list(result.notes)
+    skipped = result.variance_skipped
+    if not settings.same_estimator and not skipped:
+        skipped = VARIANCE_NOT_STATED
+    if own_variance and law is not None and law.faster and isinstance(result.mean, MeanAgreement):
+        notes.append(MEAN_WITH_STRATIFIED_VARIANCE)
+    return dataclasses.replace(result, variance_skipped=skipped, notes=notes)
 
 
 def film_defines(scene, params: dict, resolution) -> dict:
@@ -418,6 +439,14 @@ def _check_images(scene, files, params, settings: Settings, film, log, label="im
         notes.append(f"convergence not judged: the images have {len(levels)} sample "
                      f"count(s), it needs >= {MIN_IMAGE_LEVELS}")
     notes.append(f"{len(images)} images; mean and variance from {samples} samples per pixel")
+    variance_test, skipped = result.variance, result.variance_skipped
+    if variance_test is not None and law is not None and law.faster:
+        # Judged here, as compare() judges a ladder it rendered (verdicts/compare.py).
+        variance_test, skipped = None, variance_not_independent(law)
     result = dataclasses.replace(result, runs=[], convergence=law, convergence_mse=mse,
-                                 ladder=ladder, notes=notes)    # nothing was rendered here
+                                 ladder=ladder, notes=notes, variance=variance_test,
+                                 variance_skipped=skipped)    # nothing was rendered here
+    own = any(image.variance is not None for image in images
+              if image.spp == max(i.spp for i in images))
+    result = variance_reasons(result, settings, own)
     return concluded(result, settings.out_dir, (mean, variance, reference), start)

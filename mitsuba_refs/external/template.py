@@ -100,12 +100,17 @@ class CommandTemplate:
         """The shell command with every placeholder replaced by its shell-quoted value.
 
         ``values["defines"]`` is a dict of scene parameters, expanded to ``-D name=value``
-        words; every other value is one word.
+        words (less ``max_depth`` when the template passes ``{max_depth}``, which says it for
+        every render, the per-bounce ones included); every other value is one word.
         """
         words = {}
         for name in self.names:
             value = values[name]
             if name == "defines":
+                # Mitsuba refuses a parameter given twice ("unused parameters"), and a
+                # per-bounce render's {max_depth} differs from the scene's.
+                value = {k: v for k, v in value.items()
+                         if not (k == "max_depth" and self.takes_max_depth)}
                 words[name] = " ".join(f"-D {shlex.quote(f'{k}={v}')}" for k, v in value.items())
             else:
                 words[name] = shlex.quote(str(value))

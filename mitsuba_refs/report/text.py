@@ -31,7 +31,9 @@ def interval_text(name: str, entry: dict) -> str:
     if name == "variance":
         return f"variance ratio {to_float(entry['ratio']):.3f} {_pair(entry['ratio_ci'])}"
     if name == "convergence":
-        return (f"slope {to_float(entry['slope']):.3f} {_pair(entry['slope_ci'])}; "
+        # The RMSE's exponent, half the recorded MSE slope (report.wording.rmse_rate).
+        half = [to_float(v) / 2 for v in entry["slope_ci"]]
+        return (f"RMSE as N^{to_float(entry['slope']) / 2:.3f} {_pair(half)}; "
                 f"RMSE(N)/RMSE(4N) {to_float(entry['ratio']):.2f} {_pair(entry['ratio_ci'], digits=2)}")
     if name == "bounces":
         depth = entry.get("first_diverging_depth")
@@ -88,12 +90,10 @@ def comparison_report(result) -> str:
         lines.insert(1, f"  rendered:    {result.rendered}")
     if result.variance is not None:
         lines.append(f"  variance:    {variance_verdict(result.variance)}")
-    elif result.variance_skipped:
-        lines.append(f"  variance:    {result.variance_skipped}")
-    elif result.compares_variance:
-        lines.append("  variance:    not compared (both images are noiseless)")
-    else:
+    elif result.variance_skipped or not result.compares_variance:
         lines.append(f"  variance:    {result.variance_not_applicable()}")
+    else:
+        lines.append("  variance:    not compared (both images are noiseless)")
     if result.convergence is not None:
         lines.append(f"  convergence: {convergence_verdict(result.convergence)}")
     if result.bounce is not None:

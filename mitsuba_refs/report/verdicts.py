@@ -90,10 +90,14 @@ def variance_entry(result) -> dict:
     """The variance verdict of a :class:`~mitsuba_refs.verdicts.compare.Comparison` as a JSON entry.
 
     ``applicable``: Mitsuba ran the same estimator as the test side (ours by name; an external
-    renderer by its user's word, ``--same-estimator``), so that the per-sample variances are
-    comparable; ``compared``: the test ran.
+    renderer by its user's word, ``--same-estimator``) and the test side's samples are
+    independent within a pixel (not judged otherwise: ``Settings.judge_independence``), so
+    that the per-sample variances are comparable; ``compared``: the test ran; ``reason``
+    says why not.
     """
-    applicable = result.compares_variance
+    # Every reason that the verdict does not apply starts "not applicable" (report.wording).
+    applicable = result.compares_variance and not result.variance_skipped.startswith(
+        "not applicable")
     variance = result.variance
     if variance is None:
         arrays = result.arrays or {}
@@ -144,6 +148,7 @@ def convergence_entry(result) -> dict:
         "p_value": law.p_value, "alpha": law.alpha, "line": convergence_verdict(law),
         "slope": law.slope, "slope_ci": law.slope_ci, "ratio": law.ratio, "ratio_ci": law.ratio_ci,
         "slope_p": law.slope_p, "floor_p": law.floor_p, "floor_detected": law.floor_detected,
+        "rmse_exponent": law.slope / 2, "faster_p": law.faster_p, "faster": law.faster,
         "floor_spp": law.floor_spp, "bias_rel": law.bias_rel, "correlated": law.correlated,
         "ladder": ladder, "levels_used": list(law.levels_used), **levels,
         "warnings": convergence_warnings(law),

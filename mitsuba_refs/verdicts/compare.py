@@ -5,11 +5,14 @@ Four verdicts, each from :mod:`mitsuba_refs.stats`:
 * mean: our image at ``TEST_MAX_SPP`` against the reference (4096 spp),
   tile-aggregated z test;
 * variance: only where Mitsuba runs the same estimator (``path``,
-  ``path_bsdf``, ``path_nee``, ``direct``), per-sample variance ratio;
+  ``path_bsdf``, ``path_nee``, ``direct``), per-sample variance ratio; not applicable,
+  saying why, for an external renderer whose error falls faster than N^-1/2 (its samples
+  are not independent within a pixel: ``Settings.judge_independence``);
 * convergence: MSE against the reference over the spp ladder
   ``CONVERGENCE_LADDER``, every level rendering the same number of samples
   (``CONVERGENCE_REPLICAS`` independent replicas at the top level, 4x as many
-  per 4x fewer spp; slope -1 in log-log, RMSE(N)/RMSE(4N) = 2, no bias floor);
+  per 4x fewer spp; the error must fall at least as N^-1/2, MSE slope -1 in log-log,
+  RMSE(N)/RMSE(4N) = 2, with no bias floor: one-sided, as stratified samples fall faster);
 * first diverging bounce: the mean test at max_depth = 1, 2, 3 against the
   per-bounce references, naming the first depth that disagrees.
 
@@ -32,7 +35,7 @@ from ..reference.cache import get_reference
 from ..reference.render import bounce_reference
 from ..reference.rfilter import reference_correlation
 from ..report.text import comparison_report, rendered_settings
-from ..report.wording import bounce_verdict
+from ..report.wording import VARIANCE_NO_ESTIMATOR, bounce_verdict, variance_not_independent
 from ..settings import Settings, settings_of
 from ..stats import MeanTestOptions, VarianceTestOptions, compare_means, compare_variances
 from ..stats.convergence import ConvergenceResult
@@ -103,7 +106,9 @@ class Comparison:
         The smallest global bias the mean test detects, and what ``detect`` chose; None when
         not computed / not asked.
     variance_skipped : str
-        Why the variance test did not run although it applies ("" otherwise).
+        Why there is no variance verdict when the reason is not that Mitsuba has no run of
+        the estimator ("" otherwise): too few noisy tiles, samples that are not independent
+        within a pixel (``Settings.judge_independence``), no ``--same-estimator`` (check).
     """
 
     scene: str | Path
@@ -151,7 +156,7 @@ class Comparison:
 
     def variance_not_applicable(self) -> str:
         """Why there is no variance verdict, with the ratio where both images have one."""
-        text = self.variance_skipped or "not applicable (Mitsuba has no run of this estimator; mean only)"
+        text = self.variance_skipped or VARIANCE_NO_ESTIMATOR
         test, ref = self.arrays.get("test_variance"), self.arrays.get("reference_variance")
         if test is not None and ref is not None and np.sum(ref) > 0:
             ratio = float(np.sum(test) / np.sum(ref))
@@ -238,6 +243,9 @@ def compare(scene: str, integrator="path", params: dict | None = None,
                                     settings.processes, RecordingRuns(render, runs, "convergence"),
                                     settings.ladder, settings.replicas, settings.max_growth)
         ladder = convergence_ladder(reference, settings.ladder)
+    if variance_test is not None and settings.judge_independence and law is not None and law.faster:
+        # Stratified samples: a pixel's noise is no per-sample variance over N (stats.convergence).
+        variance_test, skipped = None, variance_not_independent(law)
     bounce_results = bounce = None
     if settings.bounces or (settings.bounces is None and not mean_test.agree):
         bounce_results = localise_bounce(scene, integrator, params, settings,

@@ -2,7 +2,8 @@
 
 Every level of ``CONVERGENCE_LADDER`` renders the same number of samples
 (``CONVERGENCE_REPLICAS`` independent replicas at the top level, 4x as many per 4x fewer spp;
-slope -1 in log-log, RMSE(N)/RMSE(4N) = 2, no bias floor), and the replicas double while rare
+the error falls at least as N^-1/2 (one-sided: MSE slope not above -1, RMSE(N)/RMSE(4N) at
+least 2, no bias floor), and the replicas double while rare
 bright paths carry the error (up to ``CONVERGENCE_MAX_GROWTH``-fold).
 """
 from __future__ import annotations
