@@ -211,6 +211,8 @@ def test_mse_law_exact_and_failures():
     floor = (2.0 / spp + 0.01) * (1 + 0.02 * rng.standard_normal((6, 5)))
     rb = convergence_law(spp, floor, alpha=1e-3, image_mean=1.0)
     assert rb.floor_detected and "bias floor" in verdict_line(rb)
+    # a per-pixel RMS error, not the image-level bias the mean verdict reports
+    assert "per-pixel RMS bias \u2248 " in verdict_line(rb) and "of the image mean" in verdict_line(rb)
     assert 100 < rb.floor_spp < 400 and rb.bias_rel == pytest.approx(0.1, rel=0.3)
     with pytest.raises(ValueError):
         convergence_law(spp, good[:1], alpha=1e-3)

@@ -321,10 +321,13 @@ def _convergence_outcome(law) -> str:
     if law.correlated:
         return f"error does not fall: samples are correlated / random numbers reused (p={p}): {fit}"
     if law.floor_detected:
-        btxt = (f"{100 * law.bias_rel:.2g}% of the mean" if math.isfinite(law.bias_rel)
-                else f"RMS {law.bias_rms:.3g}")
+        # The floor is a per-pixel RMS error: pixels biased both ways add up here while they
+        # may cancel in the image mean that the mean verdict's relative bias measures.
+        btxt = (f"{100 * law.bias_rel:.2g}% of the image mean" if math.isfinite(law.bias_rel)
+                else f"{law.bias_rms:.3g}")
         where = f"~{law.floor_spp:.0f} spp" if law.floor_spp > 0 else "the first level"
-        return f"bias floor: error stops falling at {where} (bias \u2248 {btxt}) (p={p}): {fit}"
+        return (f"bias floor: error stops falling at {where} (per-pixel RMS bias \u2248 {btxt}) "
+                f"(p={p}): {fit}")
     return (f"error falls slower than N^-1/2 (p={p}): {fit}: slower than independent samples "
             "(a bias that fades only slowly, samples positively correlated inside a render, or "
             "a renderer that renders more samples than asked at the lowest levels, as Mitsuba's "
