@@ -94,6 +94,10 @@ class Settings:
         Film size replacing the file's, on both sides.
     out_dir : path or None
         Where diagnostic pictures go (written for every failed verdict); None: none.
+    name : str or None
+        check: the renderer's name in the verdicts, records and picture names (``--name``);
+        None: the short form of its command (:func:`mitsuba_refs.external.naming.short_name`),
+        or ``images``.
     processes : int or None
         compare: worker processes of our renders (default: all cores).
     jobs : int or None
@@ -129,6 +133,7 @@ class Settings:
     options: Mapping[str, int | float | bool | str] | None = None
     resolution: tuple[int, int] | None = None
     out_dir: str | os.PathLike | None = None
+    name: str | None = None
     processes: int | None = None
     jobs: int | None = None
     timeout: float = config.DEFAULT_TIMEOUT

@@ -117,12 +117,12 @@ def run_check(args) -> int:
         jobs=args.jobs, timeout=args.timeout, variance_replicas=args.variance_replicas,
         reference=args.reference_integrator, same_estimator=args.same_estimator,
         splatting=args.splatting, resolution=args.resolution, ladder=args.ladder,
-        replicas=args.replicas, detect=detect,
+        replicas=args.replicas, detect=detect, name=args.name,
         options={"max_depth": int(args.max_depth)} if args.max_depth is not None else None)
     result = check(args.scene, command=args.command, images=args.images, params=params,
                    settings=settings, renderer_scene=args.renderer_scene,
                    output_suffix=args.output_suffix,
-                   images_spp=None if command_mode else args.spp, name=args.name,
+                   images_spp=None if command_mode else args.spp,
                    log=lambda message: print(message, file=sys.stderr))
     print(result.report())
     for line in write_outputs(args, [result], alpha=args.alpha):

@@ -106,7 +106,7 @@ class CommandSetup(NamedTuple):
 
 
 def check(scene, *, command=None, images=None, params=None, settings: Settings | None = None,
-          renderer_scene=None, output_suffix=".exr", images_spp=None, log=None, name=None,
+          renderer_scene=None, output_suffix=".exr", images_spp=None, log=None,
           **keywords) -> Comparison:
     """Judge an external renderer (``command``) or its images (``images``) against Mitsuba.
 
@@ -127,7 +127,8 @@ def check(scene, *, command=None, images=None, params=None, settings: Settings |
         ``ptracer``), default the file's; ``same_estimator`` the user's word that the renderer
         runs it (None: False); ``splatting`` default: when the reference is a particle tracer;
         ``options`` only ``{"max_depth": d}``; ``jobs``, ``timeout``, ``variance_replicas`` and
-        ``seed_offset`` the renderer's runs; ``detect`` with ``command`` only.
+        ``seed_offset`` the renderer's runs; ``detect`` with ``command`` only; ``name`` the
+        renderer's name in the report.
     renderer_scene : path, optional
         The file the renderer reads instead of ``scene`` (``{scene}``).
     output_suffix : str
@@ -136,10 +137,6 @@ def check(scene, *, command=None, images=None, params=None, settings: Settings |
         Sample count of images whose header and sidecar give none.
     log : callable, optional
         Called with progress lines.
-    name : str, optional
-        The renderer's name in the verdicts, records and picture names (``--name``); default
-        the short form of ``command`` (:func:`~mitsuba_refs.external.naming.short_name`), or
-        ``images``.
     **keywords
         Fields of ``Settings`` replacing those of ``settings``, as ``mitsuba-refs check``'s
         options read: ``check(scene, command=..., same_estimator=True, jobs=4)``. Older names:
@@ -170,12 +167,12 @@ def check(scene, *, command=None, images=None, params=None, settings: Settings |
                                    judge_independence=True)
     size = file_settings.resolution
     if command is not None:
-        label = checked_name(name) if name is not None else short_name(command)
+        label = checked_name(settings.name) if settings.name is not None else short_name(command)
         setup = CommandSetup(size, transport, renderer_scene or path, output_suffix, label)
         result = _check_command(scene, CommandTemplate.parse(command), params, settings, setup, log)
         source = command
     else:
-        label = checked_name(name) if name is not None else "images"
+        label = checked_name(settings.name) if settings.name is not None else "images"
         result = _check_images(scene, image_files(images), params, settings, (size, images_spp),
                                log, label)
         source = f"images: {images if isinstance(images, str) else ' '.join(map(str, images))}"
