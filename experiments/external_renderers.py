@@ -10,7 +10,9 @@ convergence rate; ``--json`` keeps them (default docs/data/external_renderers.js
     python -m experiments.external_renderers --only mitsuba-ldsampler --cycles-python .venv-cycles/bin/python
 
 Renderers: Mitsuba's command line with each of its samplers (``cornell-box`` against
-``path``, the same estimator), ``pathtracer render`` (the same), the compiled smallpt of
+``path``, the same estimator; sample counts each sampler renders exactly, as
+``experiments.samplers`` plans them: Mitsuba rounds others up without a word in the image),
+``pathtracer render`` (the same), the compiled smallpt of
 examples/smallpt-cpp (``smallpt`` against ``path``: another estimator, so mean and
 convergence), a Mitsuba Python plugin through examples/mitsuba-plugin (``cornell-box``
 against ``path_bsdf``) and, with ``--cycles-python`` (a Python that has ``bpy``), Blender's
@@ -30,6 +32,7 @@ from mitsuba_refs.external.check import check
 from .bench import cpu_name
 from .check_calibration import SAMPLERS, build_cpp, mitsuba_program
 from .check_calibration import setup as calibration_setup
+from .samplers import CHECK_PLANS
 
 ROOT = Path(__file__).resolve().parent.parent
 #: (label, width, height) of the films every renderer is checked at.
@@ -40,7 +43,10 @@ def renderers(folder: Path, cycles_python: str | None) -> dict:
     """name -> check keywords (scene, command, reference, ...) of every renderer."""
     table = {}
     for sampler in SAMPLERS:
-        table[f"mitsuba-{sampler}"] = calibration_setup("mitsuba", 0.0, folder, sampler)
+        spp, replicas, ladder = CHECK_PLANS[sampler]
+        table[f"mitsuba-{sampler}"] = {**calibration_setup("mitsuba", 0.0, folder, sampler),
+                                       "spp": spp, "variance_replicas": replicas,
+                                       "ladder": ladder, "replicas": 4}
     table["pathtracer"] = calibration_setup("pathtracer", 0.0, folder)
     binary = build_cpp(folder)
     table["smallpt-cpp"] = {
