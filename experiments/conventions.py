@@ -2,9 +2,10 @@
 
 A correct renderer's images (Mitsuba 3's own, ``scalar_rgb``, through its Python API) are
 given a convention another renderer might follow (a factor pi, a white balance, sRGB output,
-a clamp at 1, a flip, a one-pixel shift, one bounce too few), or a plain bias that is no
-convention (a light 5 % too bright or too dark, one wall's albedo changed, the emitters
-hidden, two bounces too few), and judged by ``check`` exactly as a user's files would be: 8
+a clamp at 1, a flip, a shift by one pixel or by half of one, one bounce too few), a plain
+bias that is no convention (a light 5 % too bright or too dark, one wall's albedo changed,
+the emitters hidden, two bounces too few), or a convention the check does not name (a
+gaussian or tent reconstruction filter), and judged by ``check`` exactly as a user's files would be: 8
 replica PFMs of 8 spp with their sidecars, against the committed reference. Each check
 records whether the mean disagreed and which convention its first hint named.
 
@@ -28,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mitsuba_refs.errors import RefsInputError
 from mitsuba_refs.external.check import check
 from mitsuba_refs.stats import conventions as conv
 
@@ -42,10 +44,16 @@ DEPTH = 3
 REPLICAS, REPLICA_SPP = 8, 8
 SEED_STEP = 8192
 #: The images' variants that need renders of their own: name -> (max_depth, albedo factor,
-#: hide emitters).
-VARIANTS = {"correct": (DEPTH, 1.0, False), "one bounce fewer": (DEPTH - 1, 1.0, False),
-            "two bounces fewer": (DEPTH - 2, 1.0, False), "wall albedo x0.8": (DEPTH, 0.8, False),
-            "emitters hidden": (DEPTH, 1.0, True)}
+#: hide emitters, reconstruction filter, supersampling). A supersampled variant is rendered
+#: at twice the film size with a quarter of the samples and averaged over 2 x 2 pixels.
+VARIANTS = {"correct": (DEPTH, 1.0, False, "box", 1),
+            "one bounce fewer": (DEPTH - 1, 1.0, False, "box", 1),
+            "two bounces fewer": (DEPTH - 2, 1.0, False, "box", 1),
+            "wall albedo x0.8": (DEPTH, 0.8, False, "box", 1),
+            "emitters hidden": (DEPTH, 1.0, True, "box", 1),
+            "twice the size": (DEPTH, 1.0, False, "box", 2),
+            "gaussian filter": (DEPTH, 1.0, False, "gaussian", 1),
+            "tent filter": (DEPTH, 1.0, False, "tent", 1)}
 
 
 def _shift(images, dy, dx):
@@ -58,6 +66,28 @@ def _shift(images, dy, dx):
         h, w = image.shape[:2]
         padded = edge[abs(dy) - dy:abs(dy) - dy + h, abs(dx) - dx:abs(dx) - dx + w]
         moved.append(np.where(valid[..., None], out, padded))
+    return moved
+
+
+def _half_left(images):
+    """Twice-size images averaged over 2 x 2 pixels offset by one small pixel: the image
+    moved half a pixel left (its last column from the edge)."""
+    moved = []
+    for image in images:
+        padded = np.pad(image, ((0, 0), (0, 1), (0, 0)), mode="edge")[:, 1:]
+        h, w = padded.shape[0] // 2, padded.shape[1] // 2
+        moved.append(padded.reshape(h, 2, w, 2, -1).mean(axis=(1, 3)))
+    return moved
+
+
+def _half_down(images):
+    """Twice-size images averaged over 2 x 2 pixels offset by one small pixel: moved half a
+    pixel down (its first row from the edge)."""
+    moved = []
+    for image in images:
+        padded = np.pad(image, ((1, 0), (0, 0), (0, 0)), mode="edge")[:-1]
+        h, w = padded.shape[0] // 2, padded.shape[1] // 2
+        moved.append(padded.reshape(h, 2, w, 2, -1).mean(axis=(1, 3)))
     return moved
 
 
@@ -83,7 +113,11 @@ INJECTIONS = {
     "mirrored": ("correct", _each(lambda x: x[:, ::-1]), ("flip_horizontal", None)),
     "one pixel right": ("correct", lambda images: _shift(images, 0, 1), ("shift", (0, 1))),
     "one pixel down": ("correct", lambda images: _shift(images, 1, 0), ("shift", (1, 0))),
+    "half a pixel left": ("twice the size", _half_left, ("half_shift", (0, -0.5))),
+    "half a pixel down": ("twice the size", _half_down, ("half_shift", (0.5, 0))),
     "one bounce too few": ("one bounce fewer", None, ("bounces", DEPTH - 1)),
+    "not built: gaussian filter": ("gaussian filter", None, None),
+    "not built: tent filter": ("tent filter", None, None),
     "plain: light +5%": ("correct", _each(lambda x: x * 1.05), None),
     "plain: light -5%": ("correct", _each(lambda x: x * 0.95), None),
     "plain: one wall's albedo x0.8": ("wall albedo x0.8", None, None),
@@ -98,16 +132,22 @@ def mitsuba_replicas(scene: str, variant: str, trial: int) -> list[np.ndarray]:
     import mitsuba as mi  # the renderer under test: loaded only when this script runs
     mi.set_variant("scalar_rgb")
     (width, height), wall = SCENES[scene]
-    depth, albedo, hide = VARIANTS[variant]
-    loaded = mi.load_file(str(ROOT / "pathtracer/data/scenes" / f"{scene}.xml"), width=width,
-                          height=height, max_depth=depth, spp=REPLICA_SPP)
+    depth, albedo, hide, rfilter, scale = VARIANTS[variant]
+    text = (ROOT / "pathtracer/data/scenes" / f"{scene}.xml").read_text()
+    text = text.replace('<rfilter type="box"/>', f'<rfilter type="{rfilter}"/>')
+    spp = REPLICA_SPP // scale ** 2
+    loaded = mi.load_string(text, width=width * scale, height=height * scale, max_depth=depth,
+                            spp=spp)
     if albedo != 1.0:
         params = mi.traverse(loaded)
         params[wall] = params[wall] * albedo
         params.update()
     integrator = mi.load_dict({"type": "path", "max_depth": depth, "hide_emitters": hide})
-    return [np.array(mi.render(loaded, integrator=integrator, seed=SEED_STEP * (1 + trial * REPLICAS + k),
-                               spp=REPLICA_SPP), dtype=np.float64)
+    # A film of twice the size has 4x the pixels: multiples of 8192 x 4 x 4096 would repeat
+    # after 32 seeds (seed x width x height mod 2^32), multiples of 64 do not.
+    step = SEED_STEP // 128 if scale > 1 else SEED_STEP
+    return [np.array(mi.render(loaded, integrator=integrator, seed=step * (1 + trial * REPLICAS + k),
+                               spp=spp), dtype=np.float64)
             for k in range(REPLICAS)]
 
 
@@ -138,8 +178,12 @@ def named_as_expected(named: dict | None, expected) -> bool:
 def judge(scene: str, pattern: str, alpha: float) -> dict:
     """One ``check --images`` of the replicas: verdict, p-value, the convention named, time."""
     start = time.perf_counter()
-    result = check(scene, images=pattern, params={"max_depth": DEPTH}, convergence=False,
-                   alpha=alpha)
+    try:
+        result = check(scene, images=pattern, params={"max_depth": DEPTH}, convergence=False,
+                       alpha=alpha)
+    except RefsInputError as refused:      # e.g. nearly noiseless replicas judged dependent
+        return {"agree": None, "p_value": None, "named": None, "refused": str(refused),
+                "seconds": time.perf_counter() - start}
     named = next((hint.finding for hint in result.hints if getattr(hint, "finding", None)), None)
     return {"agree": bool(result.mean.agree), "p_value": float(result.mean.p_value),
             "named": named, "seconds": time.perf_counter() - start}
@@ -167,11 +211,40 @@ def measure(scenes, trials: int, alphas, folder: Path, log=print) -> list[dict]:
     return records
 
 
+#: The columns of the JSON's rows, one row per check (rows, not objects: 1500 checks).
+COLUMNS = ("scene", "injection", "trial", "alpha", "agree", "p_value", "named", "named_value",
+           "named_p_value", "chi_square_before", "chi_square_after", "correct", "refused",
+           "seconds")
+
+
+def _rounded(value):
+    """Four significant digits."""
+    if isinstance(value, float):
+        return float(f"{value:.4g}")
+    if isinstance(value, (list, tuple)):
+        return [_rounded(v) for v in value]
+    return value
+
+
+def rows(records) -> list[list]:
+    """The records as rows of :data:`COLUMNS`."""
+    out = []
+    for r in records:
+        named = r["named"] or {}
+        flat = dict(r, named=named.get("convention"), named_value=named.get("value"),
+                    named_p_value=named.get("p_value"),
+                    chi_square_before=named.get("chi_square_before"),
+                    chi_square_after=named.get("chi_square_after"), refused=r.get("refused"))
+        out.append(_rounded([flat[c] for c in COLUMNS]))
+    return out
+
+
 def table(records, alpha: float) -> str:
     """The markdown table of docs/external.md: per injection, checks, disagreements, correct
-    names, wrong names (a convention named that was not injected), mean seconds per check."""
-    lines = ["| injected | scene | checks | mean disagrees | named correctly | named wrongly | s/check |",
-             "|---|---|---|---|---|---|---|"]
+    names, wrong names (a convention named that was not injected), mean seconds per check;
+    "refused": checks that stopped with an input error (replicas judged dependent)."""
+    lines = ["| injected | scene | checks | refused | mean disagrees | named correctly | named wrongly | s/check |",
+             "|---|---|---|---|---|---|---|---|"]
     for name, (_, _, expected) in INJECTIONS.items():
         for scene in sorted({r["scene"] for r in records}):
             rows = [r for r in records if r["injection"] == name and r["scene"] == scene
@@ -181,8 +254,9 @@ def table(records, alpha: float) -> str:
             wrong = sum(1 for r in rows if r["named"] is not None and not r["correct"])
             right = sum(1 for r in rows if r["correct"])
             seconds = sum(r["seconds"] for r in rows) / len(rows)
-            disagree = sum(1 for r in rows if not r["agree"])
-            lines.append(f"| {name} | {scene} | {len(rows)} | {disagree} | "
+            disagree = sum(1 for r in rows if r["agree"] is False)
+            refused = sum(1 for r in rows if r.get("refused"))
+            lines.append(f"| {name} | {scene} | {len(rows)} | {refused} | {disagree} | "
                          f"{right if expected else '–'} | {wrong} | {seconds:.2f} |")
     return "\n".join(lines)
 
@@ -202,9 +276,10 @@ def main(argv=None) -> int:
         records = measure(args.scenes, args.trials, args.alpha, Path(folder))
     seconds = time.perf_counter() - start
     args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps({"cpu": cpu_name(), "seconds": seconds, "trials": args.trials,
-                                     "replicas": REPLICAS, "replica_spp": REPLICA_SPP,
-                                     "max_depth": DEPTH, "records": records}, indent=1))
+    document = {"cpu": cpu_name(), "seconds": seconds, "trials": args.trials,
+                "replicas": REPLICAS, "replica_spp": REPLICA_SPP, "max_depth": DEPTH,
+                "columns": COLUMNS, "rows": rows(records)}
+    args.json.write_text(json.dumps(document, separators=(",", ":")).replace("],[", "],\n[") + "\n")
     for alpha in args.alpha:
         print(f"\nalpha = {alpha:g}\n" + table(records, alpha))
     print(f"\n{len(records)} checks in {seconds:.0f} s on {cpu_name()}")

@@ -433,6 +433,12 @@ def _convention_claim(convention: str, value) -> str:
     if convention == "shift":
         return (f"the image is moved one pixel {_SHIFT_WORDS[tuple(value)]} (pixel centres at "
                 "integers, or another film origin?): moved back it agrees")
+    if convention == "half_shift":
+        dy, dx = (float(v) for v in value)
+        where = _SHIFT_WORDS[(int(math.copysign(1, dy)) if dy else 0,
+                              int(math.copysign(1, dx)) if dx else 0)]
+        return (f"the image is moved half a pixel {where} (samples at pixel corners, or pixel "
+                "centres at integers?): against Mitsuba's moved alike it agrees")
     if convention == "bounces":
         return (f"one bounce too few (max_depth counted differently?): it agrees with Mitsuba at "
                 f"max_depth = {int(value)}")

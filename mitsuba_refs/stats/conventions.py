@@ -2,10 +2,13 @@ r"""Differences of convention: image transforms and their estimates (pure functi
 
 A renderer can be right and still disagree with Mitsuba because it follows another
 convention: its lights in other units (a factor pi, 2, 4 pi), a white balance, an sRGB or
-gamma-encoded output, values clamped at 1, the image flipped or shifted by a pixel. Each
+gamma-encoded output, values clamped at 1, the image flipped or shifted by a pixel or by half
+of one. Each
 convention here is an *inverse*: what turns the renderer's image back into Mitsuba's
 convention, so that the same mean test can be run again on the corrected image
-(:mod:`mitsuba_refs.verdicts.conventions` does that and decides what to name).
+(:mod:`mitsuba_refs.verdicts.conventions` does that and decides what to name). A half-pixel
+shift cannot be undone on the test image; the reference is moved instead
+(:func:`half_shifted`).
 
 Means and per-sample variances transform together. A transform ``f`` applied to a pixel mean
 changes the variance of the mean by ``f'(x)^2`` (the delta method; exact for the linear ones:
@@ -28,7 +31,7 @@ import numpy as np
 from ._tiles import tile_counts, tile_sums
 
 __all__ = ["GLOBAL_FACTORS", "GAMMA", "srgb_encode", "gamma_encode", "srgb_decode", "srgb_decode_slope", "gamma_decode",
-           "gamma_decode_slope", "flipped", "shifted", "ChannelGains", "channel_gains",
+           "gamma_decode_slope", "flipped", "shifted", "half_shifted", "ChannelGains", "channel_gains",
            "clamp_ceiling", "clamp_mask", "tile_chi_square", "explains", "masked"]
 
 #: Global factors between a renderer's units and Mitsuba's: pi (radiance against radiant
@@ -106,6 +109,30 @@ def shifted(image, dy: int, dx: int):
     out[yd, xd] = image[ys, xs]
     valid[yd, xd] = True
     return out, valid
+
+
+def half_shifted(mean, variance, dy: int, dx: int):
+    """A reference image moved by half a pixel in direction ``(dy, dx)`` (one of them +-1, the
+    other 0): each pixel the average of itself and its neighbour at ``(-dy, -dx)``, which is
+    the integral over the pixel moved by half when the radiance is linear across the two
+    pixels (at a sharp edge within a pixel it is not: docs/external.md gives what that costs).
+
+    Parameters
+    ----------
+    mean, variance : array (H, W, C)
+        The reference's per-pixel mean and per-sample variance.
+
+    Returns
+    -------
+    mean, variance : ndarray (H, W, C)
+        The moved image and the per-sample variance of its mean (two pixels' independent
+        samples averaged: a quarter of their sum).
+    valid : ndarray of bool (H, W)
+        Pixels whose neighbour exists.
+    """
+    neighbour, valid = shifted(mean, dy, dx)
+    neighbour_variance, _ = shifted(variance, dy, dx)
+    return (np.asarray(mean) + neighbour) / 2, (np.asarray(variance) + neighbour_variance) / 4, valid
 
 
 @dataclass(frozen=True)

@@ -1,8 +1,9 @@
 """Differences of convention: when a disagreement is one, which, and the proof.
 
 A renderer can be right in its own conventions and disagree with Mitsuba: lights in other
-units, a white balance, an encoded or clamped output, a flipped or shifted image, a path
-length counted differently. On a disagreement of the mean, :func:`find_convention` tries the
+units, a white balance, an encoded or clamped output, a flipped image, one shifted by a
+pixel or half of one, a path length counted differently. On a disagreement of the mean,
+:func:`find_convention` tries the
 inverse of each such convention on the test image (:mod:`mitsuba_refs.stats.conventions`) and
 runs the *same* mean test again (same reference, same alpha, same components and options).
 It names a convention only when both hold:
@@ -28,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import Callable
 
 import numpy as np
@@ -110,16 +112,18 @@ class Correction:
     ----------
     convention : str
         Its id: ``factor``, ``channel_gains``, ``srgb``, ``gamma``, ``clamp``,
-        ``flip_vertical``, ``flip_horizontal``, ``shift`` or ``bounces``.
+        ``flip_vertical``, ``flip_horizontal``, ``shift``, ``half_shift`` or ``bounces``.
     value : float, tuple or None
-        Its parameter: the factor, the gains, the ceiling, the shift (dy, dx), the depth.
+        Its parameter: the factor, the gains, the ceiling, the shift (dy, dx) in pixels, the
+        depth.
     transform : callable or None
         ``(mean, variance or None) -> (mean, variance or None)`` for one image; None: the
         image is left as it is.
     mask : (H, W) bool array or None
         Pixels the corrected comparison leaves out (on both sides).
     reference : Reference or None
-        Another reference to compare with (``bounces``); None: the comparison's.
+        Another reference to compare with (``bounces``, ``half_shift``); None: the
+        comparison's.
     """
 
     convention: str
@@ -239,7 +243,19 @@ def corrections(mean, variance, setup: MeanTestSetup) -> list[Correction]:
         out.append(Correction("shift", (dy, dx),
                               _moved(lambda x, dy=dy, dx=dx: conv.shifted(x, -dy, -dx)[0]),
                               ~valid))
+    for dy, dx in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        out.append(_half_shift_correction(setup.reference, dy, dx))
     return out
+
+
+def _half_shift_correction(reference, dy: int, dx: int) -> Correction:
+    """The renderer's image is Mitsuba's moved by half a pixel in direction ``(dy, dx)``: its
+    pixel ``p`` sees the halves of ``p`` and of ``p - (dy, dx)``, so the reference is moved
+    instead (the test image cannot be un-averaged)."""
+    mean, variance, valid = conv.half_shifted(reference.mean, reference.var, dy, dx)
+    moved = SimpleNamespace(mean=mean, var=variance, n=reference.n,
+                            metadata=getattr(reference, "metadata", {}))
+    return Correction("half_shift", (dy / 2, dx / 2), None, ~valid, moved)
 
 
 def find_convention(moments_of: Moments, verdict: MeanAgreement, setup: MeanTestSetup,
