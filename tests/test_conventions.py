@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import json
 import math
+import sys
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -236,7 +238,6 @@ def mitsuba_replicas():
     """Eight 8-spp renders of the Cornell box at max_depth 3 by Mitsuba itself (seeds 8192 k:
     scalar_rgb seeds its blocks from seed x width x height)."""
     mi = pytest.importorskip("mitsuba")
-    from pathlib import Path
     mi.set_variant("scalar_rgb")
     scene = mi.load_file(str(Path(__file__).resolve().parent.parent
                              / "pathtracer/data/scenes/cornell-box.xml"),
@@ -274,7 +275,6 @@ def test_check_images_names_srgb_output_first_among_the_hints(mitsuba_replicas, 
 @pytest.mark.statistical(assertions=1)
 def test_check_images_names_one_bounce_too_few(mitsuba_replicas, tmp_path):
     mi = pytest.importorskip("mitsuba")
-    from pathlib import Path
     scene = mi.load_file(str(Path(__file__).resolve().parent.parent
                              / "pathtracer/data/scenes/cornell-box.xml"),
                          width=64, height=64, max_depth=2, spp=8)
@@ -292,3 +292,19 @@ def test_check_images_does_not_name_a_light_five_percent_too_bright(mitsuba_repl
     assert not result.agree
     assert not any(getattr(hint, "finding", None) for hint in result.hints), result.report()
     assert not any(str(hint).startswith("convention:") for hint in result.hints)
+
+
+@pytest.mark.statistical(assertions=1)
+def test_check_command_names_a_factor_of_one_half():
+    """``--command``: Mitsuba run as an external renderer whose image is half of Mitsuba's (a
+    one-sided light where Mitsuba's is two-sided); named from the runs' own images."""
+    pytest.importorskip("mitsuba")
+    renderer = Path(__file__).resolve().parent / "external" / "mitsuba_scaled_renderer.py"
+    command = (f"{sys.executable} {renderer} {{scene}} --spp {{spp}} --seed {{seed}} "
+               "--max-depth {max_depth} --width {width} --height {height} --factor 0.5 --out {out}")
+    result = check("cornell-box", command=command, params={"max_depth": 3}, convergence=False,
+                   alpha=ALPHA, output_suffix=".pfm", jobs=2)
+    assert not result.agree, result.report()
+    assert result.hints[0].finding["convention"] == "factor", result.report()
+    assert result.hints[0].finding["value"] == pytest.approx(0.5)
+    assert "the image is 1/2 times Mitsuba's" in result.hints[0]
