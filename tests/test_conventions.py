@@ -229,6 +229,20 @@ def test_the_hint_says_the_convention_and_keeps_its_numbers():
     shift = ConventionHint(ConventionFinding("shift", (0, -1), 0.2, 50.0, 1.0, 0.03, ("clamp",)))
     assert "moved one pixel left" in shift and "3.0% of the pixels left out" in shift
     assert "corrected as clamp it agrees too" in shift
+    half = ConventionHint(ConventionFinding("half_shift", (0.5, 0.0), 0.3, 30.0, 0.9, 0.02))
+    assert "moved half a pixel down" in half and "against Mitsuba's moved alike it agrees" in half
+    filtered = ConventionHint(ConventionFinding("filter", "tent", 0.2, 10.0, 0.7, 0.0,
+                                                ("filter (gaussian)",)))
+    assert "a tent filter fits best" in filtered and filtered.finding["value"] == "tent"
+    assert "corrected as filter (gaussian) it agrees too" in filtered
+
+
+def test_another_filter_is_tried_only_on_a_box_film_that_reads_no_other_file():
+    from mitsuba_refs.settings import Settings
+    from mitsuba_refs.verdicts.conventions import filtered_references
+    # The mesh scene reads a PLY file: a copy elsewhere could not, so no filter is tried
+    # (and nothing is rendered).
+    assert filtered_references("mesh", {}, Settings(reference="path")) == []
 
 
 # ---- end to end: Mitsuba's images through check --images ------------------------------------

@@ -439,6 +439,9 @@ def _convention_claim(convention: str, value) -> str:
                               int(math.copysign(1, dx)) if dx else 0)]
         return (f"the image is moved half a pixel {where} (samples at pixel corners, or pixel "
                 "centres at integers?): against Mitsuba's moved alike it agrees")
+    if convention == "filter":
+        return (f"another reconstruction filter than the file's box (a {value} filter fits "
+                f"best): against Mitsuba's reference with a {value} filter it agrees")
     if convention == "bounces":
         return (f"one bounce too few (max_depth counted differently?): it agrees with Mitsuba at "
                 f"max_depth = {int(value)}")

@@ -27,14 +27,21 @@ nonlinear decoding of a mean of replicas is not the mean of the decoded replicas
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
+import tempfile
 from dataclasses import dataclass
+from pathlib import Path
 from types import SimpleNamespace
 from typing import Callable
 
 import numpy as np
 
+from pathtracer.scene.xml_files import scene_files
+
+from ..errors import ReferenceUnavailable, RefsInputError
 from ..reference.cache import get_reference
+from ..reference.render import resolve_scene
 from ..reference.rfilter import reference_correlation
 from ..report.wording import convention_text
 from ..stats import conventions as conv
@@ -54,6 +61,15 @@ GAIN_SPREAD_Z = 5.0
 MIN_GAIN_SPREAD = 0.02
 #: A clamp may leave out at most this fraction of the pixels.
 MAX_CLAMPED = 0.25
+#: The film filter the references with another one replace, and those they try instead (the
+#: filters whose references Mitsuba renders here: mitsuba_refs.reference.filtered).
+BOX_FILTER = '<rfilter type="box"/>'
+OTHER_FILTERS = ("gaussian", "tent")
+#: Another filter is tried only when the image mean is within this of Mitsuba's: a filter
+#: keeps the mean, up to the border of the film and, at few samples per pixel, the bias of
+#: the film's weighted average (+1.0 to +1.2 % for 8-spp replicas of the Cornell box and
+#: smallpt with a tent or gaussian filter).
+FILTER_MEAN_CHANGE = 0.03
 #: Replicas assumed behind a test image when the clamp's margin is judged (check's default:
 #: a replica has spp / 8 samples; with variance channels this is conservative).
 CLAMP_REPLICAS = 8
@@ -98,10 +114,13 @@ class MeanTestSetup:
         """The mean test of ``(mean, variance)`` against ``reference`` (default: the setup's),
         the pixels of ``mask`` left out on both sides."""
         ref = reference or self.reference
+        options = self.options
+        if reference is not None:      # another film filter correlates pixels otherwise
+            options = dataclasses.replace(options, pixel_correlation=reference_correlation(ref))
         return compare_means(conv.masked(mean, mask), conv.masked(variance, mask), self.spp,
                              conv.masked(ref.mean, mask), conv.masked(ref.var, mask), ref.n,
                              alpha=self.alpha, max_var_ratio=self.max_var_ratio,
-                             image_components=self.image_components, options=self.options)
+                             image_components=self.image_components, options=options)
 
 
 @dataclass(frozen=True)
@@ -112,18 +131,19 @@ class Correction:
     ----------
     convention : str
         Its id: ``factor``, ``channel_gains``, ``srgb``, ``gamma``, ``clamp``,
-        ``flip_vertical``, ``flip_horizontal``, ``shift``, ``half_shift`` or ``bounces``.
+        ``flip_vertical``, ``flip_horizontal``, ``shift``, ``half_shift``, ``bounces`` or
+        ``filter``.
     value : float, tuple or None
         Its parameter: the factor, the gains, the ceiling, the shift (dy, dx) in pixels, the
-        depth.
+        depth, the filter's type.
     transform : callable or None
         ``(mean, variance or None) -> (mean, variance or None)`` for one image; None: the
         image is left as it is.
     mask : (H, W) bool array or None
         Pixels the corrected comparison leaves out (on both sides).
     reference : Reference or None
-        Another reference to compare with (``bounces``, ``half_shift``); None: the
-        comparison's.
+        Another reference to compare with (``bounces``, ``half_shift``, ``filter``); None:
+        the comparison's.
     """
 
     convention: str
@@ -164,7 +184,7 @@ class ConventionFinding:
         value = self.value
         if isinstance(value, (tuple, list, np.ndarray)):
             value = [float(v) for v in value]
-        elif value is not None:
+        elif value is not None and not isinstance(value, str):
             value = float(value)
         return {"convention": self.convention, "value": value, "p_value": float(self.p_value),
                 "chi_square_before": float(self.chi_square_before),
@@ -294,7 +314,8 @@ def find_convention(moments_of: Moments, verdict: MeanAgreement, setup: MeanTest
     if not found:
         return None
     best = min(found, key=lambda f: f.chi_square_after)
-    others = tuple(f.convention for f in found if f is not best)
+    others = tuple(f"{f.convention} ({f.value})" if isinstance(f.value, str) else f.convention
+                   for f in found if f is not best)
     return dataclasses.replace(best, alternatives=others)
 
 
@@ -338,12 +359,57 @@ def fewer_bounces_reference(scene, params, settings, reference, log=None):
     return depth - 1, shorter
 
 
+def filtered_references(scene, params, settings, log=None) -> list[Correction]:
+    """Corrections for another reconstruction filter: Mitsuba's references of the same file with
+    each of :data:`OTHER_FILTERS` in place of its box filter (rendered when not cached: one
+    reference render each).
+
+    Only for a file whose film has exactly ``<rfilter type="box"/>`` and that reads no other
+    file (a copy of it, with the filter changed, is rendered from another folder:
+    ``<temp>/mitsuba-refs-conventions``, named by its content, so that its reference is
+    found in the cache next time); an empty list otherwise.
+    """
+    path = resolve_scene(scene)
+    text = path.read_text()
+    if text.count(BOX_FILTER) != 1 or scene_files(str(path)):
+        return []
+    folder = Path(tempfile.gettempdir()) / "mitsuba-refs-conventions"
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
+    for kind in OTHER_FILTERS:
+        changed = text.replace(BOX_FILTER, f'<rfilter type="{kind}"/>')
+        digest = hashlib.sha256(changed.encode()).hexdigest()[:12]
+        copy = folder / f"{path.stem}-{kind}-{digest}.xml"
+        if not copy.exists():
+            copy.write_text(changed)
+        other = get_reference(str(copy), params, settings.reference, log=log,
+                              options=reference_options(settings.options),
+                              resolution=settings.resolution)
+        out.append(Correction("filter", kind, None, None, other))
+    return out
+
+
+def _optional(fetch, result, settings, reference, log):
+    """The references a convention needs (``fetch``), or None when they cannot be had (no
+    Mitsuba and nothing cached, a cache that cannot be written, a film Mitsuba's variant
+    cannot filter): the convention is then not tried, and the verdicts stand as they are."""
+    arguments = (result.scene, result.params, settings) + ((reference,) if reference else ())
+    try:
+        return fetch(*arguments, log=log)
+    except (ReferenceUnavailable, RefsInputError) as missing:
+        if log is not None:
+            log(f"conventions: not tried ({str(missing).splitlines()[0]})")
+        return None
+
+
 def with_convention(result, moments_of: Moments, reference, settings, log=None):
     """``result`` (a :class:`~mitsuba_refs.verdicts.compare.Comparison`) with a convention that
     explains its disagreeing mean first among its hints (unchanged when none does).
 
     The reference one bounce shorter is fetched (rendered when not cached) only when no other
-    convention explains the error and the image is too dark, as a missing bounce makes it.
+    convention explains the error and the image is too dark, as a missing bounce makes it;
+    the references with another filter only when nothing else explains it and the image mean
+    is within :data:`FILTER_MEAN_CHANGE` of Mitsuba's, as a filter keeps it.
     """
     verdict = result.mean
     if not isinstance(verdict, MeanAgreement) or verdict.agree:
@@ -352,11 +418,14 @@ def with_convention(result, moments_of: Moments, reference, settings, log=None):
     setup = MeanTestSetup.of(verdict, reference, result.spp, bool(guard))
     finding = find_convention(moments_of, verdict, setup)
     if finding is None and verdict.rel_bias_ci[1] < 0:
-        shorter = fewer_bounces_reference(result.scene, result.params, settings, reference, log)
+        shorter = _optional(fewer_bounces_reference, result, settings, reference, log)
         if shorter is not None:
             depth, shorter_reference = shorter
             finding = find_convention(moments_of, verdict, setup,
                                       [Correction("bounces", depth, None, None, shorter_reference)])
+    if finding is None and abs(verdict.rel_bias) <= FILTER_MEAN_CHANGE:   # a filter keeps it
+        finding = find_convention(moments_of, verdict, setup,
+                                  _optional(filtered_references, result, settings, None, log) or [])
     if finding is None:
         return result
     return dataclasses.replace(result, hints=[ConventionHint(finding), *result.hints])
