@@ -242,7 +242,8 @@ def test_another_filter_is_tried_only_on_a_box_film_that_reads_no_other_file():
     from mitsuba_refs.verdicts.conventions import filtered_references
     # The mesh scene reads a PLY file: a copy elsewhere could not, so no filter is tried
     # (and nothing is rendered).
-    assert filtered_references("mesh", {}, Settings(reference="path")) == []
+    film = SimpleNamespace(mean=np.zeros((64, 64, 3)))
+    assert filtered_references("mesh", {}, Settings(reference="path"), film) == []
 
 
 # ---- end to end: Mitsuba's images through check --images ------------------------------------
@@ -322,3 +323,18 @@ def test_check_command_names_a_factor_of_one_half():
     assert result.hints[0].finding["convention"] == "factor", result.report()
     assert result.hints[0].finding["value"] == pytest.approx(0.5)
     assert "the image is 1/2 times Mitsuba's" in result.hints[0]
+
+
+def test_references_a_convention_cannot_have_leave_it_untried():
+    from mitsuba_refs.errors import ReferenceUnavailable
+    from mitsuba_refs.verdicts import conventions as verdicts
+
+    def unavailable(*args, log=None):
+        raise ReferenceUnavailable("no Mitsuba here and nothing cached")
+
+    lines = []
+    result = SimpleNamespace(scene="cornell-box", params={})
+    assert verdicts._optional(unavailable, result, None, None, lines.append) is None
+    assert lines == ["conventions: not tried (no Mitsuba here and nothing cached)"]
+    assert verdicts._may_render(SimpleNamespace(mean=np.zeros((128, 128, 3))))
+    assert not verdicts._may_render(SimpleNamespace(mean=np.zeros((256, 256, 3))))

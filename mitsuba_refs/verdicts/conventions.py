@@ -70,6 +70,10 @@ OTHER_FILTERS = ("gaussian", "tent")
 #: the film's weighted average (+1.0 to +1.2 % for 8-spp replicas of the Cornell box and
 #: smallpt with a tent or gaussian filter).
 FILTER_MEAN_CHANGE = 0.03
+#: References a convention needs are rendered (when not cached) only for films of at most
+#: this many pixels: a 4096-spp reference of 64 x 64 takes 10-14 s here, one of 512 x 512
+#: 64 times as long, too much to spend on a guess; larger films use cached ones only.
+MAX_RENDERED_PIXELS = 128 * 128
 #: Replicas assumed behind a test image when the clamp's margin is judged (check's default:
 #: a replica has spp / 8 samples; with variance channels this is conservative).
 CLAMP_REPLICAS = 8
@@ -355,11 +359,19 @@ def fewer_bounces_reference(scene, params, settings, reference, log=None):
     else:
         overrides["max_depth"] = depth - 1
     shorter = get_reference(scene, depth_params, settings.reference, log=log,
-                            options=overrides or None, resolution=settings.resolution)
+                            options=overrides or None, resolution=settings.resolution,
+                            render=_may_render(reference))
     return depth - 1, shorter
 
 
-def filtered_references(scene, params, settings, log=None) -> list[Correction]:
+def _may_render(reference) -> bool:
+    """Whether a reference of this film may be rendered for a convention
+    (:data:`MAX_RENDERED_PIXELS`)."""
+    height, width = reference.mean.shape[:2]
+    return height * width <= MAX_RENDERED_PIXELS
+
+
+def filtered_references(scene, params, settings, reference, log=None) -> list[Correction]:
     """Corrections for another reconstruction filter: Mitsuba's references of the same file with
     each of :data:`OTHER_FILTERS` in place of its box filter (rendered when not cached: one
     reference render each).
@@ -384,18 +396,18 @@ def filtered_references(scene, params, settings, log=None) -> list[Correction]:
             copy.write_text(changed)
         other = get_reference(str(copy), params, settings.reference, log=log,
                               options=reference_options(settings.options),
-                              resolution=settings.resolution)
+                              resolution=settings.resolution, render=_may_render(reference))
         out.append(Correction("filter", kind, None, None, other))
     return out
 
 
 def _optional(fetch, result, settings, reference, log):
     """The references a convention needs (``fetch``), or None when they cannot be had (no
-    Mitsuba and nothing cached, a cache that cannot be written, a film Mitsuba's variant
-    cannot filter): the convention is then not tried, and the verdicts stand as they are."""
-    arguments = (result.scene, result.params, settings) + ((reference,) if reference else ())
+    Mitsuba and nothing cached, a film larger than :data:`MAX_RENDERED_PIXELS` and nothing
+    cached, a cache that cannot be written, a film Mitsuba's variant cannot filter): the
+    convention is then not tried, and the verdicts stand as they are."""
     try:
-        return fetch(*arguments, log=log)
+        return fetch(result.scene, result.params, settings, reference, log=log)
     except (ReferenceUnavailable, RefsInputError) as missing:
         if log is not None:
             log(f"conventions: not tried ({str(missing).splitlines()[0]})")
@@ -425,7 +437,8 @@ def with_convention(result, moments_of: Moments, reference, settings, log=None):
                                       [Correction("bounces", depth, None, None, shorter_reference)])
     if finding is None and abs(verdict.rel_bias) <= FILTER_MEAN_CHANGE:   # a filter keeps it
         finding = find_convention(moments_of, verdict, setup,
-                                  _optional(filtered_references, result, settings, None, log) or [])
+                                  _optional(filtered_references, result, settings, reference, log)
+                                  or [])
     if finding is None:
         return result
     return dataclasses.replace(result, hints=[ConventionHint(finding), *result.hints])
