@@ -4,10 +4,11 @@ A correct renderer's images (Mitsuba 3's own, ``scalar_rgb``, through its Python
 given a convention another renderer might follow (a factor pi, a white balance, sRGB output,
 a clamp at 1, a flip, a shift by one pixel or by half of one, one bounce too few), a plain
 bias that is no convention (a light 5 % too bright or too dark, one wall's albedo changed,
-the emitters hidden, two bounces too few), or a gaussian or tent reconstruction filter
-(named "another filter" whichever of the two fits best), and judged by ``check`` exactly as a user's files would be: 8
-replica PFMs of 8 spp with their sidecars, against the committed reference. Each check
-records whether the mean disagreed and which convention its first hint named.
+the emitters hidden, two bounces too few), a gaussian or tent reconstruction filter (named
+"another filter" whichever of the two fits best) or the fov along another axis, and judged
+by ``check`` exactly as a user's files would be: 8 replica PFMs of 8 spp with their
+sidecars, against the committed reference. Each check records whether the mean disagreed
+and which convention its first hint named.
 
     python -m experiments.conventions --trials 10
     python -m experiments.conventions --trials 3 --scenes cornell-box --json /tmp/c.json
@@ -39,6 +40,10 @@ ROOT = Path(__file__).resolve().parent.parent
 #: Scenes, their film and the parameter of one wall's albedo (Mitsuba's scene parameters).
 SCENES = {"cornell-box": ((64, 64), "red.reflectance.value"),
           "smallpt": ((64, 48), "red.reflectance.value")}
+#: Each scene's fov_axis, and the one the injected renderer measures its fov along instead
+#: (on the square Cornell box x and y are the same: the diagonal).
+OWN_AXIS = {"cornell-box": "smaller", "smallpt": "y"}
+OTHER_AXIS = {"cornell-box": "diagonal", "smallpt": "x"}
 #: The path length of every check (the committed references at 3 and at 2 exist).
 DEPTH = 3
 REPLICAS, REPLICA_SPP = 8, 8
@@ -47,6 +52,7 @@ SEED_STEP = 8192
 #: hide emitters, reconstruction filter, supersampling). A supersampled variant is rendered
 #: at twice the film size with a quarter of the samples and averaged over 2 x 2 pixels.
 VARIANTS = {"correct": (DEPTH, 1.0, False, "box", 1),
+            "other fov axis": (DEPTH, 1.0, False, "box", 1),
             "one bounce fewer": (DEPTH - 1, 1.0, False, "box", 1),
             "two bounces fewer": (DEPTH - 2, 1.0, False, "box", 1),
             "wall albedo x0.8": (DEPTH, 0.8, False, "box", 1),
@@ -118,6 +124,7 @@ INJECTIONS = {
     "one bounce too few": ("one bounce fewer", None, ("bounces", DEPTH - 1)),
     "gaussian filter": ("gaussian filter", None, ("filter", "gaussian")),
     "tent filter": ("tent filter", None, ("filter", "tent")),
+    "fov along another axis": ("other fov axis", None, ("fov_axis", None)),
     "plain: light +2%": ("correct", _each(lambda x: x * 1.02), None),
     "plain: light +5%": ("correct", _each(lambda x: x * 1.05), None),
     "plain: light -5%": ("correct", _each(lambda x: x * 0.95), None),
@@ -136,6 +143,9 @@ def mitsuba_replicas(scene: str, variant: str, trial: int) -> list[np.ndarray]:
     depth, albedo, hide, rfilter, scale = VARIANTS[variant]
     text = (ROOT / "pathtracer/data/scenes" / f"{scene}.xml").read_text()
     text = text.replace('<rfilter type="box"/>', f'<rfilter type="{rfilter}"/>')
+    if variant == "other fov axis":
+        text = text.replace(f'<string name="fov_axis" value="{OWN_AXIS[scene]}"/>',
+                            f'<string name="fov_axis" value="{OTHER_AXIS[scene]}"/>')
     spp = REPLICA_SPP // scale ** 2
     loaded = mi.load_string(text, width=width * scale, height=height * scale, max_depth=depth,
                             spp=spp)

@@ -235,15 +235,22 @@ def test_the_hint_says_the_convention_and_keeps_its_numbers():
                                                 ("filter (gaussian)",)))
     assert "a tent filter fits best" in filtered and filtered.finding["value"] == "tent"
     assert "corrected as filter (gaussian) it agrees too" in filtered
+    fov = ConventionHint(ConventionFinding("fov_axis", "diagonal", 0.5, 80.0, 0.9))
+    assert "another field-of-view axis" in fov and "fov measured along diagonal" in fov
 
 
-def test_another_filter_is_tried_only_on_a_box_film_that_reads_no_other_file():
+def test_another_filter_or_fov_axis_is_tried_only_for_a_file_that_reads_no_other_file():
     from mitsuba_refs.settings import Settings
     from mitsuba_refs.verdicts.conventions import filtered_references
     # The mesh scene reads a PLY file: a copy elsewhere could not, so no filter is tried
     # (and nothing is rendered).
     film = SimpleNamespace(mean=np.zeros((64, 64, 3)))
     assert filtered_references("mesh", {}, Settings(reference="path"), film) == []
+    from mitsuba_refs.verdicts.conventions import _effective_axis, fov_axis_references
+    assert fov_axis_references("mesh", {}, Settings(reference="path"), film) == []
+    assert [_effective_axis(a, 64, 48) for a in ("smaller", "larger", "x", "diagonal")] == \
+        ["y", "x", "x", "diagonal"]
+    assert _effective_axis("smaller", 32, 32) == "x"
 
 
 # ---- end to end: Mitsuba's images through check --images ------------------------------------

@@ -442,6 +442,10 @@ def _convention_claim(convention: str, value) -> str:
     if convention == "filter":
         return (f"another reconstruction filter than the file's box (a {value} filter fits "
                 f"best): against Mitsuba's reference with a {value} filter it agrees")
+    if convention == "fov_axis":
+        return (f"another field-of-view axis (the image is a scaled copy about its centre): "
+                f"against Mitsuba's reference with the file's fov measured along {value} it "
+                "agrees")
     if convention == "bounces":
         return (f"one bounce too few (max_depth counted differently?): it agrees with Mitsuba at "
                 f"max_depth = {int(value)}")

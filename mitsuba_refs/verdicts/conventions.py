@@ -2,7 +2,8 @@
 
 A renderer can be right in its own conventions and disagree with Mitsuba: lights in other
 units, a white balance, an encoded or clamped output, a flipped image, one shifted by a
-pixel or half of one, a path length counted differently. On a disagreement of the mean,
+pixel or half of one, a path length counted differently, another reconstruction filter or
+field-of-view axis. On a disagreement of the mean,
 :func:`find_convention` tries the
 inverse of each such convention on the test image (:mod:`mitsuba_refs.stats.conventions`) and
 runs the *same* mean test again (same reference, same alpha, same components and options).
@@ -29,6 +30,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+import re
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -65,6 +67,8 @@ MAX_CLAMPED = 0.25
 #: filters whose references Mitsuba renders here: mitsuba_refs.reference.filtered).
 BOX_FILTER = '<rfilter type="box"/>'
 OTHER_FILTERS = ("gaussian", "tent")
+#: What Mitsuba's ``fov_axis`` can mean on a film (``smaller`` and ``larger`` are one of x, y).
+FOV_AXES = ("x", "y", "diagonal")
 #: Another filter is tried only when the image mean is within this of Mitsuba's: a filter
 #: keeps the mean, up to the border of the film and, at few samples per pixel, the bias of
 #: the film's weighted average (+1.0 to +1.2 % for 8-spp replicas of the Cornell box and
@@ -135,19 +139,19 @@ class Correction:
     ----------
     convention : str
         Its id: ``factor``, ``channel_gains``, ``srgb``, ``gamma``, ``clamp``,
-        ``flip_vertical``, ``flip_horizontal``, ``shift``, ``half_shift``, ``bounces`` or
-        ``filter``.
+        ``flip_vertical``, ``flip_horizontal``, ``shift``, ``half_shift``, ``bounces``,
+        ``filter`` or ``fov_axis``.
     value : float, tuple or None
         Its parameter: the factor, the gains, the ceiling, the shift (dy, dx) in pixels, the
-        depth, the filter's type.
+        depth, the filter's type, the field-of-view axis.
     transform : callable or None
         ``(mean, variance or None) -> (mean, variance or None)`` for one image; None: the
         image is left as it is.
     mask : (H, W) bool array or None
         Pixels the corrected comparison leaves out (on both sides).
     reference : Reference or None
-        Another reference to compare with (``bounces``, ``half_shift``, ``filter``); None:
-        the comparison's.
+        Another reference to compare with (``bounces``, ``half_shift``, ``filter``,
+        ``fov_axis``); None: the comparison's.
     """
 
     convention: str
@@ -371,34 +375,72 @@ def _may_render(reference) -> bool:
     return height * width <= MAX_RENDERED_PIXELS
 
 
-def filtered_references(scene, params, settings, reference, log=None) -> list[Correction]:
-    """Corrections for another reconstruction filter: Mitsuba's references of the same file with
-    each of :data:`OTHER_FILTERS` in place of its box filter (rendered when not cached: one
-    reference render each).
-
-    Only for a file whose film has exactly ``<rfilter type="box"/>`` and that reads no other
-    file (a copy of it, with the filter changed, is rendered from another folder:
-    ``<temp>/mitsuba-refs-conventions``, named by its content, so that its reference is
-    found in the cache next time); an empty list otherwise.
-    """
+def _file_copies(scene, old: str, news) -> list:
+    """Copies of the scene file with its one ``old`` text replaced by each of ``news``:
+    ``[(new, path), ...]``, written to ``<temp>/mitsuba-refs-conventions`` and named by their
+    content (so that their references are found in the cache next time). Empty when the
+    file holds ``old`` other than once, or reads other files (a copy elsewhere could not)."""
     path = resolve_scene(scene)
     text = path.read_text()
-    if text.count(BOX_FILTER) != 1 or scene_files(str(path)):
+    if text.count(old) != 1 or scene_files(str(path)):
         return []
     folder = Path(tempfile.gettempdir()) / "mitsuba-refs-conventions"
     folder.mkdir(parents=True, exist_ok=True)
-    out = []
-    for kind in OTHER_FILTERS:
-        changed = text.replace(BOX_FILTER, f'<rfilter type="{kind}"/>')
+    copies = []
+    for new in news:
+        changed = text.replace(old, new)
         digest = hashlib.sha256(changed.encode()).hexdigest()[:12]
-        copy = folder / f"{path.stem}-{kind}-{digest}.xml"
+        copy = folder / f"{path.stem}-{digest}.xml"
         if not copy.exists():
             copy.write_text(changed)
-        other = get_reference(str(copy), params, settings.reference, log=log,
-                              options=reference_options(settings.options),
-                              resolution=settings.resolution, render=_may_render(reference))
-        out.append(Correction("filter", kind, None, None, other))
-    return out
+        copies.append((new, copy))
+    return copies
+
+
+def _copied_references(convention, copies, values, params, settings, reference, log):
+    """The corrections comparing with Mitsuba's references of the file ``copies``."""
+    return [Correction(convention, value, None, None,
+                       get_reference(str(copy), params, settings.reference, log=log,
+                                     options=reference_options(settings.options),
+                                     resolution=settings.resolution,
+                                     render=_may_render(reference)))
+            for value, (_, copy) in zip(values, copies)]
+
+
+def filtered_references(scene, params, settings, reference, log=None) -> list[Correction]:
+    """Corrections for another reconstruction filter: Mitsuba's references of copies of the
+    file with each of :data:`OTHER_FILTERS` in place of its box filter (rendered when not
+    cached: one reference each). Only for a file whose film has exactly
+    ``<rfilter type="box"/>`` and that reads no other file."""
+    copies = _file_copies(scene, BOX_FILTER, [f'<rfilter type="{kind}"/>' for kind in OTHER_FILTERS])
+    return _copied_references("filter", copies, OTHER_FILTERS, params, settings, reference, log)
+
+
+def _effective_axis(axis: str, width: int, height: int) -> str:
+    """``x``, ``y`` or ``diagonal``: what Mitsuba's ``fov_axis`` means on this film."""
+    if axis == "smaller":
+        return "x" if width <= height else "y"
+    if axis == "larger":
+        return "x" if width >= height else "y"
+    return axis
+
+
+def fov_axis_references(scene, params, settings, reference, log=None) -> list[Correction]:
+    """Corrections for another field-of-view axis: Mitsuba's references of copies of the file
+    whose one ``fov_axis`` is each axis that means something else on this film (x, y,
+    diagonal; x and y are the same on a square film). Only for a file with exactly one
+    ``<string name="fov_axis" .../>`` that reads no other file."""
+    text = resolve_scene(scene).read_text()
+    found = re.findall(r'<string name="fov_axis" value="(\w+)"/>', text)
+    if len(found) != 1:
+        return []
+    height, width = reference.mean.shape[:2]
+    own = _effective_axis(found[0], width, height)
+    others = [axis for axis in FOV_AXES if axis != own
+              and not (width == height and {axis, own} == {"x", "y"})]
+    old = f'<string name="fov_axis" value="{found[0]}"/>'
+    copies = _file_copies(scene, old, [f'<string name="fov_axis" value="{a}"/>' for a in others])
+    return _copied_references("fov_axis", copies, others, params, settings, reference, log)
 
 
 def _optional(fetch, result, settings, reference, log):
@@ -421,7 +463,8 @@ def with_convention(result, moments_of: Moments, reference, settings, log=None):
     The reference one bounce shorter is fetched (rendered when not cached) only when no other
     convention explains the error and the image is too dark, as a missing bounce makes it;
     the references with another filter only when nothing else explains it and the image mean
-    is within :data:`FILTER_MEAN_CHANGE` of Mitsuba's, as a filter keeps it.
+    is within :data:`FILTER_MEAN_CHANGE` of Mitsuba's, as a filter keeps it; those with
+    another field-of-view axis last.
     """
     verdict = result.mean
     if not isinstance(verdict, MeanAgreement) or verdict.agree:
@@ -438,6 +481,10 @@ def with_convention(result, moments_of: Moments, reference, settings, log=None):
     if finding is None and abs(verdict.rel_bias) <= FILTER_MEAN_CHANGE:   # a filter keeps it
         finding = find_convention(moments_of, verdict, setup,
                                   _optional(filtered_references, result, settings, reference, log)
+                                  or [])
+    if finding is None:
+        finding = find_convention(moments_of, verdict, setup,
+                                  _optional(fov_axis_references, result, settings, reference, log)
                                   or [])
     if finding is None:
         return result
