@@ -78,6 +78,11 @@ FILTER_MEAN_CHANGE = 0.03
 #: this many pixels: a 4096-spp reference of 64 x 64 takes 10-14 s here, one of 512 x 512
 #: 64 times as long, too much to spend on a guess; larger films use cached ones only.
 MAX_RENDERED_PIXELS = 128 * 128
+#: Samples per pixel of the references of a file's copies (another filter or fov axis): a
+#: quarter of a committed reference's, a quarter of the time. The mean test counts the
+#: reference's noise, so it stays valid; against a 64-spp test its standard error grows by
+#: 2 % (sqrt((1 + 1/16) / (1 + 1/64))).
+COPY_REFERENCE_SPP = 1024
 #: Replicas assumed behind a test image when the clamp's margin is judged (check's default:
 #: a replica has spp / 8 samples; with variance channels this is conservative).
 CLAMP_REPLICAS = 8
@@ -398,9 +403,11 @@ def _file_copies(scene, old: str, news) -> list:
 
 
 def _copied_references(convention, copies, values, params, settings, reference, log):
-    """The corrections comparing with Mitsuba's references of the file ``copies``."""
+    """The corrections comparing with Mitsuba's references of the file ``copies``, at
+    :data:`COPY_REFERENCE_SPP`."""
     return [Correction(convention, value, None, None,
-                       get_reference(str(copy), params, settings.reference, log=log,
+                       get_reference(str(copy), params, settings.reference,
+                                     spp=COPY_REFERENCE_SPP, log=log,
                                      options=reference_options(settings.options),
                                      resolution=settings.resolution,
                                      render=_may_render(reference)))
