@@ -39,8 +39,10 @@ from ..reference.cache import get_reference
 from ..reference.render import reference_settings
 from ..report.wording import MEAN_WITH_STRATIFIED_VARIANCE, VARIANCE_NOT_STATED, variance_not_independent
 from ..settings import PILOT_SPP, Settings, settings_of
+from ..stats import replicas as stats_replicas
 from ..stats.mean import MeanAgreement
 from ..verdicts.compare import TEST_SEED, Comparison, FaultyImages, compare, concluded
+from ..verdicts.conventions import with_convention
 from ..verdicts.convergence import CONVERGENCE_SEED, ConvergenceParts, convergence_requests, level_replicas
 from ..verdicts.scenes import default_params, reference_options, scene_defaults
 from .images import ImageError, image_faults, read_image
@@ -220,6 +222,7 @@ def _check_command(scene, template, params, settings: Settings, setup: CommandSe
         result = faulty(scene, setup.name, params, settings.spp, fault.lines, settings.alpha)
     finally:
         renders.close()
+    result = with_convention(result, _fixed_moments(result.arrays), reference, settings, log)
     notes = list(result.notes)
     if renders.has_variance is False:
         count = replica_count(result.spp, settings.variance_replicas or 8)
@@ -446,4 +449,33 @@ def _check_images(scene, files, params, settings: Settings, film, log, label="im
     own = any(image.variance is not None for image in images
               if image.spp == max(i.spp for i in images))
     result = variance_reasons(result, settings, own)
-    return concluded(result, settings.out_dir, (mean, variance, reference), start)
+    result = concluded(result, settings.out_dir, (mean, variance, reference), start)
+    return with_convention(result, _image_moments(images), reference, settings, log)
+
+
+def _fixed_moments(arrays):
+    """``moments_of`` (:func:`~mitsuba_refs.verdicts.conventions.find_convention`) of one test
+    image: a correction applies to its mean and per-sample variance."""
+    def moments_of(transform):
+        mean, variance = arrays["test_mean"], arrays["test_variance"]
+        return (mean, variance) if transform is None else transform(mean, variance)
+    return moments_of
+
+
+def _image_moments(images):
+    """``moments_of`` of images rendered elsewhere: a correction applies to each image before
+    their moments are taken (a decoded mean of replicas is not the mean of decoded replicas).
+    Corrected replicas are not checked for independence again: the images were, and a
+    nonlinear decoding can make a few pixels carry their standardised correlation."""
+    def moments_of(transform):
+        if transform is None:
+            return mean_and_variance(images)[:2]
+        fixed = [dataclasses.replace(image, **dict(zip(("mean", "variance"), transform(
+            image.mean, image.variance)))) for image in images]
+        top = max(image.spp for image in fixed)
+        level = [image for image in fixed if image.spp == top]
+        if any(image.variance is not None for image in level):
+            return mean_and_variance(fixed)[:2]
+        mean, variance = stats_replicas.replica_moments(np.stack([i.mean for i in level]), top)
+        return mean, variance
+    return moments_of

@@ -127,6 +127,8 @@ def comparison_record(result, out_dir, *, stem: str | None = None) -> dict:
         (what ``--detect`` chose and why, or None),
         ``rendered``, ``reference`` (``key``, ``integrator``, ``width``, ``height``), ``alpha``,
         ``verdicts`` (:mod:`.verdicts`: mean, variance, convergence, bounces), ``hints``,
+        ``convention`` (the difference of convention a hint names, as numbers, or None:
+        :mod:`mitsuba_refs.verdicts.conventions`),
         ``notes``, ``pictures`` (name -> path), ``images`` (``test``, ``reference`` -> EXR
         path, or None), ``runs``, ``seconds`` (the whole comparison), ``renders``,
         ``render_seconds``, ``cpu_seconds`` (None unless every run has ``cpu_seconds``).
@@ -153,6 +155,8 @@ def comparison_record(result, out_dir, *, stem: str | None = None) -> dict:
         "alpha": number(result.mean.alpha),
         "verdicts": verdict_entries(result),
         "hints": [str(hint) for hint in result.hints or []],
+        "convention": next((hint.finding for hint in result.hints or []
+                            if getattr(hint, "finding", None)), None),
         "notes": [str(note) for note in result.notes or []],
         "pictures": pictures,
         "images": images,

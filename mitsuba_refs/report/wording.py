@@ -24,7 +24,7 @@ __all__ = ["format_p", "percent", "region_name", "mean_verdict", "mean_region",
            "variance_not_independent", "VARIANCE_NO_ESTIMATOR", "VARIANCE_NOT_STATED",
            "MEAN_WITH_STRATIFIED_VARIANCE",
            "convergence_verdict", "convergence_warnings", "rmse_rate", "depth_name", "bounce_verdict",
-           "verdict_line", "sees", "status_text", "mean_line"]
+           "verdict_line", "sees", "status_text", "mean_line", "convention_text"]
 
 #: How a verdict line writes a p-value that is not a number (the reports' tables write "–").
 NO_P = "<1e-300"
@@ -441,3 +441,76 @@ def mean_line(result) -> str:
             hint = f"the reference's own noise alone hides less than {percent(bound.floor)}"
         return f"{verdict}; {sees(bound)}; {hint}"
     return f"{verdict}; {sees(bound)}"
+
+
+# ---- differences of convention (mitsuba_refs.verdicts.conventions) ----------------------------
+#: The global factors by name, and what each suggests.
+_FACTOR_WORDS = (
+    (math.pi, "pi", "light or BSDF units: radiance against exitance, rho against rho/pi?"),
+    (1 / math.pi, "1/pi", "light or BSDF units: exitance against radiance, rho/pi against rho?"),
+    (2.0, "2", "two-sided lights or surfaces where Mitsuba's are one-sided?"),
+    (0.5, "1/2", "one-sided lights or surfaces where Mitsuba's are two-sided?"),
+    (4 * math.pi, "4 pi", "a point light's power given as its intensity?"),
+    (1 / (4 * math.pi), "1/(4 pi)", "a point light's intensity given as its power?"),
+)
+_SHIFT_WORDS = {(1, 0): "down", (-1, 0): "up", (0, 1): "right", (0, -1): "left"}
+
+
+def _factor_words(value: float) -> tuple:
+    return min(_FACTOR_WORDS, key=lambda entry: abs(math.log(value / entry[0])))[1:]
+
+
+def _convention_claim(convention: str, value) -> str:
+    """What the convention is and how the image was corrected, for one finding."""
+    if convention == "factor":
+        name, why = _factor_words(float(value))
+        return f"the image is {name} times Mitsuba's ({why}): divided by {name} it agrees"
+    if convention == "channel_gains":
+        gains = ", ".join(f"{g:.3f}" for g in value)
+        return (f"per-channel gains (white balance, or a light of another colour?): R, G, B are "
+                f"{gains}x Mitsuba's; divided by them it agrees")
+    if convention == "srgb":
+        return "the output is sRGB-encoded (a display image, not radiance?): decoded it agrees"
+    if convention == "gamma":
+        return f"the output is gamma-encoded ({value:g}): decoded it agrees"
+    if convention == "clamp":
+        return (f"values are clamped at {value:.4g} (an LDR output?): without the pixels at or "
+                "near that ceiling it agrees")
+    if convention == "flip_vertical":
+        return "the image is upside down (row 0 at the bottom?): flipped it agrees"
+    if convention == "flip_horizontal":
+        return "the image is mirrored left-right (camera handedness?): mirrored back it agrees"
+    if convention == "shift":
+        return (f"the image is moved one pixel {_SHIFT_WORDS[tuple(value)]} (pixel centres at "
+                "integers, or another film origin?): moved back it agrees")
+    if convention == "half_shift":
+        dy, dx = (float(v) for v in value)
+        where = _SHIFT_WORDS[(int(math.copysign(1, dy)) if dy else 0,
+                              int(math.copysign(1, dx)) if dx else 0)]
+        return (f"the image is moved half a pixel {where} (samples at pixel corners, or pixel "
+                "centres at integers?): against Mitsuba's moved alike it agrees")
+    if convention == "filter":
+        return (f"another reconstruction filter than the file's box (a {value} filter fits "
+                f"best): against Mitsuba's reference with a {value} filter it agrees")
+    if convention == "fov_axis":
+        return (f"another field-of-view axis (the image is a scaled copy about its centre): "
+                f"against Mitsuba's reference with the file's fov measured along {value} it "
+                "agrees")
+    if convention == "bounces":
+        return (f"one bounce too few (max_depth counted differently?): it agrees with Mitsuba at "
+                f"max_depth = {int(value)}")
+    return f"{convention}: corrected it agrees"
+
+
+def convention_text(finding) -> str:
+    """The hint naming a convention (a :class:`mitsuba_refs.verdicts.conventions.ConventionFinding`):
+    "convention: the image is 1/pi times Mitsuba's (...): divided by 1/pi it agrees (p = 0.41)"."""
+    text = (f"convention: {_convention_claim(finding.convention, finding.value)} "
+            f"(p = {format_p(finding.p_value)}; tile chi-square {finding.chi_square_before:.3g} "
+            f"-> {finding.chi_square_after:.2f}")
+    if finding.masked_fraction > 0:
+        text += f", {percent(finding.masked_fraction)} of the pixels left out"
+    text += ")"
+    if finding.alternatives:
+        text += f"; corrected as {', '.join(finding.alternatives)} it agrees too"
+    return text
