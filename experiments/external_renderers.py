@@ -27,6 +27,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from mitsuba_refs.errors import RefsInputError
 from mitsuba_refs.external.check import check
 
 from .bench import cpu_name
@@ -46,7 +47,7 @@ def renderers(folder: Path, cycles_python: str | None) -> dict:
         spp, replicas, ladder = CHECK_PLANS[sampler]
         table[f"mitsuba-{sampler}"] = {**calibration_setup("mitsuba", 0.0, folder, sampler),
                                        "spp": spp, "variance_replicas": replicas,
-                                       "ladder": ladder, "replicas": 4}
+                                       "ladder": ladder, "ladder_replicas": 4}
     table["pathtracer"] = calibration_setup("pathtracer", 0.0, folder)
     binary = build_cpp(folder)
     table["smallpt-cpp"] = {
@@ -75,7 +76,7 @@ def row(name: str, film: tuple, keywords: dict, jobs: int) -> dict:
     start = time.perf_counter()
     try:
         result = check(scene, **keywords, resolution=(width, height), bounces=False, jobs=jobs)
-    except Exception as error:            # a refusal is a row too: it is what the user meets
+    except RefsInputError as error:       # a refusal is a row too: it is what the user meets
         return {"renderer": name, "film": f"{width}x{height}", "refused": str(error)}
     law = result.convergence
     return {
