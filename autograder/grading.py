@@ -37,6 +37,7 @@ import numpy as np
 
 from mitsuba_refs.reference import config as refs_config
 from mitsuba_refs.reference.cache import get_reference
+from mitsuba_refs.report.text import closing_lines
 from mitsuba_refs.report.wording import convergence_verdict, mean_verdict, variance_policy_verdict
 from mitsuba_refs.settings import Settings
 from mitsuba_refs.stats import MAX_VARIANCE_RATIO, ErrorBudget, compare_means
@@ -334,11 +335,7 @@ class CheckResult:
                 f"(x{1 + r.rel_bias:.3f})" for d, r in sorted(self.bounce.items())))
         for finding in self.findings:
             lines.append(f"  {finding}")
-        for hint in self.hints:
-            lines.append(f"  likely cause: {hint}")
-        for name, path in self.pictures.items():
-            lines.append(f"  picture ({name}): {path}")
-        lines.append(f"  ({self.seconds:.1f} s)")
+        lines += closing_lines(self.hints, self.pictures, self.seconds)
         return "\n".join(lines)
 
 

@@ -8,7 +8,7 @@ from .encoding import to_float
 from .results import record_path
 from .wording import convergence_verdict, mean_line, percent, status_text, variance_verdict
 
-__all__ = ["interval_text", "detectable_text", "suite_name", "picture_lines",
+__all__ = ["interval_text", "detectable_text", "suite_name", "picture_lines", "closing_lines",
            "run_summary", "comparison_report", "rendered_settings"]
 
 
@@ -98,14 +98,17 @@ def comparison_report(result) -> str:
         lines.append(f"  convergence: {convergence_verdict(result.convergence)}")
     if result.bounce is not None:
         lines.append(f"  bounces:     {result.bounce[1]}")
-    for hint in result.hints:
-        lines.append(f"  likely cause: {hint}")
-    for note in result.notes:
-        lines.append(f"  note:        {note}")
-    for name, path in result.pictures.items():
-        lines.append(f"  picture ({name}): {path}")
-    lines.append(f"  ({result.seconds:.1f} s)")
+    lines += closing_lines(result.hints, result.pictures, result.seconds, result.notes)
     return "\n".join(lines)
+
+
+def closing_lines(hints, pictures: dict, seconds: float, notes=()) -> list[str]:
+    """The last lines of a verdict text, comparison's and grader's alike: the likely causes,
+    the notes, the diagnostic pictures and the seconds it took."""
+    return ([f"  likely cause: {hint}" for hint in hints]
+            + [f"  note:        {note}" for note in notes]
+            + [f"  picture ({name}): {path}" for name, path in pictures.items()]
+            + [f"  ({seconds:.1f} s)"])
 
 
 def rendered_settings(metadata: dict) -> str:
