@@ -39,7 +39,6 @@ from ..reference.cache import get_reference
 from ..reference.render import reference_settings
 from ..report.wording import MEAN_WITH_STRATIFIED_VARIANCE, VARIANCE_NOT_STATED, variance_not_independent
 from ..settings import PILOT_SPP, Settings, settings_of
-from ..stats import replicas as stats_replicas
 from ..stats.mean import MeanAgreement
 from ..verdicts.compare import TEST_SEED, Comparison, FaultyImages, compare, concluded
 from ..verdicts.conventions import with_convention
@@ -450,7 +449,8 @@ def _check_images(scene, files, params, settings: Settings, film, log, label="im
               if image.spp == max(i.spp for i in images))
     result = variance_reasons(result, settings, own)
     result = concluded(result, settings.out_dir, (mean, variance, reference), start)
-    return with_convention(result, _image_moments(images), reference, settings, log)
+    return with_convention(result, _image_moments(images, (mean, variance)), reference, settings,
+                           log)
 
 
 def _fixed_moments(arrays):
@@ -462,20 +462,16 @@ def _fixed_moments(arrays):
     return moments_of
 
 
-def _image_moments(images):
-    """``moments_of`` of images rendered elsewhere: a correction applies to each image before
-    their moments are taken (a decoded mean of replicas is not the mean of decoded replicas).
-    Corrected replicas are not checked for independence again: the images were, and a
-    nonlinear decoding can make a few pixels carry their standardised correlation."""
+def _image_moments(images, moments):
+    """``moments_of`` of images rendered elsewhere, whose uncorrected ``(mean, variance)`` are
+    ``moments``: a correction applies to each image before their moments are taken (a decoded
+    mean of replicas is not the mean of decoded replicas). Corrected replicas are not checked
+    for independence again: the images were, and a nonlinear decoding can make a few pixels
+    carry their standardised correlation (:func:`mean_and_variance` does not check)."""
     def moments_of(transform):
         if transform is None:
-            return mean_and_variance(images)[:2]
+            return moments
         fixed = [dataclasses.replace(image, **dict(zip(("mean", "variance"), transform(
             image.mean, image.variance)))) for image in images]
-        top = max(image.spp for image in fixed)
-        level = [image for image in fixed if image.spp == top]
-        if any(image.variance is not None for image in level):
-            return mean_and_variance(fixed)[:2]
-        mean, variance = stats_replicas.replica_moments(np.stack([i.mean for i in level]), top)
-        return mean, variance
+        return mean_and_variance(fixed)[:2]
     return moments_of
