@@ -167,13 +167,15 @@ def check(scene, *, command=None, images=None, params=None, settings: Settings |
                                    same_estimator=bool(settings.same_estimator),
                                    judge_independence=True)
     size = file_settings.resolution
+    if settings.name is not None:
+        label = checked_name(settings.name)
+    else:
+        label = short_name(command) if command is not None else "images"
     if command is not None:
-        label = checked_name(settings.name) if settings.name is not None else short_name(command)
         setup = CommandSetup(size, transport, renderer_scene or path, output_suffix, label)
         result = _check_command(scene, CommandTemplate.parse(command), params, settings, setup, log)
         source = command
     else:
-        label = checked_name(settings.name) if settings.name is not None else "images"
         result = _check_images(scene, image_files(images), params, settings, (size, images_spp),
                                log, label)
         source = f"images: {images if isinstance(images, str) else ' '.join(map(str, images))}"
