@@ -10,6 +10,8 @@ SENSOR_XML = """<scene version="3.0.0">
     <float name="fov" value="{fov}"/>
     <string name="fov_axis" value="{axis}"/>
     <float name="near_clip" value="{near}"/>
+    <float name="principal_point_offset_x" value="{offset[0]}"/>
+    <float name="principal_point_offset_y" value="{offset[1]}"/>
     <transform name="to_world">
       <lookat origin="1, 2, 3" target="0.2, -0.1, 0.3" up="0.1, 1, 0"/>
     </transform>
@@ -23,12 +25,21 @@ SENSOR_XML = """<scene version="3.0.0">
 
 CASES = [("x", 45, 64, 48, 0.01), ("y", 30, 48, 64, 1.5), ("smaller", 60, 80, 32, 0.1),
          ("larger", 60, 32, 80, 0.01), ("diagonal", 70, 64, 64, 0.01)]
+#: Principal point offsets (fractions of the film): none, and an off-axis frustum each way.
+OFFSETS = [(0.0, 0.0), (0.13, -0.07), (-0.25, 0.5 / 48)]
 
 
-@pytest.mark.parametrize("axis,fov,width,height,near", CASES)
-def test_camera_rays_match_mitsuba(tmp_path, axis, fov, width, height, near, mi):
+def sensor_file(tmp_path, axis, fov, width, height, near, offset=(0.0, 0.0)):
     path = tmp_path / "camera.xml"
-    path.write_text(SENSOR_XML.format(fov=fov, axis=axis, near=near, width=width, height=height))
+    path.write_text(SENSOR_XML.format(fov=fov, axis=axis, near=near, width=width, height=height,
+                                      offset=offset))
+    return path
+
+
+@pytest.mark.parametrize("offset", OFFSETS)
+@pytest.mark.parametrize("axis,fov,width,height,near", CASES)
+def test_camera_rays_match_mitsuba(tmp_path, axis, fov, width, height, near, offset, mi):
+    path = sensor_file(tmp_path, axis, fov, width, height, near, offset)
     camera = load_scene(str(path)).camera
     sensor = mi.load_file(str(path)).sensors()[0]
 
@@ -61,10 +72,12 @@ def test_image_orientation():
 def test_camera_connection_matches_mitsuba_sample_direction(tmp_path, axis, fov, width, height,
                                                             near, mi):
     """connect_to_camera (the light tracer's splat: pixel, direction, importance We / d^2)
-    against the sensor's own ``sample_direction`` for points inside and outside the view."""
+    against the sensor's own ``sample_direction`` for points inside and outside the view.
+    Without a principal point offset: Mitsuba 3.9.1's importance keeps the unmoved film
+    rectangle (zero on part of the film its own rays cover); the offset's connections are
+    tested against our own rays (test_principal_point_offset_moves_the_pixel_grid)."""
     from pathtracer.sensors.importance import connect_to_camera
-    path = tmp_path / "camera.xml"
-    path.write_text(SENSOR_XML.format(fov=fov, axis=axis, near=near, width=width, height=height))
+    path = sensor_file(tmp_path, axis, fov, width, height, near)
     camera = load_scene(str(path)).camera
     sensor = mi.load_file(str(path)).sensors()[0]
     rng = np.random.default_rng(4)
@@ -101,3 +114,31 @@ def test_camera_connections_are_free_only_up_to_the_near_clip_plane():
     connection = connect_to_camera(camera, rays.o + rays.d * beyond[:, None])
     np.testing.assert_allclose(connection.free_dist, beyond, rtol=1e-9)
     np.testing.assert_array_equal(connection.pixel, pixel)
+
+
+def test_principal_point_offset_moves_the_pixel_grid(tmp_path):
+    """An offset of half a pixel's width makes pixel column c see what c + 1/2 saw: the
+    ray of (c, u) is the unshifted ray of (c, u + 1/2); connections invert it, and the
+    importance is zero exactly outside the moved film."""
+    from pathtracer.sensors.importance import connect_to_camera
+    width, height = 16, 12
+    plain = load_scene(str(sensor_file(tmp_path, "x", 50, width, height, 0.01))).camera
+    moved = load_scene(str(sensor_file(tmp_path, "x", 50, width, height, 0.01,
+                                       (0.5 / width, -0.5 / height)))).camera
+    rng = np.random.default_rng(5)
+    pixel = rng.integers(0, width * height, 400)
+    u = rng.random((400, 2)) * 0.5
+    ray = camera_rays(moved, pixel, u)
+    np.testing.assert_allclose(ray.d, camera_rays(plain, pixel, u + [0.5, -0.5]).d, atol=1e-12)
+    points = ray.o + ray.d * 2.0
+    connection = connect_to_camera(moved, points)
+    np.testing.assert_array_equal(connection.pixel, pixel)
+    outside = camera_rays(plain, np.zeros(50, dtype=np.int64), rng.random((50, 2)) * [0.5, 1.0])
+    assert np.all(connect_to_camera(moved, outside.o + outside.d * 2.0).importance == 0)
+
+
+def test_thin_lens_refuses_a_principal_point_offset(tmp_path):
+    path = sensor_file(tmp_path, "x", 50, 16, 12, 0.01, (0.1, 0.0))
+    path.write_text(path.read_text().replace('type="perspective"', 'type="thinlens"'))
+    with pytest.raises(Exception, match="principal_point_offset_x is not supported by the thinlens"):
+        load_scene(str(path))

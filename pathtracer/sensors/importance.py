@@ -61,7 +61,10 @@ def camera_importance(camera: Camera, d_cam: np.ndarray) -> np.ndarray:
     half_x, half_y = plane_half_extent(camera)
     cos = d_cam[:, 2]
     safe = np.where(cos > 0, cos, 1.0)
-    x, y = d_cam[:, 0] / safe, d_cam[:, 1] / safe
+    # The film rectangle's centre on z = 1 (off the axis by the principal point offset).
+    centre_x, centre_y = (-2 * half * offset for half, offset in zip((half_x, half_y),
+                                                                       camera.principal_point))
+    x, y = d_cam[:, 0] / safe - centre_x, d_cam[:, 1] / safe - centre_y
     inside = (cos > 0) & (np.abs(x) <= half_x) & (np.abs(y) <= half_y)
     return np.where(inside, 1.0 / (4.0 * half_x * half_y * safe ** 3), 0.0)
 
@@ -84,8 +87,9 @@ def connect_to_camera(camera: Camera, p: np.ndarray) -> CameraConnection:
     d_cam = local / np.where(dist_local > 0, dist_local, 1.0)[:, None]
     half_x, half_y = plane_half_extent(camera)
     z = np.where(local[:, 2] > 0, local[:, 2], 1.0)
-    s_x = 0.5 * (1.0 - local[:, 0] / (z * half_x))
-    s_y = 0.5 * (1.0 - local[:, 1] / (z * half_y))
+    offset_x, offset_y = camera.principal_point
+    s_x = 0.5 * (1.0 - local[:, 0] / (z * half_x)) - offset_x
+    s_y = 0.5 * (1.0 - local[:, 1] / (z * half_y)) - offset_y
     inside = ((local[:, 2] >= camera.near_clip) & (local[:, 2] <= camera.far_clip)
               & (s_x >= 0) & (s_x < 1) & (s_y >= 0) & (s_y < 1))
     column = np.minimum((s_x * camera.width).astype(np.int64), camera.width - 1)

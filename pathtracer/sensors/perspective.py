@@ -6,6 +6,8 @@ position s = ((column + u) / W, (row + v) / H). In camera space (+z forward,
 
     x = (1 - 2 s_x) tan(x_fov / 2),   y = (1 - 2 s_y) tan(x_fov / 2) / aspect,
 
+(s moved by the principal point offset, when the file gives one),
+
 the ray starts where it crosses the near plane and ends at the far plane,
 exactly as Mitsuba's ``PerspectiveCamera::sample_ray``.
 """
@@ -32,8 +34,9 @@ def camera_rays(camera: Camera, pixel: np.ndarray, u_film: np.ndarray) -> Rays:
         Uniform position of the sample inside its pixel.
     """
     width, height = camera.width, camera.height
-    s_x = (pixel % width + u_film[:, 0]) / width
-    s_y = (pixel // width + u_film[:, 1]) / height
+    offset_x, offset_y = camera.principal_point     # Mitsuba's principal_point_offset
+    s_x = (pixel % width + u_film[:, 0]) / width + offset_x
+    s_y = (pixel // width + u_film[:, 1]) / height + offset_y
     tan_half = np.tan(np.radians(camera.x_fov) / 2)
     d_cam = np.stack((
         (1 - 2 * s_x) * tan_half,

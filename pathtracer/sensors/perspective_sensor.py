@@ -37,6 +37,10 @@ class Camera:
         Film resolution in pixels; row 0 is the top of the image.
     rfilter : ReconstructionFilter
         The film's reconstruction filter (:mod:`pathtracer.sensors.film`).
+    principal_point : (float, float)
+        Mitsuba's ``principal_point_offset_x``/``_y``, in fractions of the film's width and
+        height: pixel ``p`` sees what pixel ``p + offset * (W, H)`` would see without it (an
+        off-axis frustum, the film moved in its own plane).
     """
 
     to_world: np.ndarray
@@ -46,6 +50,7 @@ class Camera:
     width: int = 256
     height: int = 256
     rfilter: ReconstructionFilter = BOX
+    principal_point: tuple = (0.0, 0.0)
 
     #: Mitsuba's plugin name; the other sensors (``orthographic``, ``thinlens``) subclass this.
     kind = "perspective"
@@ -137,10 +142,17 @@ def unscaled_to_world(plugin: Plugin, props: Props) -> np.ndarray:
 
 
 def no_principal_point_offset(plugin: Plugin, props: Props) -> None:
-    """Refuse a shifted principal point (not implemented)."""
+    """Refuse a shifted principal point where it is not implemented (the thin lens)."""
     for name in ("principal_point_offset_x", "principal_point_offset_y"):
         if props.float(name, 0.0) != 0.0:
-            raise plugin.error(f"{name} is not supported", props.line(name))
+            raise plugin.error(f"{name} is not supported by the {plugin.type} sensor here",
+                               props.line(name))
+
+
+def principal_point_offset(props: Props) -> tuple[float, float]:
+    """Mitsuba's ``principal_point_offset_x``/``_y`` (fractions of the film size, default 0)."""
+    return (props.float("principal_point_offset_x", 0.0),
+            props.float("principal_point_offset_y", 0.0))
 
 
 SENSOR_CHILDREN = {"film": 1, "sampler": 1, "medium": 1}
@@ -155,6 +167,7 @@ def create(props: Props) -> tuple[Camera, int, int]:
     aspect, as Mitsuba does for a film of that size (``fov_axis`` keeps its meaning).
     """
     frame, spp, seed = read_perspective(props)
+    frame["principal_point"] = principal_point_offset(props)
     # A pinhole ignores the focus distance; without motion the shutter is irrelevant.
     props.ignore("focus_distance", "shutter_open", "shutter_close")
     props.finish()
@@ -171,7 +184,6 @@ def read_perspective(props: Props):
     x_fov = read_x_fov(plugin, props, width / height)
     to_world = unscaled_to_world(plugin, props)
     near, far = read_clip(plugin, props)
-    no_principal_point_offset(plugin, props)
     frame = dict(to_world=to_world, x_fov=x_fov, near_clip=near, far_clip=far, width=width,
                  height=height, rfilter=rfilter)
     return frame, spp, seed

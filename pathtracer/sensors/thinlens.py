@@ -27,7 +27,7 @@ from ..core.sampling import square_to_uniform_disk_concentric
 from ..core.vec import normalize
 from ..scene.properties import Props
 from ..scene.registry import register
-from .perspective_sensor import Camera, read_perspective
+from .perspective_sensor import Camera, no_principal_point_offset, read_perspective
 
 #: Mitsuba replaces a zero aperture by float32's epsilon (with a warning).
 MIN_APERTURE = float(np.finfo(np.float32).eps)
@@ -79,6 +79,7 @@ def create(props: Props) -> tuple[Camera, int, int]:
     ``focus_distance`` (default ``far_clip``)."""
     plugin = props.plugin
     frame, spp, seed = read_perspective(props)
+    no_principal_point_offset(props.plugin, props)
     far = frame["far_clip"]
     if not props.has("aperture_radius"):
         raise plugin.error("a thinlens sensor needs aperture_radius (as in Mitsuba)")
