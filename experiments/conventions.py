@@ -62,6 +62,11 @@ VARIANTS = {"correct": (DEPTH, 1.0, False, "box", 1),
             "tent filter": (DEPTH, 1.0, False, "tent", 1)}
 
 
+#: Renders whose pixel samples are not all spread over the pixel: name -> samples of each
+#: replica drawn at the pixel centre (the first, as Cycles draws it; or every one).
+CENTRE_VARIANTS = {"first sample at centre": 1, "every sample at centre": REPLICA_SPP}
+
+
 def _shift(images, dy, dx):
     """Images moved by (dy, dx), the pixels moved in copied from the edge (a renderer's film
     has something there)."""
@@ -75,7 +80,7 @@ def _shift(images, dy, dx):
     return moved
 
 
-def _half_left(images):
+def half_left(images):
     """Twice-size images averaged over 2 x 2 pixels offset by one small pixel: the image
     moved half a pixel left (its last column from the edge)."""
     moved = []
@@ -86,7 +91,7 @@ def _half_left(images):
     return moved
 
 
-def _half_down(images):
+def half_down(images):
     """Twice-size images averaged over 2 x 2 pixels offset by one small pixel: moved half a
     pixel down (its first row from the edge)."""
     moved = []
@@ -119,12 +124,15 @@ INJECTIONS = {
     "mirrored": ("correct", _each(lambda x: x[:, ::-1]), ("flip_horizontal", None)),
     "one pixel right": ("correct", lambda images: _shift(images, 0, 1), ("shift", (0, 1))),
     "one pixel down": ("correct", lambda images: _shift(images, 1, 0), ("shift", (1, 0))),
-    "half a pixel left": ("twice the size", _half_left, ("half_shift", (0, -0.5))),
-    "half a pixel down": ("twice the size", _half_down, ("half_shift", (0.5, 0))),
+    "half a pixel left": ("twice the size", half_left, ("half_shift", (0, -0.5))),
+    "half a pixel down": ("twice the size", half_down, ("half_shift", (0.5, 0))),
     "one bounce too few": ("one bounce fewer", None, ("bounces", DEPTH - 1)),
     "gaussian filter": ("gaussian filter", None, ("filter", "gaussian")),
     "tent filter": ("tent filter", None, ("filter", "tent")),
     "fov along another axis": ("other fov axis", None, ("fov_axis", None)),
+    "first sample at the pixel centre": ("first sample at centre", None,
+                                         ("centre_samples", 1 / REPLICA_SPP)),
+    "every sample at the pixel centre": ("every sample at centre", None, ("centre_samples", 1.0)),
     "plain: light +2%": ("correct", _each(lambda x: x * 1.02), None),
     "plain: light +5%": ("correct", _each(lambda x: x * 1.05), None),
     "plain: light -5%": ("correct", _each(lambda x: x * 0.95), None),
@@ -160,6 +168,41 @@ def mitsuba_replicas(scene: str, variant: str, trial: int) -> list[np.ndarray]:
     return [np.array(mi.render(loaded, integrator=integrator, seed=step * (1 + trial * REPLICAS + k),
                                spp=spp), dtype=np.float64)
             for k in range(REPLICAS)]
+
+
+def centre_replicas(scene: str, variant: str, trial: int) -> list[np.ndarray]:
+    """``REPLICAS`` renders like :func:`mitsuba_replicas` whose first ``c`` samples of every
+    pixel (:data:`CENTRE_VARIANTS`) go through the pixel centre: Mitsuba's own estimator
+    (``integrator.sample``) on its own camera ray of the centre, one Python call per sample
+    and pixel, averaged with a render of the other ``REPLICA_SPP - c`` samples."""
+    import mitsuba as mi  # the renderer under test: loaded only when this script runs
+    mi.set_variant("scalar_rgb")
+    (width, height), _ = SCENES[scene]
+    centre = CENTRE_VARIANTS[variant]
+    loaded = mi.load_file(str(ROOT / "pathtracer/data/scenes" / f"{scene}.xml"), width=width,
+                          height=height, max_depth=DEPTH, spp=REPLICA_SPP)
+    sensor, sampler = loaded.sensors()[0], mi.load_dict({"type": "independent"})
+    integrator = mi.load_dict({"type": "path", "max_depth": DEPTH})
+    images = []
+    for k in range(REPLICAS):
+        j = 1 + trial * REPLICAS + k
+        total = np.zeros((height, width, 3))
+        for y in range(height):
+            for x in range(width):
+                # Seeds far from the box renders' (seed x pixels + block, mod 2^32).
+                sampler.seed(3_000_000_000 + (j * height + y) * width + x)
+                for _ in range(centre):
+                    ray, _ = sensor.sample_ray(0.0, sampler.next_1d(),
+                                               mi.Point2f((x + 0.5) / width, (y + 0.5) / height),
+                                               mi.Point2f(0.5, 0.5))
+                    total[y, x] += np.array(integrator.sample(loaded, sampler, ray)[0])
+                    sampler.advance()
+        rest = REPLICA_SPP - centre
+        if rest:
+            total += rest * np.array(mi.render(loaded, integrator=integrator, seed=SEED_STEP * j,
+                                               spp=rest), dtype=np.float64)
+        images.append(total / REPLICA_SPP)
+    return images
 
 
 def write_replicas(folder: Path, images) -> str:
@@ -200,15 +243,21 @@ def judge(scene: str, pattern: str, alpha: float) -> dict:
             "named": named, "seconds": time.perf_counter() - start}
 
 
-def measure(scenes, trials: int, alphas, folder: Path, log=print) -> list[dict]:
-    """Every injection on every scene, ``trials`` times, judged at each level of ``alphas``."""
+def measure(scenes, trials: int, alphas, folder: Path, log=print, injections=None) -> list[dict]:
+    """Every injection (or those named) on every scene, ``trials`` times, judged at each
+    level of ``alphas``."""
+    injections = list(injections or INJECTIONS)
     records = []
     for scene in scenes:
         for trial in range(trials):
             start = time.perf_counter()
-            rendered = {variant: mitsuba_replicas(scene, variant, trial) for variant in VARIANTS}
+            needed = {INJECTIONS[name][0] for name in injections}
+            rendered = {variant: (centre_replicas if variant in CENTRE_VARIANTS
+                                  else mitsuba_replicas)(scene, variant, trial)
+                        for variant in needed}
             render_seconds = time.perf_counter() - start
-            for name, (variant, inject, expected) in INJECTIONS.items():
+            for name in injections:
+                variant, inject, expected = INJECTIONS[name]
                 images = rendered[variant] if inject is None else inject(rendered[variant])
                 pattern = write_replicas(folder / scene / str(trial) / name.replace("/", "_"), images)
                 for alpha in alphas:
@@ -276,6 +325,18 @@ def table(records, alpha: float) -> str:
     return "\n".join(lines)
 
 
+def merged(old: dict, new: dict, injections) -> dict:
+    """``old``'s rows of the injections not measured again, then ``new``'s; each run's
+    CPU, seconds and injections listed under ``runs``."""
+    at = COLUMNS.index("injection")
+    kept = [row for row in old["rows"] if row[at] not in injections]
+    runs = old.get("runs") or [{"cpu": old["cpu"], "seconds": old["seconds"],
+                                "trials": old["trials"], "injections": "all"}]
+    runs.append({"cpu": new["cpu"], "seconds": new["seconds"], "trials": new["trials"],
+                 "injections": list(injections)})
+    return dict(old, rows=kept + new["rows"], runs=runs)
+
+
 def main(argv=None) -> int:
     """The command line: measure, write the JSON, print the tables."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -283,12 +344,16 @@ def main(argv=None) -> int:
     parser.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
     parser.add_argument("--alpha", type=float, nargs="+", default=[1e-3])
     parser.add_argument("--json", type=Path, default=ROOT / "docs/data/conventions_measure.json")
+    parser.add_argument("--injections", nargs="+", choices=list(INJECTIONS), metavar="NAME",
+                        help="measure these only; their rows replace theirs in an existing "
+                             "--json, the others are kept")
     args = parser.parse_args(argv)
     if args.trials * REPLICAS >= 127:
         parser.error("at most 15 trials: seeds beyond 127 x 8192 repeat on a 64 x 64 film")
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="conventions-") as folder:
-        records = measure(args.scenes, args.trials, args.alpha, Path(folder))
+        records = measure(args.scenes, args.trials, args.alpha, Path(folder),
+                          injections=args.injections)
     seconds = time.perf_counter() - start
     for alpha in args.alpha:      # first: the tables survive a failure to write the file
         print(f"\nalpha = {alpha:g}\n" + table(records, alpha))
@@ -296,6 +361,8 @@ def main(argv=None) -> int:
     document = {"cpu": cpu_name(), "seconds": seconds, "trials": args.trials,
                 "replicas": REPLICAS, "replica_spp": REPLICA_SPP, "max_depth": DEPTH,
                 "columns": COLUMNS, "rows": rows(records)}
+    if args.injections and args.json.exists():
+        document = merged(json.loads(args.json.read_text()), document, args.injections)
     args.json.write_text(json.dumps(document, separators=(",", ":")).replace("],[", "],\n[") + "\n")
     print(f"\n{len(records)} checks in {seconds:.0f} s on {cpu_name()}")
     return 0

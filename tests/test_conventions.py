@@ -241,16 +241,16 @@ def test_the_hint_says_the_convention_and_keeps_its_numbers():
 
 def test_another_filter_or_fov_axis_is_tried_only_for_a_file_that_reads_no_other_file():
     from mitsuba_refs.settings import Settings
-    from mitsuba_refs.verdicts.conventions import filtered_references
+    from mitsuba_refs.verdicts.convention_references import (effective_axis, filtered_references,
+                                                             fov_axis_references)
     # The mesh scene reads a PLY file: a copy elsewhere could not, so no filter is tried
     # (and nothing is rendered).
     film = SimpleNamespace(mean=np.zeros((64, 64, 3)))
     assert filtered_references("mesh", {}, Settings(reference="path"), film) == []
-    from mitsuba_refs.verdicts.conventions import _effective_axis, fov_axis_references
     assert fov_axis_references("mesh", {}, Settings(reference="path"), film) == []
-    assert [_effective_axis(a, 64, 48) for a in ("smaller", "larger", "x", "diagonal")] == \
+    assert [effective_axis(a, 64, 48) for a in ("smaller", "larger", "x", "diagonal")] == \
         ["y", "x", "x", "diagonal"]
-    assert _effective_axis("smaller", 32, 32) == "x"
+    assert effective_axis("smaller", 32, 32) == "x"
 
 
 # ---- end to end: Mitsuba's images through check --images ------------------------------------
@@ -334,14 +334,83 @@ def test_check_command_names_a_factor_of_one_half():
 
 def test_references_a_convention_cannot_have_leave_it_untried():
     from mitsuba_refs.errors import ReferenceUnavailable
-    from mitsuba_refs.verdicts import conventions as verdicts
+    from mitsuba_refs.verdicts import convention_references as verdicts
 
     def unavailable(*args, log=None):
         raise ReferenceUnavailable("no Mitsuba here and nothing cached")
 
     lines = []
     result = SimpleNamespace(scene="cornell-box", params={})
-    assert verdicts._optional(unavailable, result, None, None, lines.append) is None
+    assert verdicts.optional(unavailable, result, None, None, lines.append) == []
     assert lines == ["conventions: not tried (no Mitsuba here and nothing cached)"]
-    assert verdicts._may_render(SimpleNamespace(mean=np.zeros((128, 128, 3))))
-    assert not verdicts._may_render(SimpleNamespace(mean=np.zeros((256, 256, 3))))
+    assert verdicts.may_render(SimpleNamespace(mean=np.zeros((128, 128, 3))))
+    assert not verdicts.may_render(SimpleNamespace(mean=np.zeros((256, 256, 3))))
+
+
+# ---- pixel samples at the centre, half a pixel measured exactly ----------------------------
+
+def test_centre_corrections_mix_the_box_and_centre_images_with_both_noises():
+    """A render whose first sample of ``k`` sits at the pixel centre expects
+    ``(1 - 1/k) B + (1/k) C``; the mixed reference's variance of the mean is the sum of the
+    parts' (C's over its own count)."""
+    from mitsuba_refs.verdicts.conventions import _centre_corrections
+    rng = np.random.default_rng(8)
+    box = SimpleNamespace(mean=rng.random((4, 4, 3)), var=rng.random((4, 4, 3)), n=4096,
+                          metadata={"rfilter": {"type": "box"}})
+    centre = SimpleNamespace(mean=rng.random((4, 4, 3)), var=rng.random((4, 4, 3)), n=128,
+                             metadata={"rfilter": {"type": "box", "radius": 0.5}})
+    first, every = _centre_corrections(box, centre, 8)
+    assert (first.convention, first.value, every.value) == ("centre_samples", 0.125, 1.0)
+    np.testing.assert_allclose(first.reference.mean, 0.875 * box.mean + 0.125 * centre.mean)
+    np.testing.assert_allclose(first.reference.var / first.reference.n,
+                               0.875 ** 2 * box.var / 4096 + 0.125 ** 2 * centre.var / 128)
+    np.testing.assert_allclose(every.reference.mean, centre.mean)
+    assert len(_centre_corrections(box, centre, 1)) == 1        # 1 spp: the first is every one
+
+
+def test_half_shift_copies_move_the_principal_point_the_other_way(monkeypatch):
+    """Mitsuba's image moved half a pixel down is its film moved half a pixel up: the copy's
+    principal_point_offset_y is +0.5 / height (pixel p then sees p + 1/2, tests/test_camera.py)."""
+    from mitsuba_refs.verdicts import convention_references as refs
+    copies = []
+    monkeypatch.setattr(refs, "_copied_references", lambda c, *args: copies.extend(c) or [])
+    film = SimpleNamespace(mean=np.zeros((48, 64, 3)))
+    refs.half_shift_references("smallpt", {}, None, film, (1, 0))
+    refs.half_shift_references("smallpt", {}, None, film, (0, -1))
+    down, left = (copy.read_text() for _, copy in copies)
+    assert f'name="principal_point_offset_y" value="{-0.5 / 48!r}"' in down
+    assert 'name="principal_point_offset_x" value="0.0"' in down
+    assert f'name="principal_point_offset_x" value="{0.5 / 64!r}"' in left
+    assert refs.half_shift_references("mesh", {}, None, film, (1, 0)) == []   # reads a PLY
+
+
+@pytest.mark.statistical(assertions=1)
+def test_check_images_names_half_a_pixel_down_against_the_moved_reference(tmp_path):
+    """Half a pixel down (twice-size renders averaged over 2 x 2 pixels one small pixel
+    lower): the neighbours' average misses at the light's horizontal edges; Mitsuba's
+    reference with its principal point moved names it."""
+    pytest.importorskip("mitsuba")
+    from experiments.conventions import half_down, mitsuba_replicas, write_replicas
+    images = half_down(mitsuba_replicas("cornell-box", "twice the size", 14))
+    result = check("cornell-box", images=write_replicas(tmp_path, images),
+                   params={"max_depth": 3}, convergence=False, alpha=ALPHA)
+    assert not result.agree, result.report()
+    assert result.hints[0].finding["convention"] == "half_shift", result.report()
+    assert result.hints[0].finding["value"] == [0.5, 0.0]
+    assert "moved half a pixel down" in result.hints[0]
+
+
+@pytest.mark.statistical(assertions=1)
+def test_check_images_names_every_sample_at_the_pixel_centre(tmp_path):
+    """A renderer without antialiasing (every sample through the pixel centre): 9 % darker
+    on the Cornell box (the centres miss the light's partly covered pixels), named against
+    Mitsuba's own image of the pixel centres."""
+    pytest.importorskip("mitsuba")
+    from experiments.conventions import centre_replicas, write_replicas
+    images = centre_replicas("cornell-box", "every sample at centre", 14)
+    result = check("cornell-box", images=write_replicas(tmp_path, images),
+                   params={"max_depth": 3}, convergence=False, alpha=ALPHA)
+    assert not result.agree, result.report()
+    assert result.hints[0].finding["convention"] == "centre_samples", result.report()
+    assert result.hints[0].finding["value"] == 1.0
+    assert "every pixel sample at the pixel centre" in result.hints[0]

@@ -223,10 +223,11 @@ def _check_command(scene, template, params, settings: Settings, setup: CommandSe
         result = faulty(scene, setup.name, params, settings.spp, fault.lines, settings.alpha)
     finally:
         renders.close()
-    result = with_convention(result, _fixed_moments(result.arrays), reference, settings, log)
+    count = 1 if renders.has_variance else replica_count(result.spp, settings.variance_replicas or 8)
+    result = with_convention(result, _fixed_moments(result.arrays), reference, settings, log,
+                             render_spp=max(result.spp // count, 1))
     notes = list(result.notes)
     if renders.has_variance is False:
-        count = replica_count(result.spp, settings.variance_replicas or 8)
         notes.append(f"its images carry no variance: mean and variance from {count} "
                      "independent replicas with seeds of their own")
     result = dataclasses.replace(result, runs=[run.record() for run in renders.runs], notes=notes)
@@ -452,7 +453,7 @@ def _check_images(scene, files, params, settings: Settings, film, log, label="im
     result = variance_reasons(result, settings, own)
     result = concluded(result, settings.out_dir, (mean, variance, reference), start)
     return with_convention(result, _image_moments(images, (mean, variance)), reference, settings,
-                           log)
+                           log, render_spp=max(image.spp for image in images))
 
 
 def _fixed_moments(arrays):

@@ -492,6 +492,11 @@ def _convention_claim(convention: str, value) -> str:
     if convention == "filter":
         return (f"another reconstruction filter than the file's box (a {value} filter fits "
                 f"best): against Mitsuba's reference with a {value} filter it agrees")
+    if convention == "centre_samples":
+        which = ("every pixel sample at the pixel centre (no antialiasing?)" if float(value) >= 1
+                 else f"the first sample of every render at the pixel centre ({percent(float(value))} of "
+                 "the samples: a fixed first sample, as Cycles draws it?)")
+        return f"{which}: against Mitsuba's image of the pixel centres, mixed alike, it agrees"
     if convention == "fov_axis":
         return (f"another field-of-view axis (the image is a scaled copy about its centre): "
                 f"against Mitsuba's reference with the file's fov measured along {value} it "

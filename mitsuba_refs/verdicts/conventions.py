@@ -3,7 +3,7 @@
 A renderer can be right in its own conventions and disagree with Mitsuba: lights in other
 units, a white balance, an encoded or clamped output, a flipped image, one shifted by a
 pixel or half of one, a path length counted differently, another reconstruction filter or
-field-of-view axis. On a disagreement of the mean,
+field-of-view axis, pixel samples at the pixel centre. On a disagreement of the mean,
 :func:`find_convention` tries the
 inverse of each such convention on the test image (:mod:`mitsuba_refs.stats.conventions`) and
 runs the *same* mean test again (same reference, same alpha, same components and options).
@@ -28,28 +28,19 @@ nonlinear decoding of a mean of replicas is not the mean of the decoded replicas
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import math
-import re
-import tempfile
 from dataclasses import dataclass
-from pathlib import Path
 from types import SimpleNamespace
 from typing import Callable
 
 import numpy as np
 
-from pathtracer.scene.xml_files import scene_files
-
-from ..errors import ReferenceUnavailable, RefsInputError
-from ..reference.cache import get_reference
-from ..reference.render import resolve_scene
-from ..reference.rfilter import reference_correlation
+from ..reference.rfilter import pixel_value_counts, reference_correlation
 from ..report.wording import convention_text
 from ..stats import conventions as conv
 from ..stats.mean import MeanAgreement, MeanTestOptions, compare_means
+from . import convention_references as refs
 from .explain import Hint
-from .scenes import reference_options, scene_defaults
 
 __all__ = ["MeanTestSetup", "Correction", "ConventionFinding", "corrections", "find_convention",
            "ConventionHint", "with_convention", "EXPLAIN_RATIO"]
@@ -63,26 +54,11 @@ GAIN_SPREAD_Z = 5.0
 MIN_GAIN_SPREAD = 0.02
 #: A clamp may leave out at most this fraction of the pixels.
 MAX_CLAMPED = 0.25
-#: The film filter the references with another one replace, and those they try instead (the
-#: filters whose references Mitsuba renders here: mitsuba_refs.reference.filtered).
-BOX_FILTER = '<rfilter type="box"/>'
-OTHER_FILTERS = ("gaussian", "tent")
-#: What Mitsuba's ``fov_axis`` can mean on a film (``smaller`` and ``larger`` are one of x, y).
-FOV_AXES = ("x", "y", "diagonal")
-#: Another filter is tried only when the image mean is within this of Mitsuba's: a filter
-#: keeps the mean, up to the border of the film and, at few samples per pixel, the bias of
-#: the film's weighted average (+1.0 to +1.2 % for 8-spp replicas of the Cornell box and
-#: smallpt with a tent or gaussian filter).
+#: Another filter, the pixel centres or half a pixel are tried only when the image mean is
+#: within this of Mitsuba's: each keeps the mean, up to the border of the film and, at few
+#: samples per pixel, the bias of the film's weighted average (+1.0 to +1.2 % for 8-spp
+#: replicas of the Cornell box and smallpt with a tent or gaussian filter).
 FILTER_MEAN_CHANGE = 0.03
-#: References a convention needs are rendered (when not cached) only for films of at most
-#: this many pixels: a 4096-spp reference of 64 x 64 takes 10-14 s here, one of 512 x 512
-#: 64 times as long, too much to spend on a guess; larger films use cached ones only.
-MAX_RENDERED_PIXELS = 128 * 128
-#: Samples per pixel of the references of a file's copies (another filter or fov axis): a
-#: quarter of a committed reference's, a quarter of the time. The mean test counts the
-#: reference's noise, so it stays valid; against a 64-spp test its standard error grows by
-#: 2 % (sqrt((1 + 1/16) / (1 + 1/64))).
-COPY_REFERENCE_SPP = 1024
 #: Replicas assumed behind a test image when the clamp's margin is judged (check's default:
 #: a replica has spp / 8 samples; with variance channels this is conservative).
 CLAMP_REPLICAS = 8
@@ -145,10 +121,11 @@ class Correction:
     convention : str
         Its id: ``factor``, ``channel_gains``, ``srgb``, ``gamma``, ``clamp``,
         ``flip_vertical``, ``flip_horizontal``, ``shift``, ``half_shift``, ``bounces``,
-        ``filter`` or ``fov_axis``.
+        ``filter``, ``centre_samples`` or ``fov_axis``.
     value : float, tuple or None
         Its parameter: the factor, the gains, the ceiling, the shift (dy, dx) in pixels, the
-        depth, the filter's type, the field-of-view axis.
+        depth, the filter's type, the share of samples at the pixel centre, the
+        field-of-view axis.
     transform : callable or None
         ``(mean, variance or None) -> (mean, variance or None)`` for one image; None: the
         image is left as it is.
@@ -156,7 +133,8 @@ class Correction:
         Pixels the corrected comparison leaves out (on both sides).
     reference : Reference or None
         Another reference to compare with (``bounces``, ``half_shift``, ``filter``,
-        ``fov_axis``); None: the comparison's.
+        ``centre_samples``, ``fov_axis``; :mod:`.convention_references`); None: the
+        comparison's.
     """
 
     convention: str
@@ -352,126 +330,77 @@ def _rebuilt_hint(text, causes, finding):
     return hint
 
 
-def fewer_bounces_reference(scene, params, settings, reference, log=None):
-    """``(depth - 1, Mitsuba's reference at max_depth depth - 1)`` when the reference's path
-    length ``depth`` is bounded and at least 2, else None. The depth reaches Mitsuba as the
-    file's ``max_depth`` parameter where it declares one (the committed per-bounce
-    references), else as an override (a render of the reference when it is not cached)."""
-    depth = int((reference.metadata.get("mitsuba_integrator") or {}).get("max_depth", -1))
-    if depth < 2:
-        return None
-    overrides = dict(reference_options(settings.options) or {})
-    depth_params = dict(params)
-    if "max_depth" in scene_defaults(scene):
-        overrides.pop("max_depth", None)
-        depth_params["max_depth"] = depth - 1
-    else:
-        overrides["max_depth"] = depth - 1
-    shorter = get_reference(scene, depth_params, settings.reference, log=log,
-                            options=overrides or None, resolution=settings.resolution,
-                            render=_may_render(reference))
-    return depth - 1, shorter
+def _centre_corrections(reference, centre, render_spp) -> list[Correction]:
+    """Corrections for pixel samples at the pixel centre: the first sample of each render
+    (a fraction ``1 / render_spp`` of them) or every sample. The test image's expectation is
+    then ``(1 - f) B + f C`` for Mitsuba's box image ``B`` and its image of the centres ``C``
+    (:func:`~mitsuba_refs.verdicts.convention_references.centre_references`), compared with
+    the noise of both."""
+    fractions = sorted({1.0 / render_spp, 1.0} if render_spp else {1.0})
+    counts = pixel_value_counts(centre)[..., None]       # C's variance is var / n_eff
+    out = []
+    for f in fractions:
+        mixed = SimpleNamespace(
+            mean=(1 - f) * reference.mean + f * centre.mean,
+            var=(1 - f) ** 2 * reference.var + f ** 2 * centre.var * (reference.n / counts),
+            n=reference.n, metadata=getattr(reference, "metadata", {}))
+        out.append(Correction("centre_samples", f, None, None, mixed))
+    return out
 
 
-def _may_render(reference) -> bool:
-    """Whether a reference of this film may be rendered for a convention
-    (:data:`MAX_RENDERED_PIXELS`)."""
-    height, width = reference.mean.shape[:2]
-    return height * width <= MAX_RENDERED_PIXELS
+def _near_half_shift(moments_of: Moments, verdict: MeanAgreement, setup: MeanTestSetup):
+    """The direction ``(dy, dx)`` whose half-pixel correction by neighbours' averages
+    (:func:`_half_shift_correction`) explains most of the error without agreeing: where the
+    averages are wrong (sharp edges within a pixel), Mitsuba's reference moved exactly
+    decides. None when no direction comes near."""
+    before = conv.tile_chi_square(verdict.z_tiles)
+    mean, variance = moments_of(None)
+    best, best_after = None, math.inf
+    for dy, dx in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        correction = _half_shift_correction(setup.reference, dy, dx)
+        after = conv.tile_chi_square(setup.run(mean, variance, mask=correction.mask,
+                                               reference=correction.reference).z_tiles)
+        if after < best_after:
+            best, best_after = (dy, dx), after
+    return best if conv.explains(before, best_after, EXPLAIN_RATIO) else None
 
 
-def _file_copies(scene, old: str, news) -> list:
-    """Copies of the scene file with its one ``old`` text replaced by each of ``news``:
-    ``[(new, path), ...]``, written to ``<temp>/mitsuba-refs-conventions`` and named by their
-    content (so that their references are found in the cache next time). Empty when the
-    file holds ``old`` other than once, or reads other files (a copy elsewhere could not)."""
-    path = resolve_scene(scene)
-    text = path.read_text()
-    if text.count(old) != 1 or scene_files(str(path)):
-        return []
-    folder = Path(tempfile.gettempdir()) / "mitsuba-refs-conventions"
-    folder.mkdir(parents=True, exist_ok=True)
-    copies = []
-    for new in news:
-        changed = text.replace(old, new)
-        digest = hashlib.sha256(changed.encode()).hexdigest()[:12]
-        copy = folder / f"{path.stem}-{digest}.xml"
-        if not copy.exists():
-            copy.write_text(changed)
-        copies.append((new, copy))
-    return copies
+def _film_candidates(result, moments_of, setup, settings, log) -> list[Correction]:
+    """What keeps the image mean and needs Mitsuba's references of copies of the file:
+    another filter, a half-pixel shift measured exactly."""
+    reference = setup.reference
+    candidates = [Correction("filter", value, None, None, ref) for value, ref
+                  in refs.optional(refs.filtered_references, result, settings, reference, log)]
+    direction = _near_half_shift(moments_of, result.mean, setup)
+    if direction is not None:
+        candidates += [Correction("half_shift", value, None, None, ref) for value, ref
+                       in refs.optional(refs.half_shift_references, result, settings, reference,
+                                        log, direction=direction)]
+    return candidates
 
 
-def _copied_references(convention, copies, values, params, settings, reference, log):
-    """The corrections comparing with Mitsuba's references of the file ``copies``, at
-    :data:`COPY_REFERENCE_SPP`."""
-    return [Correction(convention, value, None, None,
-                       get_reference(str(copy), params, settings.reference,
-                                     spp=COPY_REFERENCE_SPP, log=log,
-                                     options=reference_options(settings.options),
-                                     resolution=settings.resolution,
-                                     render=_may_render(reference)))
-            for value, (_, copy) in zip(values, copies)]
+def _centre_candidates(result, setup, settings, log, render_spp) -> list[Correction]:
+    """Samples at the pixel centres, against Mitsuba's image of the centres (which can move
+    the image mean far: a small bright light the centres miss)."""
+    reference = setup.reference
+    return [correction for _, centre
+            in refs.optional(refs.centre_references, result, settings, reference, log)
+            for correction in _centre_corrections(reference, centre, render_spp)]
 
 
-def filtered_references(scene, params, settings, reference, log=None) -> list[Correction]:
-    """Corrections for another reconstruction filter: Mitsuba's references of copies of the
-    file with each of :data:`OTHER_FILTERS` in place of its box filter (rendered when not
-    cached: one reference each). Only for a file whose film has exactly
-    ``<rfilter type="box"/>`` and that reads no other file."""
-    copies = _file_copies(scene, BOX_FILTER, [f'<rfilter type="{kind}"/>' for kind in OTHER_FILTERS])
-    return _copied_references("filter", copies, OTHER_FILTERS, params, settings, reference, log)
-
-
-def _effective_axis(axis: str, width: int, height: int) -> str:
-    """``x``, ``y`` or ``diagonal``: what Mitsuba's ``fov_axis`` means on this film."""
-    if axis == "smaller":
-        return "x" if width <= height else "y"
-    if axis == "larger":
-        return "x" if width >= height else "y"
-    return axis
-
-
-def fov_axis_references(scene, params, settings, reference, log=None) -> list[Correction]:
-    """Corrections for another field-of-view axis: Mitsuba's references of copies of the file
-    whose one ``fov_axis`` is each axis that means something else on this film (x, y,
-    diagonal; x and y are the same on a square film). Only for a file with exactly one
-    ``<string name="fov_axis" .../>`` that reads no other file."""
-    text = resolve_scene(scene).read_text()
-    found = re.findall(r'<string name="fov_axis" value="(\w+)"/>', text)
-    if len(found) != 1:
-        return []
-    height, width = reference.mean.shape[:2]
-    own = _effective_axis(found[0], width, height)
-    others = [axis for axis in FOV_AXES if axis != own
-              and not (width == height and {axis, own} == {"x", "y"})]
-    old = f'<string name="fov_axis" value="{found[0]}"/>'
-    copies = _file_copies(scene, old, [f'<string name="fov_axis" value="{a}"/>' for a in others])
-    return _copied_references("fov_axis", copies, others, params, settings, reference, log)
-
-
-def _optional(fetch, result, settings, reference, log):
-    """The references a convention needs (``fetch``), or None when they cannot be had (no
-    Mitsuba and nothing cached, a film larger than :data:`MAX_RENDERED_PIXELS` and nothing
-    cached, a cache that cannot be written, a film Mitsuba's variant cannot filter): the
-    convention is then not tried, and the verdicts stand as they are."""
-    try:
-        return fetch(result.scene, result.params, settings, reference, log=log)
-    except (ReferenceUnavailable, RefsInputError) as missing:
-        if log is not None:
-            log(f"conventions: not tried ({str(missing).splitlines()[0]})")
-        return None
-
-
-def with_convention(result, moments_of: Moments, reference, settings, log=None):
+def with_convention(result, moments_of: Moments, reference, settings, log=None,
+                    render_spp: int | None = None):
     """``result`` (a :class:`~mitsuba_refs.verdicts.compare.Comparison`) with a convention that
     explains its disagreeing mean first among its hints (unchanged when none does).
 
     The reference one bounce shorter is fetched (rendered when not cached) only when no other
     convention explains the error and the image is too dark, as a missing bounce makes it;
-    the references with another filter only when nothing else explains it and the image mean
-    is within :data:`FILTER_MEAN_CHANGE` of Mitsuba's, as a filter keeps it; those with
-    another field-of-view axis last.
+    the references with another filter and moved by half a pixel only when nothing else
+    explains it and the image mean is within :data:`FILTER_MEAN_CHANGE` of Mitsuba's, as
+    each keeps it; then the image of the pixel centres; those with another field-of-view
+    axis last.
+    ``render_spp``: the samples of one of the test's renders (a renderer that puts the
+    first sample of every render at the pixel centre puts ``1 / render_spp`` there).
     """
     verdict = result.mean
     if not isinstance(verdict, MeanAgreement) or verdict.agree:
@@ -480,19 +409,19 @@ def with_convention(result, moments_of: Moments, reference, settings, log=None):
     setup = MeanTestSetup.of(verdict, reference, result.spp, bool(guard))
     finding = find_convention(moments_of, verdict, setup)
     if finding is None and verdict.rel_bias_ci[1] < 0:
-        shorter = _optional(fewer_bounces_reference, result, settings, reference, log)
-        if shorter is not None:
-            depth, shorter_reference = shorter
-            finding = find_convention(moments_of, verdict, setup,
-                                      [Correction("bounces", depth, None, None, shorter_reference)])
-    if finding is None and abs(verdict.rel_bias) <= FILTER_MEAN_CHANGE:   # a filter keeps it
-        finding = find_convention(moments_of, verdict, setup,
-                                  _optional(filtered_references, result, settings, reference, log)
-                                  or [])
+        finding = find_convention(moments_of, verdict, setup, [
+            Correction("bounces", depth, None, None, shorter) for depth, shorter
+            in refs.optional(refs.fewer_bounces_reference, result, settings, reference, log)])
+    if finding is None and abs(verdict.rel_bias) <= FILTER_MEAN_CHANGE:   # these keep it
+        finding = find_convention(moments_of, verdict, setup, _film_candidates(
+            result, moments_of, setup, settings, log))
     if finding is None:
-        finding = find_convention(moments_of, verdict, setup,
-                                  _optional(fov_axis_references, result, settings, reference, log)
-                                  or [])
+        finding = find_convention(moments_of, verdict, setup, _centre_candidates(
+            result, setup, settings, log, render_spp))
+    if finding is None:
+        finding = find_convention(moments_of, verdict, setup, [
+            Correction("fov_axis", axis, None, None, ref) for axis, ref
+            in refs.optional(refs.fov_axis_references, result, settings, reference, log)])
     if finding is None:
         return result
     return dataclasses.replace(result, hints=[ConventionHint(finding), *result.hints])
