@@ -22,8 +22,8 @@ from .variant import set_variant
 
 __all__ = ["MAX_CALLS", "MIN_SPP", "centre_spp", "render_centres"]
 
-#: Samples (Python calls) one image of the centres may take: ~4 s at 7 microseconds each
-#: (128 spp at 64 x 64).
+#: Samples (Python calls) one image of the centres may take: 128 spp at 64 x 64 (10.6 s on an
+#: AMD EPYC's 2 vCPUs under a load average of 8; docs/external.md).
 MAX_CALLS = 1 << 19
 #: Fewest samples per pixel (a per-sample variance needs two; 16 keeps it steady).
 MIN_SPP = 16
