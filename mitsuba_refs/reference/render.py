@@ -46,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pathtracer.core.names import suggestion
 from pathtracer.integrators import make_integrator
 from pathtracer.render.driver import transport_options
 from pathtracer.render.moments import combine_power_means
@@ -245,7 +246,7 @@ def integrator_dict(integrator, integ_kw, file_integrator=None):
     try:
         mitsuba_type = INTEGRATOR_MAP[integrator]
     except KeyError:
-        raise ValueError(f"unknown integrator {integrator!r}; "
+        raise ValueError(f"unknown integrator {integrator!r}; {suggestion(integrator, INTEGRATOR_MAP)}"
                          f"known: {sorted(INTEGRATOR_MAP)}") from None
     d = {"type": mitsuba_type}
     if mitsuba_type == "direct":
