@@ -155,8 +155,8 @@ def cmd_build(args):
             kept += 1
             continue
         t0 = time.time()
-        build_reference(scene, params, integ, args.spp, args.seed,
-                        directory=directory, variant=variant, **where)
+        build_reference(scene, params, integ, args.spp, args.seed, directory=directory,
+                        variant=variant, log=lambda line: print(line, file=sys.stderr), **where)
         built += 1
         print(f"  built    {stem}  [{status}: {detail}]  {time.time() - t0:.1f} s",
               flush=True)
