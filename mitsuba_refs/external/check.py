@@ -452,6 +452,13 @@ def _check_images(scene, files, params, settings: Settings, film, log, label="im
                               resolution=settings.resolution)
     levels = sorted({image.spp for image in images})
     notes, law, mse, ladder = list(result.notes), None, None, result.ladder
+    not_run = {"bounces": "not run: images rendered elsewhere cannot be rendered again at "
+                          "max_depth 1, 2, 3 (check --command with {max_depth} can)"}
+    if not settings.convergence:
+        not_run["convergence"] = "not run (--no-convergence)"
+    elif len(levels) < MIN_IMAGE_LEVELS:
+        not_run["convergence"] = (f"not run: the images have {len(levels)} sample count(s), it "
+                                  f"needs >= {MIN_IMAGE_LEVELS} (docs/external.md)")
     if settings.convergence and len(levels) >= MIN_IMAGE_LEVELS:
         parts = ConvergenceParts.of(reference, levels)
         mse = [sum((parts.mse(i.mean) for i in images if i.spp == n), []) for n in parts.ladder]
@@ -467,7 +474,7 @@ def _check_images(scene, files, params, settings: Settings, film, log, label="im
         variance_test, skipped = None, variance_not_independent(law)
     result = dataclasses.replace(result, runs=[], convergence=law, convergence_mse=mse,
                                  ladder=ladder, notes=notes, variance=variance_test,
-                                 variance_skipped=skipped)    # nothing was rendered here
+                                 variance_skipped=skipped, not_run=not_run)    # nothing was rendered here
     own = any(image.variance is not None for image in images
               if image.spp == max(i.spp for i in images))
     result = variance_reasons(result, settings, own)

@@ -451,9 +451,7 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         raise ValueError(f"{path}: {exc}") from None
     t0 = time.time()
     progress = None
-    if log:
-        log(f"reference {path.stem} {integrator}: {width}x{height} at {spp} spp, Mitsuba "
-            f"{chosen} ({method} method)")
+    if log:     # the cache said which reference renders; this says how far it is
         progress = Progress(spp, f"reference {path.stem} {integrator}", "spp",
                             estimate_after=ESTIMATE_AFTER,
                             faster=faster_route(chosen, method, nested["type"]))

@@ -111,6 +111,9 @@ class Comparison:
         Why there is no variance verdict when the reason is not that Mitsuba has no run of
         the estimator ("" otherwise): too few noisy tiles, samples that are not independent
         within a pixel (``Settings.judge_independence``), no ``--same-estimator`` (check).
+    not_run : dict
+        Why the ``"convergence"`` or ``"bounces"`` verdict was not run, where the reason is not
+        an option of the command (images rendered elsewhere cannot be rendered again).
     """
 
     scene: str | Path
@@ -139,6 +142,7 @@ class Comparison:
     detectable: DetectableBias | None = None
     detect: SppChoice | None = None
     variance_skipped: str = ""
+    not_run: dict[str, str] = field(default_factory=dict)
 
     @property
     def agree(self) -> bool:
@@ -200,6 +204,7 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         of ``reference``.
     """
     start = time.perf_counter()
+    ours = render is render_ours    # an external renderer's runs say their own progress
     name = integrator if isinstance(integrator, str) else integrator.name
     settings = resolved(settings_of(settings, keywords, "compare", COMPARE_ALIASES), name)
     params = {**default_params(scene), **(params or {})}
@@ -217,7 +222,7 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         log=log)
     settings = settings if choice is None else dataclasses.replace(settings, spp=choice.spp)
     spp, alpha, same = settings.spp, settings.alpha, settings.same_estimator
-    if log:
+    if log and ours:
         log(f"compare: {name} at {spp} spp for the mean and variance verdicts")
     mean, variance = RecordingRuns(render, runs, "mean")(scene, integrator, params, spp, TEST_SEED,
                                                            processes=settings.processes)
@@ -243,7 +248,7 @@ def compare(scene: str, integrator="path", params: dict | None = None,
                       "noiseless image; the mean test decides)"
     law, mse, ladder = None, None, CONVERGENCE_LADDER
     if settings.convergence:
-        progress = ladder_progress(settings) if log else None
+        progress = ladder_progress(settings) if log and ours else None
         law, mse = convergence_test(scene, integrator, params, reference, alpha, settings.processes,
                                     RecordingRuns(render, runs, "convergence", progress),
                                     settings.ladder, settings.replicas, settings.max_growth)
@@ -255,7 +260,7 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         variance_test, skipped = None, variance_not_independent(law)
     bounce_results = bounce = None
     if settings.bounces or (settings.bounces is None and not mean_test.agree):
-        if log:
+        if log and ours:
             log("compare: per-bounce renders, to find the first bounce that differs")
         bounce_results = localise_bounce(scene, integrator, params, settings,
                                          RecordingRuns(render, runs, "bounces"), log=log,
