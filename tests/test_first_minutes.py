@@ -158,3 +158,14 @@ def test_the_fixtures_install_route_brings_pytest():
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     assert any(req.startswith("pytest") for req in project["optional-dependencies"]["pytest"])
     assert 'pip install -e ".[pytest]"' in (ROOT / "docs" / "external.md").read_text()
+
+
+def test_python_m_is_the_command_for_the_one_line_interrupt(monkeypatch):
+    from pathtracer import _console
+    monkeypatch.setattr(sys, "argv", ["-m"])
+    monkeypatch.setattr(sys, "orig_argv", [sys.executable, "-m", "mitsuba_refs", "compare"], raising=False)
+    assert _console.command_name() == "mitsuba-refs"
+    monkeypatch.setattr(sys, "orig_argv", [sys.executable, "-m", "pytest"], raising=False)
+    assert _console.command_name() is None
+    monkeypatch.setattr(sys, "argv", ["/venv/bin/pathtracer", "render"])
+    assert _console.command_name() == "pathtracer"
