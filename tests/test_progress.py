@@ -4,10 +4,18 @@ escape code in a pipe, NO_COLOR honoured. No waiting, no Mitsuba needed."""
 from __future__ import annotations
 
 import io
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
 
 from mitsuba_refs.reference.mitsuba_log import plain
 from mitsuba_refs.reference.render import faster_route
 from pathtracer.core.progress import PIPE_INTERVAL, Progress, colour_allowed, duration, is_terminal
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 class Clock:
@@ -133,3 +141,18 @@ def test_the_convergence_progress_counts_every_ladder_render():
     settings = Settings(ladder=(1, 4, 16), replicas=2)
     progress = ladder_progress(settings)
     assert progress.total == sum(level_replicas((1, 4, 16), 2)) and "1,4,16" in progress.label
+
+
+@pytest.mark.mitsuba
+def test_a_scalar_build_of_a_python_integrator_says_no_mitsuba_warning_and_no_colour(tmp_path):
+    """Mitsuba's own warning about Python integrators in scalar variants (in red, even in a
+    pipe) is not in our output; the build says its own lines, plain."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MITSUBA_REFS_VARIANT": "scalar_rgb"}
+    env.pop("NO_COLOR", None)
+    done = subprocess.run([sys.executable, "-m", "mitsuba_refs", "build", "cornell-box",
+                           "--integrators", "path_nee", "--resolution", "8x8", "--spp", "4",
+                           "--no-per-bounce", "--cache-dir", str(tmp_path)],
+                          env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "terrible performance" not in done.stderr and "\x1b" not in done.stderr + done.stdout
+    assert "built" in done.stdout

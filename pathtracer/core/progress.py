@@ -13,7 +13,7 @@ import os
 import sys
 import time
 
-__all__ = ["Progress", "colour_allowed", "duration", "is_terminal"]
+__all__ = ["Progress", "Quiet", "colour_allowed", "duration", "is_terminal"]
 
 #: Seconds between two plain lines in a pipe; work shorter than this prints none.
 PIPE_INTERVAL = 10.0
@@ -156,3 +156,16 @@ class Progress:
         faster = f"; faster: {self.faster}" if self.faster else ""
         prefix = "\n" if self.terminal and self.printed else ""
         self._write(f"{prefix}{self.label}: about {duration(total)} in all at this pace{faster}\n")
+
+
+class Quiet:
+    """A :class:`Progress` that shows nothing (``--no-progress``)."""
+
+    def update(self, n: int = 1) -> None:
+        pass
+
+    def advance(self, n: int = 1) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
