@@ -229,6 +229,15 @@ def _integrator_choice(args, options: dict):
                                                                  "replicas", "mis")})
 
 
+def _check_file_spp(spp: int, scene: str) -> None:
+    """Refuse the file's sample count when out of range, saying where it came from."""
+    try:
+        resources.check_spp(spp)
+    except ValueError as error:
+        raise ValueError(f"{scene}: the file's <sampler> sample_count: {error}; --spp N replaces "
+                         "it") from None
+
+
 def _render_checked(args) -> int:
     """Check everything (scene, options, memory, output), render, write; exit code."""
     options = dict(max_depth=args.max_depth, rr_depth=args.rr_depth, roulette=args.roulette,
@@ -237,7 +246,8 @@ def _render_checked(args) -> int:
     try:
         scene = load_scene(args.scene, resolution=args.resolution, sample_count=args.spp,
                            **parse_defines(args.defines))
-        resources.check_spp(scene.spp)
+        if args.spp is None:    # --spp was checked by its parser: this count is the file's
+            _check_file_spp(scene.spp, args.scene)
         processes = args.processes or os.cpu_count() or 1
         integrator = _integrator_choice(args, options)
         chosen = integrator_for(scene, integrator, **options)   # bad options: before any output

@@ -169,3 +169,15 @@ def test_python_m_is_the_command_for_the_one_line_interrupt(monkeypatch):
     assert _console.command_name() is None
     monkeypatch.setattr(sys, "argv", ["/venv/bin/pathtracer", "render"])
     assert _console.command_name() == "pathtracer"
+
+
+def test_a_files_sample_count_out_of_range_names_the_file_and_spp(tmp_path, capsys):
+    from pathtracer.cli import main as pathtracer_main
+    scene = tmp_path / "big.xml"
+    scene.write_text('<scene version="3.0.0"><sensor type="perspective">'
+                     '<sampler type="independent"><integer name="sample_count" value="99999999999"/></sampler>'
+                     '<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>'
+                     '</film></sensor><shape type="sphere"/></scene>')
+    assert pathtracer_main(["render", str(scene), "-o", str(tmp_path / "x.exr")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"pathtracer: error: {scene}: the file's <sampler> sample_count") and "--spp N" in err

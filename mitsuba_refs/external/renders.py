@@ -260,7 +260,8 @@ class ExternalRenders:
             raise RefsInputError(f"{run.describe()}: {error}") from None
         if image.size != self.size:
             raise RefsInputError(f"{run.describe()} wrote a {image.size[0]}x{image.size[1]} image; "
-                                 f"the scene's film is {self.size[0]}x{self.size[1]}: "
+                                 f"the scene's film is {self.size[0]}x{self.size[1]} (what {{width}} "
+                                 f"{{height}} told it; --resolution WxH sets both sides): "
                                  f"{quoted(run.command)}")
         if image.spp is not None and image.spp != run.spp:
             raise RefsInputError(f"{run.describe()}: its image says spp={image.spp}, the run was asked "
