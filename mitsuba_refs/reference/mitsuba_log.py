@@ -1,11 +1,14 @@
 """Mitsuba's log in our output: plain lines (no colour codes, which Mitsuba's own appender
-writes even into a pipe), and without the warning that Python integrators are slow in scalar
-variants, which :func:`mitsuba_refs.reference.render.render_reference` replaces by its own
-one-line estimate of the time and the faster route."""
+writes even into a pipe; red only on a terminal without ``NO_COLOR``), and without the warning
+that Python integrators are slow in scalar variants, which
+:func:`mitsuba_refs.reference.render.render_reference` replaces by its own one-line estimate of
+the time and the faster route."""
 from __future__ import annotations
 
 import re
 import sys
+
+from pathtracer.core.progress import colour_allowed
 
 __all__ = ["install", "plain"]
 
@@ -36,6 +39,8 @@ def install(stream=None) -> None:
             line = plain(text)
             if line is not None:
                 out = sys.stderr if stream is None else stream
+                if colour_allowed(out) and level in (mi.LogLevel.Warn, mi.LogLevel.Error):
+                    line = f"\x1b[31m{line}\x1b[0m"
                 out.write(line + "\n")
                 out.flush()
 
