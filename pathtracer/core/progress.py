@@ -82,6 +82,7 @@ class Progress:
         self.start = self.last = clock()
         self.printed = False
         self.estimated = False
+        self._width = 0     # of the last line written: a shorter redraw covers it with spaces
 
     # tqdm's names, so that the render's scheduler takes a Progress where it took a bar.
     def update(self, n: int = 1) -> None:
@@ -137,7 +138,7 @@ class Progress:
         filled = BAR_WIDTH * self.done // self.total
         bar = "#" * filled + "-" * (BAR_WIDTH - filled)
         text = f"{self.label} [{bar}] {self._count()}, {self._left(now)}"
-        return text.ljust(getattr(self, "_width", 0))   # spaces cover a longer previous line
+        return text.ljust(self._width)
 
     def _write(self, text: str) -> None:
         self._width = len(text.strip("\r\n"))
