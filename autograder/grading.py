@@ -45,6 +45,7 @@ from mitsuba_refs.stats.mean import MeanAgreement
 from mitsuba_refs.verdicts.compare import TEST_SEED, Comparison, compare, write_pictures
 from mitsuba_refs.verdicts.estimators import BOUNCE_REFERENCE, SPLATTING, reference_integrator
 from mitsuba_refs.verdicts.scenes import default_params
+from pathtracer.core.progress import Progress
 from pathtracer.render.splats import replica_count
 
 from .contract import refusal
@@ -561,10 +562,15 @@ def grade(impl: str, checks=CHECKS, out_dir=None, seed_offset: int = 0, log=None
     """
     history = {}
     scale = TIME_SCALE if time_scale is None else time_scale
+    checks = list(checks)
+    progress = Progress(len(checks), "grading", "checks") if log else None
     for check in checks:
         result = run_check(check, impl, out_dir=out_dir, seed_offset=seed_offset, history=history,
                            trusted=trusted, limits=Limits(check.seconds * scale, MEMORY_MB, OUTPUT_BYTES))
         history[check.id] = result
         if log:
             log(result.report())
+            progress.advance()
+    if progress is not None:
+        progress.close()
     return list(history.values())

@@ -13,13 +13,12 @@ import argparse
 import json
 from pathlib import Path
 
-from tqdm import tqdm
-
 from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.stats import clopper_pearson, compare_means, compare_variances
 from mitsuba_refs.verdicts.convergence import CONVERGENCE_REPLICAS, check_convergence
 from mitsuba_refs.verdicts.estimators import SAME_ESTIMATOR, reference_integrator
 from mitsuba_refs.verdicts.scenes import default_params, render_ours
+from pathtracer.core.progress import Progress
 
 
 def main(argv=None) -> int:
@@ -40,7 +39,8 @@ def main(argv=None) -> int:
     reference = get_reference(args.scene, params, reference_integrator(args.integrator))
     ladder = tuple(int(v) for v in args.ladder.split(","))
     counts = {"mean": 0, "variance": 0, "convergence": 0}
-    for k in tqdm(range(args.seeds), desc="seeds"):
+    progress = Progress(args.seeds, "calibration", "seeds")
+    for k in range(args.seeds):
         mean, var = render_ours(args.scene, args.integrator, params, args.spp, 70_000 + k)
         counts["mean"] += not compare_means(mean, var, args.spp, reference.mean, reference.var,
                                             reference.n, alpha=args.alpha).agree
@@ -52,6 +52,8 @@ def main(argv=None) -> int:
             law, _ = check_convergence(args.scene, args.integrator, params, alpha=args.alpha,
                                        ladder=ladder, replicas=CONVERGENCE_REPLICAS, render=seeded)
             counts["convergence"] += not law.passed
+        progress.advance()
+    progress.close()
     report = {"scene": args.scene, "integrator": args.integrator, "seeds": args.seeds,
               "spp": args.spp, "alpha": args.alpha, "ladder": ladder, "rejections": {}}
     print(f"{args.integrator} on {args.scene}, {args.seeds} seeds, nominal alpha {args.alpha}")

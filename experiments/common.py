@@ -24,7 +24,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from mitsuba_refs.errors import ReferenceUnavailable
 from mitsuba_refs.reference.cache import get_reference as lookup
@@ -33,6 +32,7 @@ from mitsuba_refs.verdicts.estimators import reference_integrator
 from mitsuba_refs.verdicts.scenes import default_params, loaded_scene
 from pathtracer import render
 from pathtracer.core.color import LUMINANCE
+from pathtracer.core.progress import Progress, Quiet
 from pathtracer.scene.defines import parse_define
 
 #: Colours per integrator, the same in every figure.
@@ -87,9 +87,9 @@ def cpu_count() -> int:
 
 
 def progress_bar(total: int, desc: str, enabled: bool = True):
-    """A tqdm bar on stderr (a no-op object when disabled)."""
-    return tqdm(total=total, desc=desc, unit="render", file=sys.stderr, disable=not enabled,
-                dynamic_ncols=True)
+    """The commands' progress on stderr (:mod:`pathtracer.core.progress`: a bar with the time
+    left on a terminal, plain lines in a pipe); a no-op object when disabled."""
+    return Progress(total, desc, "renders") if enabled else Quiet()
 
 
 def run_with_progress(keys, run, per_key: int, desc: str, enabled: bool = True):

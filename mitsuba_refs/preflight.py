@@ -10,6 +10,7 @@ import math
 import os
 from pathlib import Path
 
+from pathtracer.core.names import suggestion
 from pathtracer.scene.load import builtin_scene_names
 
 from .errors import RefsInputError
@@ -33,7 +34,8 @@ def scene_path(scene):
         found = path if path.exists() else None    # "notes.txt" reads as a built-in name
     if found is None:
         builtin = ", ".join(builtin_scene_names())
-        raise RefsInputError(f"{scene}: no such file, and not a built-in scene ({builtin})")
+        hint = suggestion(str(scene), builtin_scene_names())
+        raise RefsInputError(f"{scene}: no such file, and not a built-in scene ({hint}{builtin})")
     if found.suffix != ".xml":
         raise RefsInputError(f"{scene}: a scene file must end in .xml")
     return found
@@ -91,7 +93,7 @@ def check_image_size(width, height, scene):
         raise RefsInputError(
             f"{scene}: the image is {width}x{height} pixels, {tiles} tile(s) of {TILE}x{TILE}; "
             f"the tests need at least {MIN_TILES} tiles: render at least 32x16 pixels "
-            f"(e.g. -D width=32 -D height=32, if the file declares them)")
+            f"(--resolution 32x32, or -D width=32 -D height=32 if the file declares them)")
 
 
 def check_output_folder(folder, option="--out"):

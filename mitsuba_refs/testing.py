@@ -24,11 +24,19 @@ and prints the budget and how many checks share it.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
+from types import SimpleNamespace
 
 from .external.check import check
 from .settings import Settings
 from .stats.budget import SUITE_ALPHA, per_test_alpha
+from .verdicts.compare import write_pictures
+
+#: Where a failing :func:`assert_agrees` draws its pictures when no ``out_dir`` is given
+#: (as ``mitsuba-refs check`` does in ``out/check``), relative to the working folder.
+FAILURE_PICTURES = Path("out") / "assert_agrees"
 
 #: Verdicts one check makes at most (mean, variance, convergence): each spends its alpha.
 VERDICTS_PER_CHECK = 3
@@ -103,5 +111,17 @@ def assert_agrees(scene, *, command=None, images=None, settings: Settings | None
     result = check(scene, command=command, images=images, settings=settings, alpha=level,
                    **options)
     if not result.agree:
-        raise Disagreement(result)
+        raise Disagreement(with_pictures(result, FAILURE_PICTURES))
     return result
+
+
+def with_pictures(result, out_dir):
+    """``result`` with its diagnostic pictures, drawn into ``out_dir`` when the check drew none
+    (no ``out_dir`` was given): a failure always says where to look."""
+    arrays = result.arrays
+    if result.pictures or "test_mean" not in arrays:
+        return result
+    reference = SimpleNamespace(mean=arrays["reference_mean"], var=arrays["reference_variance"])
+    pictures = write_pictures(result, Path(out_dir), arrays["test_mean"], arrays["test_variance"],
+                              reference)
+    return dataclasses.replace(result, pictures=pictures)

@@ -11,7 +11,9 @@ import warnings
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
+from . import __version__
 from .core import interrupts
+from .core.cli_help import HelpFormatter, add_version, with_choice_hint
 from .core.rng import SEED_MAX
 from .integrators import INTEGRATORS, make_integrator
 from .integrators.base import HEMISPHERE_RULES, ROULETTE_RULES
@@ -43,6 +45,9 @@ exit codes: 0 done, 1 failed while running (a worker died, the disk is full),
 2 bad input or usage (nothing rendered), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
 """
 
+#: The first line of ``pathtracer --help`` (plain text: the module docstring is reStructuredText).
+DESCRIPTION = "pathtracer: render Mitsuba 3 scene files with the lecture's integrators."
+
 #: The integrators that splat into the film (their variance comes from replicas).
 SPLATTING = tuple(name for name, cls in INTEGRATORS.items() if cls.splats)
 #: The integrators with a ``paths`` option of their own (the path tracer's is PathClassIntegrator).
@@ -57,7 +62,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse that reports errors as one line and exit code 2."""
 
     def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message}\n")
+        self.exit(2, f"{self.prog}: error: {with_choice_hint(message)}\n")
 
 
 def _integer(text: str, low: int, high: int | None, what: str) -> int:
@@ -109,13 +114,14 @@ def _resolution(text: str) -> tuple[int, int]:
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``pathtracer`` command line (subcommands ``render`` and ``scenes``)."""
-    parser = _Parser(prog="pathtracer", description=__doc__,
-                     formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG)
+    parser = _Parser(prog="pathtracer", description=DESCRIPTION,
+                     formatter_class=HelpFormatter, epilog=EPILOG)
+    add_version(parser, __version__)
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     render = commands.add_parser(
         "render", help="render a scene to EXR (+ PNG preview)", epilog=EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=HelpFormatter,
         description="Render SCENE with one of the lecture's integrators and write the "
                     "per-pixel mean and per-sample variance to an EXR file.")
     render.add_argument("scene", help="Mitsuba 3 XML file or built-in scene name")
@@ -157,7 +163,10 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("-v", "--verbose", action="store_true",
                         help="say the machine and the sizes chosen for it (batch, all-pairs chunk)")
 
-    commands.add_parser("scenes", help="list the built-in scenes")
+    commands.add_parser("scenes", help="list the built-in scenes", formatter_class=HelpFormatter,
+                        description="Print the names of the built-in scenes, one a line; any of them "
+                                    "is a SCENE of pathtracer render (and of mitsuba-refs).",
+                        epilog="example:\n  pathtracer scenes")
     return parser
 
 
@@ -220,6 +229,15 @@ def _integrator_choice(args, options: dict):
                                                                  "replicas", "mis")})
 
 
+def _check_file_spp(spp: int, scene: str) -> None:
+    """Refuse the file's sample count when out of range, saying where it came from."""
+    try:
+        resources.check_spp(spp)
+    except ValueError as error:
+        raise ValueError(f"{scene}: the file's <sampler> sample_count: {error}; --spp N replaces "
+                         "it") from None
+
+
 def _render_checked(args) -> int:
     """Check everything (scene, options, memory, output), render, write; exit code."""
     options = dict(max_depth=args.max_depth, rr_depth=args.rr_depth, roulette=args.roulette,
@@ -228,7 +246,8 @@ def _render_checked(args) -> int:
     try:
         scene = load_scene(args.scene, resolution=args.resolution, sample_count=args.spp,
                            **parse_defines(args.defines))
-        resources.check_spp(scene.spp)
+        if args.spp is None:    # --spp was checked by its parser: this count is the file's
+            _check_file_spp(scene.spp, args.scene)
         processes = args.processes or os.cpu_count() or 1
         integrator = _integrator_choice(args, options)
         chosen = integrator_for(scene, integrator, **options)   # bad options: before any output

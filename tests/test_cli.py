@@ -97,7 +97,7 @@ def test_scene_names_resolve_to_the_same_file_on_both_sides(tmp_path, monkeypatc
     for name in ("cornell-box", "sub/mine", str(scene)):
         assert resolve_scene(name) == Path(scene_file(name)).resolve()
     assert resolve_scene("cornell-box").parent.name == "scenes"
-    with pytest.raises(FileNotFoundError, match='did you mean "cornell-box"'):
+    with pytest.raises(FileNotFoundError, match="did you mean 'cornell-box'"):
         resolve_scene("cornell-bx")
     names = builtin_scene_names()
     assert set(BUILTIN_SCENES) == (set(names) - set(FEATURE_SCENES) - set(OWN_TEST_SCENES)

@@ -69,7 +69,7 @@ BAD_SCENES = {
     "scene is a directory": (["sub/"], ["is a directory"]),
     "empty scene file": (["empty.xml"], ["empty.xml:1", "XML syntax error"]),
     "binary scene file": (["binary.xml"], ["binary.xml:", "XML syntax error"]),
-    "scene name typo": (["cornell-bx"], ['no built-in scene "cornell-bx"', 'did you mean "cornell-box"']),
+    "scene name typo": (["cornell-bx"], ['no built-in scene "cornell-bx"', "did you mean 'cornell-box'"]),
     "nan radiance": (["nan.xml"], ["nan.xml:7", "radiance", "not a finite number"]),
     "-D malformed value": (["cornell-box", "-D", "width=abc"], ["cornell-box.xml:", "abc"]),
     "film too large for memory": (["cornell-box", "-D", "width=100000", "-D", "height=100000"],

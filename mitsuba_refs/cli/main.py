@@ -18,7 +18,9 @@ import argparse
 import sys
 import time
 
+from pathtracer import __version__
 from pathtracer.core import interrupts
+from pathtracer.core.cli_help import HelpFormatter, add_version, with_choice_hint
 from pathtracer.scene.defines import parse_defines
 
 from ..errors import RefsInputError, one_line
@@ -37,6 +39,7 @@ from ..reference.render import INTEGRATOR_MAP, xml_defaults
 from ..reference.variant import choose_variant
 from .check import add_check
 from .compare import add_compare
+from .examples import EXAMPLES, TOP
 from .options import resolution
 from .report import add_report
 
@@ -152,8 +155,8 @@ def cmd_build(args):
             kept += 1
             continue
         t0 = time.time()
-        build_reference(scene, params, integ, args.spp, args.seed,
-                        directory=directory, variant=variant, **where)
+        build_reference(scene, params, integ, args.spp, args.seed, directory=directory,
+                        variant=variant, log=lambda line: print(line, file=sys.stderr), **where)
         built += 1
         print(f"  built    {stem}  [{status}: {detail}]  {time.time() - t0:.1f} s",
               flush=True)
@@ -181,7 +184,7 @@ class OneLineParser(argparse.ArgumentParser):
     """An ``ArgumentParser`` whose usage errors are one line (and exit status 2)."""
 
     def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        self.exit(2, f"{self.prog}: error: {with_choice_hint(message)} (see {self.prog} --help)\n")
 
 
 #: Errors a user can fix: printed in one line with exit status 2. ``SceneError`` and
@@ -193,11 +196,15 @@ def _user_errors():
 def make_parser():
     """The argparse parser with one subparser per :data:`SUBCOMMANDS` entry."""
     parser = OneLineParser(
-        prog="mitsuba-refs",
+        prog="mitsuba-refs", formatter_class=HelpFormatter, epilog=TOP,
         description="Mitsuba 3 references for validating the NumPy path tracer.")
+    add_version(parser, __version__)
     subparsers = parser.add_subparsers(dest="command", required=True)
     for name, add in SUBCOMMANDS.items():
         handler = add(subparsers)
+        command = subparsers.choices[name]
+        command.formatter_class = HelpFormatter
+        command.epilog = "\n\n".join(filter(None, (EXAMPLES.get(name), command.epilog)))
         # "subcommand" too: check's option --command replaces args.command with its template.
         subparsers.choices[name].set_defaults(handler=handler, subcommand=name)
     return parser

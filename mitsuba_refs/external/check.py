@@ -30,6 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from pathtracer.core.names import suggestion
 from pathtracer.render.splats import replica_count
 
 from ..errors import RefsInputError
@@ -78,7 +79,8 @@ def reference_name(scene_file, file_integrator: str, given=None) -> str:
     else:
         where = "--reference-integrator"
     if given not in REFERENCES:
-        raise RefsInputError(f"{where} {given!r} has no Mitsuba reference here; give one of "
+        raise RefsInputError(f"{where} {given!r} has no Mitsuba reference here; "
+                             f"{suggestion(given, REFERENCES)}give one of "
                              f"{', '.join(sorted(REFERENCES))} with --reference-integrator")
     return REFERENCES[given]
 
@@ -155,6 +157,7 @@ def check(scene, *, command=None, images=None, params=None, settings: Settings |
         raise RefsInputError("--detect goes with --command (images have their sample count)")
     start = time.perf_counter()
     path = scene_path(scene)
+    given = set(params or {})       # the names -D set, for film_origin
     params = {**default_params(scene), **(params or {})}
     check_scene(scene, params)
     _, transport, file_settings = reference_settings(path, params, settings.options,
@@ -176,7 +179,8 @@ def check(scene, *, command=None, images=None, params=None, settings: Settings |
         result = _check_command(scene, CommandTemplate.parse(command), params, settings, setup, log)
         source = command
     else:
-        result = _check_images(scene, image_files(images), params, settings, (size, images_spp),
+        origin = film_origin(path, params, settings.resolution, given)
+        result = _check_images(scene, image_files(images), params, settings, (size, images_spp, origin),
                                log, label)
         source = f"images: {images if isinstance(images, str) else ' '.join(map(str, images))}"
     notes = list(result.notes)
@@ -325,9 +329,23 @@ def image_files(images) -> list[Path]:
     return files
 
 
-def read_images(files, size, images_spp=None):
-    """Read and check every file: same film size as the scene, a known sample count, no two
-    identical. Returns the images and their faults (lines)."""
+def film_origin(path, params, resolution, given) -> str:
+    """Where a check's film size came from and which option changes it, for the messages
+    that quote the size; ``given`` are the names of ``params`` the user set (``-D``)."""
+    if resolution is not None:
+        return "from --resolution"
+    if {"width", "height"} & set(given):
+        return "from -D width/height; --resolution WxH replaces it"
+    if {"width", "height"} <= set(params):
+        return ("the built-in scene's test size, which its committed references have; "
+                "--resolution WxH or -D width=W -D height=H renders another")
+    return f"the film of {path}; --resolution WxH replaces it"
+
+
+def read_images(files, size, images_spp=None, origin=None):
+    """Read and check every file: same film size as the scene (``origin`` says where that size
+    came from), a known sample count, no two identical. Returns the images and their faults
+    (lines)."""
     images, faults, seen = [], [], {}
     for file in files:
         try:
@@ -335,11 +353,14 @@ def read_images(files, size, images_spp=None):
         except ImageError as error:
             raise RefsInputError(str(error)) from None
         if image.size != tuple(size):
+            where = f" ({origin})" if origin else ""
             raise RefsInputError(f"{file}: the image is {image.size[0]}x{image.size[1]}, the scene's "
-                                 f"film is {size[0]}x{size[1]}")
+                                 f"film is {size[0]}x{size[1]}{where}; to check images of this size "
+                                 f"give --resolution {image.size[0]}x{image.size[1]}")
         if image.spp is None:
             raise RefsInputError(f"{file}: no sample count: write a header attribute spp, a sidecar "
-                                 f"{file}.json with {{\"spp\": N}}, or pass --spp")
+                                 f"{file}.json with {{\"spp\": N}}, or pass --spp N (the samples "
+                                 "per pixel of every image that gives none)")
         digest = hashlib.sha256(np.ascontiguousarray(image.mean).tobytes()).hexdigest()
         if digest in seen:
             raise RefsInputError(f"{file} and {seen[digest]} are identical: replicas need seeds of "
@@ -416,7 +437,7 @@ def check_images_independent(files, images, size) -> None:
 
 def _check_images(scene, files, params, settings: Settings, film, log, label="images"):
     """The verdicts of images rendered elsewhere; ``film`` = (the scene's film size, the sample
-    count of images that give none)."""
+    count of images that give none, where that size came from)."""
     images, faults = read_images(files, *film)
     if faults:
         return faulty(scene, label, params, max(i.spp for i in images), faults, settings.alpha)
@@ -432,6 +453,13 @@ def _check_images(scene, files, params, settings: Settings, film, log, label="im
                               resolution=settings.resolution)
     levels = sorted({image.spp for image in images})
     notes, law, mse, ladder = list(result.notes), None, None, result.ladder
+    not_run = {"bounces": "not run: images rendered elsewhere cannot be rendered again at "
+                          "max_depth 1, 2, 3 (check --command with {max_depth} can)"}
+    if not settings.convergence:
+        not_run["convergence"] = "not run (--no-convergence)"
+    elif len(levels) < MIN_IMAGE_LEVELS:
+        not_run["convergence"] = (f"not run: the images have {len(levels)} sample count(s), it "
+                                  f"needs >= {MIN_IMAGE_LEVELS} (docs/external.md)")
     if settings.convergence and len(levels) >= MIN_IMAGE_LEVELS:
         parts = ConvergenceParts.of(reference, levels)
         mse = [sum((parts.mse(i.mean) for i in images if i.spp == n), []) for n in parts.ladder]
@@ -447,7 +475,7 @@ def _check_images(scene, files, params, settings: Settings, film, log, label="im
         variance_test, skipped = None, variance_not_independent(law)
     result = dataclasses.replace(result, runs=[], convergence=law, convergence_mse=mse,
                                  ladder=ladder, notes=notes, variance=variance_test,
-                                 variance_skipped=skipped)    # nothing was rendered here
+                                 variance_skipped=skipped, not_run=not_run)    # nothing was rendered here
     own = any(image.variance is not None for image in images
               if image.spp == max(i.spp for i in images))
     result = variance_reasons(result, settings, own)

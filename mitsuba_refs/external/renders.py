@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import norm
 
+from pathtracer.core.progress import Progress
 from pathtracer.render.splats import replica_count
 
 from ..errors import RefsInputError
@@ -179,9 +180,13 @@ class ExternalRenders:
             self._probe(next(r for r in requests if r.variance))
         pieces = {request: self._runs_of(request) for request in requests}
         todo = [run for runs in pieces.values() for run in runs if run.image is None]
+        progress = None
         if self.log and todo:
             self.log(f"check: {len(todo)} renderer runs, {self.runner.jobs} at a time")
-        self.runner.run_all(todo)
+            progress = Progress(len(todo), "check: renderer runs", "runs")
+        self.runner.run_all(todo, progress)
+        if progress is not None:
+            progress.close()
         for run in todo:
             run.image = self._read(run)
         for request, runs in pieces.items():
@@ -255,7 +260,8 @@ class ExternalRenders:
             raise RefsInputError(f"{run.describe()}: {error}") from None
         if image.size != self.size:
             raise RefsInputError(f"{run.describe()} wrote a {image.size[0]}x{image.size[1]} image; "
-                                 f"the scene's film is {self.size[0]}x{self.size[1]}: "
+                                 f"the scene's film is {self.size[0]}x{self.size[1]} (what {{width}} "
+                                 f"{{height}} told it; --resolution WxH sets both sides): "
                                  f"{quoted(run.command)}")
         if image.spp is not None and image.spp != run.spp:
             raise RefsInputError(f"{run.describe()}: its image says spp={image.spp}, the run was asked "

@@ -109,8 +109,9 @@ class Runner:
     _groups: set = field(default_factory=set, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
-    def run_all(self, runs: list[Run]) -> None:
-        """Run every one of ``runs``; return when all succeeded.
+    def run_all(self, runs: list[Run], progress=None) -> None:
+        """Run every one of ``runs``; return when all succeeded; ``progress``
+        (:class:`pathtracer.core.progress.Progress`), if given, is told each run done.
 
         Raises
         ------
@@ -127,6 +128,8 @@ class Runner:
                     pending, timeout=POLL_SECONDS, return_when=concurrent.futures.FIRST_EXCEPTION)
                 for future in done:
                     future.result()          # a failed run raises here
+                if progress is not None and done:
+                    progress.advance(len(done))
         except BaseException:
             for future in pending:
                 future.cancel()

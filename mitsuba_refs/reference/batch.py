@@ -74,7 +74,7 @@ class SampleStatistics:
         return self.m2 / (self.n - 1)
 
 
-def render_moments(scene, integrator, spp, seed, stream, log=None):
+def render_moments(scene, integrator, spp, seed, stream, progress=None):
     """Render ``spp`` single samples per pixel of ``scene``'s first sensor.
 
     Parameters
@@ -84,7 +84,8 @@ def render_moments(scene, integrator, spp, seed, stream, log=None):
         The estimator itself (no wrapper).
     spp, seed, stream : int
         Samples per pixel; base seed and stream of :func:`mitsuba_refs.reference.seeds.pass_seeds`.
-    log : callable, optional
+    progress : pathtracer.core.progress.Progress, optional
+        Told the samples done after every call.
 
     Returns
     -------
@@ -105,6 +106,6 @@ def render_moments(scene, integrator, spp, seed, stream, log=None):
         take = min(k, remaining)
         stats.add(samples[:, :take])
         remaining -= take
-        if log and (i + 1) % max(1, calls // 8) == 0:
-            log(f"  {spp - remaining}/{spp} spp")
+        if progress:
+            progress.advance(take)
     return stats.mean, stats.variance(), stats.n, calls, k, seeds

@@ -116,7 +116,7 @@ def integrator_with_blocks(nested):
     return dict(nested, block_size=BLOCK_SIZE)
 
 
-def render_filtered_moments(scene, integrator, spp, seed, stream, rfilter, log=None):
+def render_filtered_moments(scene, integrator, spp, seed, stream, rfilter, progress=None):
     """Render ``spp`` single samples per pixel and reconstruct them with ``rfilter``.
 
     Parameters
@@ -127,7 +127,7 @@ def render_filtered_moments(scene, integrator, spp, seed, stream, rfilter, log=N
     spp, seed, stream : int
         As for :func:`mitsuba_refs.reference.batch.render_moments`.
     rfilter : pathtracer.sensors.film.ReconstructionFilter
-    log : callable, optional
+    progress : pathtracer.core.progress.Progress, optional
 
     Returns
     -------
@@ -150,7 +150,7 @@ def render_filtered_moments(scene, integrator, spp, seed, stream, rfilter, log=N
         take = min(k, remaining)
         sums.add(values[:, :take], x[:, :take], y[:, :take])
         remaining -= take
-        if log and (i + 1) % max(1, calls // 8) == 0:
-            log(f"  {spp - remaining}/{spp} spp")
+        if progress:
+            progress.advance(take)
     m1, m2 = sums.moments()
     return m1, m2, spp, calls, k, seeds

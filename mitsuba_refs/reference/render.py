@@ -46,6 +46,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pathtracer.core.names import suggestion
+from pathtracer.core.progress import Progress
 from pathtracer.integrators import make_integrator
 from pathtracer.render.driver import transport_options
 from pathtracer.render.moments import combine_power_means
@@ -75,6 +77,10 @@ INTEGRATOR_MAP = {
     "volpath_phase": "volpath",
     "volpathmis": "volpathmis",
 }
+
+#: Mitsuba integrator types written in Python (:mod:`mitsuba_refs.reference.integrators`): one
+#: Python call per sample in scalar variants.
+PYTHON_TYPES = ("lecture_path_bsdf", "lecture_path_nee")
 
 #: integrators whose reference variance is *not* that of our estimator
 MEAN_ONLY = ("recursive", "smallpt", "volpath_phase", "volpathmis")
@@ -245,7 +251,7 @@ def integrator_dict(integrator, integ_kw, file_integrator=None):
     try:
         mitsuba_type = INTEGRATOR_MAP[integrator]
     except KeyError:
-        raise ValueError(f"unknown integrator {integrator!r}; "
+        raise ValueError(f"unknown integrator {integrator!r}; {suggestion(integrator, INTEGRATOR_MAP)}"
                          f"known: {sorted(INTEGRATOR_MAP)}") from None
     d = {"type": mitsuba_type}
     if mitsuba_type == "direct":
@@ -444,22 +450,29 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
     t0 = time.time()
+    progress = None
+    if log:     # the cache said which reference renders; this says how far it is
+        progress = Progress(spp, f"reference {path.stem} {integrator}", "spp",
+                            estimate_after=ESTIMATE_AFTER,
+                            faster=faster_route(chosen, method, nested["type"]))
     if method == "batch" and not rfilter.is_box:
         m1, m2, n, calls, per_call, seeds = render_filtered_moments(
             scene, mi.load_dict(integrator_with_blocks(nested)), spp, seed, stream, rfilter,
-            log=log)
+            progress=progress)
         var = per_sample_variance(m1, m2, n, rfilter)
     elif method == "batch":
         m1, var, n, calls, per_call, seeds = render_moments(
-            scene, mi.load_dict(nested), spp, seed, stream, log=log)
+            scene, mi.load_dict(nested), spp, seed, stream, progress=progress)
     elif method == "replicas":
-        m1, var, n, per_call, seeds = _render_replicas(scene, nested, spp, seed, stream, log)
+        m1, var, n, per_call, seeds = _render_replicas(scene, nested, spp, seed, stream, progress)
     elif method == "moments":
         m1, m2, n, per_call, seeds = _render_with_wrapper(
-            scene, nested, spp, seed, stream, config.PASS_SPP, log)
+            scene, nested, spp, seed, stream, config.PASS_SPP, progress)
         var = per_sample_variance(m1, m2, n, rfilter)
     else:
         raise ValueError(f"unknown method {method!r} (batch or moments)")
+    if progress is not None:
+        progress.close()
     elapsed = time.time() - t0
     metadata = {
         "scene": path.stem,
@@ -491,7 +504,23 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
     return Reference(mean=m1, var=var, n=int(n), metadata=metadata)
 
 
-def _render_with_wrapper(scene, nested, spp, seed, stream, pass_spp, log):
+#: Seconds above which a reference build says, once, how long it will take and what is faster.
+ESTIMATE_AFTER = 30.0
+
+
+def faster_route(variant, method, mitsuba_type) -> str:
+    """What makes a long reference build faster, for its one-line estimate."""
+    routes = []
+    if variant.startswith("scalar"):
+        slow = "a Python integrator" if method == "moments" or mitsuba_type in PYTHON_TYPES else "it"
+        routes.append(f"{slow} in {variant} is slow: the llvm_ad_rgb variant (--variant llvm_ad_rgb "
+                      "or MITSUBA_REFS_VARIANT=llvm_ad_rgb) where it works")
+    routes.append("a smaller --resolution")
+    routes.append("`mitsuba-refs build` on a faster machine, copying the cache files")
+    return "; ".join(routes)
+
+
+def _render_with_wrapper(scene, nested, spp, seed, stream, pass_spp, progress):
     """The ``rgb_moments`` method: passes of at most ``pass_spp`` samples, moments combined
     (first and second moment per pixel, as the film's filter weighted them)."""
     import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
@@ -509,13 +538,13 @@ def _render_with_wrapper(scene, nested, spp, seed, stream, pass_spp, log):
         mi.render(scene, integrator=integ, spp=n_k, seed=s)
         m1, m2 = moments.read_moments(film)
         passes.append((m1, m2, n_k))
-        if log:
-            log(f"  pass {k + 1}/{n_passes}: {n_k} spp, seed {s}")
+        if progress:
+            progress.advance(n_k)
     m1, m2, n = combine_power_means(passes)
     return m1, m2, n, pass_spp, seeds
 
 
-def _render_replicas(scene, nested, spp, seed, stream, log):
+def _render_replicas(scene, nested, spp, seed, stream, progress):
     """The ``replicas`` method (particle tracer): ``K`` independent renders of ``spp / K``.
 
     ``K`` is the largest divisor of ``spp`` up to ``config.REF_REPLICAS``. Returns the
@@ -536,8 +565,8 @@ def _render_replicas(scene, nested, spp, seed, stream, log):
         image = np.array(mi.render(scene, integrator=integ, spp=per_replica, seed=s),
                          dtype=np.float64)[..., :3]
         images.append(image)
-        if log and (k + 1) % 16 == 0:
-            log(f"  replica {k + 1}/{replicas}: {per_replica} spp")
+        if progress:
+            progress.advance(per_replica)
     images = np.stack(images)
     variance = images.var(axis=0, ddof=1) * per_replica if replicas > 1 else np.zeros_like(images[0])
     return images.mean(axis=0), variance, spp, per_replica, seeds

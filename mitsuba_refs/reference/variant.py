@@ -16,6 +16,7 @@ import subprocess
 import sys
 
 from ..errors import RefsInputError
+from . import mitsuba_log
 from .config import ENV_VARIANT
 
 PREFERRED = "llvm_ad_rgb"
@@ -103,6 +104,7 @@ def set_variant(variant=None):
                              f"(have: {', '.join(mi.variants())})")
     if mi.variant() != chosen:
         mi.set_variant(chosen)
+    mitsuba_log.install()       # plain lines, before our Python integrators are made
     # Mitsuba plugins: they import Mitsuba, and their classes need the variant set first.
     from . import integrators, moments
     integrators.register()

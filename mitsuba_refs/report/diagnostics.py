@@ -14,6 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import TwoSlopeNorm
+from matplotlib.ticker import MaxNLocator
 
 from pathtracer.core.color import LUMINANCE
 from pathtracer.core.tonemap import auto_scale, tonemap
@@ -108,20 +109,18 @@ def plot_convergence(path, spp, mse, result, title: str = "") -> str:
         rhi = np.sqrt(np.where(high > 0, high, np.nan))
         se = np.array([level.std(ddof=1) if level.size > 1 else 0.0 for level in levels]) / np.sqrt(sizes)
         err = 0.5 * se / np.where(ybar > 0, np.sqrt(ybar), np.nan)        # d sqrt(y) = dy / (2 sqrt y)
-    K = f"{sizes[0]}" if np.all(sizes == sizes[0]) else f"{sizes[0]}..{sizes[-1]}"
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
-    ax.fill_between(N, rlo, rhi, color="C0", alpha=0.2, label=f"replica range (K={K})")
-    ax.errorbar(N, rm, yerr=err, fmt="o", color="C0", label="RMSE of replica-mean MSE ± se")
+    ax.fill_between(N, rlo, rhi, color="C0", alpha=0.2, label=band_label(N, sizes))
+    ax.errorbar(N, rm, yerr=err, fmt="o", color="C0", label="RMSE (from the renders' mean MSE) ± se")
     ok = np.isfinite(rm)
     if ok.any():
         x0, y0 = N[ok][0], rm[ok][0]
         Ng = np.geomspace(N.min(), N.max(), 50)
-        ax.plot(Ng, y0 * (Ng / x0) ** -0.5, "k--", lw=1, label="N^-1/2 guide")
+        ax.plot(Ng, y0 * (Ng / x0) ** -0.5, "k--", lw=1, label="N^-1/2 (independent samples)")
         lx = np.log(N[ok])
         b = result.slope / 2
         a = np.mean(np.log(rm[ok]) - b * lx)
-        ax.plot(Ng, np.exp(a) * Ng ** b, color="C3",
-                label=f"fit: slope(MSE) {result.slope:.3f} [{result.slope_ci[0]:.3f}, {result.slope_ci[1]:.3f}]")
+        ax.plot(Ng, np.exp(a) * Ng ** b, color="C3", label=fit_label(result))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("samples per pixel N")
@@ -130,6 +129,21 @@ def plot_convergence(path, spp, mse, result, title: str = "") -> str:
     ax.legend(fontsize=8)
     ax.set_title(f"{title}\n{convergence_verdict(result)}", fontsize=8, wrap=True)
     return _save(fig, path)
+
+
+def band_label(spp, renders) -> str:
+    """The legend of the convergence plot's band: how many renders give each level's range."""
+    if np.all(renders == renders[0]):
+        return f"range over {renders[0]} renders per N"
+    return (f"range over the renders ({renders[0]} at N={spp[0]:g} to {renders[-1]} "
+            f"at N={spp[-1]:g})")
+
+
+def fit_label(result) -> str:
+    """The legend of the fitted law, in the plot's own quantity: the RMSE's exponent, half the
+    MSE's slope that the test fits."""
+    low, high = (s / 2 for s in result.slope_ci)
+    return f"fit: RMSE ∝ N^{result.slope / 2:.3f} [{low:.3f}, {high:.3f}]"
 
 
 def plot_variance_comparison(path, var_test, var_ref, agreement, title: str = "") -> str:
@@ -143,7 +157,8 @@ def plot_variance_comparison(path, var_test, var_ref, agreement, title: str = ""
     pos = np.concatenate([st[st > 0], sr[sr > 0]])
     lo, hi = (np.percentile(pos, 1), np.percentile(pos, 99.5)) if pos.size else (1e-3, 1.0)
     from matplotlib.colors import LogNorm  # matplotlib: heavy, imported only to draw
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4.6))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    fig.subplots_adjust(wspace=0.5)     # room for each colour bar's label before the next panel
     norm = LogNorm(vmin=max(lo, 1e-12), vmax=max(hi, lo * 10, 1e-11))
     for ax, img, name in ((axes[0], st, "test"), (axes[1], sr, "reference")):
         im = ax.imshow(np.where(img > 0, img, np.nan), norm=norm, cmap="magma", interpolation="nearest")
@@ -158,6 +173,8 @@ def plot_variance_comparison(path, var_test, var_ref, agreement, title: str = ""
     for ax in axes[:2]:
         ax.set_xlabel("x [px]")
         ax.set_ylabel("y [px]")
+    for axis in (axes[2].xaxis, axes[2].yaxis):
+        axis.set_major_locator(MaxNLocator(integer=True))     # tiles are counted, not measured
     axes[2].set_xlabel("tile column")
     axes[2].set_ylabel("tile row")
     fig.suptitle(f"{title}\n{variance_verdict(agreement)}", fontsize=10)

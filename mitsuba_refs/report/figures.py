@@ -50,6 +50,13 @@ def _figure(width: float = 3.5, height: float = 3.1, colorbar: bool = True):
     return figure
 
 
+def _whole_ticks(axes) -> None:
+    """Ticks at whole numbers only: tiles are counted (no "tile row 0.5")."""
+    from matplotlib.ticker import MaxNLocator  # matplotlib: heavy, imported only to draw
+    axes.xaxis.set_major_locator(MaxNLocator(integer=True))
+    axes.yaxis.set_major_locator(MaxNLocator(integer=True))
+
+
 def _uri(png: bytes) -> str:
     return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
 
@@ -92,6 +99,7 @@ def zmap_uri(z_tiles, significant_cells, tile: int, critical_z) -> str:
     axes.set_title(f"tile z = (test − ref)/se, {tile}px tiles\n{outlined}", fontsize=8)
     axes.set_xlabel("tile column", fontsize=8)
     axes.set_ylabel("tile row", fontsize=8)
+    _whole_ticks(axes)
     axes.tick_params(labelsize=7)
     figure.colorbar(shown, ax=axes, shrink=0.85).set_label(f"z (clipped ±{Z_LIMIT:g})", fontsize=8)
     return _figure_uri(figure)
@@ -127,6 +135,7 @@ def variance_ratio_uri(tile_log_ratio, tile: int) -> str:
     axes.set_title(f"variance ratio per {tile}px tile\nlog2(test / reference)", fontsize=8)
     axes.set_xlabel("tile column", fontsize=8)
     axes.set_ylabel("tile row", fontsize=8)
+    _whole_ticks(axes)
     axes.tick_params(labelsize=7)
     figure.colorbar(shown, ax=axes, shrink=0.85).set_label("log2 ratio (1 = 2x)", fontsize=8)
     return _figure_uri(figure)

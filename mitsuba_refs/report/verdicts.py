@@ -139,7 +139,8 @@ def convergence_entry(result) -> dict:
     """The convergence verdict (MSE over the spp ladder) as a JSON entry."""
     law = result.convergence
     if law is None:
-        return _not_compared("not run (--no-convergence)", compared=False)
+        reason = getattr(result, "not_run", {}).get("convergence", "not run (--no-convergence)")
+        return _not_compared(reason, compared=False)
     ladder = [int(n) for n in result.ladder]
     levels = (mse_per_level(result.convergence_mse, len(ladder))
               if result.convergence_mse is not None else {})
@@ -163,7 +164,7 @@ def bounces_entry(result) -> dict:
     """
     if not result.bounce_results:
         reason = ("not run: the mean agrees (--bounces always runs it)" if result.mean.agree
-                  else "not run (--bounces never)")
+                  else getattr(result, "not_run", {}).get("bounces", "not run (--bounces never)"))
         return _not_compared(reason, compared=False)
     first, text = result.bounce if result.bounce is not None else (None, "")
     depths = [{"max_depth": depth, "agree": mean.agree, "p_value": mean.p_value,

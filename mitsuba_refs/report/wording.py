@@ -381,8 +381,13 @@ def bounce_verdict(results, line=None) -> tuple:
     result = results[first]
     ok_below = order[:order.index(first)]
     p = format_p(result.p_value, missing=NO_P, digits=2)
-    text = (f"{depth_name(first)} {'already ' if first == order[0] else ''}disagrees (p={p}): "
-            f"{line(result)}")
+    detail = line(result)
+    # The line says "disagree (p=...): why" itself: its verdict and p are not repeated.
+    if detail.startswith("disagree (p="):
+        detail = detail[len("disagree "):]
+    else:
+        detail = f"(p={p}): {detail}"
+    text = f"{depth_name(first)} {'already ' if first == order[0] else ''}disagrees {detail}"
     if ok_below:
         text += ("; " + ", ".join(depth_name(d) for d in ok_below)
                  + (" agrees" if len(ok_below) == 1 else " agree"))

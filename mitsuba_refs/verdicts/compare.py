@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pathtracer.core.progress import Progress
+
 from ..reference import config
 from ..reference.cache import get_reference
 from ..reference.render import bounce_reference
@@ -42,7 +44,7 @@ from ..stats.convergence import ConvergenceResult
 from ..stats.detectable import DetectableBias
 from ..stats.mean import VARIANCE_BOUND, MeanAgreement
 from ..stats.variance import TooFewTiles, VarianceAgreement
-from .convergence import CONVERGENCE_LADDER, convergence_ladder, convergence_test
+from .convergence import CONVERGENCE_LADDER, convergence_ladder, convergence_test, level_replicas
 from .detect import SppChoice, choose_spp, comparison_bound
 from .estimators import BOUNCE_REFERENCE, SAME_ESTIMATOR, SPLATTING, resolved
 from .explain import hints
@@ -109,6 +111,9 @@ class Comparison:
         Why there is no variance verdict when the reason is not that Mitsuba has no run of
         the estimator ("" otherwise): too few noisy tiles, samples that are not independent
         within a pixel (``Settings.judge_independence``), no ``--same-estimator`` (check).
+    not_run : dict
+        Why the ``"convergence"`` or ``"bounces"`` verdict was not run, where the reason is not
+        an option of the command (images rendered elsewhere cannot be rendered again).
     """
 
     scene: str | Path
@@ -137,6 +142,7 @@ class Comparison:
     detectable: DetectableBias | None = None
     detect: SppChoice | None = None
     variance_skipped: str = ""
+    not_run: dict[str, str] = field(default_factory=dict)
 
     @property
     def agree(self) -> bool:
@@ -198,6 +204,7 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         of ``reference``.
     """
     start = time.perf_counter()
+    ours = render is render_ours    # an external renderer's runs say their own progress
     name = integrator if isinstance(integrator, str) else integrator.name
     settings = resolved(settings_of(settings, keywords, "compare", COMPARE_ALIASES), name)
     params = {**default_params(scene), **(params or {})}
@@ -215,6 +222,8 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         log=log)
     settings = settings if choice is None else dataclasses.replace(settings, spp=choice.spp)
     spp, alpha, same = settings.spp, settings.alpha, settings.same_estimator
+    if log and ours:
+        log(f"compare: {name} at {spp} spp for the mean and variance verdicts")
     mean, variance = RecordingRuns(render, runs, "mean")(scene, integrator, params, spp, TEST_SEED,
                                                            processes=settings.processes)
     # Same estimator on both sides: a test-side variance far above the reference's is
@@ -239,15 +248,20 @@ def compare(scene: str, integrator="path", params: dict | None = None,
                       "noiseless image; the mean test decides)"
     law, mse, ladder = None, None, CONVERGENCE_LADDER
     if settings.convergence:
-        law, mse = convergence_test(scene, integrator, params, reference, alpha,
-                                    settings.processes, RecordingRuns(render, runs, "convergence"),
+        progress = ladder_progress(settings) if log and ours else None
+        law, mse = convergence_test(scene, integrator, params, reference, alpha, settings.processes,
+                                    RecordingRuns(render, runs, "convergence", progress),
                                     settings.ladder, settings.replicas, settings.max_growth)
+        if progress is not None:
+            progress.close()
         ladder = convergence_ladder(reference, settings.ladder)
     if variance_test is not None and settings.judge_independence and law is not None and law.faster:
         # Stratified samples: a pixel's noise is no per-sample variance over N (stats.convergence).
         variance_test, skipped = None, variance_not_independent(law)
     bounce_results = bounce = None
     if settings.bounces or (settings.bounces is None and not mean_test.agree):
+        if log and ours:
+            log("compare: per-bounce renders, to find the first bounce that differs")
         bounce_results = localise_bounce(scene, integrator, params, settings,
                                          RecordingRuns(render, runs, "bounces"), log=log,
                                          reference_name=bounce_reference(settings.reference))
@@ -263,6 +277,13 @@ def compare(scene: str, integrator="path", params: dict | None = None,
                 "reference_mean": reference.mean, "reference_variance": reference.var},
         detectable=detectable, detect=choice, variance_skipped=skipped)
     return concluded(result, settings.out_dir, (mean, variance, reference), start)
+
+
+def ladder_progress(settings: Settings) -> Progress:
+    """The progress of the convergence renders (more when rare errors make the test grow)."""
+    renders = sum(level_replicas(settings.ladder, settings.replicas))
+    return Progress(renders, f"compare: convergence ladder {','.join(map(str, settings.ladder))}",
+                    "renders")
 
 
 def concluded(result: Comparison, out_dir, images, start: float) -> Comparison:

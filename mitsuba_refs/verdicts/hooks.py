@@ -35,8 +35,9 @@ class RecordingRuns:
     and max_depth where the call sets one (the per-bounce renders); its ``render_mean`` too,
     when ``render`` has one."""
 
-    def __init__(self, render, runs: list, purpose: str):
+    def __init__(self, render, runs: list, purpose: str, progress=None):
         self.render, self.runs, self.purpose = render, runs, purpose
+        self.progress = progress    # a pathtracer.core.progress.Progress told each render done
         if hasattr(render, "render_mean"):
             self.render_mean = lambda *args, **kwargs: self._timed(render.render_mean, *args,
                                                                    **kwargs)
@@ -52,4 +53,6 @@ class RecordingRuns:
         if kwargs.get("max_depth") is not None:
             run["max_depth"] = int(kwargs["max_depth"])
         self.runs.append(run)
+        if self.progress is not None:
+            self.progress.advance()
         return images

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.names import suggestion
 from ..scene.properties import FLOAT_TAGS, Props, build_texture, children, unsupported
 from ..scene.registry import factory
 from ..scene.xml import Plugin
@@ -112,7 +113,8 @@ def conductor_ior(props: Props) -> tuple[np.ndarray, np.ndarray]:
                                      props.line("material"))
         return props.color("eta", 0.0, kind="unbounded"), props.color("k", 1.0, kind="unbounded")
     if material not in CONDUCTOR_PRESETS:
-        raise props.plugin.error(f"unknown conductor material \"{material}\" (known: none, "
+        raise props.plugin.error(f"unknown conductor material \"{material}\" ("
+                                 f"{suggestion(material, CONDUCTOR_PRESETS)}known: none, "
                                  f"{', '.join(CONDUCTOR_PRESETS)})", props.line("material"))
     if props.has("k"):
         raise props.plugin.error(f"\"k\" without \"eta\" cannot be combined with material="

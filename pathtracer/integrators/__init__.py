@@ -8,6 +8,7 @@ test and its line in the imports below.
 """
 from __future__ import annotations
 
+from ..core.names import suggestion
 from ..scene.registry import factory, names
 from .base import CameraIntegrator, Integrator, SplattingIntegrator
 
@@ -57,7 +58,8 @@ def make_integrator(name: str, **options) -> Integrator:
     """
     available = registered_integrators()
     if name not in available:
-        raise ValueError(f"unknown integrator {name!r} (available: {', '.join(available)})")
+        raise ValueError(f"unknown integrator {name!r} ({suggestion(name, available)}"
+                         f"available: {', '.join(available)})")
     try:
         return available[name](**options)
     except TypeError as error:

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import copy
 import os
-import sys
 import time
 
 from ..integrators import Integrator, make_integrator
@@ -147,7 +146,8 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
         :func:`.sizes.render_batch`; a light tracer's is fixed). The image does not depend
         on it.
     progress : bool, optional
-        Show a progress bar (default: when stderr is a terminal and the render is long).
+        Show the progress on stderr (default: when the render is long): a bar with the time
+        left on a terminal, a plain line every few seconds in a pipe.
     camera : callable, optional
         ``camera(camera, pixel, u_film) -> Rays``, the primary rays (default
         :func:`pathtracer.sensors.perspective.camera_rays`); the autograder passes a student's camera.
@@ -166,7 +166,7 @@ def render(scene, integrator=None, spp: int | None = None, seed: int | None = No
     batch_size = batch_size or render_batch(processes, integrator.splats).paths
     units = plan_units(sample_grid_size(scene.camera), spp, batch_size)
     if progress is None:
-        progress = sys.stderr.isatty() and n_pixels * spp >= 1 << 20
+        progress = n_pixels * spp >= 1 << 20    # lines in a pipe too (pathtracer.core.progress)
     intersect.prepare(scene)   # build the BVH once, before workers fork
     keep_freed_memory()       # before the fork too: the workers inherit it
     if integrator.splats:

@@ -104,7 +104,7 @@ def check_memory(width: int, height: int, processes: int, batch_size: int,
             f"statistics and outputs, "
             f"{format_bytes(batch_size * (BYTES_PER_PATH + BYTES_PER_UNIT_SAMPLE))} per process), "
             f"but only {format_bytes(available)} is available; render fewer pixels "
-            "(-D width=... -D height=...) or use fewer --processes")
+            "(--resolution WxH, or -D width=... -D height=...) or use fewer --processes")
 
 
 def check_spp(spp: int) -> None:

@@ -28,6 +28,7 @@ from .. import textures as _texture_plugins  # noqa: F401
 from .. import volumes as _volume_plugins  # noqa: F401
 from ..bsdfs.diffuse import Diffuse
 from ..bsdfs.parameters import build_bsdf
+from ..core.names import suggestion
 from ..emitters.base import Emitter
 from ..sensors.perspective_sensor import Camera
 from ..sensors.sampler import build_sampler
@@ -136,7 +137,8 @@ def build_integrator(plugin: Plugin | None) -> IntegratorSpec:
     params = {}
     for name, prop in plugin.props.items():
         if allowed is not None and name not in allowed:
-            raise plugin.error(f"unsupported property \"{name}\" (this tracer understands: "
+            raise plugin.error(f"unsupported property \"{name}\" ({suggestion(name, allowed)}"
+                               f"this tracer understands: "
                                f"{', '.join(sorted(allowed))})", prop.line)
         want = INTEGRATOR_PARAM_TAGS.get(name)
         if want is not None and prop.tag != want:

@@ -2,9 +2,9 @@
 and the one rule from a scene argument (a path or a built-in name) to its file."""
 from __future__ import annotations
 
-import difflib
 import os
 
+from ..core.names import suggestion
 from .build import build_scene
 from .errors import SceneError
 from .types import Scene
@@ -80,8 +80,7 @@ def scene_file(path: str | os.PathLike) -> str:
         file = builtin_scene_path(text)
         if not os.path.isfile(file):
             names = builtin_scene_names()
-            close = difflib.get_close_matches(text, names, n=1)
-            hint = f"did you mean \"{close[0]}\"? " if close else ""
+            hint = suggestion(text, names)
             raise SceneError(f"no built-in scene \"{text}\" ({hint}built-in: {', '.join(names) or 'none'}; "
                              "give a path to load a file)")
         return file

@@ -11,6 +11,7 @@ import os
 
 import numpy as np
 
+from ..core.names import suggestion
 from . import spectra
 from .registry import factory, names
 from .upgrade import camel_to_underscore
@@ -301,7 +302,8 @@ def unsupported(plugin: Plugin, what: str) -> Exception:
                             f"({NOT_IMPLEMENTED_SHAPES[plugin.type]}); it is valid in Mitsuba's "
                             "RGB variants, so the scene cannot be compared")
     supported = names(plugin.kind)
-    return plugin.error(f"unsupported {what} (supported: {', '.join(supported)})")
+    return plugin.error(f"unsupported {what} ({suggestion(plugin.type, supported)}supported: "
+                        f"{', '.join(supported)})")
 
 
 def registered(plugin: Plugin, what: str):

@@ -35,6 +35,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..core.names import suggestion
 from ..scene.properties import Props, children, registered
 from ..scene.registry import factory, names, register
 from ..scene.xml import Plugin
@@ -229,7 +230,8 @@ def build_rfilter(plugin: Plugin | None) -> ReconstructionFilter:
         return ReconstructionFilter.make("gaussian")
     create = factory("rfilter", plugin.type)
     if create is None:
-        raise plugin.error(f"unsupported reconstruction filter \"{plugin.type}\" (supported: "
+        raise plugin.error(f"unsupported reconstruction filter \"{plugin.type}\" ("
+                           f"{suggestion(plugin.type, names('rfilter'))}supported: "
                            f"{', '.join(names('rfilter'))}; Mitsuba's lanczos and mitchell have "
                            "negative lobes, not implemented here)")
     return create(Props(plugin))

@@ -1,0 +1,7 @@
+"""``python -m pathtracer``: the ``pathtracer`` command (:mod:`pathtracer.cli`)."""
+import sys
+
+from .cli import main
+
+if __name__ == "__main__":
+    sys.exit(main())
