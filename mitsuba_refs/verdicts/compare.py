@@ -47,6 +47,7 @@ from .detect import SppChoice, choose_spp, comparison_bound
 from .estimators import BOUNCE_REFERENCE, SAME_ESTIMATOR, SPLATTING, resolved
 from .explain import hints
 from .hooks import RecordingRuns, WithOptions
+from .rounds import MeanRounds, render_until_decided
 from .scenes import default_params, reference_options, render_ours, scene_defaults
 
 __all__ = ["Comparison", "FaultyImages", "compare", "localise_bounce", "write_pictures",
@@ -109,6 +110,10 @@ class Comparison:
         Why there is no variance verdict when the reason is not that Mitsuba has no run of
         the estimator ("" otherwise): too few noisy tiles, samples that are not independent
         within a pixel (``Settings.judge_independence``), no ``--same-estimator`` (check).
+    rounds : MeanRounds or None
+        With a tolerance: how the mean verdict was decided in rounds (its outcome replaces
+        ``mean.agree``; ``mean`` is then the equal-means test of the final images, kept for
+        the tiles, pictures and causes).
     """
 
     scene: str | Path
@@ -137,9 +142,26 @@ class Comparison:
     detectable: DetectableBias | None = None
     detect: SppChoice | None = None
     variance_skipped: str = ""
+    rounds: MeanRounds | None = None
+
+    @property
+    def outcome(self) -> str:
+        """AGREES, DISAGREES or INCONCLUSIVE: DISAGREES when any verdict disagrees,
+        INCONCLUSIVE when none does but the mean is undecided (docs/statistics.md, section 9)."""
+        others = [] if self.variance is None else [self.variance.agree]
+        if self.convergence is not None:
+            others.append(self.convergence.passed)
+        if self.rounds is None:
+            return "AGREES" if self.mean.agree and all(others) else "DISAGREES"
+        if isinstance(self.mean, FaultyImages) or self.rounds.outcome == "DISAGREES" \
+                or not all(others):
+            return "DISAGREES"
+        return self.rounds.outcome
 
     @property
     def agree(self) -> bool:
+        if self.rounds is not None:
+            return self.outcome == "AGREES"
         parts = [self.mean.agree]
         if self.variance is not None:
             parts.append(self.variance.agree)
@@ -215,12 +237,18 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         log=log)
     settings = settings if choice is None else dataclasses.replace(settings, spp=choice.spp)
     spp, alpha, same = settings.spp, settings.alpha, settings.same_estimator
-    mean, variance = RecordingRuns(render, runs, "mean")(scene, integrator, params, spp, TEST_SEED,
-                                                           processes=settings.processes)
-    # Same estimator on both sides: a test-side variance far above the reference's is
-    # itself wrong, so it may not hide a bias (stats.mean.VARIANCE_BOUND).
     # A tent or gaussian film correlates neighbouring pixels (docs/statistics.md).
     correlation = reference_correlation(reference)
+    rounds = None
+    if settings.tolerance is None:
+        mean, variance = RecordingRuns(render, runs, "mean")(scene, integrator, params, spp,
+                                                               TEST_SEED, processes=settings.processes)
+    else:     # render in rounds until the mean is decided (verdicts.rounds)
+        mean, variance, spp, rounds = render_until_decided(
+            RecordingRuns(render, runs, "mean"), scene, integrator, params, reference, settings,
+            correlation, TEST_SEED, log=log)
+    # Same estimator on both sides: a test-side variance far above the reference's is
+    # itself wrong, so it may not hide a bias (stats.mean.VARIANCE_BOUND).
     mean_test = compare_means(mean, variance, spp, reference.mean, reference.var, reference.n,
                               alpha=alpha, max_var_ratio=VARIANCE_BOUND if same else None,
                               image_components=not settings.splatting,
@@ -247,7 +275,8 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         # Stratified samples: a pixel's noise is no per-sample variance over N (stats.convergence).
         variance_test, skipped = None, variance_not_independent(law)
     bounce_results = bounce = None
-    if settings.bounces or (settings.bounces is None and not mean_test.agree):
+    mean_disagrees = not mean_test.agree if rounds is None else rounds.outcome == "DISAGREES"
+    if settings.bounces or (settings.bounces is None and mean_disagrees):
         bounce_results = localise_bounce(scene, integrator, params, settings,
                                          RecordingRuns(render, runs, "bounces"), log=log,
                                          reference_name=bounce_reference(settings.reference))
@@ -261,7 +290,7 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         notes=[choice.reason] if choice is not None else [],
         arrays={"test_mean": mean, "test_variance": variance,
                 "reference_mean": reference.mean, "reference_variance": reference.var},
-        detectable=detectable, detect=choice, variance_skipped=skipped)
+        detectable=detectable, detect=choice, variance_skipped=skipped, rounds=rounds)
     return concluded(result, settings.out_dir, (mean, variance, reference), start)
 
 
