@@ -144,14 +144,23 @@ def _bounded_image(A, B, sb, vb, na, npx, bound, tolerance, rel_floor):
     return _one_sided_family(zs[0], zs[1])[0]
 
 
-def decide_tolerance(mean_a, var_a, n_a, mean_b, var_b, n_b, *, tolerance: float, alpha: float,
+def decide_tolerance(test, reference, *, tolerance: float, alpha: float,
                      max_var_ratio: float | None = None, image_components: bool = True,
                      options: MeanTestOptions = MeanTestOptions()) -> ToleranceDecision:
     """Within ``tolerance``, beyond it, or undecided, at level ``alpha`` for each side.
 
-    Parameters are those of :func:`mitsuba_refs.stats.mean.compare_means` (a = test, b =
-    reference), plus ``tolerance`` (relative, > 0). See the module notes.
+    Parameters
+    ----------
+    test, reference : (mean, variance, n)
+        Per-pixel means, unbiased per-sample variances and sample counts, as
+        :func:`mitsuba_refs.stats.mean.compare_means` takes them (a = test, b = reference).
+    tolerance : float
+        Relative, in (0, 1).
+    alpha, max_var_ratio, image_components, options
+        As for :func:`~mitsuba_refs.stats.mean.compare_means`; ``alpha`` is each side's level.
+        See the module notes.
     """
+    (mean_a, var_a, n_a), (mean_b, var_b, n_b) = test, reference
     if not 0.0 < tolerance < 1.0:
         raise ValueError(f"tolerance must be in (0, 1) (relative), got {tolerance}")
     ma, va, mb, vb = _checked_inputs(mean_a, var_a, mean_b, var_b, alpha, max_var_ratio,

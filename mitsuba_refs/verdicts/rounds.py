@@ -122,8 +122,8 @@ def render_until_decided(render, scene, integrator, params, reference, settings,
         else:
             mean, variance = merge_moments(mean, variance, spp, extra_mean, extra_var, total - spp)
         spp = total
-        decision = decide_tolerance(mean, variance, spp, reference.mean, reference.var,
-                                    reference.n, tolerance=settings.tolerance / 100.0,
+        decision = decide_tolerance((mean, variance, spp), (reference.mean, reference.var,
+                                    reference.n), tolerance=settings.tolerance / 100.0,
                                     alpha=alpha_look, **_options(settings, correlation))
         seconds = time.perf_counter() - start
         looks.append({"spp": spp, "seconds": round(seconds, 3), "outcome": OUTCOMES[decision.outcome],
