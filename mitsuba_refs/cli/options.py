@@ -15,6 +15,9 @@ __all__ = ["positive_ints", "resolution", "add_detect_options", "detect_of", "ch
 #: Exit status of compare and check when the mean verdict is INCONCLUSIVE (``--tolerance``):
 #: 0 agrees, 1 disagrees, 2 bad input and 130 interrupted keep their meanings.
 EXIT_INCONCLUSIVE = 3
+#: ``--tolerance``'s percentage when given without one (docs/statistics.md, section 9: above the
+#: committed references' own noise floor, below the smallest bias the bug zoo's mutants make).
+DEFAULT_TOLERANCE = 2.0
 
 
 def positive_ints(text: str) -> tuple[int, ...]:
@@ -74,10 +77,13 @@ def check_alpha(alpha: float) -> None:
 
 def add_tolerance_options(parser) -> None:
     """``--tolerance PCT``, ``--max-spp N`` and ``--max-seconds S`` (compare and check)."""
-    parser.add_argument("--tolerance", type=float, default=None, metavar="PCT",
+    parser.add_argument("--tolerance", type=float, default=None, nargs="?",
+                        const=DEFAULT_TOLERANCE, metavar="PCT",
                         help="three outcomes for the mean: AGREES within +-PCT%% (relative bias, "
                              "per image and per region), DISAGREES, or INCONCLUSIVE (exit 3) when "
-                             "the budget runs out first; renders in doubling rounds until decided")
+                             "the budget runs out first; renders in doubling rounds until decided "
+                             f"(PCT default {DEFAULT_TOLERANCE:g}; without --tolerance: the "
+                             "fixed-budget test of equal means)")
     parser.add_argument("--max-spp", type=int, default=None, metavar="N",
                         help="with --tolerance: the most samples per pixel the rounds render "
                              "(default --spp's)")
