@@ -16,7 +16,7 @@ __all__ = ["positive_ints", "resolution", "add_detect_options", "detect_of", "ch
 #: 0 agrees, 1 disagrees, 2 bad input and 130 interrupted keep their meanings.
 EXIT_INCONCLUSIVE = 3
 #: ``--tolerance``'s percentage when given without one (docs/statistics.md, section 9: above the
-#: committed references' own noise floor, below the smallest bias the bug zoo's mutants make).
+#: committed references' own noise floor, below the 3 % a renderer must not be let off with).
 DEFAULT_TOLERANCE = 2.0
 
 
