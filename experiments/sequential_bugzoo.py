@@ -43,6 +43,7 @@ def cornell_mutants():
 
 
 def judge(integrator, settings):
+    """One comparison's outcome, the mean render's spp (all rounds) and its seconds."""
     start = time.perf_counter()
     result = compare("cornell-box", integrator, convergence=False, bounces=False, processes=1,
                      **settings)
@@ -53,6 +54,7 @@ def judge(integrator, settings):
 
 
 def main():
+    """Compare every cornell-box mutant both ways; write the JSON."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--tolerance", type=float, default=2.0)

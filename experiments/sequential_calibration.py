@@ -108,6 +108,7 @@ def summary(runs, levels, bias, tolerance):
 
 
 def simulate(args):
+    """The synthetic runs of every scenario (``args.biases``)."""
     model = Synthetic(args.size)
     totals = look_totals(args.max_spp)
     scenarios = {}
@@ -126,6 +127,7 @@ def simulate(args):
 
 
 def real(args):
+    """Our ``path`` against Mitsuba's reference, every scenario (``args.biases``)."""
     from mitsuba_refs.reference.cache import get_reference
     from mitsuba_refs.verdicts.scenes import default_params, render_ours
     params = default_params(args.scene)
@@ -151,6 +153,7 @@ def real(args):
 
 
 def main():
+    """Run ``sim`` or ``real``; write the JSON."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("mode", choices=("sim", "real"))
     parser.add_argument("--runs", type=int, default=1000)

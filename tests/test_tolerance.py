@@ -11,9 +11,11 @@ import numpy as np
 import pytest
 
 from mitsuba_refs.cli.options import EXIT_INCONCLUSIVE
+from mitsuba_refs.reference.render import Reference
 from mitsuba_refs.stats.equivalence import AGREES, DISAGREES, UNDECIDED, decide_tolerance, samples_to_decide
 from mitsuba_refs.stats.sequential import alpha_per_look, look_totals, merge_moments
 from mitsuba_refs.verdicts.compare import compare
+from mitsuba_refs.verdicts.rounds import extended, reference_dominates
 from mitsuba_refs.verdicts.scenes import render_ours
 from tests.budget import ALPHA
 
@@ -79,6 +81,27 @@ def test_reference_noise_that_hides_the_tolerance_is_named():
     assert decision.outcome == UNDECIDED
     spp, limited = samples_to_decide(decision, 64, 1e-3)
     assert limited and math.isinf(spp)
+
+
+def test_a_reference_extended_by_a_piece_is_the_pooled_reference():
+    rng = np.random.default_rng(11)
+    samples = rng.exponential(size=(3, 4, 3, 12))
+    first, second = samples[..., :4], samples[..., 4:]
+    reference = Reference(first.mean(-1), first.var(-1, ddof=1), 4, {"key": "k"})
+    piece = Reference(second.mean(-1), second.var(-1, ddof=1), 8, {})
+    pooled = extended(reference, piece)
+    assert pooled.n == 12 and pooled.metadata["key"] == "k"
+    np.testing.assert_allclose(pooled.var, samples.var(-1, ddof=1))
+
+
+def test_a_reference_is_extended_when_its_noise_dominates():
+    image = np.full((16, 16, 3), 0.5)
+    quiet, loud = np.full_like(image, 1e-4), np.full_like(image, 4.0)
+    test = (image, np.full_like(image, 1.0), 4096)
+    assert reference_dominates(decide_tolerance(test, (image, loud, 4096), tolerance=0.01,
+                                                alpha=1e-3))
+    assert not reference_dominates(decide_tolerance(test, (image, quiet, 4096), tolerance=0.01,
+                                                    alpha=1e-3))
 
 
 @pytest.mark.statistical(assertions=1)

@@ -466,6 +466,9 @@ def rounds_line(rounds) -> str:
             f"{'s' if len(rounds.looks) != 1 else ''}, {last['spp']} spp of at most {rounds.max_spp}")
     if d.beyond_tiles:
         text += f"; {d.beyond_tiles} tile{'s' if d.beyond_tiles != 1 else ''} beyond the tolerance"
+    if rounds.reference_pieces > 1:
+        text += (f"; the reference extended to {rounds.reference_spp} spp "
+                 f"({rounds.reference_pieces} cached pieces)")
     if rounds.outcome != "INCONCLUSIVE":
         return text
     stop = "the time budget" if rounds.stopped_by == "seconds" else "the sample budget"

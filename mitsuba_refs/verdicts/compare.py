@@ -244,9 +244,13 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         mean, variance = RecordingRuns(render, runs, "mean")(scene, integrator, params, spp,
                                                                TEST_SEED, processes=settings.processes)
     else:     # render in rounds until the mean is decided (verdicts.rounds)
-        mean, variance, spp, rounds = render_until_decided(
+        def piece(k):    # an independent, cached piece of the reference: its own seed
+            return get_reference(scene, params, settings.reference, seed=config.REF_SEED + k,
+                                 log=log, options=reference_options(settings.options),
+                                 resolution=settings.resolution)
+        mean, variance, spp, rounds, reference = render_until_decided(
             RecordingRuns(render, runs, "mean"), scene, integrator, params, reference, settings,
-            correlation, TEST_SEED, log=log)
+            correlation, TEST_SEED, log=log, reference_piece=piece)
     # Same estimator on both sides: a test-side variance far above the reference's is
     # itself wrong, so it may not hide a bias (stats.mean.VARIANCE_BOUND).
     mean_test = compare_means(mean, variance, spp, reference.mean, reference.var, reference.n,

@@ -9,6 +9,7 @@ seed of its own, the rounds' moments pooled, and stops at the first look that de
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -19,6 +20,9 @@ from ..stats.sequential import alpha_per_look, look_totals, merge_moments, round
 
 __all__ = ["MeanRounds", "render_until_decided", "OUTCOMES"]
 
+#: The most independent pieces (the original included) a reference grows to when its own
+#: noise is what keeps the mean undecided: 4 x 4096 spp.
+MAX_REFERENCE_PIECES = 4
 #: The outcomes' words, by :data:`mitsuba_refs.stats.equivalence` outcome.
 OUTCOMES = {"agrees": "AGREES", "disagrees": "DISAGREES", "undecided": "INCONCLUSIVE"}
 
@@ -45,6 +49,9 @@ class MeanRounds:
         Undecided: the spp at which the observed bias would be decided (inf: never).
     reference_limited : bool
         Undecided because of the reference's own noise (a longer reference would decide).
+    reference_spp, reference_pieces : int
+        The reference's samples per pixel at the last look and the independent cached pieces
+        it was pooled from (more than 1 when it was extended).
     """
 
     decision: ToleranceDecision
@@ -55,6 +62,8 @@ class MeanRounds:
     stopped_by: str
     spp_needed: float = math.nan
     reference_limited: bool = False
+    reference_spp: int = 0
+    reference_pieces: int = 1
 
     @property
     def outcome(self) -> str:
@@ -74,7 +83,8 @@ class MeanRounds:
                 "looks": [dict(look) for look in self.looks], "max_spp": self.max_spp,
                 "max_seconds": self.max_seconds, "stopped_by": self.stopped_by,
                 "spp_needed": None if not math.isfinite(self.spp_needed) else self.spp_needed,
-                "reference_limited": self.reference_limited}
+                "reference_limited": self.reference_limited, "reference_spp": self.reference_spp,
+                "reference_pieces": self.reference_pieces}
 
 
 def _options(settings, correlation) -> dict:
@@ -84,8 +94,24 @@ def _options(settings, correlation) -> dict:
                                        same_estimator=settings.heavy_tail_guard)}
 
 
+def reference_dominates(decision: ToleranceDecision) -> bool:
+    """Whether the reference's noise is a large share of the relative bias's standard error
+    (its variance at least a fifth of the whole): then a longer reference decides sooner."""
+    own = math.sqrt(max(decision.rel_se ** 2 - decision.rel_se_reference ** 2, 0.0))
+    return 2.0 * decision.rel_se_reference >= own
+
+
+def extended(reference, piece):
+    """``reference`` pooled with an independent ``piece`` of the same scene and estimator."""
+    mean, var = merge_moments(reference.mean, reference.var, int(reference.n), piece.mean,
+                              piece.var, int(piece.n))
+    metadata = {**reference.metadata, "extended_spp": int(reference.n) + int(piece.n)}
+    return dataclasses.replace(reference, mean=mean, var=var, n=int(reference.n) + int(piece.n),
+                               metadata=metadata)
+
+
 def render_until_decided(render, scene, integrator, params, reference, settings, correlation,
-                         seed: int, log=None):
+                         seed: int, log=None, reference_piece=None):
     """Render the test side in rounds until the mean verdict decides or the budget ends.
 
     Parameters
@@ -102,18 +128,24 @@ def render_until_decided(render, scene, integrator, params, reference, settings,
         The film's pixel correlation.
     seed : int
         The first round's seed (the others: :func:`mitsuba_refs.stats.sequential.round_seed`).
+    reference_piece : callable, optional
+        ``reference_piece(k)``: the ``k``-th independent piece of the reference (k >= 1; a
+        cached reference with its own seed). After an undecided look whose reference noise
+        dominates (:func:`reference_dominates`), the next piece is pooled in before the next
+        look, up to :data:`MAX_REFERENCE_PIECES`. None: the reference stays as it is.
 
     Returns
     -------
-    mean, variance, spp, MeanRounds
-        The pooled images, their total spp and how it was decided.
+    mean, variance, spp, MeanRounds, reference
+        The pooled images, their total spp, how it was decided and the reference of the last
+        look (``reference`` itself unless it was extended).
     """
     max_spp = int(settings.max_spp or settings.spp)
     totals = look_totals(max_spp)
     alpha_look = alpha_per_look(settings.alpha, len(totals))
     mean = variance = None
     spp, looks, start = 0, [], time.perf_counter()
-    stopped_by, decision = "spp", None
+    stopped_by, decision, pieces = "spp", None, 1
     for index, total in enumerate(totals):
         extra_mean, extra_var = render(scene, integrator, params, total - spp,
                                        round_seed(seed, index), processes=settings.processes)
@@ -140,10 +172,17 @@ def render_until_decided(render, scene, integrator, params, reference, settings,
                 and seconds * total_ratio(totals, index) > settings.max_seconds:
             stopped_by = "seconds"
             break
+        if reference_piece is not None and pieces < MAX_REFERENCE_PIECES \
+                and index + 1 < len(totals) and reference_dominates(decision):
+            reference = extended(reference, reference_piece(pieces))
+            pieces += 1
+            if log is not None:
+                log(f"the reference's own noise dominates: extended to {reference.n} spp")
     needed, limited = (math.nan, False) if decision.outcome != UNDECIDED else \
         samples_to_decide(decision, spp, alpha_look)
-    return mean, variance, spp, MeanRounds(decision, tuple(looks), max_spp, settings.max_seconds,
-                                           alpha_look, stopped_by, needed, limited)
+    rounds = MeanRounds(decision, tuple(looks), max_spp, settings.max_seconds, alpha_look,
+                        stopped_by, needed, limited, int(reference.n), pieces)
+    return mean, variance, spp, rounds, reference
 
 
 def total_ratio(totals, index: int) -> float:
