@@ -210,7 +210,9 @@ def samples_to_decide(decision: ToleranceDecision, spp: int, alpha_final: float)
     Returns
     -------
     (spp_needed, reference_limited) : (float, bool)
-        ``math.inf`` with True when even infinitely many test samples would not decide.
+        ``math.inf`` when even infinitely many test samples would not decide: with True when
+        the reference's noise is the reason, False when the observed bias is within a quarter
+        of the tolerance of the tolerance itself (at the boundary nothing decides).
     """
     rel, se, se_ref, tol = decision.rel_bias, decision.rel_se, decision.rel_se_reference, \
         decision.tolerance
@@ -222,5 +224,7 @@ def samples_to_decide(decision: ToleranceDecision, spp: int, alpha_final: float)
     room = (gap / z) ** 2 - se_ref ** 2
     own = max(se * se - se_ref * se_ref, 0.0)
     if room <= 0:
-        return math.inf, True
+        # Either the reference's noise alone hides the gap, or the bias sits at the tolerance
+        # (gap ~ 0: no budget decides it); only the first is the reference's doing.
+        return math.inf, gap >= tol / 4.0
     return float(spp * own / room), False
