@@ -477,7 +477,8 @@ def rounds_line(rounds) -> str:
                "undecided: a longer reference (or a wider --tolerance) would decide"
     if math.isfinite(rounds.spp_needed):
         return f"{text}; {stop} ran out: about --max-spp {_round_up(rounds.spp_needed)} would decide"
-    return f"{text}; {stop} ran out, with the observed bias at the tolerance (more samples decide only if it moves off it)"
+    return (f"{text}; {stop} ran out, with the observed bias at the tolerance (more samples "
+            "decide only if it moves off it)")
 
 
 def _round_up(spp: float) -> int:
