@@ -12,6 +12,8 @@ import pytest
 
 from mitsuba_refs.cli.options import EXIT_INCONCLUSIVE
 from mitsuba_refs.reference.render import Reference
+from mitsuba_refs.report.html import summary_table
+from mitsuba_refs.report.junit import junit_tree
 from mitsuba_refs.stats.equivalence import AGREES, DISAGREES, UNDECIDED, decide_tolerance, samples_to_decide
 from mitsuba_refs.stats.sequential import alpha_per_look, look_totals, merge_moments
 from mitsuba_refs.verdicts.compare import compare
@@ -163,6 +165,9 @@ def test_check_with_an_unreachable_tolerance_exits_inconclusive(tmp_path):
     status, record, text = _check(1.0, 0.1, 8, tmp_path)
     assert status == EXIT_INCONCLUSIVE and record["outcome"] == "INCONCLUSIVE", text
     assert record["verdicts"]["mean"]["status"] == "inconclusive"
+    failure = junit_tree([record]).getroot().find(".//failure")
+    assert failure is not None and failure.get("type") == "inconclusive"
+    assert 'class="inconclusive">inconclusive' in summary_table([record], ["a"])
 
 
 def test_budget_options_need_a_tolerance():
