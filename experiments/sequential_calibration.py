@@ -152,7 +152,7 @@ def real(args):
             "looks": list(totals), "scenarios": scenarios}
 
 
-def main():
+def main(argv=None):
     """Run ``sim`` or ``real``; write the JSON."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("mode", choices=("sim", "real"))
@@ -166,7 +166,7 @@ def main():
     parser.add_argument("--resolution", default="32x32")
     parser.add_argument("--seed", type=int, default=20261205)
     parser.add_argument("--json", default=None)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     start = time.perf_counter()
     data = simulate(args) if args.mode == "sim" else real(args)
     data.update(runs=args.runs, tolerance=args.tolerance, levels=list(LEVELS), cpu=cpu_name(),

@@ -177,3 +177,14 @@ def test_budget_options_need_a_tolerance():
     run = subprocess.run([sys.executable, "-m", "mitsuba_refs.cli.main", "compare", "cornell-box",
                           "--tolerance", "0"], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert run.returncode == 2 and "--tolerance" in run.stderr
+
+
+def test_the_calibration_experiment_writes_rates_per_scenario_and_level(tmp_path):
+    from experiments import sequential_calibration
+    out = tmp_path / "sim.json"
+    sequential_calibration.main(["sim", "--runs", "3", "--biases", "0,0.2", "--size", "16",
+                                 "--max-spp", "64", "--json", str(out)])
+    data = json.loads(out.read_text())
+    strong = data["scenarios"]["+0.2"]["summary"]["levels"]["0.05"]
+    assert strong["disagrees"]["count"] == 3 and strong["median_spp_all"] <= 16
+    assert len(data["scenarios"]["+0"]["runs"]) == 3 and data["looks"] == [4, 8, 16, 32, 64]
