@@ -26,10 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
+from mitsuba_refs.reference.cache import get_reference
 from mitsuba_refs.stats import clopper_pearson
 from mitsuba_refs.stats.equivalence import UNDECIDED, decide_tolerance
 from mitsuba_refs.stats.mean import VARIANCE_BOUND, MeanTestOptions, compare_means
 from mitsuba_refs.stats.sequential import alpha_per_look, look_totals, merge_moments
+from mitsuba_refs.verdicts.scenes import default_params, render_ours
 
 from .bench import cpu_name
 
@@ -128,8 +130,6 @@ def simulate(args):
 
 def real(args):
     """Our ``path`` against Mitsuba's reference, every scenario (``args.biases``)."""
-    from mitsuba_refs.reference.cache import get_reference
-    from mitsuba_refs.verdicts.scenes import default_params, render_ours
     params = default_params(args.scene)
     resolution = tuple(int(x) for x in args.resolution.split("x"))
     ref = get_reference(args.scene, params, "path", resolution=resolution)
