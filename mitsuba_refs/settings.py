@@ -110,6 +110,15 @@ class Settings:
     seed_offset : int
         check: which range of the renderer's seeds the runs take
         (:mod:`mitsuba_refs.external.seeding`), for independent repetitions of one check.
+    tolerance : float or None
+        Relative tolerance of the mean verdict, in percent (``--tolerance``): the mean
+        AGREES within +-tolerance %, DISAGREES or is INCONCLUSIVE, rendered in doubling
+        rounds until decided (:mod:`mitsuba_refs.verdicts.rounds`). None: the fixed-budget
+        test of equal means at ``spp`` (docs/statistics.md, section 9).
+    max_spp : int or None
+        With ``tolerance``: the most samples per pixel the rounds render (None: ``spp``).
+    max_seconds : float or None
+        With ``tolerance``: no round starts that would end past this many seconds of rounds.
     judge_independence : bool
         Judge from the data whether the test side's samples are independent within a pixel
         (check: True; our integrators' are by construction, and the grader scores their
@@ -140,6 +149,9 @@ class Settings:
     variance_replicas: int | None = None
     seed_offset: int = 0
     judge_independence: bool = False
+    tolerance: float | None = None
+    max_spp: int | None = None
+    max_seconds: float | None = None
 
 
 FIELDS = frozenset(field.name for field in dataclasses.fields(Settings))

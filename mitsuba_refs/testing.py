@@ -50,6 +50,15 @@ class Disagreement(AssertionError):
         self.result = result
 
 
+class Inconclusive(AssertionError):
+    """With a tolerance, the budget ran out before the mean was decided (the report says how
+    many samples would decide)."""
+
+    def __init__(self, result):
+        super().__init__("\n" + result.report())
+        self.result = result
+
+
 @dataclass
 class SuiteBudget:
     """The false-failure budget of a suite of ``checks`` checks.
@@ -78,7 +87,7 @@ class SuiteBudget:
 
 
 def assert_agrees(scene, *, command=None, images=None, settings: Settings | None = None,
-                  alpha=None, budget=None, **options):
+                  alpha=None, budget=None, tolerance=None, **options):
     """Check a renderer (``command``) or its ``images`` against Mitsuba on ``scene``; raise
     :class:`Disagreement` unless every verdict agrees.
 
@@ -95,6 +104,11 @@ def assert_agrees(scene, *, command=None, images=None, settings: Settings | None
         Level of each verdict; default from ``budget``.
     budget : SuiteBudget, optional
         The suite's budget (default: one check with the default budget).
+    tolerance : float, optional
+        Percent: the mean must be shown within +-``tolerance`` % (``--tolerance``), rendered in
+        rounds up to ``max_spp`` (a Settings field, default ``spp``); :class:`Inconclusive` when
+        the budget runs out first. The suite's budget bounds false DISAGREES (and false
+        AGREES at the tolerance); an INCONCLUSIVE check asks for a larger ``max_spp``.
     **options
         Keyword arguments of :func:`mitsuba_refs.external.check.check`: ``params``,
         ``renderer_scene``, ... and the fields of ``Settings`` (``same_estimator``,
@@ -108,8 +122,12 @@ def assert_agrees(scene, *, command=None, images=None, settings: Settings | None
         The verdicts, when they all agree.
     """
     level = alpha if alpha is not None else (budget or SuiteBudget()).alpha
+    if tolerance is not None:
+        options["tolerance"] = tolerance
     result = check(scene, command=command, images=images, settings=settings, alpha=level,
                    **options)
+    if getattr(result, "outcome", None) == "INCONCLUSIVE":
+        raise Inconclusive(result)
     if not result.agree:
         raise Disagreement(with_pictures(result, FAILURE_PICTURES))
     return result

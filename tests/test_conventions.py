@@ -241,8 +241,7 @@ def test_the_hint_says_the_convention_and_keeps_its_numbers():
 
 def test_another_filter_or_fov_axis_is_tried_only_for_a_file_that_reads_no_other_file():
     from mitsuba_refs.settings import Settings
-    from mitsuba_refs.verdicts.convention_references import (effective_axis, filtered_references,
-                                                             fov_axis_references)
+    from mitsuba_refs.verdicts.convention_references import effective_axis, filtered_references, fov_axis_references
     # The mesh scene reads a PLY file: a copy elsewhere could not, so no filter is tried
     # (and nothing is rendered).
     film = SimpleNamespace(mean=np.zeros((64, 64, 3)))

@@ -1,7 +1,8 @@
 """``mitsuba-refs check``: any renderer (a command, or images it wrote) against Mitsuba.
 
 Exit code 0 when every verdict agrees, 1 when one disagrees (also when the renderer's images
-hold NaN, Inf or negative values), 2 on bad input (an unknown placeholder, a run that fails or
+hold NaN, Inf or negative values), 3 when the mean is INCONCLUSIVE (``--tolerance``: the
+budget ran out before a decision), 2 on bad input (an unknown placeholder, a run that fails or
 times out, an image that is missing, unreadable or of the wrong size, replicas that are not
 independent), 130 when interrupted (every run killed, no partial reference).
 """
@@ -18,7 +19,16 @@ from ..reference import config
 from ..reference.config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 from ..report.outputs import add_output_options, check_output_options, write_outputs
 from ..settings import Settings
-from .options import add_detect_options, check_alpha, detect_of, positive_ints, resolution
+from .options import (
+                      add_detect_options,
+                      add_tolerance_options,
+                      check_alpha,
+                      detect_of,
+                      exit_status,
+                      positive_ints,
+                      resolution,
+                      tolerance_of,
+)
 
 PLACEHOLDER_HELP = "placeholders: " + "; ".join(f"{{{name}}} {text}" for name, text in PLACEHOLDERS.items())
 
@@ -34,8 +44,8 @@ def add_check(subparsers):
         description="Render SCENE in Mitsuba 3 (or load the cached reference) and judge an external "
                     "renderer with the verdicts of compare: mean, variance (with --same-estimator), "
                     "convergence, and the first diverging bounce when the command takes "
-                    "{max_depth}. Exit code: 0 agree, 1 disagree, 2 bad input (one line on stderr), "
-                    "130 interrupted.",
+                    "{max_depth}. Exit code: 0 agree, 1 disagree, 3 inconclusive (--tolerance), 2 "
+                    "bad input (one line on stderr), 130 interrupted.",
         epilog=PLACEHOLDER_HELP + ". Example: --command './smallpt --width {width} --height {height} "
                "--spp {spp} --seed {seed} --max-depth {max_depth} --out {out}'")
     p.add_argument("scene", help="built-in scene name or Mitsuba 3 XML file (what Mitsuba renders)")
@@ -94,6 +104,7 @@ def add_check(subparsers):
                         "always or never")
     p.add_argument("--out", default="out/check", help="folder for the diagnostic pictures")
     add_detect_options(p)
+    add_tolerance_options(p)
     add_output_options(p)
     return run_check
 
@@ -118,7 +129,8 @@ def run_check(args) -> int:
         reference=args.reference_integrator, same_estimator=args.same_estimator,
         splatting=args.splatting, resolution=args.resolution, ladder=args.ladder,
         replicas=args.replicas, detect=detect, name=args.name,
-        options={"max_depth": int(args.max_depth)} if args.max_depth is not None else None)
+        options={"max_depth": int(args.max_depth)} if args.max_depth is not None else None,
+        **tolerance_of(args))
     result = check(args.scene, command=args.command, images=args.images, params=params,
                    settings=settings, renderer_scene=args.renderer_scene,
                    output_suffix=args.output_suffix,
@@ -127,7 +139,7 @@ def run_check(args) -> int:
     print(result.report())
     for line in write_outputs(args, [result], alpha=args.alpha):
         print(line)
-    return 0 if result.agree else 1
+    return exit_status(result)
 
 
 def _print_seeds(args, params) -> int:

@@ -1,6 +1,7 @@
 """``mitsuba-refs compare``: one integrator against Mitsuba on one scene, with verdicts.
 
-Exit code 0 when every verdict agrees, 1 when one disagrees, 2 on bad input
+Exit code 0 when every verdict agrees, 1 when one disagrees, 3 when the mean is
+INCONCLUSIVE (``--tolerance``: the budget ran out before a decision), 2 on bad input
 (unknown scene or integrator, malformed -D, an option out of range, a scene
 our tracer or Mitsuba refuses, a reference that is neither cached nor
 renderable), 130 when interrupted. The scene is loaded by our tracer and
@@ -21,7 +22,16 @@ from ..reference import config
 from ..reference.config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 from ..report.outputs import add_output_options, check_output_options, write_outputs
 from ..settings import Settings
-from .options import add_detect_options, check_alpha, detect_of, positive_ints, resolution
+from .options import (
+                      add_detect_options,
+                      add_tolerance_options,
+                      check_alpha,
+                      detect_of,
+                      exit_status,
+                      positive_ints,
+                      resolution,
+                      tolerance_of,
+)
 
 
 def add_compare(subparsers):
@@ -32,8 +42,8 @@ def add_compare(subparsers):
                     "the cached reference), and decide with calibrated tests whether they agree in "
                     "mean and variance and whether the error obeys the N^-1/2 law. On disagreement, "
                     "the first diverging bounce and the likely cause are printed and diagnostic "
-                    "pictures are written. Exit code: 0 agree, 1 disagree, 2 bad input (one line "
-                    "on stderr), 130 interrupted.")
+                    "pictures are written. Exit code: 0 agree, 1 disagree, 3 inconclusive "
+                    "(--tolerance), 2 bad input (one line on stderr), 130 interrupted.")
     p.add_argument("scene", help="built-in scene name or Mitsuba 3 XML file")
     p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
                    help="scene parameter for both renderers (repeatable); built-in scenes default "
@@ -65,6 +75,7 @@ def add_compare(subparsers):
     p.add_argument("--out", default="out/compare", help="folder for the diagnostic pictures")
     p.add_argument("--processes", type=int, default=None, help="worker processes (default: all cores)")
     add_detect_options(p)
+    add_tolerance_options(p)
     add_output_options(p)
     return run_compare
 
@@ -85,13 +96,13 @@ def run_compare(args) -> int:
     settings = Settings(spp=args.spp or config.TEST_MAX_SPP, alpha=args.alpha, detect=detect,
                         convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
                         processes=args.processes, ladder=args.ladder, replicas=args.replicas,
-                        options=options, resolution=args.resolution)
+                        options=options, resolution=args.resolution, **tolerance_of(args))
     result = compare(args.scene, integrator, params, settings,
                      log=lambda message: print(message, file=sys.stderr))
     print(result.report())
     for line in write_outputs(args, [result]):
         print(line)
-    return 0 if result.agree else 1
+    return exit_status(result)
 
 
 def check_options(args) -> None:

@@ -45,7 +45,8 @@ from .report import add_report
 
 #: Exit status -> meaning, for every subcommand.
 EXIT_CODES = {0: "success / agrees", 1: "compare: disagrees with Mitsuba",
-              2: "bad input or usage", 130: "interrupted"}
+              2: "bad input or usage", 3: "compare, check: inconclusive (--tolerance: the budget "
+              "ran out before the mean was decided)", 130: "interrupted"}
 
 
 def default_jobs(scenes=None, integrators=None, extra_params=None,

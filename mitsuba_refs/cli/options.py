@@ -9,7 +9,15 @@ from pathtracer.scene.load import parse_resolution
 from ..errors import RefsInputError
 from ..settings import DEFAULT_MAX_TIME, Detect
 
-__all__ = ["positive_ints", "resolution", "add_detect_options", "detect_of", "check_alpha"]
+__all__ = ["positive_ints", "resolution", "add_detect_options", "detect_of", "check_alpha",
+           "add_tolerance_options", "tolerance_of", "exit_status", "EXIT_INCONCLUSIVE"]
+
+#: Exit status of compare and check when the mean verdict is INCONCLUSIVE (``--tolerance``):
+#: 0 agrees, 1 disagrees, 2 bad input and 130 interrupted keep their meanings.
+EXIT_INCONCLUSIVE = 3
+#: ``--tolerance``'s percentage when given without one (docs/statistics.md, section 9: above the
+#: committed references' own noise floor, below the 3 % a renderer must not be let off with).
+DEFAULT_TOLERANCE = 2.0
 
 
 def positive_ints(text: str) -> tuple[int, ...]:
@@ -65,3 +73,44 @@ def check_alpha(alpha: float) -> None:
     """Refuse a significance level outside (0, 1) in one line."""
     if not 0 < alpha < 1:
         raise RefsInputError(f"--alpha must be between 0 and 1 (e.g. 1e-3), got {alpha}")
+
+
+def add_tolerance_options(parser) -> None:
+    """``--tolerance PCT``, ``--max-spp N`` and ``--max-seconds S`` (compare and check)."""
+    parser.add_argument("--tolerance", type=float, default=None, nargs="?",
+                        const=DEFAULT_TOLERANCE, metavar="PCT",
+                        help="three outcomes for the mean: AGREES within +-PCT%% (relative bias, "
+                             "per image and per region), DISAGREES, or INCONCLUSIVE (exit 3) when "
+                             "the budget runs out first; renders in doubling rounds until decided "
+                             f"(PCT default {DEFAULT_TOLERANCE:g}; without --tolerance: the "
+                             "fixed-budget test of equal means)")
+    parser.add_argument("--max-spp", type=int, default=None, metavar="N",
+                        help="with --tolerance: the most samples per pixel the rounds render "
+                             "(default --spp's)")
+    parser.add_argument("--max-seconds", type=float, default=None, metavar="S",
+                        help="with --tolerance: start no round that would end past S seconds")
+
+
+def tolerance_of(args) -> dict:
+    """``tolerance``, ``max_spp`` and ``max_seconds`` of the Settings, checked (one line each)."""
+    if args.tolerance is None:
+        if args.max_spp is not None or args.max_seconds is not None:
+            raise RefsInputError("--max-spp and --max-seconds go with --tolerance (the budget of "
+                                 "the rounds)")
+        return {}
+    if not 0 < args.tolerance < 100:
+        raise RefsInputError(f"--tolerance is a percentage in (0, 100), e.g. 2, got {args.tolerance}")
+    if args.max_spp is not None and args.max_spp < 1:
+        raise RefsInputError(f"--max-spp must be >= 1, got {args.max_spp}")
+    if args.max_seconds is not None and not args.max_seconds > 0:
+        raise RefsInputError(f"--max-seconds must be > 0, got {args.max_seconds}")
+    if getattr(args, "detect", None) is not None:
+        raise RefsInputError("--detect and --tolerance both choose the sample count: give one")
+    return {"tolerance": float(args.tolerance), "max_spp": args.max_spp,
+            "max_seconds": args.max_seconds}
+
+
+def exit_status(result) -> int:
+    """0 agrees, 1 disagrees, :data:`EXIT_INCONCLUSIVE` when the mean is undecided."""
+    outcome = getattr(result, "outcome", "AGREES" if result.agree else "DISAGREES")
+    return {"AGREES": 0, "DISAGREES": 1}.get(outcome, EXIT_INCONCLUSIVE)

@@ -41,6 +41,7 @@ from ..reference.render import reference_settings
 from ..report.wording import MEAN_WITH_STRATIFIED_VARIANCE, VARIANCE_NOT_STATED, variance_not_independent
 from ..settings import PILOT_SPP, Settings, settings_of
 from ..stats.mean import MeanAgreement
+from ..stats.sequential import look_totals
 from ..verdicts.compare import TEST_SEED, Comparison, FaultyImages, compare, concluded
 from ..verdicts.conventions import with_convention
 from ..verdicts.convergence import CONVERGENCE_SEED, ConvergenceParts, convergence_requests, level_replicas
@@ -210,7 +211,9 @@ def _check_command(scene, template, params, settings: Settings, setup: CommandSe
     reference = get_reference(scene, params, settings.reference, log=log,
                               options=reference_options(settings.options),
                               resolution=settings.resolution)
-    if settings.detect is None:      # with --detect the pilot chooses the spp inside compare()
+    if settings.detect is None and settings.tolerance is None:
+        # with --detect the pilot chooses the spp inside compare(); with --tolerance the rounds
+        # ask for theirs one by one (verdicts.rounds)
         renders.plan([renders.request(settings.spp, TEST_SEED)])
     if settings.convergence:
         renders.plan([renders.request(n, seed, variance=False) for n, seed
@@ -274,10 +277,12 @@ def run_seeds(settings: Settings, size, per_bounce: bool) -> SeedRule:
     ``--detect`` pilot, per-bounce renders, the convergence ladder grown to ``max_growth``),
     and ``seed_offset``."""
     replicas = settings.variance_replicas or 8
-    variance_renders = 1 + (settings.detect is not None) + (len(config.PER_BOUNCE_DEPTHS)
-                                                             if per_bounce else 0)
+    rounds = 1 if settings.tolerance is None else len(look_totals(settings.max_spp or settings.spp))
+    variance_renders = rounds + (settings.detect is not None) + (len(config.PER_BOUNCE_DEPTHS)
+                                                                  if per_bounce else 0)
     runs = replicas * variance_renders
-    largest = max(int(settings.spp), PILOT_SPP if settings.detect is not None else 1)
+    largest = max(int(settings.spp), int(settings.max_spp or 0),
+                  PILOT_SPP if settings.detect is not None else 1)
     if settings.detect is not None:
         largest = max(largest, DETECT_MAX_SPP)
     if settings.convergence:

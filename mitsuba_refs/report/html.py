@@ -46,6 +46,7 @@ table { border-collapse: collapse; margin: 0.5em 0; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.5em; text-align: left; vertical-align: top; }
 th { background: #f3f3f3; }
 .agree { color: #17692a; font-weight: 600; } .disagree { color: #b0161b; font-weight: 600; }
+.inconclusive { color: #8a5a00; font-weight: 600; }
 .not-compared { color: #777; }
 .figures { display: flex; flex-wrap: wrap; gap: 1em; align-items: flex-start; }
 figure { margin: 0; } figcaption { font-size: 0.8em; color: #444; max-width: 360px; }
@@ -93,12 +94,18 @@ def anchors(records: list) -> list[str]:
             for number, r in enumerate(records, start=1)]
 
 
+def _overall(record: dict) -> str:
+    """agree, disagree or inconclusive (records without ``outcome`` predate the tolerance)."""
+    outcome = record.get("outcome") or ("AGREES" if record["agree"] else "DISAGREES")
+    return {"AGREES": "agree", "DISAGREES": "disagree"}.get(outcome, "inconclusive")
+
+
 def summary_table(records: list, ids: list) -> str:
     """The scene x renderer table, one column per verdict, each row linking to its section."""
     head = "".join(f"<th>{name}</th>" for name in VERDICTS)
     rows = []
     for record, anchor in zip(records, ids):
-        overall = "agree" if record["agree"] else "disagree"
+        overall = _overall(record)
         shown = f"{overall} (weak)" if record.get("weak") else overall
         cells = "".join(_status_cell(record["verdicts"].get(name)) for name in VERDICTS)
         rows.append(f'<tr><td><a href="#{anchor}">{_e(record["scene"])}</a></td><td>{_e(record["renderer"])}</td>'
@@ -213,8 +220,11 @@ def runs_table(record: dict) -> str:
 
 def record_section(record: dict, anchor: str) -> str:
     """The section of one comparison."""
-    overall = "agree" if record["agree"] else "disagree"
-    word = "AGREES with Mitsuba" if record["agree"] else "DISAGREES with Mitsuba"
+    overall = _overall(record)
+    word = f"{overall.upper()}S with Mitsuba" if overall != "inconclusive" else "INCONCLUSIVE with Mitsuba"
+    if record.get("tolerance_percent") is not None:
+        tolerance = f"\u00b1{to_float(record['tolerance_percent']):g}%"
+        word += f" within {tolerance}" if overall == "agree" else f" (tolerance {tolerance})"
     bound = record["verdicts"].get("mean", {}).get("detectable_bias") or {}
     if record.get("weak") and bound:
         word += f", weakly (could not see less than {percent(to_float(bound['bias']))})"

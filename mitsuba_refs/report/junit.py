@@ -3,7 +3,8 @@
 One ``<testsuite>`` per comparison, named ``<scene>::<renderer>``, and in it one
 ``<testcase>`` per verdict, named ``<scene>::<renderer>::<verdict>`` (mean, variance,
 convergence, bounces). A disagreeing verdict has a ``<failure>`` (message: the verdict
-line; text: the line, p-value and interval, likely causes, pictures, notes), a verdict
+line; text: the line, p-value and interval, likely causes, pictures, notes; type
+``disagree``, or ``inconclusive`` for a mean the budget left undecided), a verdict
 that was not compared ``<skipped>`` with the reason. Elements and attributes are those of
 Jenkins' schema (junit-10.xsd of the xUnit plugin), which the others read too:
 ``testsuites`` (name, tests, failures, errors, time), ``testsuite`` (name, tests,
@@ -29,6 +30,9 @@ from .wording import format_p
 __all__ = ["write_junit", "junit_tree"]
 
 #: Characters XML 1.0 cannot hold, even escaped (control characters other than tab and newlines).
+#: Entry statuses that are a ``<failure>`` (its ``type``): a disagreement, and a mean that the
+#: budget left undecided (``--tolerance``; exit status 3).
+FAILING = ("disagree", "inconclusive")
 _NOT_XML = re.compile("[^\t\n\r\u0020-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
 
 
@@ -81,7 +85,7 @@ def _suite(record: dict) -> ET.Element:
     name = _clean(suite_name(record))
     verdicts = record["verdicts"]
     entries = [(verdict, verdicts[verdict]) for verdict in VERDICTS if verdict in verdicts]
-    failures = sum(entry.get("status") == "disagree" for _, entry in entries)
+    failures = sum(entry.get("status") in FAILING for _, entry in entries)
     skipped = sum(entry.get("status") == "not compared" for _, entry in entries)
     times = verdict_seconds(record)
     suite = ET.Element("testsuite", {
@@ -94,6 +98,9 @@ def _suite(record: dict) -> ET.Element:
                        ("rendered", record.get("rendered", "")),
                        ("mean.detectable_bias", _bias(verdicts.get("mean", {}))),
                        ("weak", str(bool(record.get("weak"))).lower()),
+                       ("outcome", record.get("outcome") or ("AGREES" if record["agree"] else "DISAGREES")),
+                       ("tolerance_percent", "" if record.get("tolerance_percent") is None
+                        else f"{to_float(record['tolerance_percent']):g}"),
                        ("reference.key", reference.get("key", "")),
                        ("reference.integrator", reference.get("integrator", "")),
                        ("results", record.get("source", ""))):
@@ -101,9 +108,9 @@ def _suite(record: dict) -> ET.Element:
     for verdict, entry in entries:
         case = ET.SubElement(suite, "testcase", {"name": f"{name}::{verdict}", "classname": name,
                                                  "time": _seconds(times[verdict])})
-        if entry.get("status") == "disagree":
+        if entry.get("status") in FAILING:     # an undecided mean fails CI, as its exit status 3
             failure = ET.SubElement(case, "failure", {"message": _clean(entry.get("line", "")),
-                                                      "type": "disagree"})
+                                                      "type": entry["status"]})
             failure.text = _clean(_failure_text(record, verdict, entry))
         elif entry.get("status") == "not compared":
             ET.SubElement(case, "skipped", {"message": _clean(entry.get("reason", "not compared"))})

@@ -53,7 +53,7 @@ def write_reports(records: list, junit=None, html=None) -> list[str]:
     lines = []
     if junit:
         path = write_junit(records, junit)
-        failed = sum(entry.get("status") == "disagree" for record in records
+        failed = sum(entry.get("status") in ("disagree", "inconclusive") for record in records
                      for entry in record["verdicts"].values())
         lines.append(f"junit: {path} ({len(records)} comparison{'s' if len(records) != 1 else ''}, "
                      f"{failed} failed verdict{'s' if failed != 1 else ''})")

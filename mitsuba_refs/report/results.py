@@ -122,7 +122,8 @@ def comparison_record(result, out_dir, *, stem: str | None = None) -> dict:
     -------
     dict
         ``schema``, ``scene``, ``renderer``, ``integrator``, ``command`` (an external renderer's
-        template or images, else None), ``params``, ``spp``, ``agree``,
+        template or images, else None), ``params``, ``spp``, ``agree``, ``outcome`` (AGREES,
+        DISAGREES or INCONCLUSIVE), ``tolerance_percent`` (``--tolerance``, or None),
         ``weak`` (an agreement whose mean test could not see a 5 % global bias), ``detect``
         (what ``--detect`` chose and why, or None),
         ``rendered``, ``reference`` (``key``, ``integrator``, ``width``, ``height``), ``alpha``,
@@ -147,6 +148,8 @@ def comparison_record(result, out_dir, *, stem: str | None = None) -> dict:
         "params": plain(dict(result.params or {})),
         "spp": int(result.spp),
         "agree": bool(result.agree),
+        "outcome": result.outcome,
+        "tolerance_percent": None if result.rounds is None else result.rounds.tolerance_percent,
         "weak": is_weak(result),
         "detect": _detect(result),
         "rendered": result.rendered,

@@ -1,6 +1,7 @@
 """Each verdict of a comparison as one JSON entry (part of the ``mitsuba-refs/result/1`` record).
 
-Every entry has ``status`` (``"agree"``, ``"disagree"`` or ``"not compared"``), ``line``
+Every entry has ``status`` (``"agree"``, ``"disagree"`` or ``"not compared"``; the mean with a
+tolerance also ``"inconclusive"``, and ``rounds``: how it was decided), ``line``
 (the verdict as the command line prints it), ``p_value`` and ``alpha``; one that was not
 compared has ``reason`` instead of statistics. The rest is the verdict's own: intervals,
 component p-values and the maps a report draws (tile z, tile variance ratio, MSE per level).
@@ -29,6 +30,8 @@ __all__ = ["VERDICTS", "mean_entry", "variance_entry", "convergence_entry", "bou
 #: The verdicts of a record, in the order reports show them.
 VERDICTS = ("mean", "variance", "convergence", "bounces")
 AGREE, DISAGREE, NOT_COMPARED = "agree", "disagree", "not compared"
+#: The mean's status when the budget ran out before it was decided (``--tolerance``).
+INCONCLUSIVE = "inconclusive"
 
 
 def _status(agree: bool) -> str:
@@ -185,5 +188,13 @@ def verdict_entries(result) -> dict:
     detectable = detectable_entry(result)
     if detectable is not None:
         mean.update(line=mean_line(result), detectable_bias=detectable)
+    rounds = getattr(result, "rounds", None)
+    if rounds is not None and not getattr(result.mean, "faults", None):
+        # With a tolerance the mean's outcome is the rounds' (stats.equivalence), and the
+        # equal-means test's numbers stay beside it (tiles, intervals for the pictures).
+        status = {"AGREES": AGREE, "DISAGREES": DISAGREE}.get(rounds.outcome, INCONCLUSIVE)
+        mean.update(status=status, agree=status == AGREE, line=mean_line(result),
+                    p_value=rounds.decision.p_value, alpha=rounds.alpha_look,
+                    rounds=plain(rounds.record()))
     return {"mean": mean, "variance": variance_entry(result),
             "convergence": convergence_entry(result), "bounces": bounces_entry(result)}

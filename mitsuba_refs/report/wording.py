@@ -423,7 +423,15 @@ def _is_weak(result) -> bool:
 
 
 def status_text(result) -> str:
-    """The headline's verdict: AGREES (weakly, with what it could not see) or DISAGREES."""
+    """The headline's verdict: AGREES (weakly, with what it could not see) or DISAGREES; with a
+    tolerance AGREES within +-T %, DISAGREES or INCONCLUSIVE."""
+    rounds = getattr(result, "rounds", None)
+    if rounds is not None:
+        outcome = result.outcome
+        if outcome == "AGREES":
+            return f"AGREES with Mitsuba within \u00b1{rounds.tolerance_percent:g}%"
+        return f"{outcome} with Mitsuba" + (f" (tolerance \u00b1{rounds.tolerance_percent:g}%)"
+                                            if outcome == "INCONCLUSIVE" else "")
     if not result.agree:
         return "DISAGREES with Mitsuba"
     if _is_weak(result):
@@ -433,6 +441,8 @@ def status_text(result) -> str:
 
 def mean_line(result) -> str:
     """The mean verdict line of a comparison, with what the test could see."""
+    if getattr(result, "rounds", None) is not None and not hasattr(result.mean, "faults"):
+        return rounds_line(result.rounds)
     verdict = mean_verdict(result.mean)
     bound = getattr(result, "detectable", None)
     if bound is None:
@@ -446,6 +456,39 @@ def mean_line(result) -> str:
             hint = f"the reference's own noise alone hides less than {percent(bound.floor)}"
         return f"{verdict}; {sees(bound)}; {hint}"
     return f"{verdict}; {sees(bound)}"
+
+
+def rounds_line(rounds) -> str:
+    """The mean's three-outcome line: outcome, tolerance, interval reached, samples and, when
+    undecided, what would decide."""
+    d, tol = rounds.decision, rounds.tolerance_percent
+    low, high = (percent(x, signed=True) for x in d.interval)
+    last = rounds.looks[-1]
+    head = {"AGREES": f"agrees within \u00b1{tol:g}%", "DISAGREES": f"disagrees beyond \u00b1{tol:g}%",
+            "INCONCLUSIVE": f"inconclusive at \u00b1{tol:g}%"}[rounds.outcome]
+    text = (f"{head}: relative bias {percent(d.rel_bias, signed=True)}, interval [{low}, {high}] "
+            f"(level {1 - 2 * d.alpha:.4g}) after {len(rounds.looks)} round"
+            f"{'s' if len(rounds.looks) != 1 else ''}, {last['spp']} spp of at most {rounds.max_spp}")
+    if d.beyond_tiles:
+        text += f"; {d.beyond_tiles} tile{'s' if d.beyond_tiles != 1 else ''} beyond the tolerance"
+    if rounds.reference_pieces > 1:
+        text += (f"; the reference extended to {rounds.reference_spp} spp "
+                 f"({rounds.reference_pieces} cached pieces)")
+    if rounds.outcome != "INCONCLUSIVE":
+        return text
+    stop = "the time budget" if rounds.stopped_by == "seconds" else "the sample budget"
+    if rounds.reference_limited:
+        return f"{text}; {stop} ran out, and the reference's own noise alone keeps it " \
+               "undecided: a longer reference (or a wider --tolerance) would decide"
+    if math.isfinite(rounds.spp_needed):
+        return f"{text}; {stop} ran out: about --max-spp {_round_up(rounds.spp_needed)} would decide"
+    return (f"{text}; {stop} ran out, with the observed bias at the tolerance (more samples "
+            "decide only if it moves off it)")
+
+
+def _round_up(spp: float) -> int:
+    """The power of two at or above ``spp`` (the rounds double)."""
+    return 1 << max(0, math.ceil(math.log2(max(spp, 1.0))))
 
 
 # ---- differences of convention (mitsuba_refs.verdicts.conventions) ----------------------------

@@ -49,6 +49,7 @@ from .detect import SppChoice, choose_spp, comparison_bound
 from .estimators import BOUNCE_REFERENCE, SAME_ESTIMATOR, SPLATTING, resolved
 from .explain import hints
 from .hooks import RecordingRuns, WithOptions
+from .rounds import MeanRounds, render_until_decided
 from .scenes import default_params, reference_options, render_ours, scene_defaults
 
 __all__ = ["Comparison", "FaultyImages", "compare", "localise_bounce", "write_pictures",
@@ -114,6 +115,10 @@ class Comparison:
     not_run : dict
         Why the ``"convergence"`` or ``"bounces"`` verdict was not run, where the reason is not
         an option of the command (images rendered elsewhere cannot be rendered again).
+    rounds : MeanRounds or None
+        With a tolerance: how the mean verdict was decided in rounds (its outcome replaces
+        ``mean.agree``; ``mean`` is then the equal-means test of the final images, kept for
+        the tiles, pictures and causes).
     """
 
     scene: str | Path
@@ -143,9 +148,26 @@ class Comparison:
     detect: SppChoice | None = None
     variance_skipped: str = ""
     not_run: dict[str, str] = field(default_factory=dict)
+    rounds: MeanRounds | None = None
+
+    @property
+    def outcome(self) -> str:
+        """AGREES, DISAGREES or INCONCLUSIVE: DISAGREES when any verdict disagrees,
+        INCONCLUSIVE when none does but the mean is undecided (docs/statistics.md, section 9)."""
+        others = [] if self.variance is None else [self.variance.agree]
+        if self.convergence is not None:
+            others.append(self.convergence.passed)
+        if self.rounds is None:
+            return "AGREES" if self.mean.agree and all(others) else "DISAGREES"
+        if isinstance(self.mean, FaultyImages) or self.rounds.outcome == "DISAGREES" \
+                or not all(others):
+            return "DISAGREES"
+        return self.rounds.outcome
 
     @property
     def agree(self) -> bool:
+        if self.rounds is not None:
+            return self.outcome == "AGREES"
         parts = [self.mean.agree]
         if self.variance is not None:
             parts.append(self.variance.agree)
@@ -222,14 +244,24 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         log=log)
     settings = settings if choice is None else dataclasses.replace(settings, spp=choice.spp)
     spp, alpha, same = settings.spp, settings.alpha, settings.same_estimator
-    if log and ours:
+    if log and ours and settings.tolerance is None:
         log(f"compare: {name} at {spp} spp for the mean and variance verdicts")
-    mean, variance = RecordingRuns(render, runs, "mean")(scene, integrator, params, spp, TEST_SEED,
-                                                           processes=settings.processes)
-    # Same estimator on both sides: a test-side variance far above the reference's is
-    # itself wrong, so it may not hide a bias (stats.mean.VARIANCE_BOUND).
     # A tent or gaussian film correlates neighbouring pixels (docs/statistics.md).
     correlation = reference_correlation(reference)
+    rounds = None
+    if settings.tolerance is None:
+        mean, variance = RecordingRuns(render, runs, "mean")(scene, integrator, params, spp,
+                                                               TEST_SEED, processes=settings.processes)
+    else:     # render in rounds until the mean is decided (verdicts.rounds)
+        def piece(k):    # an independent, cached piece of the reference: its own seed
+            return get_reference(scene, params, settings.reference, seed=config.REF_SEED + k,
+                                 log=log, options=reference_options(settings.options),
+                                 resolution=settings.resolution)
+        mean, variance, spp, rounds, reference = render_until_decided(
+            RecordingRuns(render, runs, "mean"), scene, integrator, params, reference, settings,
+            correlation, TEST_SEED, log=log, reference_piece=piece)
+    # Same estimator on both sides: a test-side variance far above the reference's is
+    # itself wrong, so it may not hide a bias (stats.mean.VARIANCE_BOUND).
     mean_test = compare_means(mean, variance, spp, reference.mean, reference.var, reference.n,
                               alpha=alpha, max_var_ratio=VARIANCE_BOUND if same else None,
                               image_components=not settings.splatting,
@@ -259,7 +291,8 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         # Stratified samples: a pixel's noise is no per-sample variance over N (stats.convergence).
         variance_test, skipped = None, variance_not_independent(law)
     bounce_results = bounce = None
-    if settings.bounces or (settings.bounces is None and not mean_test.agree):
+    mean_disagrees = not mean_test.agree if rounds is None else rounds.outcome == "DISAGREES"
+    if settings.bounces or (settings.bounces is None and mean_disagrees):
         if log and ours:
             log("compare: per-bounce renders, to find the first bounce that differs")
         bounce_results = localise_bounce(scene, integrator, params, settings,
@@ -275,7 +308,7 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         notes=[choice.reason] if choice is not None else [],
         arrays={"test_mean": mean, "test_variance": variance,
                 "reference_mean": reference.mean, "reference_variance": reference.var},
-        detectable=detectable, detect=choice, variance_skipped=skipped)
+        detectable=detectable, detect=choice, variance_skipped=skipped, rounds=rounds)
     return concluded(result, settings.out_dir, (mean, variance, reference), start)
 
 

@@ -97,7 +97,10 @@ def hints(comparison) -> list[Hint]:
     """Likely causes of a comparison's failures, each with its supporting numbers."""
     out = []
     mean = comparison.mean
-    if not mean.agree:
+    rounds = getattr(comparison, "rounds", None)
+    # With a tolerance the mean failed only when it DISAGREES (a bias inside it is no fault).
+    if (not mean.agree) if rounds is None or getattr(mean, "faults", None) \
+            else rounds.outcome == "DISAGREES":
         ratio = 1.0 + mean.rel_bias
         ci = (1.0 + mean.rel_bias_ci[0], 1.0 + mean.rel_bias_ci[1])
         text = factor_hint(ratio, ci)
