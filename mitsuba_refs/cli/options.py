@@ -9,7 +9,8 @@ from pathtracer.scene.load import parse_resolution
 from ..errors import RefsInputError
 from ..settings import DEFAULT_MAX_TIME, Detect
 
-__all__ = ["positive_ints", "resolution", "add_detect_options", "detect_of", "check_alpha"]
+__all__ = ["positive_ints", "resolution", "add_detect_options", "detect_of", "check_alpha",
+           "add_dask_option", "on_cluster_of"]
 
 
 def positive_ints(text: str) -> tuple[int, ...]:
@@ -65,3 +66,22 @@ def check_alpha(alpha: float) -> None:
     """Refuse a significance level outside (0, 1) in one line."""
     if not 0 < alpha < 1:
         raise RefsInputError(f"--alpha must be between 0 and 1 (e.g. 1e-3), got {alpha}")
+
+
+def add_dask_option(parser) -> None:
+    """``--dask ADDRESS``: render the references on a Dask cluster (build, compare, check)."""
+    parser.add_argument("--dask", metavar="ADDRESS", default=None,
+                        help="render the Mitsuba references on a Dask cluster: a scheduler "
+                             "address (tcp://host:8786) or 'local' for a LocalCluster; the "
+                             "workers must see the scene files and MITSUBA_REFS_CACHE at the "
+                             "same paths (docs/cluster.md)")
+
+
+def on_cluster_of(args, variant=None):
+    """The context of ``--dask`` (:func:`mitsuba_refs.cluster.site.on_cluster`; a no-op
+    without it, and Dask is imported only with it)."""
+    if not getattr(args, "dask", None):
+        import contextlib
+        return contextlib.nullcontext()
+    from ..cluster.site import on_cluster
+    return on_cluster(args.dask, variant)
