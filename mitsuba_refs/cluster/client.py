@@ -7,6 +7,7 @@ the command line prints it in one line and exits with 2), raised before anything
 """
 
 import contextlib
+import logging
 import os
 
 #: Seconds to wait for the scheduler when connecting.
@@ -41,6 +42,10 @@ def connect(address, workers=None):
         from distributed import Client, LocalCluster  # Dask: optional, imported only for --dask
     except ImportError:
         raise ClusterUnavailable("--dask needs `pip install dask distributed`") from None
+    # distributed logs a lost scheduler with tracebacks on stderr; the command says it in one line.
+    for name in ["distributed", *logging.root.manager.loggerDict]:
+        if name.startswith("distributed"):
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
     cluster = None
     try:
         if address == "local":

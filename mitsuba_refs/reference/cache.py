@@ -409,7 +409,7 @@ def store(reference, scene, params, integrator, spp, seed, directory=None, optio
             if replace or not _published(json_path, exr_path, key):
                 os.replace(temporary[0], exr_path)
                 os.replace(temporary[1], json_path)
-        temporary.clear()
+                temporary.clear()
     except OSError as error:
         raise not_writable(directory, error) from None
     finally:
