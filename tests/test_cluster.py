@@ -203,3 +203,43 @@ def test_unreachable_scheduler_is_one_error(tmp_path):
     assert build.returncode == 2, out + err
     assert len(err.strip().splitlines()) == 1 and "cannot reach the Dask scheduler at " \
         "tcp://127.0.0.1:9" in err
+
+
+def _verdicts(path):
+    """The JSON results without the seconds (which differ from run to run)."""
+    import json
+
+    def scrub(value):
+        if isinstance(value, dict):
+            return {k: scrub(v) for k, v in value.items() if "seconds" not in k}
+        if isinstance(value, list):
+            return [scrub(v) for v in value]
+        return value
+    return scrub(json.loads(path.read_text()))
+
+
+@pytest.mark.mitsuba
+@pytest.mark.slow
+def test_compare_through_a_local_cluster_gives_the_serial_verdicts(tmp_path):
+    """A user's scene (its reference must be rendered): serially and with ``--dask local``, the
+    same reference file, exit status and verdicts."""
+    pytest.importorskip("mitsuba")
+    scene = tmp_path / "box.xml"
+    scene.write_text(resolve_scene("cornell-box").read_text())
+    runs = {}
+    for name, extra in (("serial", []), ("cluster", ["--dask", "local"])):
+        folder = tmp_path / name
+        folder.mkdir()
+        env = _env(MITSUBA_REFS_CACHE=str(folder / "cache"), MITSUBA_REFS_VARIANT="scalar_rgb")
+        runs[name] = subprocess.run(
+            [sys.executable, "-m", "mitsuba_refs.cli.main", "compare", str(scene), "-D",
+             "width=32", "-D", "height=32", "--no-convergence", "--spp", "16", "--out", "out",
+             "--json", "results.json", *extra], cwd=folder, env=env, capture_output=True,
+            text=True, timeout=300)
+        assert runs[name].returncode in (0, 1), runs[name].stderr
+    assert runs["serial"].returncode == runs["cluster"].returncode
+    assert _verdicts(tmp_path / "serial" / "results.json") == \
+        _verdicts(tmp_path / "cluster" / "results.json")
+    exr = {name: list((tmp_path / name / "cache").glob("*.exr")) for name in runs}
+    assert len(exr["serial"]) == len(exr["cluster"]) == 1
+    assert exr["serial"][0].read_bytes() == exr["cluster"][0].read_bytes()

@@ -21,7 +21,15 @@ from ..reference import config
 from ..reference.config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 from ..report.outputs import add_output_options, check_output_options, write_outputs
 from ..settings import Settings
-from .options import add_detect_options, check_alpha, detect_of, positive_ints, resolution
+from .options import (
+    add_dask_option,
+    add_detect_options,
+    check_alpha,
+    detect_of,
+    on_cluster_of,
+    positive_ints,
+    resolution,
+)
 
 
 def add_compare(subparsers):
@@ -65,6 +73,7 @@ def add_compare(subparsers):
     p.add_argument("--out", default="out/compare", help="folder for the diagnostic pictures")
     p.add_argument("--processes", type=int, default=None, help="worker processes (default: all cores)")
     add_detect_options(p)
+    add_dask_option(p)
     add_output_options(p)
     return run_compare
 
@@ -86,8 +95,9 @@ def run_compare(args) -> int:
                         convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
                         processes=args.processes, ladder=args.ladder, replicas=args.replicas,
                         options=options, resolution=args.resolution)
-    result = compare(args.scene, integrator, params, settings,
-                     log=lambda message: print(message, file=sys.stderr))
+    with on_cluster_of(args):   # --dask: the references rendered on the cluster
+        result = compare(args.scene, integrator, params, settings,
+                         log=lambda message: print(message, file=sys.stderr))
     print(result.report())
     for line in write_outputs(args, [result]):
         print(line)

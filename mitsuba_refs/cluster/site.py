@@ -14,7 +14,9 @@ stored.
 """
 
 import contextlib
+import os
 
+from ..reference.config import ENV_VARIANT
 from ..reference.split import chunks, render_calls, rendering_on
 from .client import connect, fault_dir, lost, worker_count
 
@@ -30,7 +32,7 @@ class ClusterSite:
         self.client = client
         self.address = address
         # scalar_rgb renders are reproducible bit for bit and split per call (batch method).
-        self.variant = variant or "scalar_rgb"
+        self.variant = variant or os.environ.get(ENV_VARIANT) or "scalar_rgb"
         self.tasks = tasks
 
     def split_for(self, job):
