@@ -243,3 +243,29 @@ def test_compare_through_a_local_cluster_gives_the_serial_verdicts(tmp_path):
     exr = {name: list((tmp_path / name / "cache").glob("*.exr")) for name in runs}
     assert len(exr["serial"]) == len(exr["cluster"]) == 1
     assert exr["serial"][0].read_bytes() == exr["cluster"][0].read_bytes()
+
+
+@pytest.mark.mitsuba
+@pytest.mark.slow
+def test_coverage_run_on_a_local_cluster_gives_the_serial_verdicts(tmp_path):
+    pytest.importorskip("mitsuba")
+    scenes = tmp_path / "scenes"
+    scenes.mkdir()
+    for name, builtin in (("a.xml", "cornell-box"), ("b.xml", "quad-light")):
+        (scenes / name).write_text(resolve_scene(builtin).read_text())
+    verdicts = {}
+    for name, extra in (("serial", []), ("cluster", ["--dask", "local"])):
+        env = _env(MITSUBA_REFS_CACHE=str(tmp_path / f"cache-{name}"),
+                   MITSUBA_REFS_VARIANT="scalar_rgb")
+        out = subprocess.run(
+            [sys.executable, "-m", "experiments.scene_coverage", str(scenes), "--no-mitsuba",
+             "--compare", "--no-convergence", "--resolution", "24x18", "--quiet", "--json",
+             str(tmp_path / f"{name}.json"), *extra], cwd=REPO, env=env, capture_output=True,
+            text=True, timeout=300)
+        assert out.returncode == 0, out.stderr
+        import json
+        files = json.loads((tmp_path / f"{name}.json").read_text())["files"]
+        verdicts[name] = {e["file"]: (e["compare"]["verdict"], e["compare"]["summary"])
+                          for e in files}
+    assert set(verdicts["serial"]) == {"a.xml", "b.xml"}
+    assert verdicts["serial"] == verdicts["cluster"]
