@@ -269,3 +269,27 @@ def test_coverage_run_on_a_local_cluster_gives_the_serial_verdicts(tmp_path):
                           for e in files}
     assert set(verdicts["serial"]) == {"a.xml", "b.xml"}
     assert verdicts["serial"] == verdicts["cluster"]
+
+
+@pytest.mark.slow
+def test_grader_batch_on_a_local_cluster_gives_the_serial_grades(tmp_path):
+    """``python -m autograder.batch``: one submission per task, each check in its sandbox on
+    the worker; the same grades as the serial batch, one line per submission."""
+    folder = tmp_path / "submissions"
+    folder.mkdir()
+    for name in ("alice.py", "bob.py"):
+        (folder / name).write_text((REPO / "autograder" / "solution.py").read_text())
+    grades = {}
+    for name, extra in (("serial", []), ("cluster", ["--dask", "local"])):
+        out = subprocess.run(
+            [sys.executable, "-m", "autograder.batch", str(folder), "--out",
+             str(tmp_path / f"{name}.jsonl"), "--checks", "camera", "--solution-runtime",
+             *extra], cwd=REPO, env=_env(), capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, out.stderr
+        import json
+        lines = [json.loads(line) for line in (tmp_path / f"{name}.jsonl").read_text().splitlines()]
+        grades[name] = {Path(r["submission"]).name: (r["score"], r["max_score"], r["checks"])
+                        for r in lines}
+    assert set(grades["serial"]) == {"alice.py", "bob.py"}
+    assert grades["serial"] == grades["cluster"]
+    assert all(score == best > 0 for score, best, _ in grades["serial"].values())
