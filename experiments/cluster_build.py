@@ -18,8 +18,9 @@ from distributed import get_task_stream
 
 from mitsuba_refs.cluster.client import connect, worker_count
 from mitsuba_refs.cluster.site import ClusterSite
+from mitsuba_refs.reference.calls import render_calls
 from mitsuba_refs.reference.render import render_reference, resolve_scene
-from mitsuba_refs.reference.split import ReferenceJob, chunks, render_calls
+from mitsuba_refs.reference.split import ReferenceJob, calls_split_by, chunks
 from pathtracer.scene.load import parse_resolution
 
 
@@ -70,13 +71,15 @@ def main(argv=None) -> int:
         site = ClusterSite(client, args.dask, tasks=args.tasks)
         with get_task_stream(client) as stream:
             start = time.perf_counter()
-            ref = render_reference(args.scene, {}, args.integrator, args.spp, args.seed,
-                                   split=site.split_for(job), **common)
+            with calls_split_by(site.split_for(job)):
+                ref = render_reference(args.scene, {}, args.integrator, args.spp, args.seed,
+                                       **common)
             cluster_s = time.perf_counter() - start
         workers = worker_count(client)
         cpu = []
-        timed = render_reference(args.scene, {}, args.integrator, args.spp, args.seed,
-                                 split=_timed_split(client, job, len(stream.data), cpu), **common)
+        with calls_split_by(_timed_split(client, job, len(stream.data), cpu)):
+            timed = render_reference(args.scene, {}, args.integrator, args.spp, args.seed,
+                                     **common)
     computes = [sum(s["stop"] - s["start"] for s in task["startstops"] if s["action"] == "compute")
                 for task in stream.data]
     print(json.dumps({

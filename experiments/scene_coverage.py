@@ -47,6 +47,7 @@ from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 
+from mitsuba_refs.cluster.client import connect, lost
 from pathtracer.render.driver import integrator_for
 from pathtracer.scene.errors import SceneError
 from pathtracer.scene.load import load_scene
@@ -328,8 +329,6 @@ def _compares(jobs: dict, dask: str | None):
             yield file, compare_file(*arguments)
         return
     from distributed import as_completed  # Dask: optional, imported only for --dask
-
-    from mitsuba_refs.cluster.client import connect, lost
     with connect(dask) as client:
         futures = {client.submit(compare_file, *arguments, pure=False): file
                    for file, arguments in jobs.items()}

@@ -18,8 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mitsuba_refs.reference.calls import render_calls
 from mitsuba_refs.reference.render import render_reference, resolve_scene
-from mitsuba_refs.reference.split import ENV_FAULT_DIR, ReferenceJob, chunks, render_calls
+from mitsuba_refs.reference.split import ENV_FAULT_DIR, ReferenceJob, calls_split_by, chunks
 
 pytest.importorskip("distributed")
 
@@ -35,8 +36,9 @@ def job(fault_dir=None):
 
 
 def render(split=None):
-    return render_reference(SCENE, {}, INTEGRATOR, SPP, SEED, variant="scalar_rgb",
-                            resolution=SIZE, split=split)
+    with calls_split_by(split):
+        return render_reference(SCENE, {}, INTEGRATOR, SPP, SEED, variant="scalar_rgb",
+                                resolution=SIZE)
 
 
 @pytest.fixture(scope="module")

@@ -10,6 +10,8 @@ import contextlib
 import logging
 import os
 
+from ..reference.split import ENV_FAULT_DIR
+
 #: Seconds to wait for the scheduler when connecting.
 CONNECT_TIMEOUT = 10
 
@@ -72,5 +74,4 @@ def worker_count(client) -> int:
 
 def fault_dir():
     """The test hook folder (:data:`mitsuba_refs.reference.split.ENV_FAULT_DIR`), or None."""
-    from ..reference.split import ENV_FAULT_DIR
     return os.environ.get(ENV_FAULT_DIR) or None

@@ -15,9 +15,11 @@ stored.
 
 import contextlib
 import os
+from concurrent.futures import CancelledError
 
+from ..reference.calls import render_calls
 from ..reference.config import ENV_VARIANT
-from ..reference.split import chunks, render_calls, rendering_on
+from ..reference.split import chunks, rendering_on
 from .client import connect, fault_dir, lost, worker_count
 
 #: Tasks per worker for one reference: a few, so that a slow or killed worker's share is
@@ -62,9 +64,7 @@ class ClusterSite:
 
 def _is_lost(error) -> bool:
     """True for the errors a client raises when its scheduler went away."""
-    from concurrent.futures import CancelledError
-
-    from distributed.comm.core import CommClosedError
+    from distributed.comm.core import CommClosedError  # Dask: optional, only for --dask
     return isinstance(error, (CancelledError, CommClosedError))
 
 

@@ -531,10 +531,11 @@ def _render_and_store(request: _Request, *, render, variant, log, why):
     if log:
         log(f"{reference_stem(scene, params, integrator, spp, seed, **where)}: "
             f"{status} ({detail}), rendering")
-    variant, split = _site_split(request, variant)
+    variant, calls = _site_split(request, variant)
     try:
-        ref = render_reference(scene, params, integrator, spp, seed,
-                               variant=variant, log=log, split=split, **where)
+        with split.calls_split_by(calls):
+            ref = render_reference(scene, params, integrator, spp, seed,
+                                   variant=variant, log=log, **where)
     except RuntimeError as error:
         if is_mitsuba_error(error):
             raise RefsInputError(mitsuba_error_line(error, resolve_scene(scene))) from None
@@ -551,7 +552,7 @@ def _render_and_store(request: _Request, *, render, variant, log, why):
 
 def _site_split(request: _Request, variant):
     """``(variant, split)`` of :func:`render_reference` where :func:`split.rendering_on` names a
-    site (a cluster), else ``(variant, None)``."""
+    site (a cluster), else ``(variant, None)`` (:func:`split.calls_split_by`)."""
     site = split.current_site()
     if site is None:
         return variant, None

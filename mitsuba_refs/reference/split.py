@@ -1,16 +1,15 @@
-"""A reference's render calls, rendered anywhere: the task a cluster worker runs.
+"""Where a reference's render calls are rendered: here, or elsewhere (a cluster).
 
 A ``batch`` reference (:mod:`mitsuba_refs.reference.batch`) is ``calls`` render calls, call
-``i`` with its own seed (:func:`mitsuba_refs.reference.seeds.pass_seeds`). :func:`render_calls`
-loads the scene as :func:`mitsuba_refs.reference.render.render_reference` does and renders the
-calls it is given; the client merges every call's block statistics in call order, so the
-reference is the same bit for bit whoever rendered which call, in whatever order they finished.
+``i`` with its own seed (:func:`mitsuba_refs.reference.seeds.pass_seeds`). A *split*
+(:func:`calls_split_by`) renders them elsewhere, by
+:func:`mitsuba_refs.reference.calls.render_calls`, cut by :func:`chunks`; the client merges
+every call's block statistics in call order, so the reference is the same bit for bit whoever
+rendered which call, in whatever order they finished. A *site* (:func:`rendering_on`) makes
+the split of every reference rendered on demand.
 """
 
 import contextlib
-import os
-import time
-from pathlib import Path
 from typing import NamedTuple
 
 #: Test hook (docs/cluster.md): a folder where every task writes ``started-<first call>-<pid>``
@@ -31,43 +30,6 @@ class ReferenceJob(NamedTuple):
     options: dict | None = None
     resolution: tuple | None = None
     fault_dir: str | None = None
-
-
-def render_calls(job: ReferenceJob, indices):
-    """Block statistics ``(n, mean, M2)`` of the render calls ``indices`` of ``job``, in
-    that order (:func:`mitsuba_refs.reference.batch.render_call`)."""
-    _hold(job.fault_dir, indices[0])
-    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
-
-    from .batch import batch_sensor, call_takes, copies_per_call, render_call
-    from .render import integrator_dict, load_mitsuba_scene, reference_settings, stream_id
-    from .seeds import pass_seeds
-    from .variant import set_variant
-
-    set_variant(job.variant)
-    path = Path(job.scene)
-    scene_kw, transport, settings = reference_settings(path, job.params, job.options,
-                                                       job.resolution)
-    scene = load_mitsuba_scene(path, scene_kw, job.resolution)
-    integrator = mi.load_dict(integrator_dict(job.integrator, transport, settings.integrator))
-    sensor = scene.sensors()[0]
-    width, height = (int(v) for v in sensor.film().crop_size())
-    k, calls = copies_per_call(job.spp, width, height)
-    batch = batch_sensor(sensor, k, width, height)
-    stream = stream_id(job.integrator, job.params, job.options, job.resolution)
-    seeds = pass_seeds(job.seed, calls, k * width, height, stream)
-    takes = call_takes(job.spp, k, calls)
-    return [render_call(scene, batch, integrator, seeds[i], takes[i]) for i in indices]
-
-
-def _hold(fault_dir, first_call):
-    """The test hook of :data:`ENV_FAULT_DIR` (nothing when ``fault_dir`` is None)."""
-    if not fault_dir:
-        return
-    folder = Path(fault_dir)
-    (folder / f"started-{first_call}-{os.getpid()}").touch()
-    while not (folder / "release").exists():
-        time.sleep(0.05)
 
 
 def chunks(calls: int, tasks: int) -> list:
@@ -103,3 +65,25 @@ def rendering_on(site):
 def current_site():
     """The site of the innermost :func:`rendering_on`, or None (render here)."""
     return _site
+
+
+#: The ``split`` of the reference being rendered (:func:`calls_split_by`); None: here.
+_split = None
+
+
+@contextlib.contextmanager
+def calls_split_by(split):
+    """Inside this block, :func:`mitsuba_refs.reference.render.render_reference` hands its
+    ``batch`` render calls to ``split`` (:func:`mitsuba_refs.reference.batch.render_moments`;
+    e.g. :meth:`mitsuba_refs.cluster.site.ClusterSite.split_for`); None renders them here."""
+    global _split
+    previous, _split = _split, split
+    try:
+        yield split
+    finally:
+        _split = previous
+
+
+def current_split():
+    """The split of the innermost :func:`calls_split_by`, or None."""
+    return _split

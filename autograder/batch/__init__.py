@@ -22,7 +22,9 @@ import time
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
-from . import grading
+from mitsuba_refs.cluster.client import connect, lost
+
+from .. import grading
 
 
 def submissions(folder: Path) -> list[str]:
@@ -62,8 +64,6 @@ def _graded(todo, arguments, workers, dask):
     """``(record)`` of every submission in ``todo``, as they finish."""
     if dask:
         from distributed import as_completed as finished  # Dask: optional, only for --dask
-
-        from mitsuba_refs.cluster.client import connect, lost
         with connect(dask) as client:
             futures = [client.submit(grade_submission, impl, *arguments, pure=False)
                        for impl in todo]
@@ -120,7 +120,3 @@ def main(argv=None) -> int:
         print(f"error: {error}", file=sys.stderr)
         return 2
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
