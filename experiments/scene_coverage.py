@@ -47,6 +47,7 @@ from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 
+from mitsuba_refs.cluster.client import connect, lost
 from pathtracer.render.driver import integrator_for
 from pathtracer.scene.errors import SceneError
 from pathtracer.scene.load import load_scene
@@ -286,49 +287,81 @@ def classify(folder: str, timeout: float, use_mitsuba: bool, jobs: int,
 
 def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution: str,
                    done: dict | None = None, progress: bool = False, saved=None,
-                   only: tuple = (), convergence: bool = True) -> None:
+                   only: tuple = (), convergence: bool = True, dask: str | None = None) -> None:
     """``mitsuba-refs compare FILE --integrator NAME --resolution WxH`` on every file that loads,
     with the tracer's integrator for the file's own: its verdict. ``done`` (file -> compare
     record of an earlier run, ``--resume``) is kept instead of comparing again; ``saved`` is
     called after each compare (the JSON is rewritten, so a long run loses nothing); ``only``
     (shell patterns of paths relative to ``folder``) limits the compares to the files matching
     one of them; ``convergence`` False skips compare's convergence test (``--no-convergence``:
-    mean and variance verdicts only, about a third of the time)."""
-    exe = shutil.which("mitsuba-refs")
-    command = [exe] if exe else [sys.executable, "-m", "mitsuba_refs.cli.main"]
-    verdicts = {0: "agrees", 1: "disagrees", 2: "refused"}
+    mean and variance verdicts only, about a third of the time). ``dask`` (a scheduler address
+    or ``local``) runs one compare per task on that cluster, in the order they finish
+    (docs/cluster.md: the workers see ``folder`` and the reference cache at the same paths)."""
     for entry in entries:
         if done and entry.file in done:
             entry.compare = done[entry.file]
     todo = [e for e in entries if e.cls == "loads" and not e.compare
             and (not only or any(fnmatch.fnmatch(e.file, pattern) for pattern in only))]
-    for i, entry in enumerate(todo):
-        start = time.perf_counter()
+    for entry in todo:
         # The integrator is chosen again: a resumed entry's may predate the tracer's own
         # estimator for the file's (volpathmis files were rendered by volpath until 12-03).
         loads, _, _, integrator = tracer_verdict(os.path.join(folder, entry.file), timeout)
         entry.integrator = integrator if loads else entry.integrator
-        try:
-            out = subprocess.run(command + ["compare", os.path.join(folder, entry.file),
-                                            "--integrator", entry.integrator,
-                                            "--resolution", resolution]
-                                 + ([] if convergence else ["--no-convergence"]),
-                                 capture_output=True, text=True, timeout=timeout)
-            verdict = verdicts.get(out.returncode, f"exit code {out.returncode}")
-            lines = (out.stdout + out.stderr).strip().splitlines()
-            summary = next((line for line in lines if "Mitsuba" in line and "on " in line),
-                           lines[-1] if lines else "")
-        except subprocess.TimeoutExpired:
-            verdict, summary = "timed out", f"no verdict within {timeout:g} s"
-        entry.compare = {"verdict": verdict, "summary": summary.strip(),
-                         "integrator": entry.integrator, "convergence": convergence,
-                         "seconds": round(time.perf_counter() - start, 1)}
+    jobs = {entry.file: (os.path.join(folder, entry.file), entry.integrator, resolution,
+                         convergence, timeout) for entry in todo}
+    by_file = {entry.file: entry for entry in todo}
+    for i, (file, record) in enumerate(_compares(jobs, dask)):
+        entry = by_file[file]
+        entry.compare = record
         if progress:
-            print(f"[compare {i + 1}/{len(todo)}] {entry.file} ({entry.integrator}): {verdict} "
-                  f"({entry.compare['seconds']} s) {entry.compare['summary']}", file=sys.stderr,
-                  flush=True)
+            print(f"[compare {i + 1}/{len(todo)}] {entry.file} ({entry.integrator}): "
+                  f"{record['verdict']} ({record['seconds']} s) {record['summary']}",
+                  file=sys.stderr, flush=True)
         if saved:
             saved()
+
+
+def _compares(jobs: dict, dask: str | None):
+    """``(file, compare_file record)`` of every job (file -> arguments of
+    :func:`compare_file`): here in order, or on the Dask cluster ``dask`` as they finish."""
+    if not dask:
+        for file, arguments in jobs.items():
+            yield file, compare_file(*arguments)
+        return
+    from distributed import as_completed  # Dask: optional, imported only for --dask
+    with connect(dask) as client:
+        futures = {client.submit(compare_file, *arguments, pure=False): file
+                   for file, arguments in jobs.items()}
+        try:
+            for future in as_completed(futures):
+                yield futures[future], future.result()
+        except Exception as error:   # the finished compares are saved: --resume goes on
+            if client.status not in ("running", "connecting"):
+                raise lost(dask, error) from None
+            raise
+
+
+def compare_file(path: str, integrator: str, resolution: str, convergence: bool,
+                 timeout: float) -> dict:
+    """The record of ``mitsuba-refs compare`` on ``path`` (run as a process here, or on a
+    cluster's worker): verdict, its summary line, integrator, convergence, seconds."""
+    exe = shutil.which("mitsuba-refs")
+    command = [exe] if exe else [sys.executable, "-m", "mitsuba_refs.cli.main"]
+    verdicts = {0: "agrees", 1: "disagrees", 2: "refused"}
+    start = time.perf_counter()
+    try:
+        out = subprocess.run(command + ["compare", path, "--integrator", integrator,
+                                        "--resolution", resolution]
+                             + ([] if convergence else ["--no-convergence"]),
+                             capture_output=True, text=True, timeout=timeout)
+        verdict = verdicts.get(out.returncode, f"exit code {out.returncode}")
+        lines = (out.stdout + out.stderr).strip().splitlines()
+        summary = next((line for line in lines if "Mitsuba" in line and "on " in line),
+                       lines[-1] if lines else "")
+    except subprocess.TimeoutExpired:
+        verdict, summary = "timed out", f"no verdict within {timeout:g} s"
+    return {"verdict": verdict, "summary": summary.strip(), "integrator": integrator,
+            "convergence": convergence, "seconds": round(time.perf_counter() - start, 1)}
 
 
 def summary(entries: list[Entry]) -> dict:
@@ -391,6 +424,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "relative to DIR, e.g. 'tests/scenes/*')")
     p.add_argument("--no-convergence", action="store_true",
                    help="compare without the convergence test (mean and variance verdicts)")
+    p.add_argument("--dask", metavar="ADDRESS", default=None,
+                   help="with --compare: one compare per task on a Dask cluster (scheduler "
+                        "address, or 'local'); workers see DIR and MITSUBA_REFS_CACHE at the "
+                        "same paths (docs/cluster.md)")
     p.add_argument("--resume", metavar="JSON",
                    help="an earlier run's --json: keep its classes (files it found blocked are "
                         "loaded again) and its compare verdicts (compare the rest)")
@@ -420,9 +457,14 @@ def main(argv=None) -> int:
                            "files": [asdict(e) for e in entries]}, f, indent=1)
     if args.compare:
         done = {e["file"]: e["compare"] for e in earlier.get("files", []) if e.get("compare")}
-        compare_loaded(args.folder, entries, args.compare_timeout, args.resolution, done,
-                       progress=not args.quiet, saved=save, only=tuple(args.compare_only),
-                       convergence=not args.no_convergence)
+        try:
+            compare_loaded(args.folder, entries, args.compare_timeout, args.resolution, done,
+                           progress=not args.quiet, saved=save, only=tuple(args.compare_only),
+                           convergence=not args.no_convergence, dask=args.dask)
+        except ConnectionError as error:   # an unreachable or lost Dask scheduler
+            save()
+            print(f"error: {error}", file=sys.stderr)
+            return 2
     print(table(entries, args.folder, mitsuba_checked))
     save()
     return 0

@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import functools
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 
 import pytest
 
@@ -47,6 +49,21 @@ def _bpy_import_error() -> str | None:
         return None
     lines = result.stderr.strip().splitlines()
     return lines[-1] if lines else f"import bpy exited with {result.returncode}"
+
+
+def pytest_configure(config):
+    """Point the user reference cache (``MITSUBA_REFS_CACHE``) at a folder of this session's:
+    references the tests render never land in the package (``mitsuba_refs/references``, the
+    committed ones, which lookups still read first) nor in the user's own cache."""
+    folder = tempfile.mkdtemp(prefix="mitsuba-refs-cache-")
+    config._refs_cache = folder
+    os.environ["MITSUBA_REFS_CACHE"] = folder
+
+
+def pytest_unconfigure(config):
+    folder = getattr(config, "_refs_cache", None)
+    if folder:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def pytest_collection_modifyitems(config, items):

@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from mitsuba_refs.reference import cache
+from mitsuba_refs.reference.cache_location import committed_dir
 from pathtracer.core import interrupts
 from pathtracer.io import bitmap
 from tests.interrupting import swallowing_reader
@@ -53,7 +54,7 @@ def test_install_keeps_a_handler_of_someone_else():
 @pytest.mark.parametrize("interrupt", [True, False])
 def test_reference_read_interrupted_is_an_interrupt(remembering, monkeypatch, interrupt):
     monkeypatch.setattr(cache, "read_mean_variance", swallowing_reader(interrupt))
-    args = ("quad-light", {"width": 64, "height": 48}, "path", 4096, 1)
+    args = ("quad-light", {"width": 64, "height": 48}, "path", 4096, 1, committed_dir())
     if interrupt:
         with pytest.raises(KeyboardInterrupt):
             cache.validate(*args)

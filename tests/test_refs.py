@@ -97,9 +97,10 @@ def test_stale_detected(scene_copy, tmp_path, change):
     if change == "scene":
         scene_copy.write_text(scene_copy.read_text().replace(
             '<default name="albedo" value="0.5"/>', '<default name="albedo" value="0.6"/>'))
+        # A user's reference is named by the scene's content: the changed file has none yet.
         status = validate(**args, directory=tmp_path)[0]
-        assert status == "stale"
-        with pytest.raises(ReferenceUnavailable, match="stale"):
+        assert status == "missing"
+        with pytest.raises(ReferenceUnavailable, match="missing"):
             get_reference(**args, directory=tmp_path, render=False)
         return
     if change == "params":
@@ -125,7 +126,8 @@ def test_stale_when_included_mesh_changes(tmp_path):
     data = bytearray(ply.read_bytes())
     data[-1] ^= 1
     ply.write_bytes(bytes(data))
-    assert validate(d / "mesh.xml", PARAMS, "path", 16, 3, directory=tmp_path)[0] == "stale"
+    # Named by the scene's and its files' content: the changed mesh makes another reference.
+    assert validate(d / "mesh.xml", PARAMS, "path", 16, 3, directory=tmp_path)[0] == "missing"
 
 
 @pytest.mark.parametrize("damage", ["truncate", "nan", "shape", "pixels", "sidecar"])
@@ -336,9 +338,10 @@ def test_committed_bsdf_sampling_ref_of_point_light_is_black():
     assert not ref.mean.any() and not ref.var.any()
 
 
-def test_reference_names_are_unique_per_file(tmp_path, monkeypatch):
-    """Four users' ``scene.xml`` in four folders get four references; one file reached by
-    two spellings of its path gets one; built-in scenes keep their readable names."""
+def test_reference_names_are_unique_per_content(tmp_path, monkeypatch):
+    """Four users' different ``scene.xml`` in four folders get four references; one file
+    reached by two spellings of its path, or a copy of it elsewhere (another machine of a
+    cluster), gets one; built-in scenes keep their readable names."""
     from mitsuba_refs.reference.cache import reference_stem
     from pathtracer.scene.load import builtin_scene_path
 
@@ -347,6 +350,9 @@ def test_reference_names_are_unique_per_file(tmp_path, monkeypatch):
         (tmp_path / folder).mkdir()
         files.append(tmp_path / folder / "scene.xml")
         shutil.copy(builtin_scene_path("quad-light"), files[-1])
+    assert len({reference_stem(file, {}, "path", 16, 1) for file in files}) == 1
+    for n, file in enumerate(files):
+        file.write_text(file.read_text() + f"<!-- user {n} -->\n")
     stems = {reference_stem(file, {}, "path", 16, 1) for file in files}
     assert len(stems) == 4 and all(stem.startswith("scene-") for stem in stems)
     monkeypatch.chdir(tmp_path / "a")

@@ -95,7 +95,9 @@ SUBPROCESS_CASES = {
     "compare-no-such-scene": (["compare", "nosuch.xml.xml"], 2,
                               ["nosuch.xml.xml", "no such file"], False),
     "compare-spp-1": (["compare", "quad-light", "--spp", "1"], 2, ["--spp must be >= 2"], False),
-    "compare-cache-under-a-file": (["compare", "quad-light", "--no-convergence"], 2,
+    # 40x48: no committed reference (read first), so it has to be rendered into the cache.
+    "compare-cache-under-a-file": (["compare", "quad-light", "--no-convergence", "-D",
+                                    "width=40"], 2,
                                    ["a-file", "MITSUBA_REFS_CACHE", "writable"], False),
     "build-not-well-formed": (["build", "notwf.xml"], 2, ["notwf.xml:76:1", "not well-formed"],
                               False),
@@ -368,6 +370,8 @@ def test_corrupt_reference_in_read_only_cache_is_refused_before_rendering(
     monkeypatch.setattr(cache.tempfile, "mkstemp", read_only)
     monkeypatch.setattr("mitsuba_refs.reference.render.render_reference", no_render)
     monkeypatch.setenv("MITSUBA_REFS_CACHE", str(cache_folder))
+    # As if the package held no committed copy (which lookups read before the user cache).
+    monkeypatch.setattr(cache, "lookup_dirs", lambda directory=None: [cache.cache_dir()])
     monkeypatch.chdir(REPO)
     status = main(["compare", "quad-light", "--no-convergence", "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err.strip()

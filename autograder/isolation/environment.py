@@ -25,7 +25,7 @@ import threadpoolctl
 
 import autograder
 import pathtracer
-from mitsuba_refs.reference import cache
+from mitsuba_refs.reference import cache_location
 
 from . import runtime as runtimes
 
@@ -159,8 +159,8 @@ print(json.dumps(readable))
 def private_paths(extra=()) -> list:
     """What a submission must not read: the references, the solution, the grader."""
     tracer = Path(pathtracer.__file__).resolve().parent
-    paths = [cache.cache_dir(), tracer / "integrators", tracer / "sensors" / "perspective.py",
-             Path(autograder.__file__).parent, *extra]
+    paths = [cache_location.committed_dir(), cache_location.cache_dir(), tracer / "integrators",
+             tracer / "sensors" / "perspective.py", Path(autograder.__file__).parent, *extra]
     paths += runtimes.public_solution_runtimes()
     return sorted({str(Path(p).resolve()) for p in paths if Path(p).exists()})
 

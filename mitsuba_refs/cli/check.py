@@ -20,14 +20,16 @@ from ..reference.config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 from ..report.outputs import add_output_options, check_output_options, write_outputs
 from ..settings import Settings
 from .options import (
-                      add_detect_options,
-                      add_tolerance_options,
-                      check_alpha,
-                      detect_of,
-                      exit_status,
-                      positive_ints,
-                      resolution,
-                      tolerance_of,
+    add_dask_option,
+    add_detect_options,
+    add_tolerance_options,
+    check_alpha,
+    detect_of,
+    exit_status,
+    on_cluster_of,
+    positive_ints,
+    resolution,
+    tolerance_of,
 )
 
 PLACEHOLDER_HELP = "placeholders: " + "; ".join(f"{{{name}}} {text}" for name, text in PLACEHOLDERS.items())
@@ -105,6 +107,7 @@ def add_check(subparsers):
     p.add_argument("--out", default="out/check", help="folder for the diagnostic pictures")
     add_detect_options(p)
     add_tolerance_options(p)
+    add_dask_option(p)
     add_output_options(p)
     return run_check
 
@@ -131,11 +134,12 @@ def run_check(args) -> int:
         replicas=args.replicas, detect=detect, name=args.name,
         options={"max_depth": int(args.max_depth)} if args.max_depth is not None else None,
         **tolerance_of(args))
-    result = check(args.scene, command=args.command, images=args.images, params=params,
-                   settings=settings, renderer_scene=args.renderer_scene,
-                   output_suffix=args.output_suffix,
-                   images_spp=None if command_mode else args.spp,
-                   log=lambda message: print(message, file=sys.stderr))
+    with on_cluster_of(args):   # --dask: the references rendered on the cluster
+        result = check(args.scene, command=args.command, images=args.images, params=params,
+                       settings=settings, renderer_scene=args.renderer_scene,
+                       output_suffix=args.output_suffix,
+                       images_spp=None if command_mode else args.spp,
+                       log=lambda message: print(message, file=sys.stderr))
     print(result.report())
     for line in write_outputs(args, [result], alpha=args.alpha):
         print(line)

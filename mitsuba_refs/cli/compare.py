@@ -23,14 +23,16 @@ from ..reference.config import CONVERGENCE_LADDER, CONVERGENCE_REPLICAS
 from ..report.outputs import add_output_options, check_output_options, write_outputs
 from ..settings import Settings
 from .options import (
-                      add_detect_options,
-                      add_tolerance_options,
-                      check_alpha,
-                      detect_of,
-                      exit_status,
-                      positive_ints,
-                      resolution,
-                      tolerance_of,
+    add_dask_option,
+    add_detect_options,
+    add_tolerance_options,
+    check_alpha,
+    detect_of,
+    exit_status,
+    on_cluster_of,
+    positive_ints,
+    resolution,
+    tolerance_of,
 )
 
 
@@ -76,6 +78,7 @@ def add_compare(subparsers):
     p.add_argument("--processes", type=int, default=None, help="worker processes (default: all cores)")
     add_detect_options(p)
     add_tolerance_options(p)
+    add_dask_option(p)
     add_output_options(p)
     return run_compare
 
@@ -97,8 +100,9 @@ def run_compare(args) -> int:
                         convergence=not args.no_convergence, bounces=bounces, out_dir=args.out,
                         processes=args.processes, ladder=args.ladder, replicas=args.replicas,
                         options=options, resolution=args.resolution, **tolerance_of(args))
-    result = compare(args.scene, integrator, params, settings,
-                     log=lambda message: print(message, file=sys.stderr))
+    with on_cluster_of(args):   # --dask: the references rendered on the cluster
+        result = compare(args.scene, integrator, params, settings,
+                         log=lambda message: print(message, file=sys.stderr))
     print(result.report())
     for line in write_outputs(args, [result]):
         print(line)

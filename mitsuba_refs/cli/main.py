@@ -30,6 +30,7 @@ from ..reference.cache import (
     ReferenceUnavailable,
     build_reference,
     cache_dir,
+    lookup_dirs,
     mitsuba_available,
     parse_xml,
     reference_stem,
@@ -40,7 +41,7 @@ from ..reference.variant import choose_variant
 from .check import add_check
 from .compare import add_compare
 from .examples import EXAMPLES, TOP
-from .options import resolution
+from .options import add_dask_option, on_cluster_of, resolution
 from .report import add_report
 
 #: Exit status -> meaning, for every subcommand.
@@ -119,7 +120,9 @@ def _add_build(subparsers):
     p.add_argument("--no-per-bounce", action="store_true",
                    help="skip the max_depth = 1, 2, 3 path references")
     p.add_argument("--cache-dir", default=None,
-                   help="cache folder (default: env MITSUBA_REFS_CACHE or the package's)")
+                   help="cache folder (default: env MITSUBA_REFS_CACHE, else the user's cache "
+                        "folder; the package's committed references are read first)")
+    add_dask_option(p)
     return cmd_build
 
 
@@ -135,34 +138,46 @@ def cmd_build(args):
     for scene, params in {(s, tuple(sorted(p.items()))) for s, p, _ in jobs}:
         check_scene(scene, dict(params))
     directory = args.cache_dir or cache_dir()
+    if args.dask and args.variant is None:
+        args.variant = "scalar_rgb"   # reproducible bit for bit, split per render call
     if not mitsuba_available():
         raise RefsInputError("build renders with Mitsuba 3, which is not installed: "
                              "pip install mitsuba==3.9.1")
     variant, reason = _usable_variant(args.variant)
     print(f"variant: {variant} ({reason})")
     print(f"cache: {directory}; {len(jobs)} references at {args.spp} spp")
-    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
-    built = kept = 0
+    built = 0
     t_all = time.time()
-    for scene, params, integ in jobs:
-        stem = reference_stem(scene, params, integ, args.spp, args.seed, **where)
+    with on_cluster_of(args, variant):
+        for scene, params, integ in jobs:
+            built += _build_one(args, (scene, params, integ), directory, variant, where)
+    kept = len(jobs) - built
+    print(f"done: {built} built, {kept} up to date, {time.time() - t_all:.1f} s")
+    return 0
+
+
+def _build_one(args, job, directory, variant, where):
+    """Build one reference unless a valid one is found (and no --force); 1 when built."""
+    import mitsuba as mi  # Mitsuba: optional and heavy, imported where it renders
+    scene, params, integ = job
+    stem = reference_stem(scene, params, integ, args.spp, args.seed, **where)
+    for folder in lookup_dirs(args.cache_dir):
         status, detail, ref = validate(scene, params, integ, args.spp,
-                                       args.seed, directory, **where)
+                                       args.seed, folder, **where)
         if status == "ok" and ref.metadata.get("mitsuba_version") != mi.__version__:
             status, detail = "stale", (f"made by Mitsuba "
                                        f"{ref.metadata.get('mitsuba_version')}")
-        if status == "ok" and not args.force:
-            print(f"  ok       {stem}")
-            kept += 1
-            continue
-        t0 = time.time()
-        build_reference(scene, params, integ, args.spp, args.seed, directory=directory,
-                        variant=variant, log=lambda line: print(line, file=sys.stderr), **where)
-        built += 1
-        print(f"  built    {stem}  [{status}: {detail}]  {time.time() - t0:.1f} s",
-              flush=True)
-    print(f"done: {built} built, {kept} up to date, {time.time() - t_all:.1f} s")
-    return 0
+        if status == "ok":
+            break
+    if status == "ok" and not args.force:
+        print(f"  ok       {stem}")
+        return 0
+    t0 = time.time()
+    build_reference(scene, params, integ, args.spp, args.seed,
+                    directory=directory, variant=variant,
+                    log=lambda line: print(line, file=sys.stderr), **where)
+    print(f"  built    {stem}  [{status}: {detail}]  {time.time() - t0:.1f} s", flush=True)
+    return 1
 
 
 def _usable_variant(requested):

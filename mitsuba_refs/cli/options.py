@@ -10,7 +10,8 @@ from ..errors import RefsInputError
 from ..settings import DEFAULT_MAX_TIME, Detect
 
 __all__ = ["positive_ints", "resolution", "add_detect_options", "detect_of", "check_alpha",
-           "add_tolerance_options", "tolerance_of", "exit_status", "EXIT_INCONCLUSIVE"]
+           "add_tolerance_options", "tolerance_of", "exit_status", "EXIT_INCONCLUSIVE",
+           "add_dask_option", "on_cluster_of"]
 
 #: Exit status of compare and check when the mean verdict is INCONCLUSIVE (``--tolerance``):
 #: 0 agrees, 1 disagrees, 2 bad input and 130 interrupted keep their meanings.
@@ -114,3 +115,22 @@ def exit_status(result) -> int:
     """0 agrees, 1 disagrees, :data:`EXIT_INCONCLUSIVE` when the mean is undecided."""
     outcome = getattr(result, "outcome", "AGREES" if result.agree else "DISAGREES")
     return {"AGREES": 0, "DISAGREES": 1}.get(outcome, EXIT_INCONCLUSIVE)
+
+
+def add_dask_option(parser) -> None:
+    """``--dask ADDRESS``: render the references on a Dask cluster (build, compare, check)."""
+    parser.add_argument("--dask", metavar="ADDRESS", default=None,
+                        help="render the Mitsuba references on a Dask cluster: a scheduler "
+                             "address (tcp://host:8786) or 'local' for a LocalCluster; the "
+                             "workers must see the scene files and MITSUBA_REFS_CACHE at the "
+                             "same paths (docs/cluster.md)")
+
+
+def on_cluster_of(args, variant=None):
+    """The context of ``--dask`` (:func:`mitsuba_refs.cluster.site.on_cluster`; a no-op
+    without it, and Dask is imported only with it)."""
+    if not getattr(args, "dask", None):
+        import contextlib
+        return contextlib.nullcontext()
+    from ..cluster.site import on_cluster
+    return on_cluster(args.dask, variant)

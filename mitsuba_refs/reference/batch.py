@@ -74,7 +74,25 @@ class SampleStatistics:
         return self.m2 / (self.n - 1)
 
 
-def render_moments(scene, integrator, spp, seed, stream, progress=None):
+def call_takes(spp, k, calls):
+    """Samples kept from each of the ``calls`` render calls of ``k`` copies (the last call's
+    surplus copies are dropped)."""
+    return [max(0, min(k, spp - i * k)) for i in range(calls)]
+
+
+def render_call(scene, batch, integrator, call_seed, take):
+    """One render call's block statistics ``(n, mean, M2)`` of its first ``take`` copies
+    (:func:`~pathtracer.render.moments.two_pass_block_statistics`)."""
+    import mitsuba as mi
+
+    width = int(scene.sensors()[0].film().crop_size()[0])
+    image = mi.render(scene, sensor=batch, integrator=integrator, spp=1, seed=call_seed)
+    samples = np.array(image, dtype=np.float64)[..., :3]
+    height, k = samples.shape[0], samples.shape[1] // width
+    return two_pass_block_statistics(samples.reshape(height, k, width, 3)[:, :take])
+
+
+def render_moments(scene, integrator, spp, seed, stream, progress=None, split=None):
     """Render ``spp`` single samples per pixel of ``scene``'s first sensor.
 
     Parameters
@@ -86,26 +104,30 @@ def render_moments(scene, integrator, spp, seed, stream, progress=None):
         Samples per pixel; base seed and stream of :func:`mitsuba_refs.reference.seeds.pass_seeds`.
     progress : pathtracer.core.progress.Progress, optional
         Told the samples done after every call.
+    split : callable, optional
+        ``split(calls)``: the block statistics of render calls ``0 .. calls - 1``, in call
+        order, rendered elsewhere (a cluster, :mod:`mitsuba_refs.cluster.build`) by
+        :func:`render_call` with the same seeds. The blocks are merged here in call order,
+        whoever rendered them, so the result is the same bit for bit.
 
     Returns
     -------
     (mean, var, n, calls, k, seeds)
         (H, W, 3) float64 mean and per-sample variance, ``n = spp``, and how it was cut.
     """
-    import mitsuba as mi
-
     sensor = scene.sensors()[0]
     width, height = (int(v) for v in sensor.film().crop_size())
     k, calls = copies_per_call(spp, width, height)
-    batch = batch_sensor(sensor, k, width, height)
     seeds = pass_seeds(seed, calls, k * width, height, stream)
-    stats, remaining = SampleStatistics(), spp
-    for i, call_seed in enumerate(seeds):
-        image = mi.render(scene, sensor=batch, integrator=integrator, spp=1, seed=call_seed)
-        samples = np.array(image, dtype=np.float64)[..., :3].reshape(height, k, width, 3)
-        take = min(k, remaining)
-        stats.add(samples[:, :take])
-        remaining -= take
+    if split is None:
+        batch = batch_sensor(sensor, k, width, height)
+        blocks = (render_call(scene, batch, integrator, call_seed, take)
+                  for call_seed, take in zip(seeds, call_takes(spp, k, calls)))
+    else:
+        blocks = split(calls)
+    stats = SampleStatistics()
+    for block in blocks:
+        stats.n, stats.mean, stats.m2 = merge_statistics((stats.n, stats.mean, stats.m2), block)
         if progress:
-            progress.advance(take)
+            progress.advance(block[0])
     return stats.mean, stats.variance(), stats.n, calls, k, seeds

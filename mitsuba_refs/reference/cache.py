@@ -55,7 +55,8 @@ from pathtracer.scene.load import BUILTIN_DIR
 from pathtracer.scene.xml_files import XMLSyntaxError, read_elements, scene_files
 
 from ..errors import CacheNotWritable, ReferenceUnavailable, RefsInputError, is_mitsuba_error, mitsuba_error_line
-from . import config
+from . import config, split
+from .cache_location import cache_dir, lookup_dirs
 from .exr import pixel_checksum, write_reference_exr
 from .render import (
     INTEGRATOR_MAP,
@@ -73,14 +74,6 @@ except ImportError:   # Windows: no locks (validate's checksums catch a torn pai
     fcntl = None
 
 FORMAT_VERSION = 1
-
-
-def cache_dir():
-    """``$MITSUBA_REFS_CACHE`` if set, else ``mitsuba_refs/references``."""
-    env = os.environ.get(config.ENV_CACHE)
-    if env:
-        return Path(env)
-    return Path(__file__).resolve().parents[1] / "references"
 
 
 def _sha256_file(path):
@@ -180,12 +173,14 @@ def reference_key(scene, params, integrator, spp, seed, options=None, resolution
 
 def scene_label(scene) -> str:
     """The scene's part of a reference's file name: a built-in scene's name, or a user's file
-    name with a short hash of its resolved path, so that files of one name in different
-    folders (four users' ``scene.xml``) never share a reference in one cache."""
+    name with a short hash of its content and included files' (:func:`scene_hash`), so that
+    files of one name with different contents (four users' ``scene.xml``) never share a
+    reference, and one scene reached by another path (another machine of a cluster, a
+    later run elsewhere) finds its reference."""
     path = resolve_scene(scene).resolve()
     if path.parent == Path(BUILTIN_DIR).resolve():
         return path.stem
-    return f"{path.stem}-{hashlib.sha256(str(path).encode()).hexdigest()[:8]}"
+    return f"{path.stem}-{scene_hash(path)[:8]}"
 
 
 def reference_stem(scene, params, integrator, spp, seed, options=None, resolution=None):
@@ -366,14 +361,16 @@ def _temporary_path(directory, final_name):
 
 
 def store(reference, scene, params, integrator, spp, seed, directory=None, options=None,
-          resolution=None):
+          resolution=None, replace=True):
     """Write ``reference`` (EXR + JSON sidecar) atomically; return the paths.
 
     Both files are written under unique temporary names in the cache folder
     and renamed into place (``os.replace``, atomic) together under the
     cache's exclusive lock, so concurrent writers and readers of the same
     reference never see a torn file or a mismatched pair: the last writer
-    wins. Temporary files are removed on any failure.
+    wins; with ``replace=False`` a pair already published under the same key is kept (the
+    first publisher wins; a reference's pixels are a function of its key, so they are the
+    same). Temporary files are removed on any failure.
 
     Raises
     ------
@@ -409,15 +406,24 @@ def store(reference, scene, params, integrator, spp, seed, directory=None, optio
         temporary.append(_temporary_path(directory, json_path.name))
         temporary[1].write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
         with cache_lock(directory, exclusive=True):
-            os.replace(temporary[0], exr_path)
-            os.replace(temporary[1], json_path)
-        temporary.clear()
+            if replace or not _published(json_path, exr_path, key):
+                os.replace(temporary[0], exr_path)
+                os.replace(temporary[1], json_path)
+                temporary.clear()
     except OSError as error:
         raise not_writable(directory, error) from None
     finally:
         for path in temporary:
             path.unlink(missing_ok=True)
     return exr_path, json_path
+
+
+def _published(json_path, exr_path, key):
+    """True when the pair of ``key`` is already in place (read under the exclusive lock)."""
+    try:
+        return exr_path.exists() and json.loads(json_path.read_text()).get("key") == key
+    except (OSError, ValueError):
+        return False
 
 
 def mitsuba_available():
@@ -467,9 +473,10 @@ def get_reference(scene, params, integrator, spp=config.REF_SPP,
     params, where = _normalised(params, options, resolution)
     # Bad parameters are the user's error whatever the cache holds: report them first.
     reference_key(scene, params, integrator, spp, seed, **where)
-    status, detail, ref = validate(scene, params, integrator, spp, seed, directory, **where)
-    if status == "ok":
-        return ref
+    for folder in lookup_dirs(directory):
+        status, detail, ref = validate(scene, params, integrator, spp, seed, folder, **where)
+        if status == "ok":
+            return ref
     request = _Request(scene, params, integrator, spp, seed, directory, where)
     return _render_and_store(request, render=render, variant=None, log=log, why=(status, detail))
 
@@ -524,20 +531,36 @@ def _render_and_store(request: _Request, *, render, variant, log, why):
     if log:
         log(f"{reference_stem(scene, params, integrator, spp, seed, **where)}: "
             f"{status} ({detail}), rendering")
+    variant, calls = _site_split(request, variant)
     try:
-        ref = render_reference(scene, params, integrator, spp, seed,
-                               variant=variant, log=log, **where)
+        with split.calls_split_by(calls):
+            ref = render_reference(scene, params, integrator, spp, seed,
+                                   variant=variant, log=log, **where)
     except RuntimeError as error:
         if is_mitsuba_error(error):
             raise RefsInputError(mitsuba_error_line(error, resolve_scene(scene))) from None
         raise
     check_finite(ref, scene)
-    store(ref, scene, params, integrator, spp, seed, directory, **where)
+    store(ref, scene, params, integrator, spp, seed, directory, **where,
+          replace=status != "missing")
     status, detail, loaded = validate(scene, params, integrator, spp, seed,
                                       directory, **where)
     if status != "ok":
         raise RuntimeError(f"freshly written {exr_path} fails validation: {detail}")
     return loaded
+
+
+def _site_split(request: _Request, variant):
+    """``(variant, split)`` of :func:`render_reference` where :func:`split.rendering_on` names a
+    site (a cluster), else ``(variant, None)`` (:func:`split.calls_split_by`)."""
+    site = split.current_site()
+    if site is None:
+        return variant, None
+    variant = variant or site.variant
+    job = split.ReferenceJob(str(resolve_scene(request.scene)), request.params,
+                             request.integrator, request.spp, request.seed, variant,
+                             **request.where)
+    return variant, site.split_for(job)
 
 
 #: The largest per-sample radiance whose square float32 holds (Mitsuba's films are float32).

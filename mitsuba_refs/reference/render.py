@@ -62,6 +62,7 @@ from .batch import render_moments
 from .filtered import integrator_with_blocks, render_filtered_moments
 from .rfilter import check_variant, film_filter, filter_metadata, per_sample_variance
 from .seeds import pass_seeds
+from .split import current_split
 from .variant import set_variant
 
 #: our integrator name -> Mitsuba integrator type
@@ -423,6 +424,8 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         sample in ``scalar_rgb``, per wavefront in JIT variants; passes of
         :data:`~mitsuba_refs.reference.config.PASS_SPP` samples). Same
         statistics. Default and the combinations allowed: :func:`choose_method`.
+        Inside :func:`mitsuba_refs.reference.split.calls_split_by` the ``batch`` method's
+        render calls are rendered elsewhere (a cluster); other methods render here.
 
     Returns
     -------
@@ -462,7 +465,8 @@ def render_reference(scene_path_or_name, params, integrator, spp, seed,
         var = per_sample_variance(m1, m2, n, rfilter)
     elif method == "batch":
         m1, var, n, calls, per_call, seeds = render_moments(
-            scene, mi.load_dict(nested), spp, seed, stream, progress=progress)
+            scene, mi.load_dict(nested), spp, seed, stream, progress=progress,
+            split=current_split())
     elif method == "replicas":
         m1, var, n, per_call, seeds = _render_replicas(scene, nested, spp, seed, stream, progress)
     elif method == "moments":
