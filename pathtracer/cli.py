@@ -53,7 +53,7 @@ SPLATTING = tuple(name for name, cls in INTEGRATORS.items() if cls.splats)
 #: The integrators with a ``paths`` option of their own (the path tracer's is PathClassIntegrator).
 SELECTING_PATHS = tuple(name for name, cls in INTEGRATORS.items() if issubclass(cls, ClassSelection))
 
-#: Exit codes (README, "Exit codes").
+#: Exit codes (docs/rendering.md, "Exit codes").
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 EXIT_INTERRUPTED, EXIT_TERMINATED = 128 + signal.SIGINT, 128 + signal.SIGTERM
 
@@ -171,7 +171,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    """Run one ``pathtracer`` command; its exit code (README, "Exit codes")."""
+    """Run one ``pathtracer`` command; its exit code (docs/rendering.md, "Exit codes")."""
     interrupts.install()        # a Ctrl-C inside a reader stays an interrupt
     args = build_parser().parse_args(argv)
     if args.command == "scenes":
