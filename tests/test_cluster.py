@@ -251,6 +251,40 @@ def test_compare_through_a_local_cluster_gives_the_serial_verdicts(tmp_path):
 
 @pytest.mark.mitsuba
 @pytest.mark.slow
+def test_check_through_a_local_cluster_gives_the_serial_verdicts(tmp_path):
+    """``check`` of an external renderer (``pathtracer render`` through its command line) on a
+    user's scene: serially and with ``--dask local``, the same reference file, exit status and
+    verdicts (the runs' seeds do not depend on where the reference was rendered)."""
+    pytest.importorskip("mitsuba")
+    scene = tmp_path / "box.xml"
+    scene.write_text(resolve_scene("cornell-box").read_text())
+    command = (f"{sys.executable} -m pathtracer render {{scene}} --resolution {{width}}x{{height}} "
+               "--spp {spp} --seed {seed} --max-depth {max_depth} -o {out}")
+    runs = {}
+    for name, extra in (("serial", []), ("cluster", ["--dask", "local"])):
+        folder = tmp_path / name
+        folder.mkdir()
+        env = _env(MITSUBA_REFS_CACHE=str(folder / "cache"), MITSUBA_REFS_VARIANT="scalar_rgb")
+        runs[name] = subprocess.run(
+            [sys.executable, "-m", "mitsuba_refs", "check", str(scene), "--resolution", "32x32",
+             "--no-convergence", "--bounces", "never", "--spp", "16", "--jobs", "1", "--out", "out",
+             "--json", "results.json", "--command", command, *extra], cwd=folder, env=env,
+            capture_output=True, text=True, timeout=300)
+        assert runs[name].returncode in (0, 1), runs[name].stderr
+    assert runs["serial"].returncode == runs["cluster"].returncode
+    serial, cluster = (_verdicts(tmp_path / name / "results.json") for name in runs)
+    for record in (serial, cluster):      # the runs' commands (paths) and clocks differ
+        for result in record["results"]:
+            result.pop("runs", None)
+            result["notes"] = [note for note in result["notes"] if "CPU-seconds" not in note]
+    assert serial == cluster
+    exr = {name: list((tmp_path / name / "cache").glob("*.exr")) for name in runs}
+    assert len(exr["serial"]) == len(exr["cluster"]) == 1
+    assert exr["serial"][0].read_bytes() == exr["cluster"][0].read_bytes()
+
+
+@pytest.mark.mitsuba
+@pytest.mark.slow
 def test_coverage_run_on_a_local_cluster_gives_the_serial_verdicts(tmp_path):
     pytest.importorskip("mitsuba")
     scenes = tmp_path / "scenes"
