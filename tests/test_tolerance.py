@@ -179,6 +179,13 @@ def test_budget_options_need_a_tolerance():
     assert run.returncode == 2 and "--tolerance" in run.stderr
 
 
+def test_a_bare_tolerance_before_the_scene_says_where_it_goes():
+    run = subprocess.run([sys.executable, "-m", "mitsuba_refs", "compare", "--tolerance",
+                          "cornell-box"], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert "a bare --tolerance goes after the scene, or write --tolerance 2 cornell-box" in run.stderr
+
+
 def test_the_calibration_experiment_writes_rates_per_scenario_and_level(tmp_path):
     from experiments import sequential_calibration
     out = tmp_path / "sim.json"

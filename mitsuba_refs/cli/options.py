@@ -76,9 +76,20 @@ def check_alpha(alpha: float) -> None:
         raise RefsInputError(f"--alpha must be between 0 and 1 (e.g. 1e-3), got {alpha}")
 
 
+def percentage(text: str) -> float:
+    """``--tolerance``'s value. Its percentage is optional, so a bare ``--tolerance`` before the
+    scene takes the scene's name for it: say so, instead of argparse's "invalid float value"."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"a percentage, e.g. 2; got {text!r} (a bare --tolerance goes after the scene, or "
+            f"write --tolerance {DEFAULT_TOLERANCE:g} {text})") from None
+
+
 def add_tolerance_options(parser) -> None:
     """``--tolerance PCT``, ``--max-spp N`` and ``--max-seconds S`` (compare and check)."""
-    parser.add_argument("--tolerance", type=float, default=None, nargs="?",
+    parser.add_argument("--tolerance", type=percentage, default=None, nargs="?",
                         const=DEFAULT_TOLERANCE, metavar="PCT",
                         help="three outcomes for the mean: AGREES within +-PCT%% (relative bias, "
                              "per image and per region), DISAGREES, or INCONCLUSIVE (exit 3) when "
