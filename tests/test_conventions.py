@@ -278,6 +278,7 @@ def _pfms(folder, images):
     return str(folder / "replica-*.pfm")
 
 
+@pytest.mark.mitsuba
 @pytest.mark.statistical(assertions=1)
 def test_check_images_names_srgb_output_first_among_the_hints(mitsuba_replicas, tmp_path, capsys):
     pattern = _pfms(tmp_path / "srgb", [conv.srgb_encode(image) for image in mitsuba_replicas])
@@ -293,6 +294,7 @@ def test_check_images_names_srgb_output_first_among_the_hints(mitsuba_replicas, 
     assert record["convention"]["p_value"] > ALPHA and record["hints"][0].startswith("convention:")
 
 
+@pytest.mark.mitsuba
 @pytest.mark.statistical(assertions=1)
 def test_check_images_names_one_bounce_too_few(mitsuba_replicas, tmp_path):
     mi = pytest.importorskip("mitsuba")
@@ -306,6 +308,7 @@ def test_check_images_names_one_bounce_too_few(mitsuba_replicas, tmp_path):
     assert "max_depth = 2" in result.hints[0]
 
 
+@pytest.mark.mitsuba
 def test_check_images_does_not_name_a_light_five_percent_too_bright(mitsuba_replicas, tmp_path):
     """Power (+5 % is ~10 standard errors here), and no convention claimed for a plain bias."""
     result = check("cornell-box", images=_pfms(tmp_path / "bright", [1.05 * image for image in mitsuba_replicas]),
@@ -315,6 +318,7 @@ def test_check_images_does_not_name_a_light_five_percent_too_bright(mitsuba_repl
     assert not any(str(hint).startswith("convention:") for hint in result.hints)
 
 
+@pytest.mark.mitsuba
 @pytest.mark.statistical(assertions=1)
 def test_check_command_names_a_factor_of_one_half():
     """``--command``: Mitsuba run as an external renderer whose image is half of Mitsuba's (a
@@ -383,6 +387,7 @@ def test_half_shift_copies_move_the_principal_point_the_other_way(monkeypatch):
     assert refs.half_shift_references("mesh", {}, None, film, (1, 0)) == []   # reads a PLY
 
 
+@pytest.mark.mitsuba
 @pytest.mark.statistical(assertions=1)
 def test_check_images_names_half_a_pixel_down_against_the_moved_reference(tmp_path):
     """Half a pixel down (twice-size renders averaged over 2 x 2 pixels one small pixel
@@ -399,6 +404,7 @@ def test_check_images_names_half_a_pixel_down_against_the_moved_reference(tmp_pa
     assert "moved half a pixel down" in result.hints[0]
 
 
+@pytest.mark.mitsuba
 @pytest.mark.statistical(assertions=1)
 def test_check_images_names_every_sample_at_the_pixel_centre(tmp_path):
     """A renderer without antialiasing (every sample through the pixel centre): 9 % darker

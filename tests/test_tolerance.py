@@ -151,6 +151,7 @@ def _check(factor, tolerance, max_spp, tmp_path):
     return run.returncode, record, run.stdout + run.stderr[-2000:]
 
 
+@pytest.mark.mitsuba
 @pytest.mark.statistical(assertions=2)
 def test_check_of_mitsuba_three_percent_too_bright_decides_by_the_tolerance(tmp_path):
     status, record, text = _check(1.03, 1, 1024, tmp_path)
@@ -160,6 +161,7 @@ def test_check_of_mitsuba_three_percent_too_bright_decides_by_the_tolerance(tmp_
     assert record["tolerance_percent"] == 5 and record["verdicts"]["mean"]["rounds"]["looks"]
 
 
+@pytest.mark.mitsuba
 @pytest.mark.statistical(assertions=1)
 def test_check_with_an_unreachable_tolerance_exits_inconclusive(tmp_path):
     status, record, text = _check(1.0, 0.1, 8, tmp_path)
