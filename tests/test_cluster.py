@@ -222,12 +222,10 @@ def _verdicts(path):
     return scrub(json.loads(path.read_text()))
 
 
-@pytest.mark.mitsuba
-@pytest.mark.slow
-def test_compare_through_a_local_cluster_gives_the_serial_verdicts(tmp_path):
-    """A user's scene (its reference must be rendered): serially and with ``--dask local``, the
-    same reference file, exit status and verdicts."""
-    pytest.importorskip("mitsuba")
+def _serial_and_cluster(tmp_path, arguments):
+    """``mitsuba-refs ARGUMENTS`` on a copy of the Cornell box (a user's scene: its reference
+    must be rendered), serially and with ``--dask local``, each with a cache of its own: the
+    same exit status and the same reference file, byte for byte. Returns both JSON records."""
     scene = tmp_path / "box.xml"
     scene.write_text(resolve_scene("cornell-box").read_text())
     runs = {}
@@ -236,17 +234,26 @@ def test_compare_through_a_local_cluster_gives_the_serial_verdicts(tmp_path):
         folder.mkdir()
         env = _env(MITSUBA_REFS_CACHE=str(folder / "cache"), MITSUBA_REFS_VARIANT="scalar_rgb")
         runs[name] = subprocess.run(
-            [sys.executable, "-m", "mitsuba_refs.cli.main", "compare", str(scene), "-D",
-             "width=32", "-D", "height=32", "--no-convergence", "--spp", "16", "--out", "out",
-             "--json", "results.json", *extra], cwd=folder, env=env, capture_output=True,
-            text=True, timeout=300)
+            [sys.executable, "-m", "mitsuba_refs", arguments[0], str(scene), *arguments[1:],
+             "--out", "out", "--json", "results.json", *extra], cwd=folder, env=env,
+            capture_output=True, text=True, timeout=300)
         assert runs[name].returncode in (0, 1), runs[name].stderr
     assert runs["serial"].returncode == runs["cluster"].returncode
-    assert _verdicts(tmp_path / "serial" / "results.json") == \
-        _verdicts(tmp_path / "cluster" / "results.json")
     exr = {name: list((tmp_path / name / "cache").glob("*.exr")) for name in runs}
     assert len(exr["serial"]) == len(exr["cluster"]) == 1
     assert exr["serial"][0].read_bytes() == exr["cluster"][0].read_bytes()
+    return tuple(_verdicts(tmp_path / name / "results.json") for name in runs)
+
+
+@pytest.mark.mitsuba
+@pytest.mark.slow
+def test_compare_through_a_local_cluster_gives_the_serial_verdicts(tmp_path):
+    """``compare`` of a user's scene: serially and with ``--dask local``, the same reference
+    file, exit status and verdicts."""
+    pytest.importorskip("mitsuba")
+    serial, cluster = _serial_and_cluster(tmp_path, ["compare", "-D", "width=32", "-D", "height=32",
+                                                     "--no-convergence", "--spp", "16"])
+    assert serial == cluster
 
 
 @pytest.mark.mitsuba
@@ -256,31 +263,16 @@ def test_check_through_a_local_cluster_gives_the_serial_verdicts(tmp_path):
     user's scene: serially and with ``--dask local``, the same reference file, exit status and
     verdicts (the runs' seeds do not depend on where the reference was rendered)."""
     pytest.importorskip("mitsuba")
-    scene = tmp_path / "box.xml"
-    scene.write_text(resolve_scene("cornell-box").read_text())
     command = (f"{sys.executable} -m pathtracer render {{scene}} --resolution {{width}}x{{height}} "
                "--spp {spp} --seed {seed} --max-depth {max_depth} -o {out}")
-    runs = {}
-    for name, extra in (("serial", []), ("cluster", ["--dask", "local"])):
-        folder = tmp_path / name
-        folder.mkdir()
-        env = _env(MITSUBA_REFS_CACHE=str(folder / "cache"), MITSUBA_REFS_VARIANT="scalar_rgb")
-        runs[name] = subprocess.run(
-            [sys.executable, "-m", "mitsuba_refs", "check", str(scene), "--resolution", "32x32",
-             "--no-convergence", "--bounces", "never", "--spp", "16", "--jobs", "1", "--out", "out",
-             "--json", "results.json", "--command", command, *extra], cwd=folder, env=env,
-            capture_output=True, text=True, timeout=300)
-        assert runs[name].returncode in (0, 1), runs[name].stderr
-    assert runs["serial"].returncode == runs["cluster"].returncode
-    serial, cluster = (_verdicts(tmp_path / name / "results.json") for name in runs)
+    serial, cluster = _serial_and_cluster(tmp_path, [
+        "check", "--resolution", "32x32", "--no-convergence", "--bounces", "never", "--spp", "16",
+        "--jobs", "1", "--command", command])
     for record in (serial, cluster):      # the runs' commands (paths) and clocks differ
         for result in record["results"]:
             result.pop("runs", None)
             result["notes"] = [note for note in result["notes"] if "CPU-seconds" not in note]
     assert serial == cluster
-    exr = {name: list((tmp_path / name / "cache").glob("*.exr")) for name in runs}
-    assert len(exr["serial"]) == len(exr["cluster"]) == 1
-    assert exr["serial"][0].read_bytes() == exr["cluster"][0].read_bytes()
 
 
 @pytest.mark.mitsuba
