@@ -20,6 +20,8 @@ __all__ = ["look_totals", "alpha_per_look", "round_seed", "merge_moments"]
 
 import numpy as np
 
+from pathtracer.render.moments import merge_statistics
+
 #: Smallest first look: below it a tile of 8x8 pixels holds too few samples for the tile
 #: z test's normal approximation (docs/statistics.md).
 MIN_START_SPP = 4
@@ -79,12 +81,10 @@ def merge_moments(mean_1, var_1, n_1: int, mean_2, var_2, n_2: int):
     Returns
     -------
     mean, variance : ndarray
-        Those of the ``n_1 + n_2`` samples together (exact: Chan's pairwise update).
+        Those of the ``n_1 + n_2`` samples together (exact: Chan's pairwise update,
+        :func:`pathtracer.render.moments.merge_statistics`, on the sums of squared deviations).
     """
     m1, v1, m2, v2 = (np.asarray(x, dtype=np.float64) for x in (mean_1, var_1, mean_2, var_2))
-    n = n_1 + n_2
-    mean = (n_1 * m1 + n_2 * m2) / n
-    spread = (m1 - m2) ** 2 * (n_1 * n_2 / n)
     with np.errstate(invalid="ignore"):          # an infinite variance stays infinite
-        variance = ((n_1 - 1) * v1 + (n_2 - 1) * v2 + spread) / max(n - 1, 1)
-    return mean, variance
+        n, mean, m2_sum = merge_statistics((n_1, m1, v1 * (n_1 - 1)), (n_2, m2, v2 * (n_2 - 1)))
+        return mean, m2_sum / max(n - 1, 1)
