@@ -42,14 +42,14 @@ from ..settings import Settings, settings_of
 from ..stats import MeanTestOptions, VarianceTestOptions, compare_means, compare_variances
 from ..stats.convergence import ConvergenceResult
 from ..stats.detectable import DetectableBias
-from ..stats.mean import VARIANCE_BOUND, MeanAgreement
+from ..stats.mean import MeanAgreement
 from ..stats.variance import TooFewTiles, VarianceAgreement
 from .convergence import CONVERGENCE_LADDER, convergence_ladder, convergence_test, level_replicas
 from .detect import SppChoice, choose_spp, comparison_bound
 from .estimators import BOUNCE_REFERENCE, SAME_ESTIMATOR, SPLATTING, resolved
 from .explain import hints
 from .hooks import RecordingRuns, WithOptions
-from .rounds import MeanRounds, render_until_decided
+from .rounds import MeanRounds, mean_test_keywords, render_until_decided
 from .scenes import default_params, reference_options, render_ours, scene_defaults
 
 __all__ = ["Comparison", "FaultyImages", "compare", "localise_bounce", "write_pictures",
@@ -260,13 +260,8 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         mean, variance, spp, rounds, reference = render_until_decided(
             RecordingRuns(render, runs, "mean"), scene, integrator, params, reference, settings,
             correlation, TEST_SEED, log=log, reference_piece=piece)
-    # Same estimator on both sides: a test-side variance far above the reference's is
-    # itself wrong, so it may not hide a bias (stats.mean.VARIANCE_BOUND).
     mean_test = compare_means(mean, variance, spp, reference.mean, reference.var, reference.n,
-                              alpha=alpha, max_var_ratio=VARIANCE_BOUND if same else None,
-                              image_components=not settings.splatting,
-                              options=MeanTestOptions(pixel_correlation=correlation,
-                                                      same_estimator=settings.heavy_tail_guard))
+                              alpha=alpha, **mean_test_keywords(settings, correlation))
     detectable = comparison_bound(reference, variance, spp, alpha=alpha, same=same,
                                   splats=settings.splatting, guard=settings.heavy_tail_guard)
     variance_test, skipped = None, ""

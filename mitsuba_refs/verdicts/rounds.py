@@ -18,7 +18,7 @@ from ..stats.equivalence import UNDECIDED, ToleranceDecision, decide_tolerance, 
 from ..stats.mean import VARIANCE_BOUND, MeanTestOptions
 from ..stats.sequential import alpha_per_look, look_totals, merge_moments, round_seed
 
-__all__ = ["MeanRounds", "render_until_decided", "OUTCOMES"]
+__all__ = ["MeanRounds", "render_until_decided", "mean_test_keywords", "OUTCOMES"]
 
 #: The most independent pieces (the original included) a reference grows to when its own
 #: noise is what keeps the mean undecided: 4 x 4096 spp.
@@ -87,7 +87,12 @@ class MeanRounds:
                 "reference_pieces": self.reference_pieces}
 
 
-def _options(settings, correlation) -> dict:
+def mean_test_keywords(settings, correlation) -> dict:
+    """The keywords of the comparison's mean test beside its images and alpha
+    (:func:`mitsuba_refs.stats.mean.compare_means`, and the looks' ``decide_tolerance``): the
+    same estimator on both sides bounds the test side's variance (a variance far above the
+    reference's is itself wrong, so it may not hide a bias); splatting renders have no
+    whole-image component; the film's pixel correlation."""
     return {"max_var_ratio": VARIANCE_BOUND if settings.same_estimator else None,
             "image_components": not settings.splatting,
             "options": MeanTestOptions(pixel_correlation=correlation,
@@ -156,7 +161,7 @@ def render_until_decided(render, scene, integrator, params, reference, settings,
         spp = total
         decision = decide_tolerance((mean, variance, spp), (reference.mean, reference.var,
                                     reference.n), tolerance=settings.tolerance / 100.0,
-                                    alpha=alpha_look, **_options(settings, correlation))
+                                    alpha=alpha_look, **mean_test_keywords(settings, correlation))
         seconds = time.perf_counter() - start
         looks.append({"spp": spp, "seconds": round(seconds, 3), "outcome": OUTCOMES[decision.outcome],
                       "rel_bias": decision.rel_bias, "interval": list(decision.interval)})
