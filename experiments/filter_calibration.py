@@ -25,7 +25,7 @@ from mitsuba_refs.stats import MeanTestOptions, VarianceTestOptions, clopper_pea
 from mitsuba_refs.stats.correlation import pixel_correlation
 from mitsuba_refs.stats.simulate import make_scene
 from mitsuba_refs.stats.simulate_filtered import render_filtered
-from mitsuba_refs.verdicts.convergence import convergence_ladder, convergence_test
+from mitsuba_refs.verdicts.convergence import LadderPlan, convergence_ladder, convergence_test
 from pathtracer.sensors.film import ReconstructionFilter
 
 LEVELS = (0.05, 0.2)
@@ -78,7 +78,7 @@ def convergence(kind: str, seeds: int, size: int, n_ref: int) -> None:
             rng = np.random.default_rng([seed, render_seed])
             return render_filtered(scene, rfilter, spp, rng)[0], None
         law, _ = convergence_test("sim", "sim", {}, reference, 0.05, None, render,
-                                  (1, 4, 16, 64), 2)
+                                  LadderPlan((1, 4, 16, 64), 2))
         p_values.append(law.p_value)
         slopes.append(law.slope)
     print(f"{kind}: convergence, ladder {convergence_ladder(reference, (1, 4, 16, 64))},"

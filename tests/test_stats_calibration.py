@@ -270,7 +270,7 @@ def _simulated_convergence(sc, seed, *, replicas=2, equal_work=True):
     drawn from generators keyed by ``seed`` and the render seed."""
     from types import SimpleNamespace
 
-    from mitsuba_refs.verdicts.convergence import convergence_test
+    from mitsuba_refs.verdicts.convergence import LadderPlan, convergence_test
     rm, rv = render_stats(sc, RARE_REF_SPP, 1, np.random.default_rng([seed, 0]))
     reference = SimpleNamespace(mean=rm[0], var=rv[0], n=RARE_REF_SPP)
 
@@ -279,7 +279,7 @@ def _simulated_convergence(sc, seed, *, replicas=2, equal_work=True):
 
     if equal_work:
         law, _ = convergence_test("sim", "sim", {}, reference, 0.05, None, render,
-                                  RARE_LADDER, replicas)
+                                  LadderPlan(RARE_LADDER, replicas))
         return law
     levels = []
     for j, n in enumerate(RARE_LADDER):

@@ -44,7 +44,13 @@ from ..stats.mean import MeanAgreement
 from ..stats.sequential import look_totals
 from ..verdicts.compare import TEST_SEED, Comparison, FaultyImages, compare, concluded
 from ..verdicts.conventions import with_convention
-from ..verdicts.convergence import CONVERGENCE_SEED, ConvergenceParts, convergence_requests, level_replicas
+from ..verdicts.convergence import (
+    CONVERGENCE_SEED,
+    ConvergenceParts,
+    convergence_requests,
+    first_look_replicas,
+    level_replicas,
+)
 from ..verdicts.scenes import default_params, reference_options, scene_defaults
 from .images import ImageError, image_faults, read_image
 from .naming import checked_name, short_name
@@ -216,9 +222,11 @@ def _check_command(scene, template, params, settings: Settings, setup: CommandSe
         # ask for theirs one by one (verdicts.rounds)
         renders.plan([renders.request(settings.spp, TEST_SEED)])
     if settings.convergence:
+        # With a tolerance the ladder's first look needs only part of its renders.
+        first = first_look_replicas(settings.replicas, settings.tolerance is not None)
         renders.plan([renders.request(n, seed, variance=False) for n, seed
-                      in convergence_requests(reference, settings.ladder, settings.replicas)])
-        renders.extend_with(_GrowingLadder(renders, reference, settings.ladder, settings.replicas))
+                      in convergence_requests(reference, settings.ladder, first)])
+        renders.extend_with(_GrowingLadder(renders, reference, settings.ladder, first))
     if template.takes_max_depth:
         renders.plan([renders.request(settings.spp, TEST_SEED + d, d)
                       for d in config.PER_BOUNCE_DEPTHS])
@@ -298,7 +306,8 @@ def run_seeds(settings: Settings, size, per_bounce: bool) -> SeedRule:
 
 
 class _GrowingLadder:
-    """The convergence test's next, doubled batch, for a ladder render nobody planned."""
+    """The convergence test's next batch, for a ladder render nobody planned: as many
+    replicas as the top level has (the rest of the first look's half, then doubling)."""
 
     def __init__(self, renders, reference, ladder, replicas):
         self.renders, self.reference, self.ladder = renders, reference, ladder

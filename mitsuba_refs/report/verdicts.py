@@ -154,7 +154,8 @@ def convergence_entry(result) -> dict:
         "slope_p": law.slope_p, "floor_p": law.floor_p, "floor_detected": law.floor_detected,
         "rmse_exponent": law.slope / 2, "faster_p": law.faster_p, "faster": law.faster,
         "floor_spp": law.floor_spp, "bias_rel": law.bias_rel, "correlated": law.correlated,
-        "ladder": ladder, "levels_used": list(law.levels_used), **levels,
+        "ladder": ladder, "levels_used": list(law.levels_used), "looks": law.looks,
+        "stopped_early": law.stopped_early, **levels,
         "warnings": convergence_warnings(law),
     })
 

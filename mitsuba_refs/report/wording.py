@@ -275,6 +275,17 @@ def _rare_note(law) -> list:
             "level: this verdict is less reliable"]
 
 
+def _looks_note(law) -> list:
+    """How the test looked at the ladder when it did so more than once (``--tolerance``)."""
+    looks = getattr(law, "looks", 1)
+    if looks <= 1:
+        return []
+    if getattr(law, "stopped_early", False):
+        return [f"decided at the first of {looks} looks, after half the ladder's renders "
+                f"(each look at alpha/{looks})"]
+    return [f"{looks} looks, each at alpha/{looks}"]
+
+
 def _fit_warnings(law) -> list:
     """The convergence fit's own warnings (not the caller's rare-paths note)."""
     if law.overflowed:
@@ -343,7 +354,7 @@ def convergence_verdict(law) -> str:
         warnings = _fit_warnings(law)
         if warnings:
             text += " [" + "; ".join(warnings) + "]"
-    return text + "".join(f" [{note}]" for note in _rare_note(law))
+    return text + "".join(f" [{note}]" for note in _rare_note(law) + _looks_note(law))
 
 
 # ---- the bounce sweep ------------------------------------------------------------------------

@@ -236,6 +236,12 @@ class ConvergenceResult:
     rare_replicas : int or None
         Set by the caller: rare bright paths still carried the error with this many
         replicas at the top level (None: they did not).
+    looks : int
+        Set by the caller: how many looks the test had, each at ``alpha`` (already divided
+        among them by the caller); 1 for the fixed-budget test.
+    stopped_early : bool
+        Set by the caller: the law was rejected at a look before the last, and the renders
+        of the later looks were not made.
     """
 
     slope: float
@@ -263,6 +269,8 @@ class ConvergenceResult:
     rare_replicas: int | None = None
     faster_p: float = math.nan
     faster: bool = False
+    looks: int = 1
+    stopped_early: bool = False
 
     def __bool__(self) -> bool:
         return bool(self.passed)

@@ -44,7 +44,7 @@ from ..stats.convergence import ConvergenceResult
 from ..stats.detectable import DetectableBias
 from ..stats.mean import MeanAgreement
 from ..stats.variance import TooFewTiles, VarianceAgreement
-from .convergence import CONVERGENCE_LADDER, convergence_ladder, convergence_test, level_replicas
+from .convergence import CONVERGENCE_LADDER, LadderPlan, convergence_ladder, convergence_test, level_replicas
 from .detect import SppChoice, choose_spp, comparison_bound
 from .estimators import BOUNCE_REFERENCE, SAME_ESTIMATOR, SPLATTING, resolved
 from .explain import hints
@@ -278,7 +278,7 @@ def compare(scene: str, integrator="path", params: dict | None = None,
         progress = ladder_progress(settings) if log and ours else None
         law, mse = convergence_test(scene, integrator, params, reference, alpha, settings.processes,
                                     RecordingRuns(render, runs, "convergence", progress),
-                                    settings.ladder, settings.replicas, settings.max_growth)
+                                    LadderPlan.of(settings))
         if progress is not None:
             progress.close()
         ladder = convergence_ladder(reference, settings.ladder)

@@ -25,7 +25,7 @@ from .scenes import default_params, reference_options, render_ours
 __all__ = ["CONVERGENCE_LADDER", "CONVERGENCE_REPLICAS", "CONVERGENCE_MAX_GROWTH",
            "CONVERGENCE_SEED", "INTERLEAVE", "FILTERED_MIN_SPP", "BLOCKS", "check_convergence",
            "convergence_seed", "convergence_requests", "level_replicas", "convergence_ladder",
-           "ConvergenceParts", "convergence_test"]
+           "ConvergenceParts", "LadderPlan", "LadderRenders", "first_look_replicas", "convergence_test"]
 
 #: spp ladder of the convergence test and its replicas at the top level (defined in config,
 #: so that the command line's parser does not import the statistics).
@@ -72,8 +72,7 @@ def check_convergence(scene: str, integrator="path", params: dict | None = None,
     if settings.resolution is not None:
         render = WithOptions(render, {"resolution": tuple(settings.resolution)})
     return convergence_test(scene, integrator, params, reference, settings.alpha,
-                            settings.processes, render, settings.ladder, settings.replicas,
-                            settings.max_growth)
+                            settings.processes, render, LadderPlan.of(settings))
 
 
 def convergence_seed(level: int, replica: int) -> int:
@@ -190,35 +189,109 @@ class ConvergenceParts:
         return law, mse
 
 
+class LadderRenders:
+    """The convergence renders made so far and their MSEs, grown a batch of replicas at a time.
+
+    Attributes
+    ----------
+    mse : list of list
+        Per ladder level, one MSE per render and part (:meth:`ConvergenceParts.mse`).
+    lowest_image_mse : list
+        The whole image's MSE of every render at the lowest level (the rare-paths rule).
+    top : int
+        Replicas rendered at the top level so far (the levels below: ``level_replicas``).
+    """
+
+    def __init__(self, parts: ConvergenceParts, render_mean, scene, integrator, params, processes):
+        self.parts, self.render_mean, self.processes = parts, render_mean, processes
+        self.what = (scene, integrator, params)
+        self.mse = [[] for _ in parts.ladder]
+        self.lowest_image_mse = []
+        self.top = 0
+
+    def grow(self, top: int) -> None:
+        """Render the replicas that take the top level from ``self.top`` to ``top``."""
+        ladder = self.parts.ladder
+        done, wanted = level_replicas(ladder, self.top), level_replicas(ladder, top)
+        for j, n in enumerate(ladder):
+            for k in range(done[j], wanted[j]):
+                test_mean = self.render_mean(*self.what, n, convergence_seed(j, k),
+                                             processes=self.processes)
+                self.mse[j] += self.parts.mse(test_mean)
+                if j == 0:
+                    self.lowest_image_mse += self.parts.image_mse(test_mean)
+        self.top = top
+
+    @property
+    def rare(self) -> bool:
+        """Whether a few renders carry the lowest level's mean MSE (rare bright paths)."""
+        return rare_errors_dominate(self.lowest_image_mse)
+
+
+@dataclass(frozen=True)
+class LadderPlan:
+    """What the convergence test renders and how often it looks.
+
+    Attributes
+    ----------
+    ladder : tuple of int
+        The spp levels (:func:`convergence_ladder` may drop the lowest for a filtered film).
+    replicas : int
+        Independent renders at the top level (as many samples at every level).
+    max_growth : int
+        The replicas double while rare bright paths carry the error, up to this many times.
+    early_stop : bool
+        Two looks (compare with a tolerance), the first after half the replicas.
+    """
+
+    ladder: tuple = CONVERGENCE_LADDER
+    replicas: int = CONVERGENCE_REPLICAS
+    max_growth: int = CONVERGENCE_MAX_GROWTH
+    early_stop: bool = False
+
+    @classmethod
+    def of(cls, settings: Settings) -> LadderPlan:
+        """The plan of ``settings``: its ladder, replicas and growth; two looks with a tolerance."""
+        return cls(tuple(settings.ladder), settings.replicas, settings.max_growth,
+                   settings.tolerance is not None)
+
+
+def first_look_replicas(replicas: int, early_stop: bool) -> int:
+    """Top-level replicas before the convergence test's first look: half of ``replicas`` (at
+    least one) with ``early_stop``, else all of them (one look)."""
+    return max(1, replicas // 2) if early_stop else replicas
+
+
 def convergence_test(scene, integrator, params, reference, alpha, processes, render,
-                     ladder=CONVERGENCE_LADDER, replicas=CONVERGENCE_REPLICAS,
-                     max_growth=CONVERGENCE_MAX_GROWTH):
+                     plan: LadderPlan = LadderPlan()):
     """MSE(N) over the ladder with equal work per level, then the convergence law.
 
-    Starts with ``replicas`` renders at the top level and doubles the renders of every
-    level while a few renders carry the lowest level's mean MSE, at most ``max_growth``-fold.
+    Starts with ``plan.replicas`` renders at the top level and doubles the renders of every
+    level while a few renders carry the lowest level's mean MSE, at most
+    ``plan.max_growth``-fold. With ``plan.early_stop`` (compare with a tolerance:
+    docs/statistics.md, section 9) the test
+    looks twice, each look at ``alpha / 2`` (Bonferroni): first after half the top-level
+    replicas, where a law already rejected (a clear bias floor, an error that does not fall)
+    ends the test unless rare bright paths carry the error, then as without it.
+
     Returns the :class:`ConvergenceResult` and the MSEs:
     one array per level, with one value per render and sub-lattice; for a tent or gaussian
     film a (blocks, levels) table of each block's mean MSE.
     """
-    parts = ConvergenceParts.of(reference, ladder)
-    ladder = parts.ladder
-    render_mean = getattr(render, "render_mean", None) or mean_of(render)
-    mse = [[] for _ in ladder]
-    lowest_image_mse = []
-    top, batch = 0, replicas
-    while True:
-        done, wanted = level_replicas(ladder, top), level_replicas(ladder, top + batch)
-        for j, n in enumerate(ladder):
-            for k in range(done[j], wanted[j]):
-                test_mean = render_mean(scene, integrator, params, n, convergence_seed(j, k),
-                                        processes=processes)
-                mse[j] += parts.mse(test_mean)
-                if j == 0:
-                    lowest_image_mse += parts.image_mse(test_mean)
-        top += batch
-        rare = rare_errors_dominate(lowest_image_mse)
-        if not rare or top >= replicas * max_growth:
-            break
-        batch = top
-    return parts.verdict(mse, reference, alpha, rare, top)
+    parts = ConvergenceParts.of(reference, plan.ladder)
+    replicas = plan.replicas
+    renders = LadderRenders(parts, getattr(render, "render_mean", None) or mean_of(render),
+                            scene, integrator, params, processes)
+    first = first_look_replicas(replicas, plan.early_stop)
+    looks = 2 if first < replicas else 1
+    alpha_look = alpha / looks
+    renders.grow(first)
+    if looks == 2:
+        law, table = parts.verdict(renders.mse, reference, alpha_look)
+        if not law.passed and not renders.rare:
+            return dataclasses.replace(law, looks=looks, stopped_early=True), table
+        renders.grow(replicas)
+    while renders.rare and renders.top < replicas * plan.max_growth:
+        renders.grow(2 * renders.top)
+    law, table = parts.verdict(renders.mse, reference, alpha_look, renders.rare, renders.top)
+    return dataclasses.replace(law, looks=looks), table
