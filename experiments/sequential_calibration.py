@@ -57,16 +57,19 @@ class Synthetic:
 
 
 def judge_run(render, reference, totals, tolerance, levels, factor):
-    """One run: every look at every level, and today's fixed-budget test at the last total."""
+    """One run: every look at every level, and today's fixed-budget test at the last total.
+
+    ``render(n, index)`` returns the round's mean, variance and render seconds; a look's
+    seconds are the rounds' render seconds so far (the judging is left out, as it judges
+    every level)."""
     mean = variance = None
-    spp, start, looks = 0, time.perf_counter(), []
+    spp, seconds, looks = 0, 0.0, []
     for index, total in enumerate(totals):
-        m, v = render(total - spp, index)
+        m, v, round_seconds = render(total - spp, index)
         m, v = m * factor, v * factor ** 2
         mean, variance = (m, v) if mean is None else merge_moments(mean, variance, spp, m, v,
                                                                    total - spp)
-        spp = total
-        seconds = time.perf_counter() - start
+        spp, seconds = total, seconds + round_seconds
         outcomes = {}
         for level in levels:
             decision = decide_tolerance((mean, variance, spp), reference, tolerance=tolerance,
@@ -119,7 +122,7 @@ def simulate(args):
         for run in range(args.runs):
             rng = np.random.default_rng([args.seed, run, int(round(bias * 1e4)) % 2 ** 31])
             reference = (*model.render(4096, rng), 4096)
-            runs.append(judge_run(lambda n, _i: model.render(n, rng), reference, totals,
+            runs.append(judge_run(lambda n, _i: (*model.render(n, rng), 0.0), reference, totals,
                                   args.tolerance, LEVELS, 1.0 + bias))
         scenarios[f"{bias:+g}"] = {"summary": summary(runs, LEVELS, bias, args.tolerance),
                                    "runs": runs}
@@ -135,14 +138,19 @@ def real(args):
     ref = get_reference(args.scene, params, "path", resolution=resolution)
     reference = (ref.mean, ref.var, ref.n)
     totals = look_totals(args.max_spp)
+    rendered = {}    # (run, round) -> mean, variance, seconds: every bias scales the same renders
     scenarios = {}
     for bias in args.biases:
         runs = []
         for run in range(args.runs):
             def render(n, index, run=run):
-                seed = 50_000 + 1000 * run + 100 * index
-                return render_ours(args.scene, "path", params, n, seed, processes=1,
-                                   resolution=resolution)
+                if (run, index) not in rendered:
+                    start = time.perf_counter()
+                    seed = 50_000 + 1000 * run + 100 * index
+                    images = render_ours(args.scene, "path", params, n, seed, processes=1,
+                                         resolution=resolution)
+                    rendered[run, index] = (*images, time.perf_counter() - start)
+                return rendered[run, index]
             runs.append(judge_run(render, reference, totals, args.tolerance, LEVELS, 1.0 + bias))
         scenarios[f"{bias:+g}"] = {"summary": summary(runs, LEVELS, bias, args.tolerance),
                                    "runs": runs}
