@@ -163,6 +163,24 @@ def test_check_of_mitsuba_three_percent_too_bright_decides_by_the_tolerance(tmp_
 
 @pytest.mark.mitsuba
 @pytest.mark.statistical(assertions=1)
+def test_check_of_mitsuba_itself_agrees_within_two_percent(tmp_path):
+    status, record, text = _check(1.0, 2, 512, tmp_path)
+    assert status == 0 and record["outcome"] == "AGREES", text
+    low, high = record["verdicts"]["mean"]["rounds"]["interval"]
+    assert -0.02 < low <= high < 0.02
+
+
+@pytest.mark.mitsuba
+@pytest.mark.statistical(assertions=1)
+def test_check_of_mitsuba_twenty_percent_too_bright_is_told_in_the_first_round(tmp_path):
+    status, record, text = _check(1.2, 2, 64, tmp_path)
+    assert status == 1 and record["outcome"] == "DISAGREES", text
+    looks = record["verdicts"]["mean"]["rounds"]["looks"]
+    assert [look["spp"] for look in looks] == [4]      # 1/16 of 64 spp
+
+
+@pytest.mark.mitsuba
+@pytest.mark.statistical(assertions=1)
 def test_check_with_an_unreachable_tolerance_exits_inconclusive(tmp_path):
     status, record, text = _check(1.0, 0.1, 8, tmp_path)
     assert status == EXIT_INCONCLUSIVE and record["outcome"] == "INCONCLUSIVE", text
