@@ -144,7 +144,7 @@ def main(argv=None) -> None:
     parser.add_argument("--biases", type=lambda t: [float(x) for x in t.split(",")],
                         default=[0.0, 0.05, 0.1, 0.2])
     parser.add_argument("--levels", type=lambda t: [float(x) for x in t.split(",")],
-                        default=[0.05], help="real: the levels judged (each renders again)")
+                        default=[0.05], help="real: the levels judged (on the same renders)")
     parser.add_argument("--scene", default="cornell-box")
     parser.add_argument("--resolution", default="16x16")
     parser.add_argument("--seed", type=int, default=20261205)

@@ -27,10 +27,11 @@ from pathlib import Path
 import numpy as np
 
 from mitsuba_refs.reference.cache import get_reference
-from mitsuba_refs.stats import clopper_pearson
+from mitsuba_refs.stats import clopper_pearson, compare_variances
 from mitsuba_refs.stats.equivalence import UNDECIDED, decide_tolerance
 from mitsuba_refs.stats.mean import VARIANCE_BOUND, MeanTestOptions, compare_means
 from mitsuba_refs.stats.sequential import alpha_per_look, look_totals, merge_moments
+from mitsuba_refs.stats.variance import TooFewTiles
 from mitsuba_refs.verdicts.scenes import default_params, render_ours
 
 from .bench import cpu_name
@@ -76,7 +77,8 @@ def judge_run(render, reference, totals, tolerance, levels, factor):
                                         alpha=alpha_per_look(level, len(totals)),
                                         max_var_ratio=VARIANCE_BOUND, options=OPTIONS)
             outcomes[str(level)] = decision.outcome
-        looks.append({"spp": spp, "seconds": seconds, "outcomes": outcomes})
+        looks.append({"spp": spp, "seconds": seconds, "outcomes": outcomes,
+                      "variance_p": variance_p(mean, variance, spp, reference)})
     today = {str(level): bool(compare_means(mean, variance, spp, *reference, alpha=level,
                                             max_var_ratio=VARIANCE_BOUND, options=OPTIONS).agree)
              for level in levels}
@@ -84,9 +86,20 @@ def judge_run(render, reference, totals, tolerance, levels, factor):
     for level in levels:
         first = next((look for look in looks if look["outcomes"][str(level)] != UNDECIDED), looks[-1])
         verdicts[str(level)] = {"outcome": first["outcomes"][str(level)], "spp": first["spp"],
-                                "seconds": round(first["seconds"], 4)}
+                                "seconds": round(first["seconds"], 4),
+                                "variance_agrees": first["variance_p"] > level}
     return {"verdicts": verdicts, "today_agrees": today,
             "today_seconds": round(looks[-1]["seconds"], 4)}
+
+
+def variance_p(mean, variance, spp, reference) -> float:
+    """The variance verdict's p at a look (compare judges it on the look that stopped); 1 when
+    the image has too few noisy tiles to test (compare then skips it)."""
+    try:
+        return float(compare_variances(variance, spp, reference[1], reference[2], alpha=0.05,
+                                       mean_a=mean, mean_b=reference[0]).p_value)
+    except TooFewTiles:
+        return 1.0
 
 
 def summary(runs, levels, bias, tolerance):
@@ -102,6 +115,11 @@ def summary(runs, levels, bias, tolerance):
             row[name] = {"count": k, "rate": k / n, "ci95": clopper_pearson(k, n)}
         today_k = sum(not run["today_agrees"][key] for run in runs)
         row["today_disagrees"] = {"count": today_k, "rate": today_k / n}
+        # compare's outcome: DISAGREES also when the variance verdict fails at the stopping look
+        combined = sum(run["verdicts"][key]["outcome"] == "disagrees"
+                       or not run["verdicts"][key]["variance_agrees"] for run in runs)
+        row["disagrees_with_variance"] = {"count": combined, "rate": combined / n,
+                                          "ci95": clopper_pearson(combined, n)}
         decided = [run["verdicts"][key]["spp"] for run in runs
                    if run["verdicts"][key]["outcome"] != "undecided"]
         row["median_spp_decided"] = float(np.median(decided)) if decided else None
