@@ -269,10 +269,10 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
     Starts with ``plan.replicas`` renders at the top level and doubles the renders of every
     level while a few renders carry the lowest level's mean MSE, at most
     ``plan.max_growth``-fold. With ``plan.early_stop`` (compare with a tolerance:
-    docs/statistics.md, section 9) the test
-    looks twice, each look at ``alpha / 2`` (Bonferroni): first after half the top-level
-    replicas, where a law already rejected (a clear bias floor, an error that does not fall)
-    ends the test unless rare bright paths carry the error, then as without it.
+    docs/statistics.md, section 9) the test looks twice, each look at ``alpha / 2``
+    (Bonferroni): first after half the top-level replicas, where a law already rejected (a
+    clear bias floor, an error that does not fall) ends the test unless rare bright paths
+    carry the error, then as without it.
 
     Returns the :class:`ConvergenceResult` and the MSEs:
     one array per level, with one value per render and sub-lattice; for a tent or gaussian
