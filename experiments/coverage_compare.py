@@ -40,8 +40,9 @@ def decision_of(results_json: str) -> dict:
     """From compare's ``--json`` file: ``outcome``, ``spp`` (of the mean render, with rounds the
     last look's), ``rounds`` (looks judged; 1 without ``--tolerance``), ``stopped_by``,
     ``spp_needed`` (undecided: the spp that would decide, None if none would),
-    ``reference_pieces`` and the status of each verdict. Empty when the file is missing or
-    unreadable (a refused scene writes none)."""
+    ``reference_limited`` (undecided for the reference's own noise), ``reference_pieces``
+    and the status of each verdict. Empty when the file is missing or unreadable (a refused
+    scene writes none)."""
     try:
         with open(results_json) as f:
             record = json.load(f)["results"][0]
@@ -55,6 +56,7 @@ def decision_of(results_json: str) -> dict:
             "rounds": len(looks) if looks else 1,
             "stopped_by": rounds.get("stopped_by"),
             "spp_needed": rounds.get("spp_needed"),
+            "reference_limited": rounds.get("reference_limited", False),
             "reference_pieces": rounds.get("reference_pieces", 1),
             "statuses": {name: (entry or {}).get("status") for name, entry in verdicts.items()
                          if name != "bounces"}}
