@@ -39,6 +39,7 @@ def compare_command(path: str, integrator: str, resolution: str, convergence: bo
 def decision_of(results_json: str) -> dict:
     """From compare's ``--json`` file: ``outcome``, ``spp`` (of the mean render, with rounds the
     last look's), ``rounds`` (looks judged; 1 without ``--tolerance``), ``stopped_by``,
+    ``interval`` (the last look's of the relative bias; None without ``--tolerance``),
     ``spp_needed`` (undecided: the spp that would decide, None if none would),
     ``reference_limited`` (undecided for the reference's own noise), ``reference_pieces``
     and the status of each verdict. Empty when the file is missing or unreadable (a refused
@@ -55,6 +56,7 @@ def decision_of(results_json: str) -> dict:
             "spp": looks[-1]["spp"] if looks else record.get("spp"),
             "rounds": len(looks) if looks else 1,
             "stopped_by": rounds.get("stopped_by"),
+            "interval": rounds.get("interval"),
             "spp_needed": rounds.get("spp_needed"),
             "reference_limited": rounds.get("reference_limited", False),
             "reference_pieces": rounds.get("reference_pieces", 1),

@@ -127,6 +127,7 @@ def results_file(outcome: str, spp: int, looks: list[int] | None, spp_needed=Non
     mean = {"status": outcome.lower()}
     if looks is not None:
         mean["rounds"] = {"looks": [{"spp": n} for n in looks], "stopped_by": "spp",
+                          "interval": [-0.01, 0.03],
                           "spp_needed": spp_needed, "reference_pieces": 1}
     return {"results": [{"outcome": outcome, "spp": spp,
                          "verdicts": {"mean": mean, "variance": {"status": "agree"},
@@ -169,6 +170,7 @@ def test_tolerance_options_reach_compare_and_exit_3_is_inconclusive(folder, tmp_
     assert record["verdict"] == "inconclusive" and record["outcome"] == "INCONCLUSIVE"
     assert (record["spp"], record["rounds"], record["spp_needed"]) == (256, 5, 1024.0)
     assert record["tolerance"] == 2 and record["max_spp"] == 256
+    assert record["stopped_by"] == "spp" and record["interval"] == [-0.01, 0.03]
     assert record["statuses"]["variance"] == "agree"
     assert "- ok.xml: inconclusive (+-2 %) at 256 spp, 5 rounds" in capsys.readouterr().out
 
