@@ -41,9 +41,9 @@ def decision_of(results_json: str) -> dict:
     last look's), ``rounds`` (looks judged; 1 without ``--tolerance``), ``stopped_by``,
     ``interval`` (the last look's of the relative bias; None without ``--tolerance``),
     ``spp_needed`` (undecided: the spp that would decide, None if none would),
-    ``reference_limited`` (undecided for the reference's own noise), ``reference_pieces``
-    and the status of each verdict. Empty when the file is missing or unreadable (a refused
-    scene writes none)."""
+    ``reference_limited`` (undecided for the reference's own noise), ``reference_pieces``,
+    ``render_seconds`` (:func:`render_seconds`) and the status of each verdict. Empty when
+    the file is missing or unreadable (a refused scene writes none)."""
     try:
         with open(results_json) as f:
             record = json.load(f)["results"][0]
@@ -60,8 +60,21 @@ def decision_of(results_json: str) -> dict:
             "spp_needed": rounds.get("spp_needed"),
             "reference_limited": rounds.get("reference_limited", False),
             "reference_pieces": rounds.get("reference_pieces", 1),
+            "render_seconds": render_seconds(record.get("runs") or []),
             "statuses": {name: (entry or {}).get("status") for name, entry in verdicts.items()
                          if name != "bounces"}}
+
+
+def render_seconds(runs: list) -> dict:
+    """Seconds of the test side's renders by purpose (the mean-and-variance renders, the
+    convergence ladder, ...), from compare's ``runs``: where a compare's time goes beside
+    the fixed cost of starting, loading the scene and reading the reference."""
+    by_purpose: dict[str, float] = {}
+    for run in runs:
+        if isinstance(run, dict) and isinstance(run.get("seconds"), (int, float)):
+            purpose = str(run.get("purpose", "other"))
+            by_purpose[purpose] = round(by_purpose.get(purpose, 0.0) + run["seconds"], 2)
+    return by_purpose
 
 
 def summary_line(text: str) -> str:

@@ -1,0 +1,152 @@
+"""Samples and seconds to a decision on the users' scenes: today's fixed-budget compare against
+``--tolerance`` rounds, file by file, back to back (issue 42's measurement).
+
+    python -m experiments.sequential_coverage DIR --resume COVERAGE.json --files LIST
+        --work FOLDER [--repeat N] [--tolerance 2] [--max-spp 256] --out RAW.json
+    python -m experiments.sequential_coverage --table RAW.json
+
+``LIST`` holds one file of ``DIR`` a line (a path relative to ``DIR``, as the coverage run's
+JSON names it). For each repetition and each file, four compares run one after the other,
+each as ``python -m experiments.scene_coverage DIR --compare --compare-only FILE --resume ...``
+(the coverage run's own command, so its classes are kept and nothing is loaded again):
+``today`` (fixed 64 spp, convergence test included), ``rounds`` (``--tolerance T --max-spp
+N``), and both again with ``--no-convergence``. ``COVERAGE.json`` is an earlier coverage run
+whose compare records were removed (otherwise ``--resume`` keeps them and compares nothing).
+Every compare record goes into ``RAW.json``; ``--table`` prints the Markdown table of
+docs/statistics.md section 9 from it (median seconds over the repetitions).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+
+#: The four compares of a file: name -> scene_coverage options (fixed 64 spp is compare's default).
+PASSES = {"today": [], "rounds": ["ROUNDS"], "today-nc": ["--no-convergence"],
+          "rounds-nc": ["--no-convergence", "ROUNDS"]}
+
+
+def pass_options(name: str, tolerance: float, max_spp: int) -> list[str]:
+    """scene_coverage's options for the compare ``name`` of :data:`PASSES`."""
+    rounds = ["--tolerance", str(tolerance), "--max-spp", str(max_spp)]
+    return [part for option in PASSES[name] for part in (rounds if option == "ROUNDS" else [option])]
+
+
+def run_pass(folder: str, file: str, name: str, work: str, resume: str, args) -> dict:
+    """One compare of ``file`` through scene_coverage; its compare record."""
+    state = os.path.join(work, f"{args.repetition}-{name}.json")
+    command = [sys.executable, "-m", "experiments.scene_coverage", folder, "--no-mitsuba",
+               "--quiet", "--compare", "--compare-only", file,
+               "--resume", state if os.path.exists(state) else resume, "--json", state + ".new",
+               "--compare-timeout", str(args.compare_timeout),
+               *pass_options(name, args.tolerance, args.max_spp)]
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    os.replace(state + ".new", state)
+    return record_of(state, file)
+
+
+def record_of(state: str, file: str) -> dict:
+    """The compare record of ``file`` in a coverage run's JSON ``state``."""
+    with open(state) as f:
+        return next(entry["compare"] for entry in json.load(f)["files"] if entry["file"] == file)
+
+
+def measure(args) -> dict:
+    """Every repetition's four compares of every file, written to ``args.out`` as they come."""
+    with open(args.files) as f:
+        files = [line.split()[0] for line in f if line.strip()]
+    os.makedirs(args.work, exist_ok=True)
+    raw = {"folder": args.folder, "tolerance": args.tolerance, "max_spp": args.max_spp,
+           "cpu": args.cpu, "runs": []}
+    for repetition in range(1, args.repeat + 1):
+        args.repetition = repetition
+        for file in files:
+            for name in PASSES:
+                record = run_pass(args.folder, file, name, args.work, args.resume, args)
+                raw["runs"].append({"repetition": repetition, "file": file, "pass": name,
+                                    "record": record})
+                print(f"{repetition} {name} {file}: {record['verdict']} {record.get('spp')} spp "
+                      f"{record['seconds']} s", file=sys.stderr, flush=True)
+                with open(args.out, "w") as f:
+                    json.dump(raw, f, indent=1)
+    return raw
+
+
+def outcome(record: dict) -> str:
+    """The record's verdict, with the spp where the rounds stopped."""
+    if record.get("tolerance") is None:
+        return record["verdict"]
+    return f"{record['verdict']} at {record.get('spp')}"
+
+
+def table(raw: dict) -> str:
+    """Per file: each compare's outcome and median seconds; then the decided counts and the
+    median ratio of seconds (rounds / today) with and without the convergence test."""
+    by = {}
+    for run in raw["runs"]:
+        by.setdefault(run["file"], {}).setdefault(run["pass"], []).append(run["record"])
+    lines = ["| file | integrator | today: outcome, s | rounds: outcome, spp, s | "
+             "today, no conv.: outcome, s | rounds, no conv.: outcome, spp, s |",
+             "|---|---|---|---|---|---|"]
+    ratios = {"": [], "-nc": []}
+    for file, passes in by.items():
+        cells = []
+        for name in PASSES:
+            records = passes[name]
+            seconds = statistics.median(r["seconds"] for r in records)
+            verdicts = sorted({outcome(r) for r in records})
+            cells.append(f"{' / '.join(verdicts)}, {seconds:.1f}")
+        for suffix in ratios:
+            ratios[suffix].append(statistics.median(r["seconds"] for r in passes["rounds" + suffix])
+                                  / statistics.median(r["seconds"] for r in passes["today" + suffix]))
+        lines.append(f"| {os.path.basename(file)} | {passes['today'][0]['integrator']} | "
+                     + " | ".join(cells) + " |")
+    lines.append("")
+    for suffix, label in (("", "with convergence"), ("-nc", "without convergence")):
+        records = [r for run in raw["runs"] if run["pass"] == "rounds" + suffix
+                   for r in [run["record"]]]
+        decided = sum(r["verdict"] in ("agrees", "disagrees") for r in records)
+        lines.append(f"{label}: rounds decided {decided} of {len(records)} compares; median "
+                     f"seconds ratio rounds / today {statistics.median(ratios[suffix]):.2f} "
+                     f"(per file, median over repetitions)")
+    return "\n".join(lines)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line of the script."""
+    p = argparse.ArgumentParser(prog="python -m experiments.sequential_coverage",
+                                description=__doc__.split("\n\n")[0])
+    p.add_argument("folder", metavar="DIR", nargs="?", help="the coverage run's folder")
+    p.add_argument("--table", metavar="RAW", help="print the table of an earlier run's RAW.json")
+    p.add_argument("--resume", help="coverage run JSON without compare records")
+    p.add_argument("--files", help="the files to compare, one a line (relative to DIR)")
+    p.add_argument("--work", help="folder of the four coverage JSONs of each repetition")
+    p.add_argument("--out", help="the raw runs' JSON")
+    p.add_argument("--repeat", type=int, default=1, help="repetitions (default 1)")
+    p.add_argument("--tolerance", type=float, default=2.0, help="--tolerance (default 2)")
+    p.add_argument("--max-spp", type=int, default=256, help="--max-spp (default 256)")
+    p.add_argument("--compare-timeout", type=float, default=900.0, help="seconds per compare")
+    p.add_argument("--cpu", default="", help="the CPU, recorded in RAW.json")
+    return p
+
+
+def main(argv=None) -> int:
+    """Measure (or ``--table``: tabulate an earlier run); 2 when a path to measure is missing."""
+    args = build_parser().parse_args(argv)
+    if args.table:
+        with open(args.table) as f:
+            print(table(json.load(f)))
+        return 0
+    missing = [name for name in ("folder", "resume", "files", "work", "out") if not getattr(args, name)]
+    if missing:
+        print(f"error: measuring needs {', '.join(missing)} (or --table RAW)", file=sys.stderr)
+        return 2
+    print(table(measure(args)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
