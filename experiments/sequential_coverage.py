@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -82,36 +83,68 @@ def outcome(record: dict) -> str:
     return f"{record['verdict']} at {record.get('spp')}"
 
 
-def table(raw: dict) -> str:
-    """Per file: each compare's outcome and median seconds; then the decided counts and the
-    median ratio of seconds (rounds / today) with and without the convergence test."""
-    by = {}
+def median_seconds(records: list[dict], key=lambda record: record["seconds"]) -> float:
+    """The median over the repetitions of ``key`` (the whole compare's seconds by default)."""
+    return statistics.median(key(record) for record in records)
+
+
+def by_file(raw: dict) -> dict:
+    """file -> pass -> the records of the repetitions, in the order of the run (files with
+    all four compares)."""
+    table: dict = {}
     for run in raw["runs"]:
-        by.setdefault(run["file"], {}).setdefault(run["pass"], []).append(run["record"])
-    lines = ["| file | integrator | today: outcome, s | rounds: outcome, spp, s | "
-             "today, no conv.: outcome, s | rounds, no conv.: outcome, spp, s |",
+        table.setdefault(run["file"], {}).setdefault(run["pass"], []).append(run["record"])
+    # A run still going (or stopped) may hold a file without all its compares: left out.
+    return {file: passes for file, passes in table.items() if set(passes) == set(PASSES)}
+
+
+def undecided_note(file: str, record: dict) -> str:
+    """What a compare left INCONCLUSIVE says would decide (compare's own verdict line)."""
+    low, high = (100 * x for x in record.get("interval") or (float("nan"),) * 2)
+    if record.get("reference_limited"):
+        cure = "the reference's own noise keeps it undecided: a longer reference would decide"
+    elif record.get("spp_needed"):
+        cure = f"about --max-spp {2 ** math.ceil(math.log2(record['spp_needed']))} would decide"
+    else:
+        cure = "the observed bias sits at the tolerance"
+    return f"- {os.path.basename(file)}: interval [{low:+.2f} %, {high:+.2f} %] at {record['spp']} spp; {cure}"
+
+
+def table(raw: dict) -> str:
+    """Per file: each compare's outcome and median seconds; then the decided counts, the
+    median ratio of seconds (rounds / today) with and without the convergence test, where
+    the seconds go, and what would decide the undecided files."""
+    files = by_file(raw)
+    lines = ["| file | integrator | today: outcome, s | rounds: outcome at spp, s | "
+             "today, no conv.: outcome, s | rounds, no conv.: outcome at spp, s |",
              "|---|---|---|---|---|---|"]
-    ratios = {"": [], "-nc": []}
-    for file, passes in by.items():
-        cells = []
-        for name in PASSES:
-            records = passes[name]
-            seconds = statistics.median(r["seconds"] for r in records)
-            verdicts = sorted({outcome(r) for r in records})
-            cells.append(f"{' / '.join(verdicts)}, {seconds:.1f}")
-        for suffix in ratios:
-            ratios[suffix].append(statistics.median(r["seconds"] for r in passes["rounds" + suffix])
-                                  / statistics.median(r["seconds"] for r in passes["today" + suffix]))
+    for file, passes in files.items():
+        cells = [f"{' / '.join(sorted({outcome(r) for r in passes[name]}))}, "
+                 f"{median_seconds(passes[name]):.1f}" for name in PASSES]
         lines.append(f"| {os.path.basename(file)} | {passes['today'][0]['integrator']} | "
                      + " | ".join(cells) + " |")
     lines.append("")
     for suffix, label in (("", "with convergence"), ("-nc", "without convergence")):
-        records = [r for run in raw["runs"] if run["pass"] == "rounds" + suffix
-                   for r in [run["record"]]]
+        records = [r for passes in files.values() for r in passes["rounds" + suffix]]
         decided = sum(r["verdict"] in ("agrees", "disagrees") for r in records)
-        lines.append(f"{label}: rounds decided {decided} of {len(records)} compares; median "
-                     f"seconds ratio rounds / today {statistics.median(ratios[suffix]):.2f} "
-                     f"(per file, median over repetitions)")
+        ratios = [median_seconds(p["rounds" + suffix]) / median_seconds(p["today" + suffix])
+                  for p in files.values()]
+        today = statistics.median(median_seconds(p["today" + suffix]) for p in files.values())
+        rounds = statistics.median(median_seconds(p["rounds" + suffix]) for p in files.values())
+        lines.append(f"- {label}: rounds decided {decided} of {len(records)} compares; median "
+                     f"seconds today {today:.1f}, rounds {rounds:.1f} (ratio of medians "
+                     f"{rounds / today:.2f}); median per-file ratio {statistics.median(ratios):.2f}")
+    lines += ["", "Median render seconds by purpose (the rest: start, scene, reference, verdicts):"]
+    for name in PASSES:
+        purposes = sorted({k for p in files.values() for r in p[name]
+                           for k in r.get("render_seconds", {})})
+        records = [r for p in files.values() for r in p[name]]
+        parts = [f"{purpose} {median_seconds(records, lambda r: r.get('render_seconds', {}).get(purpose, 0.0)):.1f}"
+                 for purpose in purposes]
+        lines.append(f"- {name}: whole compare {median_seconds(records):.1f}; " + ", ".join(parts))
+    lines += ["", "Undecided (last repetition):"]
+    lines += [undecided_note(file, passes[name][-1]) for file, passes in files.items()
+              for name in ("rounds", "rounds-nc") if passes[name][-1]["verdict"] == "inconclusive"]
     return "\n".join(lines)
 
 
