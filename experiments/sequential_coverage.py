@@ -125,13 +125,13 @@ def table(raw: dict) -> str:
                      + " | ".join(cells) + " |")
     lines.append("")
     for suffix, label in (("", "with convergence"), ("-nc", "without convergence")):
-        records = [r for passes in files.values() for r in passes["rounds" + suffix]]
-        decided = sum(r["verdict"] in ("agrees", "disagrees") for r in records)
+        decided = sum(all(r["verdict"] in ("agrees", "disagrees") for r in p["rounds" + suffix])
+                      for p in files.values())
         ratios = [median_seconds(p["rounds" + suffix]) / median_seconds(p["today" + suffix])
                   for p in files.values()]
         today = statistics.median(median_seconds(p["today" + suffix]) for p in files.values())
         rounds = statistics.median(median_seconds(p["rounds" + suffix]) for p in files.values())
-        lines.append(f"- {label}: rounds decided {decided} of {len(records)} compares; median "
+        lines.append(f"- {label}: rounds decided {decided} of {len(files)} files; median "
                      f"seconds today {today:.1f}, rounds {rounds:.1f} (ratio of medians "
                      f"{rounds / today:.2f}); median per-file ratio {statistics.median(ratios):.2f}")
     lines += ["", "Median render seconds by purpose (the rest: start, scene, reference, verdicts):"]
@@ -142,9 +142,14 @@ def table(raw: dict) -> str:
         parts = [f"{purpose} {median_seconds(records, lambda r: r.get('render_seconds', {}).get(purpose, 0.0)):.1f}"
                  for purpose in purposes]
         lines.append(f"- {name}: whole compare {median_seconds(records):.1f}; " + ", ".join(parts))
-    lines += ["", "Undecided (last repetition):"]
-    lines += [undecided_note(file, passes[name][-1]) for file, passes in files.items()
-              for name in ("rounds", "rounds-nc") if passes[name][-1]["verdict"] == "inconclusive"]
+    # The rounds' renders have fixed seeds: with or without the convergence test, in every
+    # repetition, the mean sees the same images (checked here, not assumed).
+    same = all(len({(r["verdict"], r.get("spp")) for name in ("rounds", "rounds-nc")
+                    for r in p[name]}) == 1 for p in files.values())
+    lines += ["", f"Rounds' outcome and spp the same in every repetition, with and without "
+                  f"convergence: {'yes' if same else 'no'}. Undecided (last repetition):"]
+    lines += [undecided_note(file, passes["rounds-nc"][-1]) for file, passes in files.items()
+              if passes["rounds-nc"][-1]["verdict"] == "inconclusive"]
     return "\n".join(lines)
 
 

@@ -39,8 +39,9 @@ def test_table_counts_decisions_and_takes_median_seconds(tmp_path, capsys):
     text = capsys.readouterr().out
     # a.xml: rounds without convergence agree at 32 spp in a median 2.5 s against today's 5.0.
     assert "| a.xml | path | agrees, 12.5 | agrees at 64, 10.0 | agrees, 5.0 | agrees at 32, 2.5 |" in text
-    assert "without convergence: rounds decided 2 of 4 compares" in text
-    assert "with convergence: rounds decided 4 of 4 compares" in text
+    assert "without convergence: rounds decided 1 of 2 files" in text
+    assert "with convergence: rounds decided 2 of 2 files" in text
+    assert "with and without convergence: no" in text      # b.xml's differ here
     # Per-file ratios without convergence: 2.5/5 and 7.5/5: median 1.0.
     assert "median per-file ratio 1.00" in text.split("without convergence")[1]
     assert "- b.xml: interval [-1.00 %, +2.50 %] at 256 spp; about --max-spp 1024 would decide" in text
