@@ -88,6 +88,11 @@ def median_seconds(records: list[dict], key=lambda record: record["seconds"]) ->
     return statistics.median(key(record) for record in records)
 
 
+def mean_seconds(record: dict) -> float:
+    """The seconds of the test side's mean-and-variance renders (every round's)."""
+    return record.get("render_seconds", {}).get("mean", 0.0)
+
+
 def by_file(raw: dict) -> dict:
     """file -> pass -> the records of the repetitions, in the order of the run (files with
     all four compares)."""
@@ -142,6 +147,10 @@ def table(raw: dict) -> str:
         parts = [f"{purpose} {median_seconds(records, lambda r: r.get('render_seconds', {}).get(purpose, 0.0)):.1f}"
                  for purpose in purposes]
         lines.append(f"- {name}: whole compare {median_seconds(records):.1f}; " + ", ".join(parts))
+    mean_render = [median_seconds(p["rounds-nc"], mean_seconds) / median_seconds(p["today-nc"], mean_seconds)
+                   for p in files.values()]
+    lines.append(f"- the mean's own renders, rounds / today (no conv.): median per-file ratio "
+                 f"{statistics.median(mean_render):.2f}")
     # The rounds' renders have fixed seeds: with or without the convergence test, in every
     # repetition, the mean sees the same images (checked here, not assumed).
     same = all(len({(r["verdict"], r.get("spp")) for name in ("rounds", "rounds-nc")
