@@ -355,8 +355,8 @@ def _compares(jobs: dict, dask: str | None):
 
 
 def decided_at(record: dict) -> str:
-    """`` at N spp, R rounds`` when the record says where the mean was decided, else ``""``
-    (records of runs before the rounds have no ``spp``)."""
+    """`` at N spp, R rounds``: where the mean was decided (or, undecided, the rounds stopped)
+    when the record says so, else ``""`` (records of runs before the rounds have no ``spp``)."""
     if record.get("spp") is None:
         return ""
     rounds = record.get("rounds", 1)
@@ -364,7 +364,7 @@ def decided_at(record: dict) -> str:
 
 
 def tolerance_of_record(record: dict) -> str:
-    """`` within +-T %`` for a compare given ``--tolerance`` (its outcome's meaning), else ``""``."""
+    """`` (+-T %)`` for a compare given ``--tolerance`` (what its outcome is about), else ``""``."""
     return "" if record.get("tolerance") is None else f" (+-{record['tolerance']:g} %)"
 
 
