@@ -1,6 +1,7 @@
 """Which of a folder's Mitsuba scene files the tracer loads, and what blocks the others.
 
-    python -m experiments.scene_coverage DIR [--json OUT] [--compare]
+    python -m experiments.scene_coverage DIR [--json OUT] [--compare [--tolerance [PCT]]
+                                        [--max-spp N] [--max-seconds S]]
 
 Every ``*.xml`` file under ``DIR`` falls in the first of these classes that applies:
 
@@ -21,11 +22,17 @@ load (not fragments, not polarized, assets present), the part the tracer loads. 
 Mitsuba the files it would refuse count as blocked. ``--compare`` then runs
 ``mitsuba-refs compare FILE --integrator NAME --resolution 64x48`` on each file that loads
 (``NAME``: the tracer's integrator for the file's own ``<integrator>``) and records the
-verdict (exit code 0 agree, 1 disagree, 2 refused); ``--compare-only PATTERN...`` limits the
-compares to the files matching a pattern, ``--no-convergence`` skips compare's convergence
-test. ``--resume JSON`` keeps an earlier run's classes (its ``blocked`` files are loaded
-again; a file compared now gets its integrator chosen again) and compare verdicts, so that
-a campaign of hours goes on where it stopped (the JSON is rewritten after every compare).
+verdict (exit code 0 agree, 1 disagree, 2 refused, 3 inconclusive); ``--compare-only
+PATTERN...`` limits the compares to the files matching a pattern, ``--no-convergence`` skips
+compare's convergence test. ``--tolerance [PCT]``, ``--max-spp N`` and ``--max-seconds S`` are
+given to every compare (docs/statistics.md section 9: the mean AGREES within +-PCT %,
+DISAGREES, or is INCONCLUSIVE when the rounds' budget ends first); each compare record then
+holds the outcome, the spp of the last look (where the mean was decided), the number of
+rounds, what stopped them and, when undecided, the spp that would decide (from compare's
+``--json``, read in a temporary folder). ``--resume JSON`` keeps an earlier run's classes
+(its ``blocked`` files are loaded again; a file compared now gets its integrator chosen
+again) and compare verdicts, so that a campaign of hours goes on where it stopped (the JSON
+is rewritten after every compare).
 """
 from __future__ import annotations
 
@@ -36,7 +43,6 @@ import functools
 import json
 import os
 import re
-import shutil
 import signal
 import subprocess
 import sys
@@ -47,7 +53,10 @@ from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 
+from experiments.coverage_compare import compare_file
+from mitsuba_refs.cli.options import add_tolerance_options, tolerance_of
 from mitsuba_refs.cluster.client import connect, lost
+from mitsuba_refs.errors import RefsInputError
 from pathtracer.render.driver import integrator_for
 from pathtracer.scene.errors import SceneError
 from pathtracer.scene.load import load_scene
@@ -287,7 +296,8 @@ def classify(folder: str, timeout: float, use_mitsuba: bool, jobs: int,
 
 def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution: str,
                    done: dict | None = None, progress: bool = False, saved=None,
-                   only: tuple = (), convergence: bool = True, dask: str | None = None) -> None:
+                   only: tuple = (), convergence: bool = True, dask: str | None = None,
+                   rounds: dict | None = None) -> None:
     """``mitsuba-refs compare FILE --integrator NAME --resolution WxH`` on every file that loads,
     with the tracer's integrator for the file's own: its verdict. ``done`` (file -> compare
     record of an earlier run, ``--resume``) is kept instead of comparing again; ``saved`` is
@@ -296,7 +306,9 @@ def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution
     one of them; ``convergence`` False skips compare's convergence test (``--no-convergence``:
     mean and variance verdicts only, about a third of the time). ``dask`` (a scheduler address
     or ``local``) runs one compare per task on that cluster, in the order they finish
-    (docs/cluster.md: the workers see ``folder`` and the reference cache at the same paths)."""
+    (docs/cluster.md: the workers see ``folder`` and the reference cache at the same paths).
+    ``rounds`` (``tolerance``, ``max_spp``, ``max_seconds``) gives every compare the options of
+    the rounds (:func:`experiments.coverage_compare.compare_file`)."""
     for entry in entries:
         if done and entry.file in done:
             entry.compare = done[entry.file]
@@ -308,14 +320,15 @@ def compare_loaded(folder: str, entries: list[Entry], timeout: float, resolution
         loads, _, _, integrator = tracer_verdict(os.path.join(folder, entry.file), timeout)
         entry.integrator = integrator if loads else entry.integrator
     jobs = {entry.file: (os.path.join(folder, entry.file), entry.integrator, resolution,
-                         convergence, timeout) for entry in todo}
+                         convergence, timeout, rounds) for entry in todo}
     by_file = {entry.file: entry for entry in todo}
     for i, (file, record) in enumerate(_compares(jobs, dask)):
         entry = by_file[file]
         entry.compare = record
         if progress:
             print(f"[compare {i + 1}/{len(todo)}] {entry.file} ({entry.integrator}): "
-                  f"{record['verdict']} ({record['seconds']} s) {record['summary']}",
+                  f"{record['verdict']}{decided_at(record)} ({record['seconds']} s) "
+                  f"{record['summary']}",
                   file=sys.stderr, flush=True)
         if saved:
             saved()
@@ -341,27 +354,18 @@ def _compares(jobs: dict, dask: str | None):
             raise
 
 
-def compare_file(path: str, integrator: str, resolution: str, convergence: bool,
-                 timeout: float) -> dict:
-    """The record of ``mitsuba-refs compare`` on ``path`` (run as a process here, or on a
-    cluster's worker): verdict, its summary line, integrator, convergence, seconds."""
-    exe = shutil.which("mitsuba-refs")
-    command = [exe] if exe else [sys.executable, "-m", "mitsuba_refs.cli.main"]
-    verdicts = {0: "agrees", 1: "disagrees", 2: "refused"}
-    start = time.perf_counter()
-    try:
-        out = subprocess.run(command + ["compare", path, "--integrator", integrator,
-                                        "--resolution", resolution]
-                             + ([] if convergence else ["--no-convergence"]),
-                             capture_output=True, text=True, timeout=timeout)
-        verdict = verdicts.get(out.returncode, f"exit code {out.returncode}")
-        lines = (out.stdout + out.stderr).strip().splitlines()
-        summary = next((line for line in lines if "Mitsuba" in line and "on " in line),
-                       lines[-1] if lines else "")
-    except subprocess.TimeoutExpired:
-        verdict, summary = "timed out", f"no verdict within {timeout:g} s"
-    return {"verdict": verdict, "summary": summary.strip(), "integrator": integrator,
-            "convergence": convergence, "seconds": round(time.perf_counter() - start, 1)}
+def decided_at(record: dict) -> str:
+    """`` at N spp, R rounds``: where the mean was decided (or, undecided, the rounds stopped)
+    when the record says so, else ``""`` (records of runs before the rounds have no ``spp``)."""
+    if record.get("spp") is None:
+        return ""
+    rounds = record.get("rounds", 1)
+    return f" at {record['spp']} spp, {rounds} round{'s' if rounds != 1 else ''}"
+
+
+def tolerance_of_record(record: dict) -> str:
+    """`` (+-T %)`` for a compare given ``--tolerance`` (what its outcome is about), else ``""``."""
+    return "" if record.get("tolerance") is None else f" (+-{record['tolerance']:g} %)"
 
 
 def summary(entries: list[Entry]) -> dict:
@@ -393,7 +397,8 @@ def table(entries: list[Entry], folder: str, mitsuba_checked: bool) -> str:
     if compared:
         verdicts = Counter(e.compare["verdict"] for e in compared)
         lines += ["", "compare --resolution 64x48: " + ", ".join(f"{v} {n}" for v, n in verdicts.items())]
-        lines += [f"- {e.file}: {e.compare['verdict']} ({e.compare['summary']})" for e in compared]
+        lines += [f"- {e.file}: {e.compare['verdict']}{tolerance_of_record(e.compare)}"
+                  f"{decided_at(e.compare)} ({e.compare['summary']})" for e in compared]
         names = sorted(verdicts)
         lines += ["", "| plugin | files compared | " + " | ".join(names) + " |",
                   "|---|---|" + "---|" * len(names)]
@@ -424,6 +429,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "relative to DIR, e.g. 'tests/scenes/*')")
     p.add_argument("--no-convergence", action="store_true",
                    help="compare without the convergence test (mean and variance verdicts)")
+    add_tolerance_options(p)   # compare's own options and help: given to every compare
     p.add_argument("--dask", metavar="ADDRESS", default=None,
                    help="with --compare: one compare per task on a Dask cluster (scheduler "
                         "address, or 'local'); workers see DIR and MITSUBA_REFS_CACHE at the "
@@ -439,6 +445,11 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     if not os.path.isdir(args.folder):
         print(f"error: {args.folder} is not a folder", file=sys.stderr)
+        return 2
+    try:
+        rounds = tolerance_of(args) or None
+    except RefsInputError as error:   # e.g. --max-spp without --tolerance: before any loading
+        print(f"error: {error}", file=sys.stderr)
         return 2
     earlier = {}
     if args.resume:
@@ -460,7 +471,7 @@ def main(argv=None) -> int:
         try:
             compare_loaded(args.folder, entries, args.compare_timeout, args.resolution, done,
                            progress=not args.quiet, saved=save, only=tuple(args.compare_only),
-                           convergence=not args.no_convergence, dask=args.dask)
+                           convergence=not args.no_convergence, dask=args.dask, rounds=rounds)
         except ConnectionError as error:   # an unreachable or lost Dask scheduler
             save()
             print(f"error: {error}", file=sys.stderr)

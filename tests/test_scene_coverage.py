@@ -6,6 +6,7 @@ import json
 import pytest
 
 from experiments import scene_coverage
+from mitsuba_refs.cli.options import DEFAULT_TOLERANCE
 
 SENSOR = ('<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/>'
           '<integer name="height" value="6"/><rfilter type="box"/></film></sensor>')
@@ -111,14 +112,99 @@ def test_resume_keeps_classes_and_verdicts_and_loads_blocked_files_again(folder,
     assert files["ok.xml"]["compare"]["summary"] == "kept"
     assert [c[c.index("compare") + 1] for c in compared] == [str(folder / "hair2.xml"),
                                                             str(folder / "main.xml")]
-    assert all(c[c.index("--integrator") + 1] == "path" and c[-1] == "--no-convergence"
-               for c in compared)
+    assert all(c[c.index("--integrator") + 1] == "path" and "--no-convergence" in c
+               and "--tolerance" not in c for c in compared)
     assert files["main.xml"]["compare"]["verdict"] == "agrees"
     assert files["main.xml"]["compare"]["convergence"] is False
     assert not files["old.xml"]["compare"]
     by_plugin = json.loads(again.read_text())["verdicts_by_plugin"]   # includes spliced in
     assert by_plugin["shape:cube"] == {"agrees": 1} and by_plugin["shape:sphere"] == {"agrees": 2}
     assert by_plugin["rfilter:box"] == {"agrees": 3}
+
+
+def results_file(outcome: str, spp: int, looks: list[int] | None, spp_needed=None) -> dict:
+    """What compare's --json writes, as much of it as the coverage record reads."""
+    mean = {"status": outcome.lower()}
+    if looks is not None:
+        mean["rounds"] = {"looks": [{"spp": n} for n in looks], "stopped_by": "spp",
+                          "interval": [-0.01, 0.03],
+                          "spp_needed": spp_needed, "reference_pieces": 1}
+    return {"results": [{"outcome": outcome, "spp": spp,
+                         "verdicts": {"mean": mean, "variance": {"status": "agree"},
+                                      "convergence": {"status": "not compared"}}}]}
+
+
+def fake_compare(monkeypatch, returncode: int, results: dict | None):
+    """Replace the compare process: record its command, write ``results`` where --json says."""
+    commands = []
+
+    def fake_run(command, **kwargs):
+        commands.append(command)
+        if results is not None:
+            with open(command[command.index("--json") + 1], "w") as f:
+                json.dump(results, f)
+        return type("Done", (), {"returncode": returncode, "stderr": "",
+                                 "stdout": "path on x: INCONCLUSIVE within +-2% vs Mitsuba"})()
+    monkeypatch.setattr(scene_coverage.subprocess, "run", fake_run)
+    return commands
+
+
+def test_tolerance_options_reach_compare_and_exit_3_is_inconclusive(folder, tmp_path,
+                                                                    monkeypatch, capsys):
+    """--tolerance, --max-spp and --max-seconds are given to every compare; exit code 3 is
+    recorded as inconclusive, with the spp of the last look, the rounds judged and the spp
+    that the line says would decide, read from compare's --json; the table prints them."""
+    commands = fake_compare(monkeypatch, 3, results_file("INCONCLUSIVE", 256,
+                                                         [16, 32, 64, 128, 256], 1024.0))
+    out = tmp_path / "coverage.json"
+    assert scene_coverage.main([str(folder), "--no-mitsuba", "--json", str(out), "--compare",
+                                "--compare-only", "ok.xml", "--tolerance", "2", "--max-spp",
+                                "256", "--max-seconds", "30"]) == 0
+    [command] = commands
+    given = {option: command[command.index(option) + 1]
+             for option in ("--tolerance", "--max-spp", "--max-seconds")}
+    assert {k: float(v) for k, v in given.items()} == {"--tolerance": 2, "--max-spp": 256,
+                                                       "--max-seconds": 30}
+    assert "--no-convergence" not in command
+    record = {f["file"]: f for f in json.loads(out.read_text())["files"]}["ok.xml"]["compare"]
+    assert record["verdict"] == "inconclusive" and record["outcome"] == "INCONCLUSIVE"
+    assert (record["spp"], record["rounds"], record["spp_needed"]) == (256, 5, 1024.0)
+    assert record["tolerance"] == 2 and record["max_spp"] == 256
+    assert record["stopped_by"] == "spp" and record["interval"] == [-0.01, 0.03]
+    assert record["statuses"]["variance"] == "agree"
+    assert "- ok.xml: inconclusive (+-2 %) at 256 spp, 5 rounds" in capsys.readouterr().out
+
+
+def test_bare_tolerance_is_compares_default_and_fixed_budget_is_one_round(folder, tmp_path,
+                                                                         monkeypatch):
+    """A bare --tolerance gives compare its default percentage; without --tolerance the
+    record says the fixed budget's spp in one round (compare's own --json)."""
+    commands = fake_compare(monkeypatch, 0, results_file("AGREES", 64, None))
+    out = tmp_path / "coverage.json"
+    assert scene_coverage.main([str(folder), "--no-mitsuba", "--json", str(out), "--compare",
+                                "--compare-only", "ok.xml", "old.xml"]) == 0
+    record = {f["file"]: f for f in json.loads(out.read_text())["files"]}["ok.xml"]["compare"]
+    assert record["verdict"] == "agrees" and (record["spp"], record["rounds"]) == (64, 1)
+    assert record["tolerance"] is None and all("--tolerance" not in c for c in commands)
+    commands.clear()
+    assert scene_coverage.main([str(folder), "--no-mitsuba", "--compare", "--compare-only",
+                                "ok.xml", "--tolerance"]) == 0
+    assert float(commands[0][commands[0].index("--tolerance") + 1]) == DEFAULT_TOLERANCE
+
+
+def test_a_refused_compare_writes_no_results_and_is_recorded_as_refused(folder, tmp_path,
+                                                                       monkeypatch):
+    fake_compare(monkeypatch, 2, None)
+    out = tmp_path / "coverage.json"
+    assert scene_coverage.main([str(folder), "--no-mitsuba", "--json", str(out), "--compare",
+                                "--compare-only", "ok.xml", "--tolerance", "2"]) == 0
+    record = {f["file"]: f for f in json.loads(out.read_text())["files"]}["ok.xml"]["compare"]
+    assert record["verdict"] == "refused" and "spp" not in record
+
+
+def test_round_budget_without_tolerance_is_refused_before_loading(folder, capsys):
+    assert scene_coverage.main([str(folder), "--no-mitsuba", "--compare", "--max-spp", "256"]) == 2
+    assert "--max-spp and --max-seconds go with --tolerance" in capsys.readouterr().err
 
 
 def test_not_a_folder(tmp_path, capsys):
