@@ -6,11 +6,19 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from mitsuba_refs.external.check import _GrowingLadder
 from mitsuba_refs.report.verdicts import convergence_entry
 from mitsuba_refs.report.wording import convergence_verdict
 from mitsuba_refs.stats.simulate import make_scene, render_means, render_stats
 from mitsuba_refs.verdicts.compare import compare
-from mitsuba_refs.verdicts.convergence import LadderPlan, convergence_test, first_look_replicas, level_replicas
+from mitsuba_refs.verdicts.convergence import (
+    CONVERGENCE_SEED,
+    LadderPlan,
+    convergence_seed,
+    convergence_test,
+    first_look_replicas,
+    level_replicas,
+)
 from mitsuba_refs.verdicts.scenes import render_ours
 from tests.budget import ALPHA
 
@@ -101,3 +109,19 @@ def test_compare_with_a_tolerance_stops_the_ladder_of_a_renderer_twenty_percent_
     assert len(ladder_runs) == sum(level_replicas((4, 16, 64), 1))
     entry = convergence_entry(result)
     assert entry["looks"] == 2 and entry["stopped_early"] is True
+
+
+def test_check_plans_the_rest_of_the_first_look_then_doubles():
+    class Renders:
+        def request(self, n, seed, max_depth, variance):
+            return n, seed
+
+    reference = _reference()
+    asked = SimpleNamespace(variance=False, seed=CONVERGENCE_SEED, max_depth=None)
+    grow = _GrowingLadder(Renders(), reference, LADDER, 1, 3)      # odd replicas: 1, then 3
+    top = len(LADDER) - 1
+    rest = grow(asked)
+    assert [seed for n, seed in rest if n == 64] == [convergence_seed(top, k) for k in (1, 2)]
+    doubled = grow(asked)
+    assert [seed for n, seed in doubled if n == 64] == [convergence_seed(top, k) for k in (3, 4, 5)]
+    assert grow(SimpleNamespace(variance=True, seed=CONVERGENCE_SEED, max_depth=None)) is None

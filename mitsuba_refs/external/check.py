@@ -226,7 +226,8 @@ def _check_command(scene, template, params, settings: Settings, setup: CommandSe
         first = first_look_replicas(settings.replicas, settings.tolerance is not None)
         renders.plan([renders.request(n, seed, variance=False) for n, seed
                       in convergence_requests(reference, settings.ladder, first)])
-        renders.extend_with(_GrowingLadder(renders, reference, settings.ladder, first))
+        renders.extend_with(_GrowingLadder(renders, reference, settings.ladder, first,
+                                           settings.replicas))
     if template.takes_max_depth:
         renders.plan([renders.request(settings.spp, TEST_SEED + d, d)
                       for d in config.PER_BOUNCE_DEPTHS])
@@ -306,18 +307,20 @@ def run_seeds(settings: Settings, size, per_bounce: bool) -> SeedRule:
 
 
 class _GrowingLadder:
-    """The convergence test's next batch, for a ladder render nobody planned: as many
-    replicas as the top level has (the rest of the first look's half, then doubling)."""
+    """The convergence test's next batch, for a ladder render nobody planned: the rest of the
+    first look's replicas (``top`` of ``replicas`` were planned), then the doubling while rare
+    bright paths carry the error (verdicts.convergence.convergence_test)."""
 
-    def __init__(self, renders, reference, ladder, replicas):
+    def __init__(self, renders, reference, ladder, top, replicas):
         self.renders, self.reference, self.ladder = renders, reference, ladder
-        self.top = replicas
+        self.top, self.replicas = top, replicas
 
     def __call__(self, request):
         if request.variance or request.seed < CONVERGENCE_SEED:
             return None
-        batch = convergence_requests(self.reference, self.ladder, self.top, self.top)
-        self.top *= 2
+        target = self.replicas if self.top < self.replicas else 2 * self.top
+        batch = convergence_requests(self.reference, self.ladder, target - self.top, self.top)
+        self.top = target
         return [self.renders.request(n, seed, request.max_depth, False) for n, seed in batch]
 
 
