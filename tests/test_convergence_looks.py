@@ -16,7 +16,6 @@ from mitsuba_refs.verdicts.convergence import (
     LadderPlan,
     convergence_seed,
     convergence_test,
-    first_look_replicas,
     level_replicas,
 )
 from mitsuba_refs.verdicts.scenes import render_ours
@@ -55,9 +54,12 @@ def _law(render, early_stop):
 
 
 def test_the_first_look_takes_half_the_replicas():
-    assert first_look_replicas(2, True) == 1 and first_look_replicas(8, True) == 4
-    assert first_look_replicas(1, True) == 1          # one replica: one look
-    assert first_look_replicas(2, False) == 2
+    assert LadderPlan(replicas=2, early_stop=True).first_look == 1
+    assert LadderPlan(replicas=8, early_stop=True).first_look == 4
+    assert LadderPlan(replicas=2, early_stop=True).looks == 2
+    one = LadderPlan(replicas=1, early_stop=True)     # one replica: one look
+    assert one.first_look == 1 and one.looks == 1
+    assert LadderPlan(replicas=2).first_look == 2 and LadderPlan(replicas=2).looks == 1
     assert (ALL_RENDERS, HALF_RENDERS) == (170, 85)
 
 

@@ -47,8 +47,8 @@ from ..verdicts.conventions import with_convention
 from ..verdicts.convergence import (
     CONVERGENCE_SEED,
     ConvergenceParts,
+    LadderPlan,
     convergence_requests,
-    first_look_replicas,
     level_replicas,
 )
 from ..verdicts.scenes import default_params, reference_options, scene_defaults
@@ -223,7 +223,7 @@ def _check_command(scene, template, params, settings: Settings, setup: CommandSe
         renders.plan([renders.request(settings.spp, TEST_SEED)])
     if settings.convergence:
         # With a tolerance the ladder's first look needs only part of its renders.
-        first = first_look_replicas(settings.replicas, settings.tolerance is not None)
+        first = LadderPlan.of(settings).first_look
         renders.plan([renders.request(n, seed, variance=False) for n, seed
                       in convergence_requests(reference, settings.ladder, first)])
         renders.extend_with(_GrowingLadder(renders, reference, settings.ladder, first,

@@ -25,7 +25,7 @@ from .scenes import default_params, reference_options, render_ours
 __all__ = ["CONVERGENCE_LADDER", "CONVERGENCE_REPLICAS", "CONVERGENCE_MAX_GROWTH",
            "CONVERGENCE_SEED", "INTERLEAVE", "FILTERED_MIN_SPP", "BLOCKS", "check_convergence",
            "convergence_seed", "convergence_requests", "level_replicas", "convergence_ladder",
-           "ConvergenceParts", "LadderPlan", "LadderRenders", "first_look_replicas", "convergence_test"]
+           "ConvergenceParts", "LadderPlan", "LadderRenders", "convergence_test"]
 
 #: spp ladder of the convergence test and its replicas at the top level (defined in config,
 #: so that the command line's parser does not import the statistics).
@@ -255,11 +255,17 @@ class LadderPlan:
         return cls(tuple(settings.ladder), settings.replicas, settings.max_growth,
                    settings.tolerance is not None)
 
+    @property
+    def first_look(self) -> int:
+        """Top-level replicas before the first look: half of ``replicas`` (at least one) with
+        ``early_stop``, else all of them."""
+        return max(1, self.replicas // 2) if self.early_stop else self.replicas
 
-def first_look_replicas(replicas: int, early_stop: bool) -> int:
-    """Top-level replicas before the convergence test's first look: half of ``replicas`` (at
-    least one) with ``early_stop``, else all of them (one look)."""
-    return max(1, replicas // 2) if early_stop else replicas
+    @property
+    def looks(self) -> int:
+        """How many times the law is judged, each at ``alpha / looks``: 2 when the first look
+        comes before all the replicas, else 1."""
+        return 2 if self.first_look < self.replicas else 1
 
 
 def convergence_test(scene, integrator, params, reference, alpha, processes, render,
@@ -282,16 +288,14 @@ def convergence_test(scene, integrator, params, reference, alpha, processes, ren
     replicas = plan.replicas
     renders = LadderRenders(parts, getattr(render, "render_mean", None) or mean_of(render),
                             scene, integrator, params, processes)
-    first = first_look_replicas(replicas, plan.early_stop)
-    looks = 2 if first < replicas else 1
-    alpha_look = alpha / looks
-    renders.grow(first)
-    if looks == 2:
+    alpha_look = alpha / plan.looks
+    renders.grow(plan.first_look)
+    if plan.looks == 2:
         law, table = parts.verdict(renders.mse, reference, alpha_look)
         if not law.passed and not renders.rare:
-            return dataclasses.replace(law, looks=looks, stopped_early=True), table
+            return dataclasses.replace(law, looks=2, stopped_early=True), table
         renders.grow(replicas)
     while renders.rare and renders.top < replicas * plan.max_growth:
         renders.grow(2 * renders.top)
     law, table = parts.verdict(renders.mse, reference, alpha_look, renders.rare, renders.top)
-    return dataclasses.replace(law, looks=looks), table
+    return dataclasses.replace(law, looks=plan.looks), table
