@@ -19,11 +19,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import statistics
 import subprocess
 import sys
+
+from mitsuba_refs.report.wording import max_spp_to_give
+
+from .bench import cpu_name
 
 #: The four compares of a file: name -> scene_coverage options (fixed 64 spp is compare's default).
 PASSES = {"today": [], "rounds": ["ROUNDS"], "today-nc": ["--no-convergence"],
@@ -36,12 +39,13 @@ def pass_options(name: str, tolerance: float, max_spp: int) -> list[str]:
     return [part for option in PASSES[name] for part in (rounds if option == "ROUNDS" else [option])]
 
 
-def run_pass(folder: str, file: str, name: str, work: str, resume: str, args) -> dict:
-    """One compare of ``file`` through scene_coverage; its compare record."""
-    state = os.path.join(work, f"{args.repetition}-{name}.json")
+def run_pass(folder: str, file: str, name: str, repetition: int, args) -> dict:
+    """One compare of ``file`` in repetition ``repetition`` through scene_coverage; its
+    compare record."""
+    state = os.path.join(args.work, f"{repetition}-{name}.json")
     command = [sys.executable, "-m", "experiments.scene_coverage", folder, "--no-mitsuba",
                "--quiet", "--compare", "--compare-only", file,
-               "--resume", state if os.path.exists(state) else resume, "--json", state + ".new",
+               "--resume", state if os.path.exists(state) else args.resume, "--json", state + ".new",
                "--compare-timeout", str(args.compare_timeout),
                *pass_options(name, args.tolerance, args.max_spp)]
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
@@ -61,12 +65,11 @@ def measure(args) -> dict:
         files = [line.split()[0] for line in f if line.strip()]
     os.makedirs(args.work, exist_ok=True)
     raw = {"folder": args.folder, "tolerance": args.tolerance, "max_spp": args.max_spp,
-           "cpu": args.cpu, "runs": []}
+           "cpu": args.cpu or cpu_name(), "runs": []}
     for repetition in range(1, args.repeat + 1):
-        args.repetition = repetition
         for file in files:
             for name in PASSES:
-                record = run_pass(args.folder, file, name, args.work, args.resume, args)
+                record = run_pass(args.folder, file, name, repetition, args)
                 raw["runs"].append({"repetition": repetition, "file": file, "pass": name,
                                     "record": record})
                 print(f"{repetition} {name} {file}: {record['verdict']} {record.get('spp')} spp "
@@ -109,7 +112,7 @@ def undecided_note(file: str, record: dict) -> str:
     if record.get("reference_limited"):
         cure = "the reference's own noise keeps it undecided: a longer reference would decide"
     elif record.get("spp_needed"):
-        cure = f"about --max-spp {2 ** math.ceil(math.log2(record['spp_needed']))} would decide"
+        cure = f"about --max-spp {max_spp_to_give(record['spp_needed'])} would decide"
     else:
         cure = "the observed bias sits at the tolerance"
     return f"- {os.path.basename(file)}: interval [{low:+.2f} %, {high:+.2f} %] at {record['spp']} spp; {cure}"
@@ -176,7 +179,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tolerance", type=float, default=2.0, help="--tolerance (default 2)")
     p.add_argument("--max-spp", type=int, default=256, help="--max-spp (default 256)")
     p.add_argument("--compare-timeout", type=float, default=900.0, help="seconds per compare")
-    p.add_argument("--cpu", default="", help="the CPU, recorded in RAW.json")
+    p.add_argument("--cpu", default="", help="the CPU, recorded in RAW.json (default: this "
+                   "machine's)")
     return p
 
 

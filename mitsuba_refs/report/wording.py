@@ -492,13 +492,14 @@ def rounds_line(rounds) -> str:
         return f"{text}; {stop} ran out, and the reference's own noise alone keeps it " \
                "undecided: a longer reference (or a wider --tolerance) would decide"
     if math.isfinite(rounds.spp_needed):
-        return f"{text}; {stop} ran out: about --max-spp {_round_up(rounds.spp_needed)} would decide"
+        return f"{text}; {stop} ran out: about --max-spp {max_spp_to_give(rounds.spp_needed)} would decide"
     return (f"{text}; {stop} ran out, with the observed bias at the tolerance (more samples "
             "decide only if it moves off it)")
 
 
-def _round_up(spp: float) -> int:
-    """The power of two at or above ``spp`` (the rounds double)."""
+def max_spp_to_give(spp: float) -> int:
+    """The ``--max-spp`` that would decide an undecided mean needing ``spp``: the power of two
+    at or above it (the rounds double)."""
     return 1 << max(0, math.ceil(math.log2(max(spp, 1.0))))
 
 
